@@ -1,0 +1,14 @@
+//! cellist: a particle-simulation engine.
+//!
+//! The engine holds the geometry (boxes, boundaries, minimum image), the neighbour
+//! search (cell lists, Verlet lists, their traversals) and the race-free parallel
+//! pair sums on an explicit thread pool. It does no I/O and prints nothing.
+#![warn(missing_docs)]
+
+pub mod geometry;
+pub mod neighbors;
+pub mod threads;
+
+pub use geometry::{Boundary, Domain, GeometryError};
+pub use neighbors::{CellList, StencilKind, VerletList};
+pub use threads::Threads;

@@ -1,0 +1,182 @@
+//! The cell list: particles sorted by cell with a counting sort, O(N).
+
+use super::grid::CellGrid;
+use crate::geometry::{Domain, GeometryError};
+use std::ops::Range;
+
+/// Particles binned into the cells of a [`CellGrid`] and stored contiguously per cell.
+///
+/// Build (O(N), stable, no comparison sort):
+/// 1. cell id `c_i` of every particle,
+/// 2. histogram `n_c`,
+/// 3. exclusive prefix sum `cell_start[c] = sum_{c' < c} n_c'` (`num_cells + 1` entries),
+/// 4. scatter: `order[cell_start[c_i] + rank_i] = i`, in input order within a cell.
+///
+/// Particle `k` of the sorted arrays is input particle `order[k]`; the particles of cell
+/// `c` are `cell_start[c]..cell_start[c + 1]`. `positions` holds the wrapped positions
+/// in that order.
+#[derive(Clone, Debug)]
+pub struct CellList<const D: usize> {
+    domain: Domain<D>,
+    grid: CellGrid<D>,
+    cutoff: f64,
+    cell_start: Vec<u32>,
+    order: Vec<u32>,
+    positions: Vec<[f64; D]>,
+    anchors_by_colour: Vec<Vec<u32>>,
+    // scratch, kept so that rebinning does not allocate
+    wrapped: Vec<[f64; D]>,
+    cell_ids: Vec<u32>,
+    cursor: Vec<u32>,
+}
+
+impl<const D: usize> CellList<D> {
+    /// Bins `points` into cells of side > `cutoff` over `domain`.
+    pub fn build(
+        domain: &Domain<D>,
+        cutoff: f64,
+        points: &[[f64; D]],
+    ) -> Result<Self, GeometryError> {
+        assert!(
+            points.len() < u32::MAX as usize,
+            "at most 2^32 - 1 particles per cell list"
+        );
+        let grid = CellGrid::new(domain, cutoff, points.len())?;
+        let mut list = CellList {
+            domain: *domain,
+            anchors_by_colour: grid.anchors_by_colour(),
+            grid,
+            cutoff,
+            cell_start: Vec::new(),
+            order: Vec::new(),
+            positions: Vec::new(),
+            wrapped: Vec::new(),
+            cell_ids: Vec::new(),
+            cursor: Vec::new(),
+        };
+        list.rebin(points);
+        Ok(list)
+    }
+
+    /// Sorts new positions into the same grid, reusing every buffer (no allocation once
+    /// the buffers have grown to the particle count).
+    pub fn rebin(&mut self, points: &[[f64; D]]) {
+        let n = points.len();
+        let cells = self.grid.num_cells();
+        self.wrapped.clear();
+        self.wrapped
+            .extend(points.iter().map(|p| self.domain.wrap(*p)));
+        self.cell_ids.clear();
+        self.cell_ids
+            .extend(self.wrapped.iter().map(|p| self.grid.cell_of(p) as u32));
+
+        // histogram, shifted by one so that the prefix sum is exclusive
+        self.cell_start.clear();
+        self.cell_start.resize(cells + 1, 0);
+        for &c in &self.cell_ids {
+            self.cell_start[c as usize + 1] += 1;
+        }
+        for c in 0..cells {
+            self.cell_start[c + 1] += self.cell_start[c];
+        }
+
+        // scatter: the cursor of cell c runs from cell_start[c]
+        self.cursor.clear();
+        self.cursor.extend_from_slice(&self.cell_start[..cells]);
+        self.order.clear();
+        self.order.resize(n, 0);
+        for (i, &c) in self.cell_ids.iter().enumerate() {
+            let slot = &mut self.cursor[c as usize];
+            self.order[*slot as usize] = i as u32;
+            *slot += 1;
+        }
+        self.positions.clear();
+        self.positions
+            .extend(self.order.iter().map(|&i| self.wrapped[i as usize]));
+    }
+
+    /// The domain the list was built for.
+    pub fn domain(&self) -> &Domain<D> {
+        &self.domain
+    }
+
+    /// The grid.
+    pub fn grid(&self) -> &CellGrid<D> {
+        &self.grid
+    }
+
+    /// The cutoff the grid was sized for.
+    pub fn cutoff(&self) -> f64 {
+        self.cutoff
+    }
+
+    /// Number of particles.
+    pub fn len(&self) -> usize {
+        self.order.len()
+    }
+
+    /// True when there are no particles.
+    pub fn is_empty(&self) -> bool {
+        self.order.is_empty()
+    }
+
+    /// `cell_start`: `num_cells + 1` offsets into the sorted arrays.
+    pub fn cell_start(&self) -> &[u32] {
+        &self.cell_start
+    }
+
+    /// Sorted slot range of cell `c`.
+    #[inline]
+    pub fn cell_range(&self, c: usize) -> Range<usize> {
+        self.cell_start[c] as usize..self.cell_start[c + 1] as usize
+    }
+
+    /// `order[k]`: the input index of the particle in sorted slot `k`.
+    pub fn order(&self) -> &[u32] {
+        &self.order
+    }
+
+    /// Wrapped positions in cell order.
+    pub fn positions(&self) -> &[[f64; D]] {
+        &self.positions
+    }
+
+    /// Anchor cells by colour, for coloured passes (see [`CellGrid::colour_of`]).
+    pub fn anchors_by_colour(&self) -> &[Vec<u32>] {
+        &self.anchors_by_colour
+    }
+
+    /// Puts the values of a per-particle array (in input order) into cell order:
+    /// `out[k] = values[order[k]]`.
+    pub fn permute<T: Copy>(&self, values: &[T], out: &mut Vec<T>) {
+        out.clear();
+        out.extend(self.order.iter().map(|&i| values[i as usize]));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn counting_sort_groups_particles_by_cell_stably() {
+        let dom = Domain::periodic([4.0, 4.0]).unwrap();
+        let pts = [[3.5, 3.5], [0.5, 0.5], [0.2, 0.1], [-0.5, 0.5], [1.5, 0.5]];
+        let cl = CellList::build(&dom, 1.0, &pts).unwrap();
+        assert_eq!(cl.grid().dims(), [3, 3]);
+        assert_eq!(cl.cell_start().len(), 10);
+        assert_eq!(*cl.cell_start().last().unwrap(), 5);
+        // cell 0 holds inputs 1 and 2 in input order; input 4 (x = 1.5) is in cell 1
+        assert_eq!(&cl.order()[..3], &[1, 2, 4]);
+        assert_eq!(cl.cell_range(0), 0..2);
+        // -0.5 wraps to 3.5: inputs 3 and 0 are in the last column
+        for (k, &i) in cl.order().iter().enumerate() {
+            let c = cl.grid().cell_of(&cl.positions()[k]);
+            assert!(cl.cell_range(c).contains(&k));
+            assert_eq!(cl.positions()[k], dom.wrap(pts[i as usize]));
+        }
+        let mut ids = Vec::new();
+        cl.permute(&[10, 11, 12, 13, 14], &mut ids);
+        assert_eq!(ids[..3], [11, 12, 14]);
+    }
+}

@@ -1,0 +1,20 @@
+//! Neighbour search: cell grid, cell list (counting sort), Verlet list (CSR with
+//! skin), the traversals and the race-free parallel pair sums.
+
+mod brute;
+mod cell_list;
+mod grid;
+mod pairs;
+mod parallel;
+mod traverse;
+mod verlet;
+
+pub use brute::brute_force_pairs;
+pub use cell_list::CellList;
+pub use grid::{image_code, offsets, AnchoredPair, CellGrid, NeighbourCell, StencilKind};
+pub use pairs::half_pairs;
+pub use parallel::{
+    gather_cells, gather_verlet, scatter_coloured, scatter_verlet_serial, PairKernel,
+};
+pub use traverse::{for_each_anchored_pair, for_each_row_in_cell, scan, CutoffTest};
+pub use verlet::VerletList;

@@ -1,0 +1,200 @@
+//! The inner loops of the neighbour search: the exact cutoff test, the scan of one
+//! neighbour cell, the rows of a home cell (half or full stencil), and the cell
+//! pairs of an anchor (for coloured passes).
+
+use super::cell_list::CellList;
+use super::grid::{AnchoredPair, NeighbourCell, StencilKind};
+use crate::geometry::norm2;
+
+/// The membership test `|x_j - x_i| < r_c`, decided exactly as `sqrt(r^2) < r_c` in
+/// binary64, but with one comparison of `r^2` for all pairs that are not within a
+/// relative `1e-14` of the cutoff.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CutoffTest {
+    cutoff: f64,
+    surely_inside: f64,
+    surely_outside: f64,
+}
+
+impl CutoffTest {
+    /// The test for a cutoff `r_c > 0`.
+    pub fn new(cutoff: f64) -> Self {
+        let rc2 = cutoff * cutoff;
+        CutoffTest {
+            cutoff,
+            surely_inside: rc2 * (1.0 - 1e-14),
+            surely_outside: rc2 * (1.0 + 1e-14),
+        }
+    }
+
+    /// The cutoff.
+    pub fn cutoff(&self) -> f64 {
+        self.cutoff
+    }
+
+    /// True when `sqrt(r2) < r_c`.
+    #[inline(always)]
+    pub fn accepts(&self, r2: f64) -> bool {
+        r2 < self.surely_inside || (r2 < self.surely_outside && r2.sqrt() < self.cutoff)
+    }
+}
+
+/// Visits the `candidates` (sorted slots `first..`) that lie within the cutoff of
+/// `xi`, with `d = (x_j - x_i) + shift` (the shift is added only when `SHIFTED`, so
+/// the unshifted loop is the plain difference). The separation is formed exactly as
+/// the minimum image `d - L round(d / L)` of a brute-force search forms it, so both
+/// agree to the last bit for particles inside the box.
+#[inline(always)]
+pub fn scan<const D: usize, const SHIFTED: bool>(
+    xi: &[f64; D],
+    candidates: &[[f64; D]],
+    first: usize,
+    shift: &[f64; D],
+    test: &CutoffTest,
+    mut visit: impl FnMut(usize, &[f64; D], f64),
+) {
+    for (k, xj) in candidates.iter().enumerate() {
+        let d: [f64; D] = std::array::from_fn(|a| {
+            if SHIFTED {
+                (xj[a] - xi[a]) + shift[a]
+            } else {
+                xj[a] - xi[a]
+            }
+        });
+        let r2 = norm2(&d);
+        if test.accepts(r2) {
+            visit(first + k, &d, r2);
+        }
+    }
+}
+
+/// For every particle `i` of cell `home`, in slot order, visits its neighbours `j`
+/// within the cutoff as `visit(i, j, image, d, r2)` with `d = x_j + shift - x_i`.
+///
+/// With [`StencilKind::Half`] each pair is seen once over all home cells (inside the
+/// home cell only `j > i`); with [`StencilKind::Full`] each particle sees all of its
+/// neighbours. Neighbours come in stencil order, then slot order: a fixed order.
+#[inline]
+pub fn for_each_row_in_cell<const D: usize>(
+    cells: &CellList<D>,
+    home: usize,
+    kind: StencilKind,
+    test: &CutoffTest,
+    mut visit: impl FnMut(usize, usize, u8, &[f64; D], f64),
+) {
+    let mut stencil = [NeighbourCell::<D>::default(); 27];
+    let n = cells.grid().stencil(home, kind, &mut stencil);
+    let xs = cells.positions();
+    for i in cells.cell_range(home) {
+        let xi = &xs[i];
+        for nb in &stencil[..n] {
+            let range = cells.cell_range(nb.cell);
+            let image = nb.image;
+            let mut hit = |j: usize, d: &[f64; D], r2: f64| visit(i, j, image, d, r2);
+            if nb.shifted {
+                // only the periodic image of a tiny box can bring i next to itself,
+                // and that image is at least 2 r_c away: no i == j check is needed
+                scan::<D, true>(
+                    xi,
+                    &xs[range.clone()],
+                    range.start,
+                    &nb.shift,
+                    test,
+                    &mut hit,
+                );
+            } else if nb.cell == home {
+                let after = i + 1..range.end;
+                if kind == StencilKind::Full {
+                    let before = range.start..i;
+                    scan::<D, false>(
+                        xi,
+                        &xs[before.clone()],
+                        before.start,
+                        &nb.shift,
+                        test,
+                        &mut hit,
+                    );
+                }
+                scan::<D, false>(
+                    xi,
+                    &xs[after.clone()],
+                    after.start,
+                    &nb.shift,
+                    test,
+                    &mut hit,
+                );
+            } else {
+                scan::<D, false>(
+                    xi,
+                    &xs[range.clone()],
+                    range.start,
+                    &nb.shift,
+                    test,
+                    &mut hit,
+                );
+            }
+        }
+    }
+}
+
+/// Visits every pair owned by anchor cell `anchor` (see
+/// [`CellGrid::anchored_pairs`](super::CellGrid::anchored_pairs)) as `visit(i, j, d, r2)`
+/// with `d = x_j + shift - x_i`, `i != j`. All slots touched lie in the cells of the
+/// block `anchor + {0, 1}^D`.
+#[inline]
+pub fn for_each_anchored_pair<const D: usize>(
+    cells: &CellList<D>,
+    anchor: usize,
+    test: &CutoffTest,
+    mut visit: impl FnMut(usize, usize, &[f64; D], f64),
+) {
+    let mut pairs = [AnchoredPair::<D>::default(); 14];
+    let n = cells.grid().anchored_pairs(anchor, &mut pairs);
+    let xs = cells.positions();
+    for p in &pairs[..n] {
+        let a = cells.cell_range(p.first);
+        let b = cells.cell_range(p.second);
+        for i in a {
+            let xi = &xs[i];
+            let mut hit = |j: usize, d: &[f64; D], r2: f64| visit(i, j, d, r2);
+            if p.shifted {
+                scan::<D, true>(xi, &xs[b.clone()], b.start, &p.shift, test, &mut hit);
+            } else if p.first == p.second {
+                let after = i + 1..b.end;
+                scan::<D, false>(
+                    xi,
+                    &xs[after.clone()],
+                    after.start,
+                    &p.shift,
+                    test,
+                    &mut hit,
+                );
+            } else {
+                scan::<D, false>(xi, &xs[b.clone()], b.start, &p.shift, test, &mut hit);
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn cutoff_test_is_exact_at_the_boundary() {
+        let t = CutoffTest::new(2.5);
+        assert!(t.accepts(6.25 * (1.0 - 1e-13)));
+        assert!(!t.accepts(6.25));
+        assert!(!t.accepts(6.25 * (1.0 + 1e-13)));
+        // one ulp below rc^2: sqrt rounds to 2.5, so the pair is out
+        let below = f64::from_bits(6.25f64.to_bits() - 1);
+        assert_eq!(t.accepts(below), below.sqrt() < 2.5);
+        // 0.1 is not representable: the test must agree with sqrt
+        let t = CutoffTest::new(0.1);
+        let rc2 = 0.1 * 0.1;
+        for k in -40i64..40 {
+            let r2 = f64::from_bits((rc2 as f64).to_bits().wrapping_add_signed(k));
+            assert_eq!(t.accepts(r2), r2.sqrt() < 0.1, "k = {k}");
+        }
+    }
+}

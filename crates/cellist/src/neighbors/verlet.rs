@@ -1,0 +1,180 @@
+//! Verlet lists: each particle's neighbours within `cutoff + skin`, in CSR form,
+//! reused until some particle has moved more than `skin / 2`.
+
+use super::cell_list::CellList;
+use super::grid::StencilKind;
+use super::traverse::{for_each_row_in_cell, CutoffTest};
+use crate::geometry::norm2;
+use crate::threads::{concat_in_order, Threads};
+use rayon::prelude::*;
+
+/// A neighbour list in compressed-sparse-row form over the sorted slots of a
+/// [`CellList`].
+///
+/// Row `i` is `neighbors[start[i]..start[i + 1]]`; entry `k` of a row is the slot `j`
+/// of a neighbour, seen at the image `x_j + shift(images[k])` (zero shift except across
+/// periodic faces). A half list holds each pair once (for Newton's third law), a full
+/// list holds it in both rows. The list stays valid while no particle has moved more
+/// than `skin / 2` from where it was at the build: two particles then approach by at
+/// most `skin`, so every pair now within `cutoff` was within `cutoff + skin`.
+#[derive(Clone, Debug)]
+pub struct VerletList<const D: usize> {
+    kind: StencilKind,
+    cutoff: f64,
+    test: CutoffTest,
+    skin: f64,
+    start: Vec<u32>,
+    neighbors: Vec<u32>,
+    images: Vec<u8>,
+    image_shifts: Vec<[f64; D]>,
+    reference: Vec<[f64; D]>,
+}
+
+impl<const D: usize> VerletList<D> {
+    /// Builds the list of `kind` for the particles of `cells` (which must have been
+    /// built for a cutoff of at least `cutoff + skin`), in parallel, with rows in slot
+    /// order whatever the thread count.
+    pub fn build(
+        cells: &CellList<D>,
+        kind: StencilKind,
+        cutoff: f64,
+        skin: f64,
+        threads: &Threads,
+    ) -> Self {
+        assert!(skin >= 0.0, "skin must be >= 0");
+        let reach = cutoff + skin;
+        assert!(
+            reach <= cells.cutoff(),
+            "cutoff + skin {reach} above the cell list's {}",
+            cells.cutoff()
+        );
+        let test = CutoffTest::new(reach);
+        let grid = cells.grid();
+        type Part = (Vec<u32>, Vec<u32>, Vec<u8>);
+        let parts: Vec<Part> = threads.install(|| {
+            Threads::chunks(grid.num_cells())
+                .map(|range| {
+                    let first_slot = cells.cell_range(range.start).start;
+                    let last_slot = cells.cell_range(range.end - 1).end;
+                    let mut lengths = vec![0u32; last_slot - first_slot];
+                    let mut neighbors = Vec::new();
+                    let mut images = Vec::new();
+                    for home in range {
+                        for_each_row_in_cell(cells, home, kind, &test, |i, j, image, _, _| {
+                            lengths[i - first_slot] += 1;
+                            neighbors.push(j as u32);
+                            images.push(image);
+                        });
+                    }
+                    (lengths, neighbors, images)
+                })
+                .collect()
+        });
+        let mut lengths = Vec::with_capacity(cells.len());
+        let mut neighbor_parts = Vec::with_capacity(parts.len());
+        let mut image_parts = Vec::with_capacity(parts.len());
+        for (l, n, im) in parts {
+            lengths.extend(l);
+            neighbor_parts.push(n);
+            image_parts.push(im);
+        }
+        let mut start = Vec::with_capacity(lengths.len() + 1);
+        start.push(0u32);
+        let mut total = 0u32;
+        for l in lengths {
+            total += l;
+            start.push(total);
+        }
+        VerletList {
+            kind,
+            cutoff,
+            test: CutoffTest::new(cutoff),
+            skin,
+            start,
+            neighbors: concat_in_order(neighbor_parts),
+            images: concat_in_order(image_parts),
+            image_shifts: (0..3u8.pow(D as u32))
+                .map(|c| grid.image_shift(c))
+                .collect(),
+            reference: cells.positions().to_vec(),
+        }
+    }
+
+    /// Half or full.
+    pub fn kind(&self) -> StencilKind {
+        self.kind
+    }
+
+    /// The interaction cutoff (without skin).
+    pub fn cutoff(&self) -> f64 {
+        self.cutoff
+    }
+
+    /// The skin.
+    pub fn skin(&self) -> f64 {
+        self.skin
+    }
+
+    /// Number of rows (particles).
+    pub fn len(&self) -> usize {
+        self.start.len() - 1
+    }
+
+    /// True when the list has no rows.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Total number of entries.
+    pub fn num_entries(&self) -> usize {
+        self.neighbors.len()
+    }
+
+    /// Row `i`: neighbour slots and their image codes.
+    #[inline]
+    pub fn row(&self, i: usize) -> (&[u32], &[u8]) {
+        let r = self.start[i] as usize..self.start[i + 1] as usize;
+        (&self.neighbors[r.clone()], &self.images[r])
+    }
+
+    /// The shift vector of an image code.
+    #[inline]
+    pub fn image_shift(&self, code: u8) -> &[f64; D] {
+        &self.image_shifts[code as usize]
+    }
+
+    /// Visits the entries of row `i` that are within the cutoff at the current
+    /// `positions` (slot order) as `visit(j, d, r2)`, `d = x_j + shift - x_i`.
+    #[inline]
+    pub fn for_each_in_row(
+        &self,
+        i: usize,
+        positions: &[[f64; D]],
+        mut visit: impl FnMut(usize, &[f64; D], f64),
+    ) {
+        let xi = &positions[i];
+        let (js, images) = self.row(i);
+        for (&j, &image) in js.iter().zip(images) {
+            let j = j as usize;
+            let shift = self.image_shift(image);
+            let xj = &positions[j];
+            let d: [f64; D] = std::array::from_fn(|a| (xj[a] - xi[a]) + shift[a]);
+            let r2 = norm2(&d);
+            if self.test.accepts(r2) {
+                visit(j, &d, r2);
+            }
+        }
+    }
+
+    /// True when some particle has moved more than `skin / 2` since the build,
+    /// `max_i |x_i - x_i^build| > skin / 2`: the cheap test, O(N), no neighbour search.
+    /// `positions` are in slot order and not wrapped since the build.
+    pub fn needs_rebuild(&self, positions: &[[f64; D]]) -> bool {
+        assert_eq!(positions.len(), self.reference.len());
+        let limit = 0.25 * self.skin * self.skin;
+        positions.iter().zip(&self.reference).any(|(x, x0)| {
+            let d: [f64; D] = std::array::from_fn(|a| x[a] - x0[a]);
+            norm2(&d) > limit
+        })
+    }
+}

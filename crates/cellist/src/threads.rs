@@ -1,0 +1,144 @@
+//! Explicit parallelism: a thread pool passed to every parallel routine, never a
+//! hidden global, and helpers whose results do not depend on the thread count.
+
+use rayon::prelude::*;
+use std::mem::MaybeUninit;
+
+/// A pool of worker threads for one run.
+pub struct Threads {
+    pool: rayon::ThreadPool,
+}
+
+impl std::fmt::Debug for Threads {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "Threads({})", self.count())
+    }
+}
+
+impl Threads {
+    /// A pool of `count` threads (`count >= 1`).
+    pub fn new(count: usize) -> Result<Self, rayon::ThreadPoolBuildError> {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(count.max(1))
+            .thread_name(|k| format!("cellist-{k}"))
+            .build()?;
+        Ok(Threads { pool })
+    }
+
+    /// A single-threaded pool (still runs the parallel code paths).
+    pub fn single() -> Self {
+        Self::new(1).expect("a one-thread pool can always be built")
+    }
+
+    /// Number of threads.
+    pub fn count(&self) -> usize {
+        self.pool.current_num_threads()
+    }
+
+    /// Runs `op` inside the pool: rayon's parallel iterators in it use these threads.
+    pub fn install<R: Send>(&self, op: impl FnOnce() -> R + Send) -> R {
+        self.pool.install(op)
+    }
+
+    /// Splits `0..n` into chunks of a size fixed by `n` alone (not by the thread
+    /// count), so that per-chunk results concatenated in order are the same for any
+    /// number of threads.
+    pub fn chunks(n: usize) -> impl IndexedParallelIterator<Item = std::ops::Range<usize>> {
+        const MIN_CHUNK: usize = 64;
+        const MAX_CHUNKS: usize = 1024;
+        let size = n.div_ceil(MAX_CHUNKS).max(MIN_CHUNK);
+        (0..n.div_ceil(size))
+            .into_par_iter()
+            .map(move |k| k * size..((k + 1) * size).min(n))
+    }
+}
+
+/// Concatenates the parts in order (copying them in parallel).
+pub fn concat_in_order<T: Copy + Send + Sync>(parts: Vec<Vec<T>>) -> Vec<T> {
+    if parts.len() == 1 {
+        return parts.into_iter().next().unwrap_or_default();
+    }
+    let total = parts.iter().map(Vec::len).sum();
+    let mut out: Vec<T> = Vec::with_capacity(total);
+    let mut slots: Vec<&mut [MaybeUninit<T>]> = Vec::with_capacity(parts.len());
+    let mut rest = &mut out.spare_capacity_mut()[..total];
+    for p in &parts {
+        let (head, tail) = rest.split_at_mut(p.len());
+        slots.push(head);
+        rest = tail;
+    }
+    slots
+        .into_par_iter()
+        .zip(parts.par_iter())
+        .for_each(|(slot, part)| {
+            for (s, v) in slot.iter_mut().zip(part) {
+                s.write(*v);
+            }
+        });
+    // SAFETY: the slots cover out[0..total] exactly and every one was written above.
+    unsafe { out.set_len(total) };
+    out
+}
+
+/// A mutable slice shared by threads that promise to touch disjoint elements.
+///
+/// This is how coloured passes write without locks or atomics: the colouring proves
+/// that no two tasks of one pass reach the same particle.
+pub struct DisjointSlice<'a, T> {
+    ptr: *mut T,
+    len: usize,
+    _borrow: std::marker::PhantomData<&'a mut [T]>,
+}
+
+// SAFETY: access is only through `get`, whose callers guarantee disjoint indices
+// across threads; T: Send makes moving the access to another thread sound.
+unsafe impl<T: Send> Sync for DisjointSlice<'_, T> {}
+unsafe impl<T: Send> Send for DisjointSlice<'_, T> {}
+
+impl<'a, T> DisjointSlice<'a, T> {
+    /// Shares `slice` for disjoint writes.
+    pub fn new(slice: &'a mut [T]) -> Self {
+        DisjointSlice {
+            ptr: slice.as_mut_ptr(),
+            len: slice.len(),
+            _borrow: std::marker::PhantomData,
+        }
+    }
+
+    /// Element `k`.
+    ///
+    /// # Safety
+    /// No other thread, and no other live reference from this thread, may access
+    /// element `k` while the returned reference lives.
+    #[inline(always)]
+    #[allow(clippy::mut_from_ref)]
+    pub unsafe fn get(&self, k: usize) -> &mut T {
+        assert!(k < self.len, "index {k} out of range {}", self.len);
+        &mut *self.ptr.add(k)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn chunks_cover_the_range_in_order_independently_of_threads() {
+        for n in [0, 1, 63, 64, 65, 100_000] {
+            let one: Vec<_> = Threads::single().install(|| Threads::chunks(n).collect());
+            let two: Vec<_> = Threads::new(2)
+                .unwrap()
+                .install(|| Threads::chunks(n).collect());
+            assert_eq!(one, two);
+            let flat: Vec<usize> = one.into_iter().flatten().collect();
+            assert_eq!(flat, (0..n).collect::<Vec<_>>());
+        }
+    }
+
+    #[test]
+    fn concat_keeps_order() {
+        let parts = vec![vec![1, 2], vec![], vec![3], vec![4, 5, 6]];
+        assert_eq!(concat_in_order(parts), vec![1, 2, 3, 4, 5, 6]);
+        assert_eq!(concat_in_order::<u8>(vec![]), Vec::<u8>::new());
+    }
+}

@@ -1,0 +1,266 @@
+//! Every fast neighbour path against the brute-force reference, on random inputs:
+//! 2D and 3D, periodic and open axes, tiny grids (1 and 2 cells per axis), points on
+//! cell faces and box faces, points outside the box; 1 and 2 threads.
+
+use cellist::neighbors::{
+    brute_force_pairs, gather_cells, gather_verlet, half_pairs, scatter_coloured,
+    scatter_verlet_serial, PairKernel,
+};
+use cellist::{Boundary, CellList, Domain, StencilKind, Threads, VerletList};
+use proptest::prelude::*;
+
+/// Per particle: number of neighbours, sum of their input ids, and sum of the
+/// separations (floating point, to check bit-for-bit determinism).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Tally<const D: usize> {
+    count: u64,
+    id_sum: u64,
+    sep_sum: [f64; D],
+}
+
+impl<const D: usize> Default for Tally<D> {
+    fn default() -> Self {
+        Tally {
+            count: 0,
+            id_sum: 0,
+            sep_sum: [0.0; D],
+        }
+    }
+}
+
+struct TallyKernel<'a> {
+    ids: &'a [u32],
+}
+
+impl<const D: usize> PairKernel<D> for TallyKernel<'_> {
+    type Acc = Tally<D>;
+    fn gather(&self, _i: usize, j: usize, d: &[f64; D], _r2: f64, acc_i: &mut Tally<D>) {
+        acc_i.count += 1;
+        acc_i.id_sum += self.ids[j] as u64;
+        for a in 0..D {
+            acc_i.sep_sum[a] += d[a];
+        }
+    }
+    fn scatter(
+        &self,
+        i: usize,
+        j: usize,
+        d: &[f64; D],
+        r2: f64,
+        acc_i: &mut Tally<D>,
+        acc_j: &mut Tally<D>,
+    ) {
+        self.gather(i, j, d, r2, acc_i);
+        let minus: [f64; D] = std::array::from_fn(|a| -d[a]);
+        self.gather(j, i, &minus, r2, acc_j);
+    }
+}
+
+/// Brute-force tallies in input order (counts and id sums only: exact integers).
+fn brute_tally(pairs: &[(u32, u32, f64)], n: usize) -> Vec<(u64, u64)> {
+    let mut t = vec![(0u64, 0u64); n];
+    for &(i, j, _) in pairs {
+        t[i as usize].0 += 1;
+        t[i as usize].1 += j as u64;
+        t[j as usize].0 += 1;
+        t[j as usize].1 += i as u64;
+    }
+    t
+}
+
+fn assert_same_pairs(fast: &[(u32, u32, f64)], brute: &[(u32, u32, f64)]) {
+    assert_eq!(fast.len(), brute.len(), "pair counts differ");
+    for (f, b) in fast.iter().zip(brute) {
+        assert_eq!((f.0, f.1), (b.0, b.1), "pair sets differ");
+        let rel = (f.2 - b.2).abs() / b.2.max(1e-300);
+        assert!(
+            rel <= 1e-12,
+            "distance {} vs {} for {:?}",
+            f.2,
+            b.2,
+            (f.0, f.1)
+        );
+    }
+}
+
+/// Runs every fast path on one input and compares with brute force.
+fn check_all_paths<const D: usize>(domain: &Domain<D>, cutoff: f64, points: &[[f64; D]]) {
+    let brute = brute_force_pairs(domain, cutoff, points);
+    let one = Threads::single();
+    let two = Threads::new(2).unwrap();
+    let cells = CellList::build(domain, cutoff, points).unwrap();
+
+    // the half pair list, on 1 and 2 threads
+    let mut fast_one = half_pairs(&cells, cutoff, &one, |i, j, r2| (i, j, r2.sqrt()));
+    let fast_two = half_pairs(&cells, cutoff, &two, |i, j, r2| (i, j, r2.sqrt()));
+    assert_eq!(
+        fast_one
+            .iter()
+            .map(|p| (p.0, p.1, p.2.to_bits()))
+            .collect::<Vec<_>>(),
+        fast_two
+            .iter()
+            .map(|p| (p.0, p.1, p.2.to_bits()))
+            .collect::<Vec<_>>()
+    );
+    fast_one.sort_by_key(|p| (p.0, p.1));
+    assert_same_pairs(&fast_one, &brute);
+
+    // per-particle sums by every strategy
+    let expected = brute_tally(&brute, points.len());
+    let kernel = TallyKernel { ids: cells.order() };
+    let to_input_order = |acc: &[Tally<D>]| {
+        let mut out = vec![(0, 0); acc.len()];
+        for (k, t) in acc.iter().enumerate() {
+            out[cells.order()[k] as usize] = (t.count, t.id_sum);
+        }
+        out
+    };
+    let run = |f: &dyn Fn(&Threads, &mut [Tally<D>])| {
+        let mut a = vec![Tally::default(); points.len()];
+        let mut b = vec![Tally::default(); points.len()];
+        f(&one, &mut a);
+        f(&two, &mut b);
+        assert_eq!(a, b, "1 and 2 threads differ");
+        assert_eq!(to_input_order(&a), expected);
+    };
+    run(&|t, acc| gather_cells(&cells, cutoff, &kernel, acc, t));
+    run(&|t, acc| scatter_coloured(&cells, cutoff, &kernel, acc, t));
+
+    // Verlet lists with a skin, over a cell list built for cutoff + skin
+    let skin = 0.1 * cutoff;
+    let max_cutoff = (0..D)
+        .filter(|&d| domain.is_periodic(d))
+        .map(|d| domain.length[d] / 2.0)
+        .fold(f64::INFINITY, f64::min);
+    let reach = (cutoff + skin).min(max_cutoff);
+    let skin = reach - cutoff;
+    let wide = CellList::build(domain, reach, points).unwrap();
+    let kernel = TallyKernel { ids: wide.order() };
+    let to_input_order = |acc: &[Tally<D>]| {
+        let mut out = vec![(0, 0); acc.len()];
+        for (k, t) in acc.iter().enumerate() {
+            out[wide.order()[k] as usize] = (t.count, t.id_sum);
+        }
+        out
+    };
+    let full = VerletList::build(&wide, StencilKind::Full, cutoff, skin, &two);
+    assert_eq!(
+        full.num_entries(),
+        VerletList::build(&wide, StencilKind::Full, cutoff, skin, &one).num_entries()
+    );
+    let mut a = vec![Tally::default(); points.len()];
+    let mut b = vec![Tally::default(); points.len()];
+    gather_verlet(&full, wide.positions(), &kernel, &mut a, &one);
+    gather_verlet(&full, wide.positions(), &kernel, &mut b, &two);
+    assert_eq!(a, b);
+    assert_eq!(to_input_order(&a), expected);
+    let half = VerletList::build(&wide, StencilKind::Half, cutoff, skin, &two);
+    let mut h = vec![Tally::default(); points.len()];
+    scatter_verlet_serial(&half, wide.positions(), &kernel, &mut h);
+    assert_eq!(to_input_order(&h), expected);
+    assert!(!half.needs_rebuild(wide.positions()));
+}
+
+fn boundary(periodic: bool) -> Boundary {
+    if periodic {
+        Boundary::Periodic
+    } else {
+        Boundary::Open
+    }
+}
+
+/// A coordinate on axis of length `l` with `m` cells: uniform inside, exactly on a
+/// cell face or a box face, or outside the box.
+fn coordinate(kind: u8, u: f64, k: usize, l: f64, m: usize) -> f64 {
+    match kind {
+        0 => u * l,
+        1 => (k % (m + 1)) as f64 * (l / m as f64),
+        2 => (u - 0.5) * 3.0 * l,
+        _ => l,
+    }
+}
+
+fn input<const D: usize>(
+    lengths: [f64; D],
+    periodic: [bool; D],
+    cutoff_frac: f64,
+    raw: &[(u8, [f64; D], [usize; D])],
+) -> (Domain<D>, f64, Vec<[f64; D]>) {
+    let domain = Domain::new(lengths, periodic.map(boundary)).unwrap();
+    let shortest = lengths.iter().cloned().fold(f64::INFINITY, f64::min);
+    let cutoff = (cutoff_frac * shortest / 2.0).max(1e-3);
+    let grid = cellist::neighbors::CellGrid::new(&domain, cutoff, raw.len()).unwrap();
+    let dims = grid.dims();
+    let points = raw
+        .iter()
+        .map(|(kind, u, k)| {
+            std::array::from_fn(|d| coordinate(*kind % 6, u[d], k[d], lengths[d], dims[d]))
+        })
+        .collect();
+    (domain, cutoff, points)
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(256))]
+
+    #[test]
+    fn fast_paths_equal_brute_force_2d(
+        lengths in prop::array::uniform2(1.0f64..40.0),
+        periodic in prop::array::uniform2(any::<bool>()),
+        cutoff_frac in 0.02f64..1.0,
+        raw in prop::collection::vec((0u8..6, prop::array::uniform2(0.0f64..1.0), prop::array::uniform2(0usize..1000)), 0..300),
+    ) {
+        let (domain, cutoff, points) = input(lengths, periodic, cutoff_frac, &raw);
+        check_all_paths(&domain, cutoff, &points);
+    }
+
+    #[test]
+    fn fast_paths_equal_brute_force_3d(
+        lengths in prop::array::uniform3(1.0f64..20.0),
+        periodic in prop::array::uniform3(any::<bool>()),
+        cutoff_frac in 0.05f64..1.0,
+        raw in prop::collection::vec((0u8..6, prop::array::uniform3(0.0f64..1.0), prop::array::uniform3(0usize..1000)), 0..300),
+    ) {
+        let (domain, cutoff, points) = input(lengths, periodic, cutoff_frac, &raw);
+        check_all_paths(&domain, cutoff, &points);
+    }
+}
+
+/// The cutoff exactly half the box: one and two cells per axis, the largest cutoff
+/// allowed, with points on a lattice so that many distances equal the cutoff exactly.
+#[test]
+fn half_box_cutoff_on_a_lattice() {
+    for l in [1.0, 2.0, 3.0] {
+        let domain = Domain::periodic([l, l, l]).unwrap();
+        let mut pts = Vec::new();
+        for x in 0..4 {
+            for y in 0..4 {
+                for z in 0..4 {
+                    pts.push([x as f64 * l / 4.0, y as f64 * l / 4.0, z as f64 * l / 4.0]);
+                }
+            }
+        }
+        check_all_paths(&domain, l / 2.0, &pts);
+        check_all_paths(&domain, 0.25 * l, &pts);
+    }
+}
+
+/// 200 cells per side in 2D.
+#[test]
+fn two_hundred_cells_per_side() {
+    let n = 20_000;
+    let l = 200.0;
+    let mut state = 12345u64;
+    let mut next = || {
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (state >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let pts: Vec<[f64; 2]> = (0..n).map(|_| [next() * l, next() * l]).collect();
+    let domain = Domain::periodic([l, l]).unwrap();
+    let cells = CellList::build(&domain, 0.999, &pts).unwrap();
+    assert_eq!(cells.grid().dims(), [200, 200]);
+    check_all_paths(&domain, 0.999, &pts);
+}
