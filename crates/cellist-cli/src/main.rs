@@ -1,1 +1,30 @@
-fn main() {}
+//! `cellist`: the command-line tool of the cellist particle-simulation engine.
+
+mod bench;
+mod cli;
+mod demo;
+mod error;
+mod neighbors;
+
+use clap::Parser;
+use cli::{BenchCommand, Cli, Command};
+use std::process::ExitCode;
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Run(args) => demo::run(&args),
+        Command::Neighbors(args) => neighbors::run(&args),
+        Command::Bench { which } => match which {
+            BenchCommand::Neighbors(args) => bench::neighbors(&args),
+        },
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) if e.is_broken_pipe() => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::from(e.exit_code())
+        }
+    }
+}

@@ -4,9 +4,12 @@
 //! search (cell lists, Verlet lists, their traversals) and the race-free parallel
 //! pair sums on an explicit thread pool. It does no I/O and prints nothing.
 #![warn(missing_docs)]
+// Loops over axes index several per-axis arrays (position, length, boundary) at once.
+#![allow(clippy::needless_range_loop)]
 
 pub mod geometry;
 pub mod neighbors;
+pub mod random;
 pub mod threads;
 
 pub use geometry::{Boundary, Domain, GeometryError};

@@ -37,8 +37,8 @@ impl<const D: usize> PairKernel<D> for TallyKernel<'_> {
     fn gather(&self, _i: usize, j: usize, d: &[f64; D], _r2: f64, acc_i: &mut Tally<D>) {
         acc_i.count += 1;
         acc_i.id_sum += self.ids[j] as u64;
-        for a in 0..D {
-            acc_i.sep_sum[a] += d[a];
+        for (sum, da) in acc_i.sep_sum.iter_mut().zip(d) {
+            *sum += da;
         }
     }
     fn scatter(

@@ -23,6 +23,7 @@ pub struct CellList<const D: usize> {
     cell_start: Vec<u32>,
     order: Vec<u32>,
     positions: Vec<[f64; D]>,
+    columns: [Vec<f64>; D],
     anchors_by_colour: Vec<Vec<u32>>,
     // scratch, kept so that rebinning does not allocate
     wrapped: Vec<[f64; D]>,
@@ -50,6 +51,7 @@ impl<const D: usize> CellList<D> {
             cell_start: Vec::new(),
             order: Vec::new(),
             positions: Vec::new(),
+            columns: std::array::from_fn(|_| Vec::new()),
             wrapped: Vec::new(),
             cell_ids: Vec::new(),
             cursor: Vec::new(),
@@ -93,6 +95,10 @@ impl<const D: usize> CellList<D> {
         self.positions.clear();
         self.positions
             .extend(self.order.iter().map(|&i| self.wrapped[i as usize]));
+        for (a, column) in self.columns.iter_mut().enumerate() {
+            column.clear();
+            column.extend(self.positions.iter().map(|x| x[a]));
+        }
     }
 
     /// The domain the list was built for.
@@ -139,6 +145,12 @@ impl<const D: usize> CellList<D> {
     /// Wrapped positions in cell order.
     pub fn positions(&self) -> &[[f64; D]] {
         &self.positions
+    }
+
+    /// The same positions as one array per axis (structure of arrays), for the
+    /// vectorised distance loops.
+    pub fn columns(&self) -> &[Vec<f64>; D] {
+        &self.columns
     }
 
     /// Anchor cells by colour, for coloured passes (see [`CellGrid::colour_of`]).

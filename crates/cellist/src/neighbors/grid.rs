@@ -37,6 +37,23 @@ pub struct NeighbourCell<const D: usize> {
     pub image: u8,
 }
 
+/// Consecutive cells `first_cell..=last_cell` of a stencil seen at one image.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StencilRun<const D: usize> {
+    /// First cell of the run.
+    pub first_cell: usize,
+    /// Last cell of the run (inclusive).
+    pub last_cell: usize,
+    /// Shift added to the run's positions.
+    pub shift: [f64; D],
+    /// True when `shift` is non-zero.
+    pub shifted: bool,
+    /// The shift as an image code.
+    pub image: u8,
+    /// True when the run holds the home cell itself (unshifted).
+    pub holds_home: bool,
+}
+
 /// Which part of the 3^D stencil to visit.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum StencilKind {
@@ -128,21 +145,34 @@ impl<const D: usize> CellGrid<D> {
         })
     }
 
-    /// The stencil of `home`: the neighbour cells of `kind` in a fixed order (the
-    /// home cell first, then offsets in lexicographic order with x fastest), with the
-    /// image shift of each relative to the home cell. Returns how many were written.
-    pub fn stencil(
+    /// The stencil of `home` as runs of consecutive cells with one image shift: the
+    /// particles of a run are contiguous in the cell list, so each run is one scan.
+    /// Runs come in offset order (lexicographic, x fastest). Returns how many were
+    /// written.
+    pub fn stencil_runs(
         &self,
         home: usize,
         kind: StencilKind,
-        out: &mut [NeighbourCell<D>; 27],
+        out: &mut [StencilRun<D>; 27],
     ) -> usize {
         let base = self.coords(home);
         let mut n = 0;
         for offset in offsets::<D>(kind) {
             let c = std::array::from_fn(|d| base[d] as isize + offset[d]);
-            if let Some(nb) = self.resolve(c) {
-                out[n] = nb;
+            let Some(nb) = self.resolve(c) else { continue };
+            let is_home = offset.iter().all(|&o| o == 0);
+            if n > 0 && out[n - 1].image == nb.image && out[n - 1].last_cell + 1 == nb.cell {
+                out[n - 1].last_cell = nb.cell;
+                out[n - 1].holds_home |= is_home;
+            } else {
+                out[n] = StencilRun {
+                    first_cell: nb.cell,
+                    last_cell: nb.cell,
+                    shift: nb.shift,
+                    shifted: nb.shifted,
+                    image: nb.image,
+                    holds_home: is_home,
+                };
                 n += 1;
             }
         }
@@ -254,13 +284,15 @@ impl<const D: usize> Default for AnchoredPair<D> {
     }
 }
 
-impl<const D: usize> Default for NeighbourCell<D> {
+impl<const D: usize> Default for StencilRun<D> {
     fn default() -> Self {
-        NeighbourCell {
-            cell: 0,
+        StencilRun {
+            first_cell: 0,
+            last_cell: 0,
             shift: [0.0; D],
             shifted: false,
             image: image_code([0; D]),
+            holds_home: false,
         }
     }
 }
@@ -277,13 +309,11 @@ pub fn image_code<const D: usize>(wraps: [isize; D]) -> u8 {
     code
 }
 
-/// The offsets of the stencil in a fixed order: the zero offset first, then the
-/// others in lexicographic order (x fastest). The half stencil keeps the offsets
-/// whose last non-zero component is positive.
+/// The offsets of the stencil in lexicographic order (x fastest). The half stencil
+/// keeps the zero offset and the offsets whose last non-zero component is positive;
+/// the zero offset is then the first one.
 pub fn offsets<const D: usize>(kind: StencilKind) -> impl Iterator<Item = [isize; D]> {
-    let total = 3usize.pow(D as u32);
-    let zero = std::iter::once([0isize; D]);
-    let rest = (0..total)
+    (0..3usize.pow(D as u32))
         .map(|mut k| {
             std::array::from_fn(|_| {
                 let o = (k % 3) as isize - 1;
@@ -291,15 +321,10 @@ pub fn offsets<const D: usize>(kind: StencilKind) -> impl Iterator<Item = [isize
                 o
             })
         })
-        .filter(move |o: &[isize; D]| {
-            let last_nonzero = o.iter().rev().find(|&&v| v != 0);
-            match (kind, last_nonzero) {
-                (_, None) => false,
-                (StencilKind::Full, Some(_)) => true,
-                (StencilKind::Half, Some(&v)) => v > 0,
-            }
-        });
-    zero.chain(rest)
+        .filter(move |o: &[isize; D]| match kind {
+            StencilKind::Full => true,
+            StencilKind::Half => o.iter().rev().find(|&&v| v != 0).is_none_or(|&v| v > 0),
+        })
 }
 
 #[cfg(test)]
@@ -315,7 +340,7 @@ mod tests {
         assert_eq!(offsets::<3>(StencilKind::Full).count(), 27);
         // the half stencil and its mirror image make up the full stencil
         let half: Vec<[isize; 3]> = offsets(StencilKind::Half).collect();
-        for o in offsets::<3>(StencilKind::Full).skip(1) {
+        for o in offsets::<3>(StencilKind::Full).filter(|o| o != &[0, 0, 0]) {
             let mirrored = [-o[0], -o[1], -o[2]];
             assert!(half.contains(&o) != half.contains(&mirrored));
         }

@@ -11,7 +11,9 @@ mod verlet;
 
 pub use brute::brute_force_pairs;
 pub use cell_list::CellList;
-pub use grid::{image_code, offsets, AnchoredPair, CellGrid, NeighbourCell, StencilKind};
+pub use grid::{
+    image_code, offsets, AnchoredPair, CellGrid, NeighbourCell, StencilKind, StencilRun,
+};
 pub use pairs::half_pairs;
 pub use parallel::{
     gather_cells, gather_verlet, scatter_coloured, scatter_verlet_serial, PairKernel,

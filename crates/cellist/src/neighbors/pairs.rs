@@ -26,25 +26,44 @@ pub fn half_pairs<const D: usize, T: Copy + Send + Sync>(
     );
     let test = CutoffTest::new(cutoff);
     let order = cells.order();
+    let rows = |range: std::ops::Range<usize>, out: &mut Vec<T>| {
+        for home in range {
+            for_each_row_in_cell(cells, home, StencilKind::Half, &test, |i, j, _, _, r2| {
+                let (a, b) = (order[i], order[j]);
+                out.push(make(a.min(b), a.max(b), r2));
+            });
+        }
+    };
+    let num_cells = cells.grid().num_cells();
+    let guess = expected_pairs(cells, cutoff);
+    if threads.count() == 1 {
+        // one thread: append in cell order straight into the result, no copy
+        let mut out = Vec::with_capacity(guess);
+        rows(0..num_cells, &mut out);
+        return out;
+    }
     threads.install(|| {
-        let parts: Vec<Vec<T>> = Threads::chunks(cells.grid().num_cells())
+        let parts: Vec<Vec<T>> = Threads::chunks(num_cells)
             .map(|range| {
-                let mut out = Vec::new();
-                for home in range {
-                    for_each_row_in_cell(
-                        cells,
-                        home,
-                        StencilKind::Half,
-                        &test,
-                        |i, j, _, _, r2| {
-                            let (a, b) = (order[i], order[j]);
-                            out.push(make(a.min(b), a.max(b), r2));
-                        },
-                    );
-                }
+                let slots =
+                    cells.cell_range(range.start).start..cells.cell_range(range.end - 1).end;
+                let mut out = Vec::with_capacity(guess * slots.len() / cells.len().max(1));
+                rows(range, &mut out);
                 out
             })
             .collect();
         concat_in_order(parts)
     })
+}
+
+/// A capacity hint: the half-list size of uniformly spread particles,
+/// `N^2 / 2 * V_ball(r_c) / V_box`, plus 10%.
+fn expected_pairs<const D: usize>(cells: &CellList<D>, cutoff: f64) -> usize {
+    let n = cells.len() as f64;
+    let ball = match D {
+        2 => std::f64::consts::PI * cutoff * cutoff,
+        _ => 4.0 / 3.0 * std::f64::consts::PI * cutoff.powi(D as i32),
+    };
+    let estimate = 0.55 * n * n * (ball / cells.domain().volume()).min(1.0);
+    estimate.min(1e10) as usize
 }

@@ -3,8 +3,8 @@
 //! pairs of an anchor (for coloured passes).
 
 use super::cell_list::CellList;
-use super::grid::{AnchoredPair, NeighbourCell, StencilKind};
-use crate::geometry::norm2;
+use super::grid::{AnchoredPair, StencilKind, StencilRun};
+use std::ops::Range;
 
 /// The membership test `|x_j - x_i| < r_c`, decided exactly as `sqrt(r^2) < r_c` in
 /// binary64, but with one comparison of `r^2` for all pairs that are not within a
@@ -44,27 +44,56 @@ impl CutoffTest {
 /// the unshifted loop is the plain difference). The separation is formed exactly as
 /// the minimum image `d - L round(d / L)` of a brute-force search forms it, so both
 /// agree to the last bit for particles inside the box.
+///
+/// The loop is branch-free: it computes `r^2` for a block of candidates and compacts
+/// the indices of those not surely outside, then visits them (with the exact test
+/// near the cutoff), because about one candidate in six is a neighbour and a
+/// data-dependent branch per candidate would be mispredicted.
 #[inline(always)]
 pub fn scan<const D: usize, const SHIFTED: bool>(
     xi: &[f64; D],
-    candidates: &[[f64; D]],
-    first: usize,
+    columns: &[Vec<f64>; D],
+    candidates: Range<usize>,
     shift: &[f64; D],
     test: &CutoffTest,
     mut visit: impl FnMut(usize, &[f64; D], f64),
 ) {
-    for (k, xj) in candidates.iter().enumerate() {
-        let d: [f64; D] = std::array::from_fn(|a| {
-            if SHIFTED {
-                (xj[a] - xi[a]) + shift[a]
-            } else {
-                xj[a] - xi[a]
+    const BLOCK: usize = 64;
+    let mut r2s = [0.0f64; BLOCK];
+    let mut hits = [0u8; BLOCK];
+    let mut start = candidates.start;
+    while start < candidates.end {
+        let len = (candidates.end - start).min(BLOCK);
+        let r2s = &mut r2s[..len];
+        // r^2 = (d_x^2 + d_y^2) + d_z^2 (as norm2 sums it), axis by axis: vectorisable
+        for a in 0..D {
+            let (x, s) = (xi[a], shift[a]);
+            for (r2, &xj) in r2s.iter_mut().zip(&columns[a][start..start + len]) {
+                let d = if SHIFTED { (xj - x) + s } else { xj - x };
+                *r2 = if a == 0 { d * d } else { *r2 + d * d };
             }
-        });
-        let r2 = norm2(&d);
-        if test.accepts(r2) {
-            visit(first + k, &d, r2);
         }
+        let mut n = 0;
+        for (k, &r2) in r2s.iter().enumerate() {
+            hits[n] = k as u8;
+            n += (r2 < test.surely_outside) as usize;
+        }
+        for &k in &hits[..n] {
+            let j = start + k as usize;
+            let r2 = r2s[k as usize];
+            if test.accepts(r2) {
+                let d: [f64; D] = std::array::from_fn(|a| {
+                    let xj = columns[a][j];
+                    if SHIFTED {
+                        (xj - xi[a]) + shift[a]
+                    } else {
+                        xj - xi[a]
+                    }
+                });
+                visit(j, &d, r2);
+            }
+        }
+        start += len;
     }
 }
 
@@ -82,56 +111,29 @@ pub fn for_each_row_in_cell<const D: usize>(
     test: &CutoffTest,
     mut visit: impl FnMut(usize, usize, u8, &[f64; D], f64),
 ) {
-    let mut stencil = [NeighbourCell::<D>::default(); 27];
-    let n = cells.grid().stencil(home, kind, &mut stencil);
+    let mut runs = [StencilRun::<D>::default(); 27];
+    let n = cells.grid().stencil_runs(home, kind, &mut runs);
     let xs = cells.positions();
+    let cols = cells.columns();
+    let start = cells.cell_start();
     for i in cells.cell_range(home) {
         let xi = &xs[i];
-        for nb in &stencil[..n] {
-            let range = cells.cell_range(nb.cell);
-            let image = nb.image;
+        for run in &runs[..n] {
+            let range = start[run.first_cell] as usize..start[run.last_cell + 1] as usize;
+            let image = run.image;
             let mut hit = |j: usize, d: &[f64; D], r2: f64| visit(i, j, image, d, r2);
-            if nb.shifted {
+            if run.shifted {
                 // only the periodic image of a tiny box can bring i next to itself,
                 // and that image is at least 2 r_c away: no i == j check is needed
-                scan::<D, true>(
-                    xi,
-                    &xs[range.clone()],
-                    range.start,
-                    &nb.shift,
-                    test,
-                    &mut hit,
-                );
-            } else if nb.cell == home {
-                let after = i + 1..range.end;
+                scan::<D, true>(xi, cols, range, &run.shift, test, &mut hit);
+            } else if run.holds_home {
+                // the half stencil's home run starts at the home cell: j > i
                 if kind == StencilKind::Full {
-                    let before = range.start..i;
-                    scan::<D, false>(
-                        xi,
-                        &xs[before.clone()],
-                        before.start,
-                        &nb.shift,
-                        test,
-                        &mut hit,
-                    );
+                    scan::<D, false>(xi, cols, range.start..i, &run.shift, test, &mut hit);
                 }
-                scan::<D, false>(
-                    xi,
-                    &xs[after.clone()],
-                    after.start,
-                    &nb.shift,
-                    test,
-                    &mut hit,
-                );
+                scan::<D, false>(xi, cols, i + 1..range.end, &run.shift, test, &mut hit);
             } else {
-                scan::<D, false>(
-                    xi,
-                    &xs[range.clone()],
-                    range.start,
-                    &nb.shift,
-                    test,
-                    &mut hit,
-                );
+                scan::<D, false>(xi, cols, range, &run.shift, test, &mut hit);
             }
         }
     }
@@ -151,6 +153,7 @@ pub fn for_each_anchored_pair<const D: usize>(
     let mut pairs = [AnchoredPair::<D>::default(); 14];
     let n = cells.grid().anchored_pairs(anchor, &mut pairs);
     let xs = cells.positions();
+    let cols = cells.columns();
     for p in &pairs[..n] {
         let a = cells.cell_range(p.first);
         let b = cells.cell_range(p.second);
@@ -158,19 +161,11 @@ pub fn for_each_anchored_pair<const D: usize>(
             let xi = &xs[i];
             let mut hit = |j: usize, d: &[f64; D], r2: f64| visit(i, j, d, r2);
             if p.shifted {
-                scan::<D, true>(xi, &xs[b.clone()], b.start, &p.shift, test, &mut hit);
+                scan::<D, true>(xi, cols, b.clone(), &p.shift, test, &mut hit);
             } else if p.first == p.second {
-                let after = i + 1..b.end;
-                scan::<D, false>(
-                    xi,
-                    &xs[after.clone()],
-                    after.start,
-                    &p.shift,
-                    test,
-                    &mut hit,
-                );
+                scan::<D, false>(xi, cols, i + 1..b.end, &p.shift, test, &mut hit);
             } else {
-                scan::<D, false>(xi, &xs[b.clone()], b.start, &p.shift, test, &mut hit);
+                scan::<D, false>(xi, cols, b.clone(), &p.shift, test, &mut hit);
             }
         }
     }
@@ -191,9 +186,9 @@ mod tests {
         assert_eq!(t.accepts(below), below.sqrt() < 2.5);
         // 0.1 is not representable: the test must agree with sqrt
         let t = CutoffTest::new(0.1);
-        let rc2 = 0.1 * 0.1;
+        let rc2: f64 = 0.1 * 0.1;
         for k in -40i64..40 {
-            let r2 = f64::from_bits((rc2 as f64).to_bits().wrapping_add_signed(k));
+            let r2 = f64::from_bits(rc2.to_bits().wrapping_add_signed(k));
             assert_eq!(t.accepts(r2), r2.sqrt() < 0.1, "k = {k}");
         }
     }

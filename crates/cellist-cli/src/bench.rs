@@ -1,0 +1,82 @@
+//! `cellist bench ...`: timings on standard workloads, medians of repeated runs.
+
+use crate::cli::BenchNeighborsArgs;
+use crate::error::{positive, threads, CliError, CliResult};
+use cellist::neighbors::half_pairs;
+use cellist::random::Rng;
+use cellist::{CellList, Domain, Threads};
+use std::time::Instant;
+
+/// `n` uniform random points in the periodic box `[0, L)^D` with `L = (n / rho)^(1/D)`.
+pub fn uniform_points<const D: usize>(
+    n: usize,
+    density: f64,
+    seed: u64,
+) -> (Domain<D>, Vec<[f64; D]>) {
+    let side = (n as f64 / density).powf(1.0 / D as f64);
+    let mut rng = Rng::new(seed);
+    let points = (0..n)
+        .map(|_| std::array::from_fn(|_| rng.uniform() * side))
+        .collect();
+    let domain = Domain::periodic([side; D]).expect("a positive side");
+    (domain, points)
+}
+
+/// The median of the samples (the mean of the middle two for an even count).
+pub fn median(samples: &mut [f64]) -> f64 {
+    samples.sort_by(f64::total_cmp);
+    let n = samples.len();
+    if n % 2 == 1 {
+        samples[n / 2]
+    } else {
+        0.5 * (samples[n / 2 - 1] + samples[n / 2])
+    }
+}
+
+/// `cellist bench neighbors`.
+pub fn neighbors(args: &BenchNeighborsArgs) -> CliResult {
+    positive("--density", args.density)?;
+    positive("--cutoff", args.cutoff)?;
+    if args.repeat == 0 {
+        return Err(CliError::Input("--repeat must be at least 1".into()));
+    }
+    let pool = threads(Some(args.threads))?;
+    let (seconds, pairs) = match args.dim {
+        2 => time_half_list::<2>(args, &pool)?,
+        _ => time_half_list::<3>(args, &pool)?,
+    };
+    let ns_per_pair = seconds * 1e9 / pairs.max(1) as f64;
+    if args.json {
+        let obj = serde_json::json!({
+            "n": args.n, "dim": args.dim, "threads": args.threads, "pairs": pairs,
+            "seconds": seconds, "ns_per_pair": ns_per_pair,
+        });
+        println!("{obj}");
+    } else {
+        println!(
+            "neighbors: n {} dim {} threads {}: median {:.4} s over {} runs, {} pairs, {:.2} ns/pair",
+            args.n, args.dim, args.threads, seconds, args.repeat, pairs, ns_per_pair
+        );
+    }
+    Ok(())
+}
+
+/// Median wall time of cell-list build plus half pair list, and the pair count.
+fn time_half_list<const D: usize>(
+    args: &BenchNeighborsArgs,
+    pool: &Threads,
+) -> CliResult<(f64, usize)> {
+    let (domain, points) = uniform_points::<D>(args.n, args.density, args.seed);
+    let mut times = Vec::with_capacity(args.repeat);
+    let mut count = 0;
+    for _ in 0..args.repeat {
+        let start = Instant::now();
+        let cells = CellList::build(&domain, args.cutoff, &points)
+            .map_err(|e| CliError::Input(format!("--cutoff {}: {e}", args.cutoff)))?;
+        let pairs = half_pairs(&cells, args.cutoff, pool, |i, j, _| [i, j]);
+        times.push(start.elapsed().as_secs_f64());
+        count = pairs.len();
+        drop(pairs);
+    }
+    Ok((median(&mut times), count))
+}

@@ -1,0 +1,73 @@
+//! How the tool fails: a message for the user and an exit status.
+
+use std::fmt;
+
+/// A failure of one command.
+#[derive(Debug)]
+pub enum CliError {
+    /// Bad input: a file, a flag or a value the user gave (exit status 2).
+    Input(String),
+    /// Writing a result failed (exit status 1).
+    Output(std::io::Error, String),
+}
+
+impl CliError {
+    /// The process exit status for this error.
+    pub fn exit_code(&self) -> u8 {
+        match self {
+            CliError::Input(_) => 2,
+            CliError::Output(..) => 1,
+        }
+    }
+
+    /// True when the reader of our output went away (`cellist ... | head`).
+    pub fn is_broken_pipe(&self) -> bool {
+        matches!(self, CliError::Output(e, _) if e.kind() == std::io::ErrorKind::BrokenPipe)
+    }
+
+    /// An output error with what was being written.
+    pub fn output(what: impl Into<String>) -> impl FnOnce(std::io::Error) -> CliError {
+        let what = what.into();
+        move |e| CliError::Output(e, what)
+    }
+}
+
+impl fmt::Display for CliError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            CliError::Input(m) => f.write_str(m),
+            CliError::Output(e, what) => write!(f, "cannot write {what}: {e}"),
+        }
+    }
+}
+
+impl From<cellist_io::InputError> for CliError {
+    fn from(e: cellist_io::InputError) -> Self {
+        CliError::Input(e.to_string())
+    }
+}
+
+/// Shorthand for command results.
+pub type CliResult<T = ()> = Result<T, CliError>;
+
+/// A thread pool for `--threads` (default: every core).
+pub fn threads(requested: Option<usize>) -> CliResult<cellist::Threads> {
+    let count = match requested {
+        Some(0) => return Err(CliError::Input("--threads must be at least 1".into())),
+        Some(n) => n,
+        None => std::thread::available_parallelism().map_or(1, |n| n.get()),
+    };
+    cellist::Threads::new(count)
+        .map_err(|e| CliError::Input(format!("cannot start {count} threads: {e}")))
+}
+
+/// Checks a `--cutoff` value.
+pub fn positive(flag: &str, value: f64) -> CliResult<f64> {
+    if value.is_finite() && value > 0.0 {
+        Ok(value)
+    } else {
+        Err(CliError::Input(format!(
+            "{flag} must be a finite number > 0, got {value}"
+        )))
+    }
+}

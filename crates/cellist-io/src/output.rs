@@ -1,0 +1,148 @@
+//! Writing results: an output file that appears whole or not at all, and numbers
+//! printed the way C's `%.17g` prints them (enough digits to read back every bit).
+
+use std::fs::File;
+use std::io::{self, BufWriter, Write};
+use std::path::{Path, PathBuf};
+
+/// A file written under a temporary name in the target's folder and renamed into
+/// place by [`AtomicFile::commit`]; dropped without a commit, it is removed, so a
+/// failed run leaves no partial output behind.
+pub struct AtomicFile {
+    target: PathBuf,
+    temp: PathBuf,
+    writer: Option<BufWriter<File>>,
+}
+
+impl AtomicFile {
+    /// Starts writing `target`.
+    pub fn create(target: &Path) -> io::Result<Self> {
+        let name = target.file_name().ok_or_else(|| {
+            io::Error::new(io::ErrorKind::InvalidInput, "output path has no file name")
+        })?;
+        let mut temp_name = std::ffi::OsString::from(".");
+        temp_name.push(name);
+        temp_name.push(format!(".{}.tmp", std::process::id()));
+        let temp = target.with_file_name(temp_name);
+        let file = File::create(&temp)?;
+        Ok(AtomicFile {
+            target: target.to_path_buf(),
+            temp,
+            writer: Some(BufWriter::with_capacity(1 << 20, file)),
+        })
+    }
+
+    /// The writer.
+    pub fn writer(&mut self) -> &mut BufWriter<File> {
+        self.writer.as_mut().expect("writer present until commit")
+    }
+
+    /// Flushes, syncs and renames the file into place.
+    pub fn commit(mut self) -> io::Result<()> {
+        let writer = self.writer.take().expect("writer present until commit");
+        let file = writer.into_inner().map_err(|e| e.into_error())?;
+        file.sync_all()?;
+        std::fs::rename(&self.temp, &self.target)
+    }
+}
+
+impl Drop for AtomicFile {
+    fn drop(&mut self) {
+        if self.writer.take().is_some() {
+            let _ = std::fs::remove_file(&self.temp);
+        }
+    }
+}
+
+/// Formats `x` as C's `printf("%.17g", x)`: 17 significant digits, trailing zeros
+/// removed, exponent form when the decimal exponent is below -4 or at least 17.
+pub fn format_g17(x: f64, out: &mut String) {
+    use std::fmt::Write as _;
+    if !x.is_finite() {
+        out.push_str(match x {
+            v if v.is_nan() => "nan",
+            v if v > 0.0 => "inf",
+            _ => "-inf",
+        });
+        return;
+    }
+    let sci = format!("{x:.16e}");
+    let (mantissa, exp) = sci.split_once('e').expect("exponent form");
+    let exp: i32 = exp.parse().expect("integer exponent");
+    if !(-4..17).contains(&exp) {
+        out.push_str(trim_zeros(mantissa));
+        let _ = write!(out, "e{}{:02}", if exp < 0 { '-' } else { '+' }, exp.abs());
+    } else {
+        let fixed = format!("{x:.prec$}", prec = (16 - exp) as usize);
+        out.push_str(trim_zeros(&fixed));
+    }
+}
+
+/// Writes one line `i j r` per pair, `r` as `%.17g`.
+pub fn write_pairs<W: Write + ?Sized>(
+    w: &mut W,
+    pairs: impl IntoIterator<Item = (u32, u32, f64)>,
+) -> io::Result<()> {
+    let mut line = String::with_capacity(64);
+    for (i, j, r) in pairs {
+        use std::fmt::Write as _;
+        line.clear();
+        let _ = write!(line, "{i} {j} ");
+        format_g17(r, &mut line);
+        line.push('\n');
+        w.write_all(line.as_bytes())?;
+    }
+    Ok(())
+}
+
+fn trim_zeros(s: &str) -> &str {
+    if s.contains('.') {
+        s.trim_end_matches('0').trim_end_matches('.')
+    } else {
+        s
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn g(x: f64) -> String {
+        let mut s = String::new();
+        format_g17(x, &mut s);
+        s
+    }
+
+    #[test]
+    fn matches_c_printf() {
+        // expected strings are what C's printf("%.17g") prints for these values
+        assert_eq!(g(1.0), "1");
+        assert_eq!(g(0.5), "0.5");
+        assert_eq!(g(0.1), "0.10000000000000001");
+        assert_eq!(g(2.4999999999999996), "2.4999999999999996");
+        assert_eq!(g(1e-5), "1.0000000000000001e-05");
+        assert_eq!(g(123456789012345678.0), "1.2345678901234568e+17");
+        assert_eq!(g(0.0001), "0.0001");
+        assert_eq!(g(-3.25), "-3.25");
+        assert_eq!(g(0.0), "0");
+        for x in [0.1, 1.0 / 3.0, 2.5f64.sqrt(), 1e-300, 6.02e23] {
+            assert_eq!(g(x).parse::<f64>().unwrap(), x);
+        }
+    }
+
+    #[test]
+    fn atomic_file_appears_only_on_commit() {
+        let dir = tempfile::tempdir().unwrap();
+        let target = dir.path().join("out.txt");
+        {
+            let mut f = AtomicFile::create(&target).unwrap();
+            writeln!(f.writer(), "partial").unwrap();
+        }
+        assert!(!target.exists());
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+        let mut f = AtomicFile::create(&target).unwrap();
+        writeln!(f.writer(), "whole").unwrap();
+        f.commit().unwrap();
+        assert_eq!(std::fs::read_to_string(&target).unwrap(), "whole\n");
+    }
+}
