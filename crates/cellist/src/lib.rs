@@ -8,6 +8,7 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod geometry;
+pub mod memory;
 pub mod neighbors;
 pub mod random;
 pub mod threads;

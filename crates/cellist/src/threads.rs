@@ -59,7 +59,7 @@ pub fn concat_in_order<T: Copy + Send + Sync>(parts: Vec<Vec<T>>) -> Vec<T> {
         return parts.into_iter().next().unwrap_or_default();
     }
     let total = parts.iter().map(Vec::len).sum();
-    let mut out: Vec<T> = Vec::with_capacity(total);
+    let mut out: Vec<T> = crate::memory::large_vec(total);
     let mut slots: Vec<&mut [MaybeUninit<T>]> = Vec::with_capacity(parts.len());
     let mut rest = &mut out.spare_capacity_mut()[..total];
     for p in &parts {

@@ -18,5 +18,5 @@ pub use pairs::half_pairs;
 pub use parallel::{
     gather_cells, gather_verlet, scatter_coloured, scatter_verlet_serial, PairKernel,
 };
-pub use traverse::{for_each_anchored_pair, for_each_row_in_cell, scan, CutoffTest};
+pub use traverse::{for_each_anchored_pair, for_each_row_in_cell, scan, CutoffTest, ScanScratch};
 pub use verlet::VerletList;

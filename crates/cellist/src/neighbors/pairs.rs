@@ -4,6 +4,7 @@
 use super::cell_list::CellList;
 use super::grid::StencilKind;
 use super::traverse::{for_each_row_in_cell, CutoffTest};
+use crate::memory::large_vec;
 use crate::threads::{concat_in_order, Threads};
 use rayon::prelude::*;
 
@@ -38,7 +39,7 @@ pub fn half_pairs<const D: usize, T: Copy + Send + Sync>(
     let guess = expected_pairs(cells, cutoff);
     if threads.count() == 1 {
         // one thread: append in cell order straight into the result, no copy
-        let mut out = Vec::with_capacity(guess);
+        let mut out = large_vec(guess);
         rows(0..num_cells, &mut out);
         return out;
     }

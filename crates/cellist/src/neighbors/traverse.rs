@@ -39,6 +39,23 @@ impl CutoffTest {
     }
 }
 
+const BLOCK: usize = 64;
+
+/// The per-block buffers of [`scan`], made once per home cell rather than per scan.
+pub struct ScanScratch {
+    r2s: [f64; BLOCK],
+    hits: [u8; BLOCK],
+}
+
+impl Default for ScanScratch {
+    fn default() -> Self {
+        ScanScratch {
+            r2s: [0.0; BLOCK],
+            hits: [0; BLOCK],
+        }
+    }
+}
+
 /// Visits the `candidates` (sorted slots `first..`) that lie within the cutoff of
 /// `xi`, with `d = (x_j - x_i) + shift` (the shift is added only when `SHIFTED`, so
 /// the unshifted loop is the plain difference). The separation is formed exactly as
@@ -51,6 +68,7 @@ impl CutoffTest {
 /// data-dependent branch per candidate would be mispredicted.
 #[inline(always)]
 pub fn scan<const D: usize, const SHIFTED: bool>(
+    scratch: &mut ScanScratch,
     xi: &[f64; D],
     columns: &[Vec<f64>; D],
     candidates: Range<usize>,
@@ -58,9 +76,7 @@ pub fn scan<const D: usize, const SHIFTED: bool>(
     test: &CutoffTest,
     mut visit: impl FnMut(usize, &[f64; D], f64),
 ) {
-    const BLOCK: usize = 64;
-    let mut r2s = [0.0f64; BLOCK];
-    let mut hits = [0u8; BLOCK];
+    let ScanScratch { r2s, hits } = scratch;
     let mut start = candidates.start;
     while start < candidates.end {
         let len = (candidates.end - start).min(BLOCK);
@@ -113,6 +129,7 @@ pub fn for_each_row_in_cell<const D: usize>(
 ) {
     let mut runs = [StencilRun::<D>::default(); 27];
     let n = cells.grid().stencil_runs(home, kind, &mut runs);
+    let mut scratch = ScanScratch::default();
     let xs = cells.positions();
     let cols = cells.columns();
     let start = cells.cell_start();
@@ -125,15 +142,31 @@ pub fn for_each_row_in_cell<const D: usize>(
             if run.shifted {
                 // only the periodic image of a tiny box can bring i next to itself,
                 // and that image is at least 2 r_c away: no i == j check is needed
-                scan::<D, true>(xi, cols, range, &run.shift, test, &mut hit);
+                scan::<D, true>(&mut scratch, xi, cols, range, &run.shift, test, &mut hit);
             } else if run.holds_home {
                 // the half stencil's home run starts at the home cell: j > i
                 if kind == StencilKind::Full {
-                    scan::<D, false>(xi, cols, range.start..i, &run.shift, test, &mut hit);
+                    scan::<D, false>(
+                        &mut scratch,
+                        xi,
+                        cols,
+                        range.start..i,
+                        &run.shift,
+                        test,
+                        &mut hit,
+                    );
                 }
-                scan::<D, false>(xi, cols, i + 1..range.end, &run.shift, test, &mut hit);
+                scan::<D, false>(
+                    &mut scratch,
+                    xi,
+                    cols,
+                    i + 1..range.end,
+                    &run.shift,
+                    test,
+                    &mut hit,
+                );
             } else {
-                scan::<D, false>(xi, cols, range, &run.shift, test, &mut hit);
+                scan::<D, false>(&mut scratch, xi, cols, range, &run.shift, test, &mut hit);
             }
         }
     }
@@ -152,6 +185,7 @@ pub fn for_each_anchored_pair<const D: usize>(
 ) {
     let mut pairs = [AnchoredPair::<D>::default(); 14];
     let n = cells.grid().anchored_pairs(anchor, &mut pairs);
+    let mut scratch = ScanScratch::default();
     let xs = cells.positions();
     let cols = cells.columns();
     for p in &pairs[..n] {
@@ -161,11 +195,19 @@ pub fn for_each_anchored_pair<const D: usize>(
             let xi = &xs[i];
             let mut hit = |j: usize, d: &[f64; D], r2: f64| visit(i, j, d, r2);
             if p.shifted {
-                scan::<D, true>(xi, cols, b.clone(), &p.shift, test, &mut hit);
+                scan::<D, true>(&mut scratch, xi, cols, b.clone(), &p.shift, test, &mut hit);
             } else if p.first == p.second {
-                scan::<D, false>(xi, cols, i + 1..b.end, &p.shift, test, &mut hit);
+                scan::<D, false>(
+                    &mut scratch,
+                    xi,
+                    cols,
+                    i + 1..b.end,
+                    &p.shift,
+                    test,
+                    &mut hit,
+                );
             } else {
-                scan::<D, false>(xi, cols, b.clone(), &p.shift, test, &mut hit);
+                scan::<D, false>(&mut scratch, xi, cols, b.clone(), &p.shift, test, &mut hit);
             }
         }
     }

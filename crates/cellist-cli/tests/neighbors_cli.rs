@@ -1,0 +1,357 @@
+//! End-to-end runs of `cellist neighbors`, `cellist bench neighbors` and `cellist run`.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn cellist(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_cellist"))
+        .args(args)
+        .output()
+        .expect("cellist runs")
+}
+
+fn stdout(o: &Output) -> String {
+    String::from_utf8(o.stdout.clone()).unwrap()
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8(o.stderr.clone()).unwrap()
+}
+
+fn testdata() -> Option<PathBuf> {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/testdata/neighbors");
+    if dir.is_dir() {
+        Some(dir)
+    } else {
+        eprintln!(
+            "skipped: {} is absent (the shared test data sits beside the project)",
+            dir.display()
+        );
+        None
+    }
+}
+
+/// The box side from the header `... L=<value> ...`.
+fn header_side(path: &Path) -> String {
+    let text = std::fs::read_to_string(path).unwrap();
+    let first = text.lines().next().unwrap();
+    let field = first
+        .split_whitespace()
+        .find(|f| f.starts_with("L="))
+        .unwrap();
+    field[2..].to_string()
+}
+
+/// (i, j, r) lines, comments skipped.
+fn parse_pairs(text: &str) -> Vec<(u32, u32, f64)> {
+    text.lines()
+        .filter(|l| !l.starts_with('#') && !l.trim().is_empty())
+        .map(|l| {
+            let f: Vec<&str> = l.split_whitespace().collect();
+            (
+                f[0].parse().unwrap(),
+                f[1].parse().unwrap(),
+                f[2].parse().unwrap(),
+            )
+        })
+        .collect()
+}
+
+#[test]
+fn reference_pair_lists_2d_and_3d() {
+    let Some(dir) = testdata() else { return };
+    for dim in [2, 3] {
+        let points = dir.join(format!("nl_N2000_{dim}d_points.txt"));
+        let side = header_side(&points);
+        let mut args = vec![
+            "neighbors",
+            "--input",
+            points.to_str().unwrap(),
+            "--cutoff",
+            "2.5",
+            "--box",
+        ];
+        args.extend(std::iter::repeat_n(side.as_str(), dim));
+        let out = cellist(&args);
+        assert!(out.status.success(), "{}", stderr(&out));
+        let ours = parse_pairs(&stdout(&out));
+        let reference = parse_pairs(
+            &std::fs::read_to_string(dir.join(format!("nl_N2000_{dim}d_pairs.txt"))).unwrap(),
+        );
+        assert_eq!(ours.len(), reference.len(), "{dim}D pair count");
+        for (a, b) in ours.iter().zip(&reference) {
+            assert_eq!((a.0, a.1), (b.0, b.1), "{dim}D pair set");
+            // same minimum-image arithmetic as the reference: the same double
+            assert_eq!(a.2, b.2, "{dim}D distance of {:?}", (a.0, a.1));
+        }
+        args.push("--count");
+        let out = cellist(&args);
+        assert_eq!(stdout(&out), format!("{}\n", reference.len()));
+    }
+}
+
+fn write_random_points(path: &Path, n: usize, dim: usize, side: f64, seed: u64) {
+    let mut rng = cellist::random::Rng::new(seed);
+    let mut text = String::from("# random points\n");
+    for _ in 0..n {
+        let coords: Vec<String> = (0..dim)
+            .map(|_| format!("{}", rng.uniform() * side))
+            .collect();
+        text.push_str(&coords.join(" "));
+        text.push('\n');
+    }
+    std::fs::write(path, text).unwrap();
+}
+
+#[test]
+fn output_bytes_do_not_depend_on_threads() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = dir.path().join("pts.txt");
+    write_random_points(&input, 5000, 3, 18.0, 3);
+    let mut outputs = Vec::new();
+    for t in ["1", "2"] {
+        let file = dir.path().join(format!("pairs{t}.txt"));
+        let out = cellist(&[
+            "neighbors",
+            "--input",
+            input.to_str().unwrap(),
+            "--cutoff",
+            "2.0",
+            "--box",
+            "18",
+            "18",
+            "18",
+            "--threads",
+            t,
+            "--output",
+            file.to_str().unwrap(),
+        ]);
+        assert!(out.status.success(), "{}", stderr(&out));
+        outputs.push(std::fs::read(&file).unwrap());
+    }
+    assert!(!outputs[0].is_empty());
+    assert_eq!(outputs[0], outputs[1]);
+}
+
+#[test]
+fn open_boundaries_without_a_box_and_with_open() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = dir.path().join("pts.txt");
+    std::fs::write(&input, "0 0\n0.5 0\n9.75 0\n").unwrap();
+    let out = cellist(&[
+        "neighbors",
+        "--input",
+        input.to_str().unwrap(),
+        "--cutoff",
+        "1",
+    ]);
+    assert_eq!(stdout(&out), "0 1 0.5\n");
+    // periodic box of side 10: 9.75 is 0.25 from 0 and 0.75 from 0.5
+    let out = cellist(&[
+        "neighbors",
+        "--input",
+        input.to_str().unwrap(),
+        "--cutoff",
+        "1",
+        "--box",
+        "10",
+        "10",
+    ]);
+    assert_eq!(stdout(&out), "0 1 0.5\n0 2 0.25\n1 2 0.75\n");
+    let out = cellist(&[
+        "neighbors",
+        "--input",
+        input.to_str().unwrap(),
+        "--cutoff",
+        "1",
+        "--box",
+        "10",
+        "10",
+        "--open",
+    ]);
+    assert_eq!(stdout(&out), "0 1 0.5\n");
+}
+
+#[test]
+fn extended_xyz_box_and_periodicity() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = dir.path().join("a.xyz");
+    std::fs::write(
+        &input,
+        "3\nLattice=\"10 0 0 0 10 0 0 0 10\" Properties=species:S:1:pos:R:3 pbc=\"T T F\"\nAr 0.5 0.5 0.5\nAr 9.5 0.5 0.5\nAr 0.5 0.5 9.5\n",
+    )
+    .unwrap();
+    let out = cellist(&[
+        "neighbors",
+        "--input",
+        input.to_str().unwrap(),
+        "--cutoff",
+        "2",
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    // across x (periodic) the pair is at 1; across z (open) it is 9 apart
+    assert_eq!(stdout(&out), "0 1 1\n");
+}
+
+/// Runs a failing command and returns its message; checks the exit status.
+fn failure(args: &[&str]) -> String {
+    let out = cellist(args);
+    assert_eq!(
+        out.status.code(),
+        Some(2),
+        "exit status for {args:?}: {}",
+        stderr(&out)
+    );
+    assert!(stdout(&out).is_empty());
+    stderr(&out)
+}
+
+#[test]
+fn bad_input_is_refused_with_file_and_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = |name: &str, text: &str| {
+        let path = dir.path().join(name);
+        std::fs::write(&path, text).unwrap();
+        path.to_str().unwrap().to_string()
+    };
+    let malformed = p("malformed.txt", "1 2\n3 oops\n");
+    let e = failure(&["neighbors", "--input", &malformed, "--cutoff", "1"]);
+    assert!(
+        e.contains("malformed.txt:2: coordinate 2 is 'oops'; expected a number"),
+        "{e}"
+    );
+    let nan = p("nan.txt", "# c\n1 2 3\nnan 0 0\n");
+    let e = failure(&["neighbors", "--input", &nan, "--cutoff", "1"]);
+    assert!(e.contains("nan.txt:3: coordinate 1 is NaN"), "{e}");
+    let inf = p("inf.txt", "1 2\n-inf 0\n");
+    let e = failure(&["neighbors", "--input", &inf, "--cutoff", "1"]);
+    assert!(e.contains("inf.txt:2: coordinate 1 is -inf"), "{e}");
+    let columns = p("columns.txt", "1 2 3\n4 5\n");
+    let e = failure(&["neighbors", "--input", &columns, "--cutoff", "1"]);
+    assert!(
+        e.contains("columns.txt:2: found 2 columns; expected 3"),
+        "{e}"
+    );
+    let one = p("one.txt", "7\n");
+    let e = failure(&["neighbors", "--input", &one, "--cutoff", "1"]);
+    assert!(
+        e.contains("one.txt:1: found 1 columns; expected 2 or 3"),
+        "{e}"
+    );
+    let missing = dir.path().join("missing.txt");
+    let e = failure(&[
+        "neighbors",
+        "--input",
+        missing.to_str().unwrap(),
+        "--cutoff",
+        "1",
+    ]);
+    assert!(
+        e.contains("missing.txt") && e.contains("cannot read"),
+        "{e}"
+    );
+    let good = p("good.txt", "1 2\n3 4\n");
+    for bad in ["0", "-1", "nan"] {
+        let e = failure(&["neighbors", "--input", &good, "--cutoff", bad]);
+        assert!(e.contains("--cutoff must be a finite number > 0"), "{e}");
+    }
+    let e = failure(&[
+        "neighbors",
+        "--input",
+        &good,
+        "--cutoff",
+        "3",
+        "--box",
+        "5",
+        "10",
+    ]);
+    assert!(
+        e.contains("larger than half the periodic box side along x"),
+        "{e}"
+    );
+    let e = failure(&[
+        "neighbors",
+        "--input",
+        &good,
+        "--cutoff",
+        "1",
+        "--box",
+        "5",
+        "5",
+        "5",
+    ]);
+    assert!(e.contains("--box has 3 lengths"), "{e}");
+    let e = failure(&["neighbors", "--input", &good, "--cutoff", "1", "--periodic"]);
+    assert!(e.contains("--periodic needs a box"), "{e}");
+}
+
+#[test]
+fn no_partial_output_file_on_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = dir.path().join("bad.txt");
+    std::fs::write(&input, "1 2\n3 4\n5\n").unwrap();
+    let output = dir.path().join("pairs.txt");
+    failure(&[
+        "neighbors",
+        "--input",
+        input.to_str().unwrap(),
+        "--cutoff",
+        "10",
+        "--output",
+        output.to_str().unwrap(),
+    ]);
+    assert!(!output.exists());
+    let leftovers: Vec<_> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(leftovers.len(), 1, "{leftovers:?}");
+}
+
+#[test]
+fn bench_neighbors_json() {
+    let out = cellist(&[
+        "bench",
+        "neighbors",
+        "--n",
+        "20000",
+        "--dim",
+        "2",
+        "--threads",
+        "2",
+        "--repeat",
+        "1",
+        "--json",
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let v: serde_json::Value = serde_json::from_str(stdout(&out).trim()).unwrap();
+    for key in ["n", "dim", "threads", "pairs", "seconds", "ns_per_pair"] {
+        assert!(v.get(key).is_some(), "missing {key}");
+    }
+    assert_eq!(v["n"], 20000);
+    assert_eq!(v["dim"], 2);
+    // 2D at density 0.8442 and cutoff 2.5: about N/2 * rho * pi rc^2 = 165,754 pairs
+    let pairs = v["pairs"].as_f64().unwrap();
+    assert!((pairs / 165_754.0 - 1.0).abs() < 0.03, "{pairs}");
+}
+
+#[test]
+fn run_demo_writes_its_results() {
+    let dir = tempfile::tempdir().unwrap();
+    let out_dir = dir.path().join("demo");
+    let out = cellist(&["run", "--out", out_dir.to_str().unwrap(), "--threads", "2"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let text = stdout(&out);
+    assert!(text.contains("coming: md"), "{text}");
+    for f in ["rdf.csv", "rdf.png", "stages.csv"] {
+        assert!(out_dir.join(f).is_file(), "{f} missing");
+    }
+    // uniform random points: g(r) = 1 within noise away from r = 0
+    let csv = std::fs::read_to_string(out_dir.join("rdf.csv")).unwrap();
+    for line in csv.lines().skip(10) {
+        let g: f64 = line.split(',').nth(1).unwrap().parse().unwrap();
+        assert!((g - 1.0).abs() < 0.05, "g(r) = {g} in {line}");
+    }
+    let e = failure(&["run", "scenario.toml"]);
+    assert!(e.contains("no simulation model yet"), "{e}");
+}
