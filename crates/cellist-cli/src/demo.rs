@@ -162,30 +162,16 @@ fn write_outputs(
     rdf: &[(f64, f64)],
     stages: &[(&str, f64, String)],
 ) -> CliResult {
-    let csv = out.join("rdf.csv");
-    let mut f = AtomicFile::create(&csv).map_err(CliError::output(csv.display().to_string()))?;
     let mut body = String::from("r,g\n");
     for (r, g) in rdf {
         body.push_str(&format!("{r},{g}\n"));
     }
-    f.writer()
-        .write_all(body.as_bytes())
-        .map_err(CliError::output(csv.display().to_string()))?;
-    f.commit()
-        .map_err(CliError::output(csv.display().to_string()))?;
-
-    let table = out.join("stages.csv");
-    let mut f =
-        AtomicFile::create(&table).map_err(CliError::output(table.display().to_string()))?;
+    write_whole(&out.join("rdf.csv"), &body)?;
     let mut body = String::from("stage,seconds,note\n");
     for (name, secs, note) in stages {
         body.push_str(&format!("{name},{secs},\"{note}\"\n"));
     }
-    f.writer()
-        .write_all(body.as_bytes())
-        .map_err(CliError::output(table.display().to_string()))?;
-    f.commit()
-        .map_err(CliError::output(table.display().to_string()))?;
+    write_whole(&out.join("stages.csv"), &body)?;
 
     let png = out.join("rdf.png");
     line_chart(
@@ -199,4 +185,14 @@ fn write_outputs(
         }],
     )
     .map_err(|e| CliError::Output(std::io::Error::other(e), png.display().to_string()))
+}
+
+/// Writes `body` to `path`, whole or not at all.
+fn write_whole(path: &std::path::Path, body: &str) -> CliResult {
+    let what = path.display().to_string();
+    let mut f = AtomicFile::create(path).map_err(CliError::output(&what))?;
+    f.writer()
+        .write_all(body.as_bytes())
+        .map_err(CliError::output(&what))?;
+    f.commit().map_err(CliError::output(what))
 }

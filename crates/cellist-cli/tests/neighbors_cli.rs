@@ -209,80 +209,90 @@ fn failure(args: &[&str]) -> String {
 #[test]
 fn bad_input_is_refused_with_file_and_line() {
     let dir = tempfile::tempdir().unwrap();
-    let p = |name: &str, text: &str| {
+    // (file name, content or None for a missing file, extra flags, expected message)
+    let cases: &[(&str, Option<&str>, &[&str], &str)] = &[
+        (
+            "malformed.txt",
+            Some("1 2\n3 oops\n"),
+            &["--cutoff", "1"],
+            "malformed.txt:2: coordinate 2 is 'oops'; expected a number",
+        ),
+        (
+            "nan.txt",
+            Some("# c\n1 2 3\nnan 0 0\n"),
+            &["--cutoff", "1"],
+            "nan.txt:3: coordinate 1 is NaN",
+        ),
+        (
+            "inf.txt",
+            Some("1 2\n-inf 0\n"),
+            &["--cutoff", "1"],
+            "inf.txt:2: coordinate 1 is -inf",
+        ),
+        (
+            "columns.txt",
+            Some("1 2 3\n4 5\n"),
+            &["--cutoff", "1"],
+            "columns.txt:2: found 2 columns; expected 3",
+        ),
+        (
+            "one.txt",
+            Some("7\n"),
+            &["--cutoff", "1"],
+            "one.txt:1: found 1 columns; expected 2 or 3",
+        ),
+        ("missing.txt", None, &["--cutoff", "1"], "cannot read"),
+        (
+            "good.txt",
+            Some("1 2\n3 4\n"),
+            &["--cutoff", "0"],
+            "--cutoff must be a finite number > 0",
+        ),
+        (
+            "good.txt",
+            Some("1 2\n3 4\n"),
+            &["--cutoff", "-1"],
+            "--cutoff must be a finite number > 0",
+        ),
+        (
+            "good.txt",
+            Some("1 2\n3 4\n"),
+            &["--cutoff", "nan"],
+            "--cutoff must be a finite number > 0",
+        ),
+        (
+            "good.txt",
+            Some("1 2\n3 4\n"),
+            &["--cutoff", "3", "--box", "5", "10"],
+            "larger than half the periodic box side along x",
+        ),
+        (
+            "good.txt",
+            Some("1 2\n3 4\n"),
+            &["--cutoff", "1", "--box", "5", "5", "5"],
+            "--box has 3 lengths",
+        ),
+        (
+            "good.txt",
+            Some("1 2\n3 4\n"),
+            &["--cutoff", "1", "--periodic"],
+            "--periodic needs a box",
+        ),
+    ];
+    for (name, content, flags, expected) in cases {
         let path = dir.path().join(name);
-        std::fs::write(&path, text).unwrap();
-        path.to_str().unwrap().to_string()
-    };
-    let malformed = p("malformed.txt", "1 2\n3 oops\n");
-    let e = failure(&["neighbors", "--input", &malformed, "--cutoff", "1"]);
-    assert!(
-        e.contains("malformed.txt:2: coordinate 2 is 'oops'; expected a number"),
-        "{e}"
-    );
-    let nan = p("nan.txt", "# c\n1 2 3\nnan 0 0\n");
-    let e = failure(&["neighbors", "--input", &nan, "--cutoff", "1"]);
-    assert!(e.contains("nan.txt:3: coordinate 1 is NaN"), "{e}");
-    let inf = p("inf.txt", "1 2\n-inf 0\n");
-    let e = failure(&["neighbors", "--input", &inf, "--cutoff", "1"]);
-    assert!(e.contains("inf.txt:2: coordinate 1 is -inf"), "{e}");
-    let columns = p("columns.txt", "1 2 3\n4 5\n");
-    let e = failure(&["neighbors", "--input", &columns, "--cutoff", "1"]);
-    assert!(
-        e.contains("columns.txt:2: found 2 columns; expected 3"),
-        "{e}"
-    );
-    let one = p("one.txt", "7\n");
-    let e = failure(&["neighbors", "--input", &one, "--cutoff", "1"]);
-    assert!(
-        e.contains("one.txt:1: found 1 columns; expected 2 or 3"),
-        "{e}"
-    );
-    let missing = dir.path().join("missing.txt");
-    let e = failure(&[
-        "neighbors",
-        "--input",
-        missing.to_str().unwrap(),
-        "--cutoff",
-        "1",
-    ]);
-    assert!(
-        e.contains("missing.txt") && e.contains("cannot read"),
-        "{e}"
-    );
-    let good = p("good.txt", "1 2\n3 4\n");
-    for bad in ["0", "-1", "nan"] {
-        let e = failure(&["neighbors", "--input", &good, "--cutoff", bad]);
-        assert!(e.contains("--cutoff must be a finite number > 0"), "{e}");
+        if let Some(text) = content {
+            std::fs::write(&path, text).unwrap();
+        }
+        let mut args = vec!["neighbors", "--input", path.to_str().unwrap()];
+        args.extend_from_slice(flags);
+        let e = failure(&args);
+        assert!(e.contains(expected), "{name} {flags:?}: {e}");
+        assert!(
+            e.contains(name) || !expected.contains(':'),
+            "{name}: the file is not named in {e}"
+        );
     }
-    let e = failure(&[
-        "neighbors",
-        "--input",
-        &good,
-        "--cutoff",
-        "3",
-        "--box",
-        "5",
-        "10",
-    ]);
-    assert!(
-        e.contains("larger than half the periodic box side along x"),
-        "{e}"
-    );
-    let e = failure(&[
-        "neighbors",
-        "--input",
-        &good,
-        "--cutoff",
-        "1",
-        "--box",
-        "5",
-        "5",
-        "5",
-    ]);
-    assert!(e.contains("--box has 3 lengths"), "{e}");
-    let e = failure(&["neighbors", "--input", &good, "--cutoff", "1", "--periodic"]);
-    assert!(e.contains("--periodic needs a box"), "{e}");
 }
 
 #[test]
