@@ -138,38 +138,23 @@ fn open_boundaries_without_a_box_and_with_open() {
     let dir = tempfile::tempdir().unwrap();
     let input = dir.path().join("pts.txt");
     std::fs::write(&input, "0 0\n0.5 0\n9.75 0\n").unwrap();
-    let out = cellist(&[
-        "neighbors",
-        "--input",
-        input.to_str().unwrap(),
-        "--cutoff",
-        "1",
-    ]);
-    assert_eq!(stdout(&out), "0 1 0.5\n");
-    // periodic box of side 10: 9.75 is 0.25 from 0 and 0.75 from 0.5
-    let out = cellist(&[
-        "neighbors",
-        "--input",
-        input.to_str().unwrap(),
-        "--cutoff",
-        "1",
-        "--box",
-        "10",
-        "10",
-    ]);
-    assert_eq!(stdout(&out), "0 1 0.5\n0 2 0.25\n1 2 0.75\n");
-    let out = cellist(&[
-        "neighbors",
-        "--input",
-        input.to_str().unwrap(),
-        "--cutoff",
-        "1",
-        "--box",
-        "10",
-        "10",
-        "--open",
-    ]);
-    assert_eq!(stdout(&out), "0 1 0.5\n");
+    let cases: [(&[&str], &str); 3] = [
+        (&[], "0 1 0.5\n"),
+        // periodic box of side 10: 9.75 is 0.25 from 0 and 0.75 from 0.5
+        (&["--box", "10", "10"], "0 1 0.5\n0 2 0.25\n1 2 0.75\n"),
+        (&["--box", "10", "10", "--open"], "0 1 0.5\n"),
+    ];
+    for (flags, expected) in cases {
+        let mut args = vec![
+            "neighbors",
+            "--input",
+            input.to_str().unwrap(),
+            "--cutoff",
+            "1",
+        ];
+        args.extend_from_slice(flags);
+        assert_eq!(stdout(&cellist(&args)), expected, "{flags:?}");
+    }
 }
 
 #[test]
