@@ -37,6 +37,9 @@ pub fn median(samples: &mut [f64]) -> f64 {
 pub fn neighbors(args: &BenchNeighborsArgs) -> CliResult {
     positive("--density", args.density)?;
     positive("--cutoff", args.cutoff)?;
+    if args.n < 2 {
+        return Err(CliError::Input("--n must be at least 2".into()));
+    }
     if args.repeat == 0 {
         return Err(CliError::Input("--repeat must be at least 1".into()));
     }

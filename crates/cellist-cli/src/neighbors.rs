@@ -73,6 +73,11 @@ fn domain<const D: usize>(
                     args.input.display()
                 )));
             }
+            if let Some(&bad) = l.iter().find(|&&v| !(v.is_finite() && v > 0.0)) {
+                return Err(CliError::Input(format!(
+                    "--box lengths must be finite and > 0, got {bad}"
+                )));
+            }
             (l.clone(), vec![0.0; D], vec![true; D])
         }
         (None, Some(b)) => (b.lengths.clone(), b.origin.clone(), b.periodic.clone()),

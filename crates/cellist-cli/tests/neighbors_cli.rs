@@ -263,6 +263,18 @@ fn bad_input_is_refused_with_file_and_line() {
             &["--cutoff", "1", "--periodic"],
             "--periodic needs a box",
         ),
+        (
+            "empty.txt",
+            Some("# nothing here\n\n"),
+            &["--cutoff", "1"],
+            "empty.txt: no points",
+        ),
+        (
+            "good.txt",
+            Some("1 2\n3 4\n"),
+            &["--cutoff", "1", "--box", "-5", "5", "--open"],
+            "--box lengths must be finite and > 0",
+        ),
     ];
     for (name, content, flags, expected) in cases {
         let path = dir.path().join(name);
@@ -347,6 +359,8 @@ fn run_demo_writes_its_results() {
         let g: f64 = line.split(',').nth(1).unwrap().parse().unwrap();
         assert!((g - 1.0).abs() < 0.05, "g(r) = {g} in {line}");
     }
+    let e = failure(&["bench", "neighbors", "--n", "0"]);
+    assert!(e.contains("--n must be at least 2"), "{e}");
     let e = failure(&["run", "scenario.toml"]);
     assert!(e.contains("no simulation model yet"), "{e}");
 }

@@ -119,11 +119,14 @@ pub fn parse_plain(path: &Path, text: &str) -> Result<Points, InputError> {
             three.push(x);
         }
     }
-    Ok(match dim {
-        Some((2, _)) => Points::Two(two),
-        Some(_) => Points::Three(three),
-        None => Points::Three(Vec::new()),
-    })
+    match dim {
+        Some((2, _)) => Ok(Points::Two(two)),
+        Some(_) => Ok(Points::Three(three)),
+        None => Err(InputError::file(
+            path,
+            "no points: expected lines of 2 or 3 coordinates",
+        )),
+    }
 }
 
 /// Extended XYZ: a count line, a comment line of `key=value` pairs (`Lattice` with
@@ -164,11 +167,13 @@ pub fn parse_extended_xyz(path: &Path, text: &str) -> Result<PointFile, InputErr
             get("Origin"),
         )?),
     };
-    let mut points = Vec::with_capacity(count);
+    let mut points = Vec::new();
+    let mut last_line = comment_line;
     for (line, raw) in lines.by_ref() {
         if points.len() == count {
             break;
         }
+        last_line = line;
         let tokens: Vec<&str> = raw.split_whitespace().collect();
         if tokens.len() < pos_column + 3 {
             return Err(InputError::at(
@@ -192,10 +197,11 @@ pub fn parse_extended_xyz(path: &Path, text: &str) -> Result<PointFile, InputErr
         points.push(x);
     }
     if points.len() < count {
-        return Err(InputError::file(
+        return Err(InputError::at(
             path,
+            last_line,
             format!(
-                "the count line says {count} atoms but only {} follow",
+                "the file ends here, after {} atoms; line 1 says {count}",
                 points.len()
             ),
         ));
@@ -380,6 +386,11 @@ mod tests {
         );
         let e = parse_plain(p(), "1 2 3 4\n").unwrap_err();
         assert!(e.to_string().starts_with("pts.txt:1: found 4 columns"));
+        let e = parse_plain(p(), "# only a comment\n\n").unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "pts.txt: no points: expected lines of 2 or 3 coordinates"
+        );
         let e = parse_plain(p(), "1 inf\n").unwrap_err();
         assert!(e.to_string().contains("inf"));
     }
@@ -401,7 +412,15 @@ mod tests {
     fn extended_xyz_errors() {
         let path = Path::new("a.xyz");
         let e = parse_extended_xyz(path, "3\n\nH 0 0 0\n").unwrap_err();
-        assert!(e.to_string().contains("says 3 atoms but only 1"), "{e}");
+        assert_eq!(
+            e.to_string(),
+            "a.xyz:3: the file ends here, after 1 atoms; line 1 says 3"
+        );
+        let e = parse_extended_xyz(path, "18446744073709551615\n\nH 0 0 0\n").unwrap_err();
+        assert!(
+            e.to_string().starts_with("a.xyz:3: the file ends here"),
+            "{e}"
+        );
         let e = parse_extended_xyz(path, "x\n").unwrap_err();
         assert!(e.to_string().starts_with("a.xyz:1:"), "{e}");
         let e =

@@ -179,8 +179,12 @@ pub fn wrap_coordinate(x: f64, lo: f64, length: f64) -> f64 {
     if (0.0..length).contains(&rel) {
         return x;
     }
-    let w = lo + (rel - length * (rel / length).floor());
-    if w >= lo + length {
+    let mut w = lo + (rel - length * (rel / length).floor());
+    // rounding can leave w a hair outside [lo, lo + L): one more period, then fold
+    if w < lo {
+        w += length;
+    }
+    if w >= lo + length || w < lo {
         lo
     } else {
         w
@@ -225,6 +229,11 @@ mod tests {
         // a tiny negative coordinate rounds to L and is folded to 0
         let w = dom.wrap([-1e-300, 0.0]);
         assert!(w[0] >= 0.0 && w[0] < 2.0);
+        // floor(x / L) rounds up here, so x - L floor(x / L) is slightly negative
+        let (x, l): (f64, f64) = (830.4678552972781, 17.30141365202663);
+        assert!(x - l * (x / l).floor() < 0.0);
+        let w = wrap_coordinate(x, 0.0, l);
+        assert!((0.0..l).contains(&w), "{w}");
     }
 
     #[test]

@@ -68,13 +68,16 @@ fn brute_tally(pairs: &[(u32, u32, f64)], n: usize) -> Vec<(u64, u64)> {
     t
 }
 
-fn assert_same_pairs(fast: &[(u32, u32, f64)], brute: &[(u32, u32, f64)]) {
+/// Same pair sets; distances within 1e-12 relative, or within a few ulps of the
+/// largest coordinate `scale` (wrapping a point that lies outside a periodic box
+/// costs that much absolute precision, in the brute force as in the fast path).
+fn assert_same_pairs(fast: &[(u32, u32, f64)], brute: &[(u32, u32, f64)], scale: f64) {
     assert_eq!(fast.len(), brute.len(), "pair counts differ");
     for (f, b) in fast.iter().zip(brute) {
         assert_eq!((f.0, f.1), (b.0, b.1), "pair sets differ");
-        let rel = (f.2 - b.2).abs() / b.2.max(1e-300);
+        let diff = (f.2 - b.2).abs();
         assert!(
-            rel <= 1e-12,
+            diff <= 1e-12 * b.2 || diff <= 8.0 * f64::EPSILON * scale,
             "distance {} vs {} for {:?}",
             f.2,
             b.2,
@@ -104,7 +107,8 @@ fn check_all_paths<const D: usize>(domain: &Domain<D>, cutoff: f64, points: &[[f
             .collect::<Vec<_>>()
     );
     fast_one.sort_by_key(|p| (p.0, p.1));
-    assert_same_pairs(&fast_one, &brute);
+    let scale = points.iter().flatten().fold(0.0f64, |m, x| m.max(x.abs()));
+    assert_same_pairs(&fast_one, &brute, scale);
 
     // per-particle sums by every strategy
     let expected = brute_tally(&brute, points.len());
@@ -145,10 +149,15 @@ fn check_all_paths<const D: usize>(domain: &Domain<D>, cutoff: f64, points: &[[f
         out
     };
     let full = VerletList::build(&wide, StencilKind::Full, cutoff, skin, &two);
-    assert_eq!(
-        full.num_entries(),
-        VerletList::build(&wide, StencilKind::Full, cutoff, skin, &one).num_entries()
-    );
+    let full_one = VerletList::build(&wide, StencilKind::Full, cutoff, skin, &one);
+    assert_eq!(full.len(), full_one.len());
+    for i in 0..full.len() {
+        assert_eq!(
+            full.row(i),
+            full_one.row(i),
+            "row {i} differs between 1 and 2 threads"
+        );
+    }
     let mut a = vec![Tally::default(); points.len()];
     let mut b = vec![Tally::default(); points.len()];
     gather_verlet(&full, wide.positions(), &kernel, &mut a, &one);
@@ -159,7 +168,48 @@ fn check_all_paths<const D: usize>(domain: &Domain<D>, cutoff: f64, points: &[[f
     let mut h = vec![Tally::default(); points.len()];
     scatter_verlet_serial(&half, wide.positions(), &kernel, &mut h);
     assert_eq!(to_input_order(&h), expected);
-    assert!(!half.needs_rebuild(wide.positions()));
+    check_verlet_after_moves(domain, cutoff, skin, &wide, &full, &half);
+}
+
+/// Moves every particle by less than skin/2 (without re-wrapping): the lists must
+/// still give exactly the brute-force neighbours of the moved positions; one move
+/// beyond skin/2 must ask for a rebuild.
+fn check_verlet_after_moves<const D: usize>(
+    domain: &Domain<D>,
+    cutoff: f64,
+    skin: f64,
+    wide: &CellList<D>,
+    full: &VerletList<D>,
+    half: &VerletList<D>,
+) {
+    let mut rng = cellist::random::Rng::new(wide.len() as u64);
+    let step = 0.49 * skin / (D as f64).sqrt();
+    let moved: Vec<[f64; D]> = wide
+        .positions()
+        .iter()
+        .map(|x| std::array::from_fn(|a| x[a] + (2.0 * rng.uniform() - 1.0) * step))
+        .collect();
+    assert!(!full.needs_rebuild(&moved));
+    let slots: Vec<u32> = (0..moved.len() as u32).collect();
+    let kernel = TallyKernel { ids: &slots };
+    let expected = brute_tally(&brute_force_pairs(domain, cutoff, &moved), moved.len());
+    let mut a = vec![Tally::default(); moved.len()];
+    gather_verlet(full, &moved, &kernel, &mut a, &Threads::single());
+    assert_eq!(
+        a.iter().map(|t| (t.count, t.id_sum)).collect::<Vec<_>>(),
+        expected
+    );
+    let mut h = vec![Tally::default(); moved.len()];
+    scatter_verlet_serial(half, &moved, &kernel, &mut h);
+    assert_eq!(
+        h.iter().map(|t| (t.count, t.id_sum)).collect::<Vec<_>>(),
+        expected
+    );
+    if let Some(built) = wide.positions().first() {
+        let mut far = moved.clone();
+        far[0] = std::array::from_fn(|a| built[a] + if a == 0 { 0.51 * skin } else { 0.0 });
+        assert_eq!(full.needs_rebuild(&far), skin > 0.0);
+    }
 }
 
 fn boundary(periodic: bool) -> Boundary {
@@ -170,13 +220,14 @@ fn boundary(periodic: bool) -> Boundary {
     }
 }
 
-/// A coordinate on axis of length `l` with `m` cells: uniform inside, exactly on a
-/// cell face or a box face, or outside the box.
+/// A coordinate on axis of length `l` with `m` cells: uniform inside (kinds 0-2),
+/// exactly on a cell face or a box face (3), outside the box (4), or on the upper
+/// box face (5).
 fn coordinate(kind: u8, u: f64, k: usize, l: f64, m: usize) -> f64 {
     match kind {
-        0 => u * l,
-        1 => (k % (m + 1)) as f64 * (l / m as f64),
-        2 => (u - 0.5) * 3.0 * l,
+        0..=2 => u * l,
+        3 => (k % (m + 1)) as f64 * (l / m as f64),
+        4 => (u - 0.5) * 3.0 * l,
         _ => l,
     }
 }
@@ -185,7 +236,7 @@ fn input<const D: usize>(
     lengths: [f64; D],
     periodic: [bool; D],
     cutoff_frac: f64,
-    raw: &[(u8, [f64; D], [usize; D])],
+    raw: &[([u8; D], [f64; D], [usize; D])],
 ) -> (Domain<D>, f64, Vec<[f64; D]>) {
     let domain = Domain::new(lengths, periodic.map(boundary)).unwrap();
     let shortest = lengths.iter().cloned().fold(f64::INFINITY, f64::min);
@@ -195,7 +246,7 @@ fn input<const D: usize>(
     let points = raw
         .iter()
         .map(|(kind, u, k)| {
-            std::array::from_fn(|d| coordinate(*kind % 6, u[d], k[d], lengths[d], dims[d]))
+            std::array::from_fn(|d| coordinate(kind[d], u[d], k[d], lengths[d], dims[d]))
         })
         .collect();
     (domain, cutoff, points)
@@ -209,7 +260,7 @@ proptest! {
         lengths in prop::array::uniform2(1.0f64..40.0),
         periodic in prop::array::uniform2(any::<bool>()),
         cutoff_frac in 0.02f64..1.0,
-        raw in prop::collection::vec((0u8..6, prop::array::uniform2(0.0f64..1.0), prop::array::uniform2(0usize..1000)), 0..300),
+        raw in prop::collection::vec((prop::array::uniform2(0u8..6), prop::array::uniform2(0.0f64..1.0), prop::array::uniform2(0usize..1000)), 0..300),
     ) {
         let (domain, cutoff, points) = input(lengths, periodic, cutoff_frac, &raw);
         check_all_paths(&domain, cutoff, &points);
@@ -220,7 +271,7 @@ proptest! {
         lengths in prop::array::uniform3(1.0f64..20.0),
         periodic in prop::array::uniform3(any::<bool>()),
         cutoff_frac in 0.05f64..1.0,
-        raw in prop::collection::vec((0u8..6, prop::array::uniform3(0.0f64..1.0), prop::array::uniform3(0usize..1000)), 0..300),
+        raw in prop::collection::vec((prop::array::uniform3(0u8..6), prop::array::uniform3(0.0f64..1.0), prop::array::uniform3(0usize..1000)), 0..300),
     ) {
         let (domain, cutoff, points) = input(lengths, periodic, cutoff_frac, &raw);
         check_all_paths(&domain, cutoff, &points);

@@ -77,8 +77,8 @@ impl<const D: usize> CellGrid<D> {
                 1
             };
         }
-        let cap = 2 * n_particles + 64;
-        while dims.iter().product::<usize>() > cap {
+        let cap = (2 * n_particles + 64) as f64;
+        while dims.iter().map(|&m| m as f64).product::<f64>() > cap {
             let widest = (0..D).max_by_key(|&d| dims[d]).unwrap_or(0);
             dims[widest] = (dims[widest] / 2).max(1);
         }
@@ -387,10 +387,18 @@ mod tests {
 
     #[test]
     fn same_coloured_blocks_are_disjoint() {
-        for dims in [[1, 1], [2, 2], [3, 5], [4, 7], [6, 2]] {
+        use Boundary::{Open, Periodic};
+        let grids = [[1, 1], [2, 2], [3, 5], [4, 7], [6, 2], [5, 3]];
+        let boundaries = [
+            [Periodic, Periodic],
+            [Open, Open],
+            [Open, Periodic],
+            [Periodic, Open],
+        ];
+        for (dims, boundary) in grids.into_iter().flat_map(|g| boundaries.map(|b| (g, b))) {
             // M = 1 only at L = 2 r_c exactly; otherwise L = M + 0.5 gives M cells
             let side = |m: usize| if m == 1 { 2.0 } else { m as f64 + 0.5 };
-            let dom = Domain::periodic([side(dims[0]), side(dims[1])]).unwrap();
+            let dom = Domain::new([side(dims[0]), side(dims[1])], boundary).unwrap();
             let g = CellGrid::new(&dom, 1.0, 10_000).unwrap();
             assert_eq!(g.dims(), dims);
             let mut owners = vec![vec![usize::MAX; g.num_cells()]; g.num_colours()];

@@ -58,13 +58,18 @@ pub fn half_pairs<const D: usize, T: Copy + Send + Sync>(
 }
 
 /// A capacity hint: the half-list size of uniformly spread particles,
-/// `N^2 / 2 * V_ball(r_c) / V_box`, plus 10%.
+/// `N^2 / 2 * V_ball(r_c) / V_box` plus 10%, with the ball clipped to the box on
+/// each axis (a flat open axis is not an empty box) and at most `64 N` (the
+/// vector grows past a hint).
 fn expected_pairs<const D: usize>(cells: &CellList<D>, cutoff: f64) -> usize {
     let n = cells.len() as f64;
-    let ball = match D {
-        2 => std::f64::consts::PI * cutoff * cutoff,
-        _ => 4.0 / 3.0 * std::f64::consts::PI * cutoff.powi(D as i32),
+    let ball_over_cube = match D {
+        2 => std::f64::consts::PI / 4.0,
+        _ => std::f64::consts::PI / 6.0,
     };
-    let estimate = 0.55 * n * n * (ball / cells.domain().volume()).min(1.0);
-    estimate.min(1e10) as usize
+    let fraction: f64 = (0..D)
+        .map(|d| (2.0 * cutoff / cells.domain().length[d]).min(1.0))
+        .product();
+    let estimate = 0.55 * n * n * ball_over_cube * fraction;
+    estimate.min(64.0 * n) as usize
 }

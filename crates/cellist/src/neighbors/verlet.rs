@@ -23,7 +23,7 @@ pub struct VerletList<const D: usize> {
     cutoff: f64,
     test: CutoffTest,
     skin: f64,
-    start: Vec<u32>,
+    start: Vec<usize>,
     neighbors: Vec<u32>,
     images: Vec<u8>,
     image_shifts: Vec<[f64; D]>,
@@ -79,10 +79,10 @@ impl<const D: usize> VerletList<D> {
             image_parts.push(im);
         }
         let mut start = Vec::with_capacity(lengths.len() + 1);
-        start.push(0u32);
-        let mut total = 0u32;
+        start.push(0);
+        let mut total = 0usize;
         for l in lengths {
-            total += l;
+            total += l as usize;
             start.push(total);
         }
         VerletList {
@@ -133,7 +133,7 @@ impl<const D: usize> VerletList<D> {
     /// Row `i`: neighbour slots and their image codes.
     #[inline]
     pub fn row(&self, i: usize) -> (&[u32], &[u8]) {
-        let r = self.start[i] as usize..self.start[i + 1] as usize;
+        let r = self.start[i]..self.start[i + 1];
         (&self.neighbors[r.clone()], &self.images[r])
     }
 
