@@ -9,6 +9,8 @@ pub enum CliError {
     Input(String),
     /// Writing a result failed (exit status 1).
     Output(std::io::Error, String),
+    /// A self-check of the tool failed: a bug, not the user's input (exit status 1).
+    Internal(String),
 }
 
 impl CliError {
@@ -16,7 +18,7 @@ impl CliError {
     pub fn exit_code(&self) -> u8 {
         match self {
             CliError::Input(_) => 2,
-            CliError::Output(..) => 1,
+            CliError::Output(..) | CliError::Internal(_) => 1,
         }
     }
 
@@ -36,6 +38,7 @@ impl fmt::Display for CliError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             CliError::Input(m) => f.write_str(m),
+            CliError::Internal(m) => write!(f, "internal check failed (a bug in cellist): {m}"),
             CliError::Output(e, what) => write!(f, "cannot write {what}: {e}"),
         }
     }
