@@ -92,8 +92,8 @@ pub fn run(args: &RunArgs) -> CliResult {
         format!("{} entries", v.num_entries())
     });
     if counts.iter().map(|&c| c as usize).sum::<usize>() != 2 * distances.len() {
-        return Err(CliError::Input(
-            "internal check failed: pair list and neighbour counts disagree".into(),
+        return Err(CliError::Internal(
+            "pair list and neighbour counts disagree".into(),
         ));
     }
 
@@ -130,8 +130,8 @@ fn strategy_counts(
         )
     });
     if gathered != coloured {
-        return Err(CliError::Input(
-            "internal check failed: gather and coloured passes disagree".into(),
+        return Err(CliError::Internal(
+            "gather and coloured passes disagree".into(),
         ));
     }
     Ok(gathered)
