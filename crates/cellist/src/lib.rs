@@ -8,7 +8,9 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod geometry;
+pub mod interactions;
 pub mod memory;
+pub mod models;
 pub mod neighbors;
 pub mod random;
 pub mod threads;

@@ -14,6 +14,7 @@ use super::traverse::{for_each_anchored_pair, for_each_row_in_cell, CutoffTest};
 use super::verlet::VerletList;
 use crate::threads::{DisjointSlice, Threads};
 use rayon::prelude::*;
+use std::ops::Range;
 
 /// One pair interaction, applied inside a generic (monomorphised) loop.
 ///
@@ -148,4 +149,148 @@ pub fn scatter_verlet_serial<const D: usize, K: PairKernel<D>>(
             kernel.scatter(i, j, d, r2, ai, aj);
         });
     }
+}
+
+/// The layers of a cell list along its last axis (z in 3D, y in 2D) and their
+/// colours, for Newton's-third-law sums over a half Verlet list in parallel.
+///
+/// Cells are numbered with the last axis slowest, so layer `z` is one contiguous
+/// range of slots. The half stencil reaches only the last-axis offsets 0 and +1, so
+/// the rows of layer `z` write only to layers `z` and `z + 1` (mod `M` on a
+/// periodic axis). Layers of one colour are never adjacent: colour `z mod 2`, and on
+/// a periodic axis with an odd `M >= 3` the last layer gets a colour of its own.
+/// One colour's layers therefore write disjoint slots and run in parallel; colours
+/// run one after another. Which layers exist and their colours depend only on the
+/// grid, never on the thread count, so every sum runs in a fixed order.
+#[derive(Clone, Debug, Default)]
+pub struct LayerPlan {
+    bounds: Vec<usize>,
+    colours: Vec<Vec<usize>>,
+    wraps: bool,
+}
+
+impl LayerPlan {
+    /// The layers of `cells` (recompute with [`LayerPlan::update`] after a rebin).
+    pub fn new<const D: usize>(cells: &CellList<D>) -> Self {
+        let layers = cells.grid().dims()[D - 1];
+        let wraps = cells.domain().is_periodic(D - 1) && layers > 1;
+        let num_colours = match layers {
+            1 => 1,
+            m if wraps && m % 2 == 1 => 3,
+            _ => 2,
+        };
+        let mut colours = vec![Vec::new(); num_colours];
+        for z in 0..layers {
+            let colour = if num_colours == 3 && z == layers - 1 {
+                2
+            } else {
+                z % 2
+            };
+            colours[colour].push(z);
+        }
+        let mut plan = LayerPlan {
+            bounds: Vec::with_capacity(layers + 1),
+            colours,
+            wraps,
+        };
+        plan.update(cells);
+        plan
+    }
+
+    /// Re-reads the layer bounds from `cells` after a rebin on the same grid.
+    pub fn update<const D: usize>(&mut self, cells: &CellList<D>) {
+        let dims = cells.grid().dims();
+        let per_layer: usize = dims[..D - 1].iter().product();
+        let start = cells.cell_start();
+        self.bounds.clear();
+        self.bounds
+            .extend((0..=dims[D - 1]).map(|z| start[z * per_layer] as usize));
+    }
+
+    /// Number of layers.
+    pub fn num_layers(&self) -> usize {
+        self.bounds.len() - 1
+    }
+
+    /// Slots of layer `z`.
+    pub fn rows(&self, z: usize) -> Range<usize> {
+        self.bounds[z]..self.bounds[z + 1]
+    }
+
+    /// Slots the rows of layer `z` may write: layer `z` and the layer after it.
+    fn reach(&self, z: usize) -> (Range<usize>, Range<usize>) {
+        let next = z + 1;
+        let next = if next < self.num_layers() {
+            self.rows(next)
+        } else if self.wraps {
+            self.rows(0)
+        } else {
+            0..0
+        };
+        (self.rows(z), next)
+    }
+}
+
+/// Write access to the forces of the slots one layer may reach (see [`LayerPlan`]).
+pub struct LayerForces<'s, 'a, const D: usize> {
+    shared: &'s DisjointSlice<'a, [f64; D]>,
+    own: Range<usize>,
+    next: Range<usize>,
+}
+
+impl<const D: usize> LayerForces<'_, '_, D> {
+    /// `f[k] += delta`.
+    #[inline(always)]
+    pub fn add(&self, k: usize, delta: &[f64; D]) {
+        assert!(
+            self.own.contains(&k) || self.next.contains(&k),
+            "slot {k} outside the layer's reach: not a half list of this cell list"
+        );
+        // SAFETY: k lies in this layer or the next (checked above); no other task of
+        // this colour reaches them (LayerPlan), and the reference lives only here.
+        let f = unsafe { self.shared.get(k) };
+        for a in 0..D {
+            f[a] += delta[a];
+        }
+    }
+
+    /// `f[k] -= delta`.
+    #[inline(always)]
+    pub fn sub(&self, k: usize, delta: &[f64; D]) {
+        let minus: [f64; D] = std::array::from_fn(|a| -delta[a]);
+        self.add(k, &minus);
+    }
+}
+
+/// Runs `work(rows, forces, tally)` once per layer of `plan`, layers of one colour
+/// in parallel and colours in order: the parallel form of a Newton's-third-law sum
+/// over the rows of a half Verlet list built on the cell list of `plan`.
+/// `tallies[z]` is layer `z`'s own accumulator (energies, virials), to be reduced in
+/// layer order by the caller.
+pub fn scatter_half_rows<const D: usize, T: Send>(
+    plan: &LayerPlan,
+    forces: &mut [[f64; D]],
+    tallies: &mut [T],
+    threads: &Threads,
+    work: impl Fn(Range<usize>, &LayerForces<D>, &mut T) + Sync,
+) {
+    assert_eq!(tallies.len(), plan.num_layers());
+    assert_eq!(forces.len(), plan.bounds.last().copied().unwrap_or(0));
+    let shared = DisjointSlice::new(forces);
+    let tallies = DisjointSlice::new(tallies);
+    threads.install(|| {
+        for layers in &plan.colours {
+            layers.par_iter().for_each(|&z| {
+                let (own, next) = plan.reach(z);
+                let access = LayerForces {
+                    shared: &shared,
+                    own,
+                    next,
+                };
+                // SAFETY: each layer appears in exactly one colour, once.
+                let tally = unsafe { tallies.get(z) };
+                work(plan.rows(z), &access, tally);
+            });
+        }
+    });
 }

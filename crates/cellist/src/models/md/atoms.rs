@@ -1,0 +1,79 @@
+//! Per-atom arrays of a molecular-dynamics system.
+
+/// The atoms, one entry per atom in every array, all in the same order (the cell
+/// order of the last neighbour-list build inside a running system).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Atoms<const D: usize> {
+    /// Stable ids (LAMMPS atom ids), unique.
+    pub ids: Vec<u64>,
+    /// Atom types (1-based, as LAMMPS numbers them).
+    pub types: Vec<u32>,
+    /// Masses.
+    pub masses: Vec<f64>,
+    /// Positions.
+    pub positions: Vec<[f64; D]>,
+    /// Velocities.
+    pub velocities: Vec<[f64; D]>,
+    /// Forces of the last evaluation.
+    pub forces: Vec<[f64; D]>,
+}
+
+impl<const D: usize> Atoms<D> {
+    /// Atoms at `positions` with ids 1..=N, type 1, the given mass, at rest.
+    pub fn at_rest(positions: Vec<[f64; D]>, mass: f64) -> Self {
+        let n = positions.len();
+        Atoms {
+            ids: (1..=n as u64).collect(),
+            types: vec![1; n],
+            masses: vec![mass; n],
+            velocities: vec![[0.0; D]; n],
+            forces: vec![[0.0; D]; n],
+            positions,
+        }
+    }
+
+    /// Number of atoms.
+    pub fn len(&self) -> usize {
+        self.ids.len()
+    }
+
+    /// True when there are no atoms.
+    pub fn is_empty(&self) -> bool {
+        self.ids.is_empty()
+    }
+
+    /// Panics unless every array has one entry per atom (a programming error).
+    pub(crate) fn assert_consistent(&self) {
+        let n = self.len();
+        assert!(
+            self.types.len() == n
+                && self.masses.len() == n
+                && self.positions.len() == n
+                && self.velocities.len() == n
+                && self.forces.len() == n,
+            "per-atom arrays of different lengths"
+        );
+    }
+
+    /// Reorders every array except the positions: `self[k] = old[order[k]]`, using
+    /// `scratch` as the buffer (no allocation once it has grown).
+    pub(crate) fn permute_except_positions(&mut self, order: &[u32], scratch: &mut Self) {
+        fn apply<T: Copy>(values: &mut Vec<T>, order: &[u32], buffer: &mut Vec<T>) {
+            buffer.clear();
+            buffer.extend(order.iter().map(|&k| values[k as usize]));
+            std::mem::swap(values, buffer);
+        }
+        apply(&mut self.ids, order, &mut scratch.ids);
+        apply(&mut self.types, order, &mut scratch.types);
+        apply(&mut self.masses, order, &mut scratch.masses);
+        apply(&mut self.velocities, order, &mut scratch.velocities);
+        apply(&mut self.forces, order, &mut scratch.forces);
+    }
+
+    /// Slots in increasing id order (for output sorted by id).
+    pub fn slots_by_id(&self) -> Vec<usize> {
+        let mut slots: Vec<usize> = (0..self.len()).collect();
+        slots.sort_unstable_by_key(|&k| self.ids[k]);
+        slots
+    }
+}

@@ -1,0 +1,169 @@
+//! Crystal lattices as initial states (LAMMPS `lattice` + `create_atoms`).
+
+use crate::geometry::Domain;
+
+/// A Bravais lattice with a basis, in the conventional (orthogonal) unit cell.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LatticeKind {
+    /// 3D simple cubic, 1 atom per cell.
+    Sc,
+    /// 3D body-centred cubic, 2 atoms per cell.
+    Bcc,
+    /// 3D face-centred cubic, 4 atoms per cell.
+    Fcc,
+    /// 2D square, 1 atom per cell.
+    Sq,
+    /// 2D square with a centred atom (LAMMPS `sq2`), 2 atoms per cell.
+    Sq2,
+    /// 2D hexagonal (triangular) in a `1 x sqrt(3)` cell, 2 atoms per cell.
+    Hex,
+}
+
+impl LatticeKind {
+    /// Every kind with its name in scenario files.
+    pub const ALL: [(&'static str, LatticeKind); 6] = [
+        ("sc", LatticeKind::Sc),
+        ("bcc", LatticeKind::Bcc),
+        ("fcc", LatticeKind::Fcc),
+        ("sq", LatticeKind::Sq),
+        ("sq2", LatticeKind::Sq2),
+        ("hex", LatticeKind::Hex),
+    ];
+
+    /// The kind named `name`.
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.iter().find(|(n, _)| *n == name).map(|&(_, k)| k)
+    }
+
+    /// 2 or 3.
+    pub fn dimension(self) -> usize {
+        match self {
+            LatticeKind::Sc | LatticeKind::Bcc | LatticeKind::Fcc => 3,
+            LatticeKind::Sq | LatticeKind::Sq2 | LatticeKind::Hex => 2,
+        }
+    }
+
+    /// Basis atoms in units of the cell sides.
+    fn basis(self) -> &'static [[f64; 3]] {
+        match self {
+            LatticeKind::Sc | LatticeKind::Sq => &[[0.0, 0.0, 0.0]],
+            LatticeKind::Bcc | LatticeKind::Sq2 | LatticeKind::Hex => {
+                &[[0.0, 0.0, 0.0], [0.5, 0.5, 0.5]]
+            }
+            LatticeKind::Fcc => &[
+                [0.0, 0.0, 0.0],
+                [0.5, 0.5, 0.0],
+                [0.5, 0.0, 0.5],
+                [0.0, 0.5, 0.5],
+            ],
+        }
+    }
+
+    /// Cell sides in units of the lattice constant.
+    fn aspect(self) -> [f64; 3] {
+        match self {
+            LatticeKind::Hex => [1.0, 3f64.sqrt(), 1.0],
+            _ => [1.0; 3],
+        }
+    }
+}
+
+/// `cells[d]` unit cells along each axis of `kind` at number density `density`
+/// (atoms per unit volume, LAMMPS's reduced density in lj units): lattice constant
+/// `a = (n_basis / (density * prod(aspect)))^(1/D)`, periodic box
+/// `[0, cells_d a aspect_d)`, atoms in LAMMPS's `create_atoms` order (last axis
+/// slowest, basis fastest).
+pub fn lattice<const D: usize>(
+    kind: LatticeKind,
+    density: f64,
+    cells: [usize; D],
+) -> Result<(Domain<D>, Vec<[f64; D]>), String> {
+    if kind.dimension() != D {
+        return Err(format!(
+            "lattice {kind:?} is {}-dimensional, the system is {D}-dimensional",
+            kind.dimension()
+        ));
+    }
+    if !(density.is_finite() && density > 0.0) {
+        return Err(format!(
+            "lattice density must be finite and > 0, got {density}"
+        ));
+    }
+    if cells.contains(&0) {
+        return Err("lattice cells must be >= 1 along every axis".into());
+    }
+    let basis = kind.basis();
+    let aspect = kind.aspect();
+    let unit_volume: f64 = aspect[..D].iter().product();
+    let a = (basis.len() as f64 / (density * unit_volume)).powf(1.0 / D as f64);
+    let side: [f64; D] = std::array::from_fn(|d| a * aspect[d]);
+    let length: [f64; D] = std::array::from_fn(|d| cells[d] as f64 * side[d]);
+    let domain = Domain::periodic(length).map_err(|e| e.to_string())?;
+    let total = cells.iter().product::<usize>() * basis.len();
+    let mut points = Vec::with_capacity(total);
+    let mut cell = [0usize; D];
+    for _ in 0..total / basis.len() {
+        for b in basis {
+            points.push(std::array::from_fn(|d| (cell[d] as f64 + b[d]) * side[d]));
+        }
+        // next cell, first axis fastest
+        for d in 0..D {
+            cell[d] += 1;
+            if cell[d] < cells[d] {
+                break;
+            }
+            cell[d] = 0;
+        }
+    }
+    Ok((domain, points))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn density_and_counts_match_the_request() {
+        let (dom, pts) = lattice(LatticeKind::Fcc, 0.8442, [5, 5, 5]).unwrap();
+        assert_eq!(pts.len(), 500);
+        // the box of ../shared/testdata/lammps/lj500.data
+        assert!((dom.length[0] - 8.3979809569125372).abs() < 1e-13);
+        assert!((500.0 / dom.volume() - 0.8442).abs() < 1e-12);
+        let (dom, pts) = lattice(LatticeKind::Hex, 0.7, [4, 3]).unwrap();
+        assert_eq!(pts.len(), 24);
+        assert!((24.0 / dom.volume() - 0.7).abs() < 1e-12);
+        // hex: every atom has 6 neighbours at the lattice constant
+        let a = dom.length[0] / 4.0;
+        for p in &pts {
+            let close = pts
+                .iter()
+                .filter(|q| {
+                    let d = dom.separation(p, q);
+                    (crate::geometry::norm2(&d).sqrt() - a).abs() < 1e-9
+                })
+                .count();
+            assert_eq!(close, 6);
+        }
+        let (_, pts) = lattice(LatticeKind::Sq2, 0.8442, [16, 16]).unwrap();
+        assert_eq!(pts.len(), 512);
+    }
+
+    #[test]
+    fn atoms_come_in_create_atoms_order() {
+        let (_, pts) = lattice(LatticeKind::Bcc, 2.0, [2, 2, 2]).unwrap();
+        // a = 1: cell (0,0,0) basis 0 and 1, then cell (1,0,0)
+        assert_eq!(pts[0], [0.0, 0.0, 0.0]);
+        assert_eq!(pts[1], [0.5, 0.5, 0.5]);
+        assert_eq!(pts[2], [1.0, 0.0, 0.0]);
+        assert_eq!(pts[4], [0.0, 1.0, 0.0]);
+    }
+
+    #[test]
+    fn refuses_bad_requests() {
+        assert!(lattice::<2>(LatticeKind::Fcc, 1.0, [2, 2]).is_err());
+        assert!(lattice::<3>(LatticeKind::Fcc, -1.0, [2, 2, 2]).is_err());
+        assert!(lattice::<3>(LatticeKind::Fcc, 1.0, [2, 0, 2]).is_err());
+        assert_eq!(LatticeKind::from_name("hex"), Some(LatticeKind::Hex));
+        assert_eq!(LatticeKind::from_name("hcp"), None);
+    }
+}

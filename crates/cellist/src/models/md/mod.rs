@@ -1,0 +1,479 @@
+//! Molecular dynamics: atoms with a pair potential, summed once per pair (Newton's
+//! third law) over a half Verlet list, in parallel without atomics by colouring the
+//! cell layers ([`LayerPlan`]), and advanced by an [`Integrator`].
+//!
+//! One step (LAMMPS's order, so that trajectories compare with LAMMPS's):
+//! ```text
+//! first_half (kick + drift)  ->  blow-up check  ->  rebuild the Verlet list if some
+//! atom moved more than skin/2 (wrap, counting sort, permute the atoms)  ->  forces
+//! ->  second_half (kick)
+//! ```
+
+mod atoms;
+mod integrate;
+mod lattice;
+mod velocity;
+
+pub use atoms::Atoms;
+pub use integrate::{Integrator, Langevin};
+pub use lattice::{lattice, LatticeKind};
+pub use velocity::{create_velocities, VelocityDistribution};
+
+use crate::geometry::{norm2, Domain, GeometryError};
+use crate::interactions::{LennardJones, PairPotential};
+use crate::neighbors::{scatter_half_rows, CellList, LayerPlan, StencilKind, VerletList};
+use crate::threads::Threads;
+use std::fmt;
+use std::time::{Duration, Instant};
+
+/// Why a system could not be set up, or why a run stopped.
+#[derive(Clone, Debug, PartialEq)]
+pub enum MdError {
+    /// The box is too small for the cutoff (with its skin).
+    Geometry(GeometryError),
+    /// No atoms.
+    Empty,
+    /// Two atoms at the same position: the force between them is infinite.
+    Overlap {
+        /// Id of one atom.
+        first: u64,
+        /// Id of the other.
+        second: u64,
+    },
+    /// A position became NaN or infinite.
+    NotFinite {
+        /// The step at which it was seen.
+        step: u64,
+        /// The atom.
+        id: u64,
+    },
+    /// An atom left the box through a non-periodic face.
+    LeftBox {
+        /// The step at which it was seen.
+        step: u64,
+        /// The atom.
+        id: u64,
+        /// The axis (0 = x).
+        axis: usize,
+        /// Its coordinate along that axis.
+        coordinate: f64,
+    },
+}
+
+impl fmt::Display for MdError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        const AXES: [&str; 3] = ["x", "y", "z"];
+        match self {
+            MdError::Geometry(e) => write!(f, "{e}"),
+            MdError::Empty => write!(f, "the system has no atoms"),
+            MdError::Overlap { first, second } => write!(
+                f,
+                "atoms {first} and {second} are at the same position (infinite force)"
+            ),
+            MdError::NotFinite { step, id } => {
+                write!(f, "step {step}: atom {id} has a non-finite position (the run blew up; try a smaller dt)")
+            }
+            MdError::LeftBox {
+                step,
+                id,
+                axis,
+                coordinate,
+            } => write!(
+                f,
+                "step {step}: atom {id} left the box through the non-periodic {} boundary ({} = {coordinate})",
+                AXES[*axis], AXES[*axis]
+            ),
+        }
+    }
+}
+
+impl std::error::Error for MdError {}
+
+impl From<GeometryError> for MdError {
+    fn from(e: GeometryError) -> Self {
+        MdError::Geometry(e)
+    }
+}
+
+/// Sums of one force evaluation: pair energy `U = sum_pairs U(r_ij)` and virial
+/// `W = sum_pairs r_ij . f_ij`.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PairTally {
+    /// Potential energy.
+    pub energy: f64,
+    /// Virial.
+    pub virial: f64,
+}
+
+/// Thermodynamic output, normalised as LAMMPS does in lj units (`thermo_modify norm
+/// yes`): energies per atom, temperature and pressure as they are.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Thermo {
+    /// `T = sum m v^2 / (D N - D)`.
+    pub temp: f64,
+    /// Potential energy per atom.
+    pub pe: f64,
+    /// Kinetic energy per atom, `T (D N - D) / (2 N)`.
+    pub ke: f64,
+    /// `pe + ke`.
+    pub etotal: f64,
+    /// `P = ((D N - D) T + W) / (D V)`.
+    pub press: f64,
+}
+
+/// Wall time per stage of a run (LAMMPS's breakdown).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct StageTimes {
+    /// Blow-up checks, Verlet-list checks and rebuilds.
+    pub neighbor: Duration,
+    /// Pair forces.
+    pub force: Duration,
+    /// Integrator updates.
+    pub integrate: Duration,
+    /// Thermo, dumps, pictures (measured by the caller).
+    pub output: Duration,
+}
+
+/// `sum m v^2 / (D N - D)`, zero without degrees of freedom.
+pub fn temperature<const D: usize>(atoms: &Atoms<D>) -> f64 {
+    let dof = degrees_of_freedom::<D>(atoms.len());
+    if dof > 0.0 {
+        twice_kinetic(atoms) / dof
+    } else {
+        0.0
+    }
+}
+
+fn degrees_of_freedom<const D: usize>(n: usize) -> f64 {
+    (D * n).saturating_sub(D) as f64
+}
+
+fn twice_kinetic<const D: usize>(atoms: &Atoms<D>) -> f64 {
+    atoms
+        .velocities
+        .iter()
+        .zip(&atoms.masses)
+        .map(|(v, m)| norm2(v) * m)
+        .sum()
+}
+
+/// A molecular-dynamics system: box, atoms, pair potential and its neighbour list.
+pub struct MdSystem<const D: usize> {
+    domain: Domain<D>,
+    atoms: Atoms<D>,
+    potential: LennardJones,
+    skin: f64,
+    cells: CellList<D>,
+    list: VerletList<D>,
+    layers: LayerPlan,
+    tallies: Vec<PairTally>,
+    totals: Option<PairTally>,
+    scratch: Atoms<D>,
+    rebuilds: u64,
+}
+
+impl<const D: usize> MdSystem<D> {
+    /// Sets up the system: checks the box against `cutoff + skin` and the atoms
+    /// (finite, inside non-periodic boxes, no two at one position), builds the
+    /// neighbour list and evaluates the forces, energy and virial.
+    pub fn new(
+        domain: Domain<D>,
+        atoms: Atoms<D>,
+        potential: LennardJones,
+        skin: f64,
+        threads: &Threads,
+    ) -> Result<Self, MdError> {
+        atoms.assert_consistent();
+        if atoms.is_empty() {
+            return Err(MdError::Empty);
+        }
+        assert!(skin >= 0.0, "skin must be >= 0");
+        let reach = potential.cutoff() + skin;
+        domain.check_cutoff(reach)?;
+        check_positions(&domain, &atoms, 0)?;
+        let cells = CellList::build(&domain, reach, &atoms.positions)?;
+        let mut system = MdSystem {
+            domain,
+            list: VerletList::build(&cells, StencilKind::Half, potential.cutoff(), skin, threads),
+            layers: LayerPlan::new(&cells),
+            tallies: Vec::new(),
+            cells,
+            atoms,
+            potential,
+            skin,
+            totals: None,
+            scratch: Atoms::default(),
+            rebuilds: 0,
+        };
+        system.adopt_cell_order();
+        system.tallies = vec![PairTally::default(); system.layers.num_layers()];
+        system.check_overlaps()?;
+        system.compute_forces(true, threads);
+        Ok(system)
+    }
+
+    /// The box.
+    pub fn domain(&self) -> &Domain<D> {
+        &self.domain
+    }
+
+    /// The atoms, in the cell order of the last rebuild.
+    pub fn atoms(&self) -> &Atoms<D> {
+        &self.atoms
+    }
+
+    /// The pair potential.
+    pub fn potential(&self) -> &LennardJones {
+        &self.potential
+    }
+
+    /// The Verlet skin.
+    pub fn skin(&self) -> f64 {
+        self.skin
+    }
+
+    /// Neighbour-list rebuilds since set-up.
+    pub fn rebuilds(&self) -> u64 {
+        self.rebuilds
+    }
+
+    /// Entries in the current half Verlet list.
+    pub fn list_entries(&self) -> usize {
+        self.list.num_entries()
+    }
+
+    /// Advances by one step of `dt` (numbered `step`); sums energy and virial when
+    /// `energy`. Stage times are added to `times`.
+    pub fn step(
+        &mut self,
+        integrator: &Integrator,
+        dt: f64,
+        step: u64,
+        energy: bool,
+        threads: &Threads,
+        times: &mut StageTimes,
+    ) -> Result<(), MdError> {
+        let t = Instant::now();
+        integrator.first_half(&mut self.atoms, dt);
+        let t = lap(t, &mut times.integrate);
+        check_positions(&self.domain, &self.atoms, step)?;
+        if self.list.needs_rebuild(&self.atoms.positions) {
+            self.rebuild(threads);
+        }
+        let t = lap(t, &mut times.neighbor);
+        self.compute_forces(energy, threads);
+        let t = lap(t, &mut times.force);
+        integrator.second_half(&mut self.atoms, dt, step);
+        lap(t, &mut times.integrate);
+        Ok(())
+    }
+
+    /// Wraps the positions, sorts the atoms by cell and rebuilds the Verlet list.
+    fn rebuild(&mut self, threads: &Threads) {
+        self.cells.rebin(&self.atoms.positions);
+        self.adopt_cell_order();
+        self.list = VerletList::build(
+            &self.cells,
+            StencilKind::Half,
+            self.potential.cutoff(),
+            self.skin,
+            threads,
+        );
+        self.layers.update(&self.cells);
+        self.rebuilds += 1;
+    }
+
+    /// Puts the atoms in the cell list's slot order, positions wrapped.
+    fn adopt_cell_order(&mut self) {
+        self.atoms
+            .permute_except_positions(self.cells.order(), &mut self.scratch);
+        self.atoms.positions.clear();
+        self.atoms
+            .positions
+            .extend_from_slice(self.cells.positions());
+    }
+
+    fn check_overlaps(&self) -> Result<(), MdError> {
+        for i in 0..self.list.len() {
+            let (js, images) = self.list.row(i);
+            for (&j, &image) in js.iter().zip(images) {
+                let xi = &self.atoms.positions[i];
+                let xj = &self.atoms.positions[j as usize];
+                let s = self.list.image_shift(image);
+                let d: [f64; D] = std::array::from_fn(|a| xi[a] - (xj[a] + s[a]));
+                if norm2(&d) == 0.0 {
+                    return Err(MdError::Overlap {
+                        first: self.atoms.ids[i].min(self.atoms.ids[j as usize]),
+                        second: self.atoms.ids[i].max(self.atoms.ids[j as usize]),
+                    });
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Zeroes and recomputes the forces; with `energy`, also the energy and virial.
+    pub fn compute_forces(&mut self, energy: bool, threads: &Threads) {
+        self.atoms.forces.fill([0.0; D]);
+        self.tallies.fill(PairTally::default());
+        let args = PairArgs {
+            list: &self.list,
+            layers: &self.layers,
+            potential: &self.potential,
+            positions: &self.atoms.positions,
+        };
+        if energy {
+            args.run::<true>(&mut self.atoms.forces, &mut self.tallies, threads);
+            let mut totals = PairTally::default();
+            for t in &self.tallies {
+                totals.energy += t.energy;
+                totals.virial += t.virial;
+            }
+            self.totals = Some(totals);
+        } else {
+            args.run::<false>(&mut self.atoms.forces, &mut self.tallies, threads);
+            self.totals = None;
+        }
+    }
+
+    /// Energy and virial of the last force evaluation, if it summed them.
+    pub fn pair_totals(&self) -> Option<PairTally> {
+        self.totals
+    }
+
+    /// Per-atom potential energy (slot order): half of every pair's energy to each
+    /// atom, LAMMPS's `compute pe/atom`.
+    pub fn per_atom_energy(&self) -> Vec<f64> {
+        let mut pe = vec![0.0; self.atoms.len()];
+        let cutoff2 = self.potential.cutoff2();
+        for i in 0..self.list.len() {
+            let xi = self.atoms.positions[i];
+            let (js, images) = self.list.row(i);
+            for (&j, &image) in js.iter().zip(images) {
+                let j = j as usize;
+                let s = self.list.image_shift(image);
+                let xj = &self.atoms.positions[j];
+                let d: [f64; D] = std::array::from_fn(|a| xi[a] - (xj[a] + s[a]));
+                let r2 = norm2(&d);
+                if r2 < cutoff2 {
+                    let half = 0.5 * self.potential.energy_and_force(r2).0;
+                    pe[i] += half;
+                    pe[j] += half;
+                }
+            }
+        }
+        pe
+    }
+
+    /// Thermo of the current state; needs the last force evaluation to have summed
+    /// the energy (`energy = true`).
+    pub fn thermo(&self) -> Thermo {
+        let totals = self
+            .totals
+            .expect("thermo needs a force evaluation with energy");
+        let n = self.atoms.len() as f64;
+        let dof = degrees_of_freedom::<D>(self.atoms.len());
+        let temp = temperature(&self.atoms);
+        let ke_total = temp * 0.5 * dof;
+        let pe = totals.energy / n;
+        let ke = ke_total / n;
+        let press = (dof * temp + totals.virial) / D as f64 * (1.0 / self.domain.volume());
+        Thermo {
+            temp,
+            pe,
+            ke,
+            etotal: pe + ke,
+            press,
+        }
+    }
+}
+
+/// Adds the time since `t` to `total` and returns now.
+fn lap(t: Instant, total: &mut Duration) -> Instant {
+    let now = Instant::now();
+    *total += now - t;
+    now
+}
+
+/// Every position finite, and inside the box on non-periodic axes.
+fn check_positions<const D: usize>(
+    domain: &Domain<D>,
+    atoms: &Atoms<D>,
+    step: u64,
+) -> Result<(), MdError> {
+    let all_finite = atoms
+        .positions
+        .iter()
+        .all(|x| x.iter().all(|c| c.is_finite()));
+    let open: Vec<usize> = (0..D).filter(|&a| !domain.is_periodic(a)).collect();
+    if all_finite && open.is_empty() {
+        return Ok(());
+    }
+    for (k, x) in atoms.positions.iter().enumerate() {
+        let id = atoms.ids[k];
+        if !x.iter().all(|c| c.is_finite()) {
+            return Err(MdError::NotFinite { step, id });
+        }
+        for &axis in &open {
+            let (lo, hi) = (domain.lo[axis], domain.lo[axis] + domain.length[axis]);
+            if !(lo..=hi).contains(&x[axis]) {
+                return Err(MdError::LeftBox {
+                    step,
+                    id,
+                    axis,
+                    coordinate: x[axis],
+                });
+            }
+        }
+    }
+    Ok(())
+}
+
+/// What the pair-force loop reads.
+struct PairArgs<'a, const D: usize, P> {
+    list: &'a VerletList<D>,
+    layers: &'a LayerPlan,
+    potential: &'a P,
+    positions: &'a [[f64; D]],
+}
+
+impl<const D: usize, P: PairPotential> PairArgs<'_, D, P> {
+    /// `f_i += sum_j f_ij`, `f_j -= f_ij` over the half list, `f_ij = (-U'/r)(x_i - x_j)`
+    /// for `r^2 < r_c^2`; with `ENERGY`, each layer's `U` and `W` in `tallies`.
+    fn run<const ENERGY: bool>(
+        &self,
+        forces: &mut [[f64; D]],
+        tallies: &mut [PairTally],
+        threads: &Threads,
+    ) {
+        let cutoff2 = self.potential.cutoff() * self.potential.cutoff();
+        let (list, positions, potential) = (self.list, self.positions, self.potential);
+        scatter_half_rows(self.layers, forces, tallies, threads, |rows, f, tally| {
+            for i in rows {
+                let xi = positions[i];
+                let mut fi = [0.0; D];
+                let (js, images) = list.row(i);
+                for (&j, &image) in js.iter().zip(images) {
+                    let j = j as usize;
+                    let xj = &positions[j];
+                    let s = list.image_shift(image);
+                    let d: [f64; D] = std::array::from_fn(|a| xi[a] - (xj[a] + s[a]));
+                    let r2 = norm2(&d);
+                    if r2 < cutoff2 {
+                        let (e, f_over_r) = potential.energy_and_force(r2);
+                        let fij: [f64; D] = std::array::from_fn(|a| d[a] * f_over_r);
+                        for a in 0..D {
+                            fi[a] += fij[a];
+                        }
+                        f.sub(j, &fij);
+                        if ENERGY {
+                            tally.energy += e;
+                            tally.virial += f_over_r * r2;
+                        }
+                    }
+                }
+                f.add(i, &fi);
+            }
+        });
+    }
+}

@@ -1,0 +1,3 @@
+//! Models: a state, one step, and the observables of each kind of particle system.
+
+pub mod md;
