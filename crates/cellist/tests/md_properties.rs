@@ -1,4 +1,5 @@
 //! Molecular dynamics against brute force: forces, energy and virial of the
+#![allow(clippy::needless_range_loop)]
 //! layer-coloured half-list sum against all pairs by minimum image; 1 against 2
 //! threads bit for bit; Newton's third law; energy conservation.
 
