@@ -1,7 +1,7 @@
 //! Molecular dynamics against brute force: forces, energy and virial of the
-#![allow(clippy::needless_range_loop)]
 //! layer-coloured half-list sum against all pairs by minimum image; 1 against 2
 //! threads bit for bit; Newton's third law; energy conservation.
+#![allow(clippy::needless_range_loop)]
 
 use cellist::geometry::{norm2, Boundary, Domain};
 use cellist::interactions::{LennardJones, PairPotential};

@@ -127,7 +127,7 @@ mod tests {
         let (dom, pts) = lattice(LatticeKind::Fcc, 0.8442, [5, 5, 5]).unwrap();
         assert_eq!(pts.len(), 500);
         // the box of ../shared/testdata/lammps/lj500.data
-        assert!((dom.length[0] - 8.3979809569125372).abs() < 1e-13);
+        assert!((dom.length[0] - 8.397980956912537).abs() < 1e-13);
         assert!((500.0 / dom.volume() - 0.8442).abs() < 1e-12);
         let (dom, pts) = lattice(LatticeKind::Hex, 0.7, [4, 3]).unwrap();
         assert_eq!(pts.len(), 24);
