@@ -1,12 +1,16 @@
 //! File formats for cellist: point files (plain text, extended XYZ), pair lists,
-//! and output files that appear whole or not at all.
+//! LAMMPS data files and dumps, and output files that appear whole or not at all.
 #![warn(missing_docs)]
 
+pub mod dump;
 pub mod error;
+pub mod lammps_data;
 pub mod output;
 pub mod plot;
 pub mod points;
 
+pub use dump::{write_lammps_frame, write_xyz_frame, Frame, DUMP_COLUMNS};
 pub use error::InputError;
+pub use lammps_data::{read_data, DataAtom, DataFile};
 pub use output::{format_g17, write_pairs, AtomicFile};
 pub use points::{read_points, BoxInfo, PointFile, Points};
