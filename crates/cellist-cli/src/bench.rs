@@ -1,7 +1,12 @@
 //! `cellist bench ...`: timings on standard workloads, medians of repeated runs.
 
-use crate::cli::BenchNeighborsArgs;
+use crate::cli::{BenchLjArgs, BenchNeighborsArgs};
 use crate::error::{positive, threads, CliError, CliResult};
+use cellist::interactions::LennardJones;
+use cellist::models::md::{
+    create_velocities, lattice, Atoms, Integrator, LatticeKind, MdSystem, StageTimes,
+    VelocityDistribution,
+};
 use cellist::neighbors::half_pairs;
 use cellist::random::Rng;
 use cellist::{CellList, Domain, Threads};
@@ -82,4 +87,66 @@ fn time_half_list<const D: usize>(
         drop(pairs);
     }
     Ok((median(&mut times), count))
+}
+
+/// `cellist bench lj`: the loop time of the LAMMPS melt, as LAMMPS reports it (set-up
+/// excluded), median over `--repeat` runs from the same start.
+pub fn lj(args: &BenchLjArgs) -> CliResult {
+    if args.atoms_per_side < 4 {
+        return Err(CliError::Input(
+            "--atoms-per-side must be at least 4 (the box must hold twice cutoff + skin)".into(),
+        ));
+    }
+    if args.repeat == 0 {
+        return Err(CliError::Input("--repeat must be at least 1".into()));
+    }
+    let pool = threads(Some(args.threads))?;
+    let n = args.atoms_per_side;
+    let (domain, points) = lattice(LatticeKind::Fcc, 0.8442, [n; 3])
+        .map_err(|e| CliError::Internal(format!("melt lattice: {e}")))?;
+    let mut atoms = Atoms::at_rest(points, 1.0);
+    create_velocities(&mut atoms, 3.0, 87287, VelocityDistribution::Uniform);
+    let lj = LennardJones::new(1.0, 1.0, 2.5, false)
+        .map_err(|e| CliError::Internal(format!("melt potential: {e}")))?;
+    let mut samples = Vec::with_capacity(args.repeat);
+    let mut last = None;
+    for _ in 0..args.repeat {
+        let mut system = MdSystem::new(domain, atoms.clone(), lj, 0.3, &pool)
+            .map_err(|e| CliError::Internal(format!("melt set-up: {e}")))?;
+        let mut times = StageTimes::default();
+        let start = Instant::now();
+        for step in 1..=args.steps {
+            system
+                .step(
+                    &Integrator::VelocityVerlet,
+                    0.005,
+                    step,
+                    step == args.steps,
+                    &pool,
+                    &mut times,
+                )
+                .map_err(|e| CliError::Internal(format!("the melt blew up: {e}")))?;
+        }
+        samples.push(start.elapsed().as_secs_f64());
+        last = Some((system.rebuilds(), times));
+    }
+    let (rebuilds, times) = last.expect("at least one repetition");
+    let seconds = median(&mut samples);
+    let atoms_n = atoms.len();
+    let us = seconds * 1e6 / (atoms_n as f64 * args.steps.max(1) as f64);
+    if args.json {
+        let obj = serde_json::json!({
+            "atoms": atoms_n, "steps": args.steps, "threads": args.threads,
+            "loop_seconds": seconds, "us_per_atom_step": us, "rebuilds": rebuilds,
+            "force_seconds": times.force.as_secs_f64(), "neighbor_seconds": times.neighbor.as_secs_f64(),
+        });
+        println!("{obj}");
+    } else {
+        println!(
+            "lj: {atoms_n} atoms, {} steps, {} thread(s): loop time {seconds:.4} s (median of {}), \
+             {us:.4} us/atom-step, {rebuilds} rebuilds",
+            args.steps, args.threads, args.repeat
+        );
+    }
+    Ok(())
 }

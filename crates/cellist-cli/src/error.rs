@@ -11,6 +11,8 @@ pub enum CliError {
     Output(std::io::Error, String),
     /// A self-check of the tool failed: a bug, not the user's input (exit status 1).
     Internal(String),
+    /// A simulation stopped: it blew up or left its box (exit status 1).
+    Run(String),
 }
 
 impl CliError {
@@ -18,7 +20,7 @@ impl CliError {
     pub fn exit_code(&self) -> u8 {
         match self {
             CliError::Input(_) => 2,
-            CliError::Output(..) | CliError::Internal(_) => 1,
+            CliError::Output(..) | CliError::Internal(_) | CliError::Run(_) => 1,
         }
     }
 
@@ -37,7 +39,7 @@ impl CliError {
 impl fmt::Display for CliError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            CliError::Input(m) => f.write_str(m),
+            CliError::Input(m) | CliError::Run(m) => f.write_str(m),
             CliError::Internal(m) => write!(f, "internal check failed (a bug in cellist): {m}"),
             CliError::Output(e, what) => write!(f, "cannot write {what}: {e}"),
         }

@@ -2,9 +2,11 @@
 
 mod bench;
 mod cli;
-mod demo;
 mod error;
+mod md;
 mod neighbors;
+mod run;
+mod scenario;
 
 use clap::Parser;
 use cli::{BenchCommand, Cli, Command};
@@ -13,10 +15,11 @@ use std::process::ExitCode;
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
-        Command::Run(args) => demo::run(&args),
+        Command::Run(args) => run::run(&args),
         Command::Neighbors(args) => neighbors::run(&args),
         Command::Bench { which } => match which {
             BenchCommand::Neighbors(args) => bench::neighbors(&args),
+            BenchCommand::Lj(args) => bench::lj(&args),
         },
     };
     match result {

@@ -1,4 +1,4 @@
-//! End-to-end runs of `cellist neighbors`, `cellist bench neighbors` and `cellist run`.
+//! End-to-end runs of `cellist neighbors` and `cellist bench neighbors`.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -343,24 +343,7 @@ fn bench_neighbors_json() {
 }
 
 #[test]
-fn run_demo_writes_its_results() {
-    let dir = tempfile::tempdir().unwrap();
-    let out_dir = dir.path().join("demo");
-    let out = cellist(&["run", "--out", out_dir.to_str().unwrap(), "--threads", "2"]);
-    assert!(out.status.success(), "{}", stderr(&out));
-    let text = stdout(&out);
-    assert!(text.contains("coming: md"), "{text}");
-    for f in ["rdf.csv", "rdf.png", "stages.csv"] {
-        assert!(out_dir.join(f).is_file(), "{f} missing");
-    }
-    // uniform random points: g(r) = 1 within noise away from r = 0
-    let csv = std::fs::read_to_string(out_dir.join("rdf.csv")).unwrap();
-    for line in csv.lines().skip(10) {
-        let g: f64 = line.split(',').nth(1).unwrap().parse().unwrap();
-        assert!((g - 1.0).abs() < 0.05, "g(r) = {g} in {line}");
-    }
+fn bench_neighbors_refuses_too_few_points() {
     let e = failure(&["bench", "neighbors", "--n", "0"]);
     assert!(e.contains("--n must be at least 2"), "{e}");
-    let e = failure(&["run", "scenario.toml"]);
-    assert!(e.contains("no simulation model yet"), "{e}");
 }

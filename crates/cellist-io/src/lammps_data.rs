@@ -94,8 +94,8 @@ pub fn parse_data(path: &Path, text: &str) -> Result<DataFile, InputError> {
                         ))
                     }
                 };
-                let lo = parse_finite(path, no, lo, || format!("{axis_lo}"))?;
-                let hi = parse_finite(path, no, hi, || format!("{axis_hi}"))?;
+                let lo = parse_finite(path, no, lo, || axis_lo.to_string())?;
+                let hi = parse_finite(path, no, hi, || axis_hi.to_string())?;
                 if hi <= lo {
                     return Err(InputError::at(
                         path,
@@ -156,7 +156,9 @@ pub fn parse_data(path: &Path, text: &str) -> Result<DataFile, InputError> {
 
     let mut masses: Option<Vec<f64>> = None;
     let mut atoms: Option<Vec<DataAtom>> = None;
-    let mut velocities: Option<(usize, Vec<(u64, [f64; 3])>)> = None;
+    // the section's line and its (id, velocity) entries
+    type VelocityLines = (usize, Vec<(u64, [f64; 3])>);
+    let mut velocities: Option<VelocityLines> = None;
     let mut section = Some(first_section);
     while let Some((no, header)) = section.take() {
         let (name, hint) = match header.split_once('#') {
@@ -250,13 +252,15 @@ pub fn parse_data(path: &Path, text: &str) -> Result<DataFile, InputError> {
                 };
                 lines.entries(count, s)?;
             }
-            _ => return Err(InputError::at(
-                path,
-                no,
-                format!(
+            _ => {
+                return Err(InputError::at(
+                    path,
+                    no,
+                    format!(
                     "unknown or unsupported section '{name}'; expected Masses, Atoms, Velocities"
                 ),
-            )),
+                ))
+            }
         }
         if let Some((no, line)) = lines.next_content() {
             if !is_section(line) {

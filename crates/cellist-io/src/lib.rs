@@ -1,6 +1,8 @@
 //! File formats for cellist: point files (plain text, extended XYZ), pair lists,
 //! LAMMPS data files and dumps, and output files that appear whole or not at all.
 #![warn(missing_docs)]
+// Loops over the three axes index several per-axis arrays at once.
+#![allow(clippy::needless_range_loop)]
 
 pub mod dump;
 pub mod error;

@@ -116,6 +116,17 @@ impl<'a, T> DisjointSlice<'a, T> {
         assert!(k < self.len, "index {k} out of range {}", self.len);
         &mut *self.ptr.add(k)
     }
+
+    /// Element `k` without the bounds check.
+    ///
+    /// # Safety
+    /// As [`DisjointSlice::get`], and `k` must be below the length.
+    #[inline(always)]
+    #[allow(clippy::mut_from_ref)]
+    pub unsafe fn get_unchecked(&self, k: usize) -> &mut T {
+        debug_assert!(k < self.len);
+        &mut *self.ptr.add(k)
+    }
 }
 
 #[cfg(test)]

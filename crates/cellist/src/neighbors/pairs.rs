@@ -61,7 +61,7 @@ pub fn half_pairs<const D: usize, T: Copy + Send + Sync>(
 /// `N^2 / 2 * V_ball(r_c) / V_box` plus 10%, with the ball clipped to the box on
 /// each axis (a flat open axis is not an empty box) and at most `64 N` (the
 /// vector grows past a hint).
-fn expected_pairs<const D: usize>(cells: &CellList<D>, cutoff: f64) -> usize {
+pub(crate) fn expected_pairs<const D: usize>(cells: &CellList<D>, cutoff: f64) -> usize {
     let n = cells.len() as f64;
     let ball_over_cube = match D {
         2 => std::f64::consts::PI / 4.0,

@@ -217,38 +217,48 @@ impl LayerPlan {
         self.bounds[z]..self.bounds[z + 1]
     }
 
-    /// Slots the rows of layer `z` may write: layer `z` and the layer after it.
-    fn reach(&self, z: usize) -> (Range<usize>, Range<usize>) {
-        let next = z + 1;
-        let next = if next < self.num_layers() {
-            self.rows(next)
+    /// Slots the rows of layer `z` may write, layer `z` and the layer after it, as
+    /// `(first, count)` of a cyclic interval of the `n` slots.
+    fn reach(&self, z: usize) -> (usize, usize) {
+        let n = *self.bounds.last().expect("bounds has layers + 1 entries");
+        let first = self.bounds[z];
+        let next = if z + 1 < self.num_layers() {
+            self.rows(z + 1).len()
         } else if self.wraps {
-            self.rows(0)
+            self.rows(0).len()
         } else {
-            0..0
+            0
         };
-        (self.rows(z), next)
+        (first, (self.bounds[z + 1] - first + next).min(n))
     }
 }
 
-/// Write access to the forces of the slots one layer may reach (see [`LayerPlan`]).
+/// Write access to the forces of the slots one layer may reach (see [`LayerPlan`]):
+/// the cyclic interval of `count` slots from `first`.
 pub struct LayerForces<'s, 'a, const D: usize> {
     shared: &'s DisjointSlice<'a, [f64; D]>,
-    own: Range<usize>,
-    next: Range<usize>,
+    first: usize,
+    count: usize,
+    n: usize,
 }
 
 impl<const D: usize> LayerForces<'_, '_, D> {
     /// `f[k] += delta`.
     #[inline(always)]
     pub fn add(&self, k: usize, delta: &[f64; D]) {
+        // offset of k in the cyclic interval: one compare, one select
+        let offset = if k >= self.first {
+            k - self.first
+        } else {
+            k + self.n - self.first
+        };
         assert!(
-            self.own.contains(&k) || self.next.contains(&k),
+            offset < self.count && k < self.n,
             "slot {k} outside the layer's reach: not a half list of this cell list"
         );
         // SAFETY: k lies in this layer or the next (checked above); no other task of
         // this colour reaches them (LayerPlan), and the reference lives only here.
-        let f = unsafe { self.shared.get(k) };
+        let f = unsafe { self.shared.get_unchecked(k) };
         for a in 0..D {
             f[a] += delta[a];
         }
@@ -276,16 +286,18 @@ pub fn scatter_half_rows<const D: usize, T: Send>(
 ) {
     assert_eq!(tallies.len(), plan.num_layers());
     assert_eq!(forces.len(), plan.bounds.last().copied().unwrap_or(0));
+    let n = forces.len();
     let shared = DisjointSlice::new(forces);
     let tallies = DisjointSlice::new(tallies);
     threads.install(|| {
         for layers in &plan.colours {
             layers.par_iter().for_each(|&z| {
-                let (own, next) = plan.reach(z);
+                let (first, count) = plan.reach(z);
                 let access = LayerForces {
                     shared: &shared,
-                    own,
-                    next,
+                    first,
+                    count,
+                    n,
                 };
                 // SAFETY: each layer appears in exactly one colour, once.
                 let tally = unsafe { tallies.get(z) };

@@ -3,6 +3,7 @@
 
 use super::cell_list::CellList;
 use super::grid::StencilKind;
+use super::pairs::expected_pairs;
 use super::traverse::{for_each_row_in_cell, CutoffTest};
 use crate::geometry::norm2;
 use crate::threads::{concat_in_order, Threads};
@@ -50,6 +51,11 @@ impl<const D: usize> VerletList<D> {
         );
         let test = CutoffTest::new(reach);
         let grid = cells.grid();
+        let per_slot = match kind {
+            StencilKind::Half => 1.0,
+            StencilKind::Full => 2.0,
+        } * expected_pairs(cells, reach) as f64
+            / cells.len().max(1) as f64;
         type Part = (Vec<u32>, Vec<u32>, Vec<u8>);
         let parts: Vec<Part> = threads.install(|| {
             Threads::chunks(grid.num_cells())
@@ -57,8 +63,9 @@ impl<const D: usize> VerletList<D> {
                     let first_slot = cells.cell_range(range.start).start;
                     let last_slot = cells.cell_range(range.end - 1).end;
                     let mut lengths = vec![0u32; last_slot - first_slot];
-                    let mut neighbors = Vec::new();
-                    let mut images = Vec::new();
+                    let capacity = (per_slot * (last_slot - first_slot) as f64) as usize;
+                    let mut neighbors = Vec::with_capacity(capacity);
+                    let mut images = Vec::with_capacity(capacity);
                     for home in range {
                         for_each_row_in_cell(cells, home, kind, &test, |i, j, image, _, _| {
                             lengths[i - first_slot] += 1;

@@ -459,17 +459,18 @@ impl<const D: usize, P: PairPotential> PairArgs<'_, D, P> {
                     let s = list.image_shift(image);
                     let d: [f64; D] = std::array::from_fn(|a| xi[a] - (xj[a] + s[a]));
                     let r2 = norm2(&d);
-                    if r2 < cutoff2 {
-                        let (e, f_over_r) = potential.energy_and_force(r2);
-                        let fij: [f64; D] = std::array::from_fn(|a| d[a] * f_over_r);
-                        for a in 0..D {
-                            fi[a] += fij[a];
-                        }
-                        f.sub(j, &fij);
-                        if ENERGY {
-                            tally.energy += e;
-                            tally.virial += f_over_r * r2;
-                        }
+                    // branch-free: list entries beyond the cutoff contribute exact zeros
+                    let inside = r2 < cutoff2;
+                    let (e, f_over_r) = potential.energy_and_force(r2);
+                    let f_over_r = if inside { f_over_r } else { 0.0 };
+                    let fij: [f64; D] = std::array::from_fn(|a| d[a] * f_over_r);
+                    for a in 0..D {
+                        fi[a] += fij[a];
+                    }
+                    f.sub(j, &fij);
+                    if ENERGY && inside {
+                        tally.energy += e;
+                        tally.virial += f_over_r * r2;
                     }
                 }
                 f.add(i, &fi);

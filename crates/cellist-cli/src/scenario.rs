@@ -1,0 +1,140 @@
+//! Scenario files (TOML): reading, `--set key=value` overrides, and the model they
+//! name. Each model deserialises its own keys, refusing unknown ones with the line.
+
+use crate::error::{CliError, CliResult};
+use std::path::{Path, PathBuf};
+
+/// The scenario that `cellist run` runs without a file: the LJ melt.
+pub const DEFAULT_SCENARIO: &str = include_str!("../../../examples/lj-melt.toml");
+
+/// A scenario's text and where it came from.
+pub struct Scenario {
+    /// The TOML text with every `--set` applied.
+    pub text: String,
+    /// Name for messages (the file path, or the built-in name).
+    pub origin: String,
+    /// Folder that relative input paths start from.
+    pub base_dir: PathBuf,
+    /// Default output folder name, `out/<name>/`.
+    pub name: String,
+}
+
+impl Scenario {
+    /// Reads `path` (or the built-in melt) and applies the overrides.
+    pub fn load(path: Option<&Path>, sets: &[String]) -> CliResult<Self> {
+        let (text, origin, base_dir, name) = match path {
+            Some(p) => {
+                let text = std::fs::read_to_string(p)
+                    .map_err(|e| CliError::Input(format!("{}: cannot read: {e}", p.display())))?;
+                let name = p
+                    .file_stem()
+                    .map_or_else(|| "scenario".into(), |s| s.to_string_lossy().into_owned());
+                let base = p.parent().map_or_else(PathBuf::new, Path::to_path_buf);
+                (text, p.display().to_string(), base, name)
+            }
+            None => (
+                DEFAULT_SCENARIO.to_string(),
+                "built-in lj-melt".to_string(),
+                PathBuf::new(),
+                "lj-melt".to_string(),
+            ),
+        };
+        let text = apply_sets(&text, &origin, sets)?;
+        Ok(Scenario {
+            text,
+            origin,
+            base_dir,
+            name,
+        })
+    }
+
+    /// The `model` key.
+    pub fn model(&self) -> CliResult<String> {
+        let table: toml::Table = toml::from_str(&self.text).map_err(|e| self.error(e))?;
+        match table.get("model") {
+            Some(toml::Value::String(m)) => Ok(m.clone()),
+            Some(other) => Err(CliError::Input(format!(
+                "{}: model must be a string such as \"md\", got {other}",
+                self.origin
+            ))),
+            None => Err(CliError::Input(format!(
+                "{}: no `model` key; expected e.g. model = \"md\"",
+                self.origin
+            ))),
+        }
+    }
+
+    /// Deserialises the model's keys.
+    pub fn parse<T: serde::de::DeserializeOwned>(&self) -> CliResult<T> {
+        toml::from_str(&self.text).map_err(|e| self.error(e))
+    }
+
+    /// An input error about this scenario.
+    pub fn error(&self, e: impl std::fmt::Display) -> CliError {
+        CliError::Input(format!("{}: {e}", self.origin))
+    }
+
+    /// An input path relative to the scenario file.
+    pub fn input_path(&self, p: &Path) -> PathBuf {
+        self.base_dir.join(p)
+    }
+}
+
+/// Applies `key.path=value` overrides; the value is read as TOML (a number, a
+/// boolean, an array, an inline table, a quoted string) or else taken as a string.
+fn apply_sets(text: &str, origin: &str, sets: &[String]) -> CliResult<String> {
+    if sets.is_empty() {
+        return Ok(text.to_string());
+    }
+    let mut doc: toml_edit::DocumentMut = text
+        .parse()
+        .map_err(|e| CliError::Input(format!("{origin}: {e}")))?;
+    for set in sets {
+        let bad = |why: &str| CliError::Input(format!("--set {set}: {why}"));
+        let (key, value) = set
+            .split_once('=')
+            .ok_or_else(|| bad("expected KEY=VALUE, e.g. run.steps=200"))?;
+        let keys: Vec<&str> = key.trim().split('.').map(str::trim).collect();
+        if keys.iter().any(|k| k.is_empty()) {
+            return Err(bad("empty key"));
+        }
+        let value = value.trim();
+        let parsed: toml_edit::Value = value
+            .parse()
+            .unwrap_or_else(|_| toml_edit::Value::from(value));
+        let mut item = doc.as_item_mut();
+        for (depth, k) in keys.iter().enumerate() {
+            if !(item.is_table_like() || item.is_none()) {
+                return Err(bad(&format!(
+                    "{} is a value, not a table",
+                    keys[..depth].join(".")
+                )));
+            }
+            item = &mut item[*k];
+        }
+        *item = toml_edit::Item::Value(parsed);
+    }
+    Ok(doc.to_string())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sets_replace_and_add_keys_at_any_depth() {
+        let text = "model = \"md\"\n[run]\nsteps = 10\n[system]\nlattice = { kind = \"fcc\", cells = [2, 2, 2] }\n";
+        let sets = [
+            "run.steps=200".to_string(),
+            "system.lattice.cells=[3,3,3]".to_string(),
+            "pair.style=lj/cut".to_string(),
+        ];
+        let out = apply_sets(text, "t", &sets).unwrap();
+        let v: toml::Table = toml::from_str(&out).unwrap();
+        assert_eq!(v["run"]["steps"].as_integer(), Some(200));
+        assert_eq!(v["system"]["lattice"]["cells"].as_array().unwrap().len(), 3);
+        assert_eq!(v["pair"]["style"].as_str(), Some("lj/cut"));
+        assert!(apply_sets(text, "t", &["run.steps".into()]).is_err());
+        assert!(apply_sets(text, "t", &["model.x=1".into()]).is_err());
+    }
+}
