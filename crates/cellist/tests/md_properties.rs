@@ -190,3 +190,75 @@ fn refuses_overlapping_atoms_and_small_boxes() {
     let atoms = Atoms::at_rest(vec![[1.0, 1.0]], 1.0);
     assert!(MdSystem::new(small, atoms, lj, 0.0, &Threads::single()).is_err());
 }
+
+/// A 256-atom fcc crystal from rest with velocities at `t0`.
+fn small_crystal(t0: f64) -> (Domain<3>, Atoms<3>) {
+    let (domain, pts) = lattice::<3>(LatticeKind::Fcc, 0.8442, [4, 4, 4]).unwrap();
+    let mut atoms = Atoms::at_rest(pts, 1.0);
+    cellist::models::md::create_velocities(
+        &mut atoms,
+        t0,
+        9,
+        cellist::models::md::VelocityDistribution::Gaussian,
+    );
+    (domain, atoms)
+}
+
+#[test]
+fn langevin_thermostat_reaches_its_temperature_independently_of_threads() {
+    let (domain, atoms) = small_crystal(0.1);
+    let lj = LennardJones::new(1.0, 1.0, 2.5, true).unwrap();
+    let thermostat = Integrator::Langevin(cellist::models::md::Langevin {
+        temperature: 1.5,
+        damping: 0.5,
+        seed: 3,
+    });
+    let run = |threads: &Threads| {
+        let mut sys = MdSystem::new(domain, atoms.clone(), lj, 0.3, threads).unwrap();
+        let mut times = StageTimes::default();
+        let mut temps = Vec::new();
+        for step in 1..=3000 {
+            sys.step(&thermostat, 0.005, step, false, threads, &mut times)
+                .unwrap();
+            if step > 1000 {
+                temps.push(cellist::models::md::temperature(sys.atoms()));
+            }
+        }
+        (
+            sys.atoms().clone(),
+            temps.iter().sum::<f64>() / temps.len() as f64,
+        )
+    };
+    let (a1, mean) = run(&Threads::single());
+    let (a2, _) = run(&Threads::new(2).unwrap());
+    assert_eq!(a1, a2);
+    assert!((mean - 1.5).abs() < 0.05 * 1.5, "mean temperature {mean}");
+}
+
+#[test]
+fn energy_errors_order_the_integrators() {
+    // max |E(t) - E(0)| over 400 steps of dt 0.001 (Euler blows up at larger dt):
+    // velocity Verlet << symplectic Euler << Euler
+    let (domain, atoms) = small_crystal(1.0);
+    let lj = LennardJones::new(1.0, 1.0, 2.5, true).unwrap();
+    let threads = Threads::single();
+    let drift = |integrator: Integrator| {
+        let mut sys = MdSystem::new(domain, atoms.clone(), lj, 0.3, &threads).unwrap();
+        let e0 = sys.thermo().etotal;
+        let mut times = StageTimes::default();
+        let mut worst: f64 = 0.0;
+        for step in 1..=400 {
+            sys.step(&integrator, 0.001, step, true, &threads, &mut times)
+                .unwrap();
+            worst = worst.max((sys.thermo().etotal - e0).abs());
+        }
+        worst
+    };
+    let vv = drift(Integrator::VelocityVerlet);
+    let se = drift(Integrator::SymplecticEuler);
+    let eu = drift(Integrator::Euler);
+    assert!(
+        vv < 1e-3 && vv < se && se < eu,
+        "vv {vv}, symplectic Euler {se}, Euler {eu}"
+    );
+}
