@@ -185,7 +185,10 @@ fn check_static(
             assert!((o[c] - t[c]).abs() < 1e-12, "atom {id} {c}");
         }
     }
-    eprintln!("{}: forces within {worst_force:e}, per-atom pe within {worst_pe:e}", reference_dump.display());
+    eprintln!(
+        "{}: forces within {worst_force:e}, per-atom pe within {worst_pe:e}",
+        reference_dump.display()
+    );
     assert!(worst_force < 1e-10, "forces differ by {worst_force}");
     assert!(worst_pe < 1e-12, "per-atom energies differ by {worst_pe}");
     let ours = &read_thermo_csv(&out.join("thermo.csv"))[0];
@@ -283,7 +286,10 @@ fn check_trajectory(reference_dump: &Path, reference_thermo: &Path, dim: usize, 
             worst = worst.max((or[*c] - tr[*c]).abs());
         }
     }
-    eprintln!("{}: step-100 state within {worst:e}", reference_dump.display());
+    eprintln!(
+        "{}: step-100 state within {worst:e}",
+        reference_dump.display()
+    );
     assert!(worst < 1e-8, "step-100 state differs by {worst}");
     let n = frames[0].atoms.len() as f64;
     let ours = read_thermo_csv(&out.join("thermo.csv"));
@@ -371,7 +377,10 @@ fn check_melt(steps: u64) {
         );
     }
     let e200 = ours[2]["etotal"];
-    let drift = ours[2..].iter().map(|o| (o["etotal"] - e200).abs()).fold(0.0, f64::max);
+    let drift = ours[2..]
+        .iter()
+        .map(|o| (o["etotal"] - e200).abs())
+        .fold(0.0, f64::max);
     eprintln!("melt: max |E(t) - E(200)| = {drift:e} per atom over {steps} steps");
     for o in &ours[2..] {
         assert!(

@@ -151,16 +151,17 @@ pub fn scatter_verlet_serial<const D: usize, K: PairKernel<D>>(
     }
 }
 
-/// The layers of a cell list along its last axis (z in 3D, y in 2D) and their
-/// colours, for Newton's-third-law sums over a half Verlet list in parallel.
+/// Slabs of cell layers along the last axis (z in 3D, y in 2D) and their colours,
+/// for Newton's-third-law sums over a half Verlet list in parallel.
 ///
-/// Cells are numbered with the last axis slowest, so layer `z` is one contiguous
-/// range of slots. The half stencil reaches only the last-axis offsets 0 and +1, so
-/// the rows of layer `z` write only to layers `z` and `z + 1` (mod `M` on a
-/// periodic axis). Layers of one colour are never adjacent: colour `z mod 2`, and on
-/// a periodic axis with an odd `M >= 3` the last layer gets a colour of its own.
-/// One colour's layers therefore write disjoint slots and run in parallel; colours
-/// run one after another. Which layers exist and their colours depend only on the
+/// Cells are numbered with the last axis slowest, so a layer of cells, and a slab of
+/// consecutive layers, is one contiguous range of slots. The half stencil reaches
+/// only the last-axis offsets 0 and +1, so the rows of a slab write only to that
+/// slab and the next one (cyclically on a periodic axis). A slab is one layer,
+/// except on a periodic axis with an odd layer count `M >= 3`, where the last two
+/// layers form one slab: the slab count is then even and two colours (slab parity)
+/// keep same-colour slabs apart. One colour's slabs write disjoint slots and run in
+/// parallel; colours run one after another. Slabs and colours depend only on the
 /// grid, never on the thread count, so every sum runs in a fixed order.
 #[derive(Clone, Debug, Default)]
 pub struct LayerPlan {
@@ -170,57 +171,49 @@ pub struct LayerPlan {
 }
 
 impl LayerPlan {
-    /// The layers of `cells` (recompute with [`LayerPlan::update`] after a rebin).
+    /// The slabs of `cells` as binned now (make a new plan after every rebin).
     pub fn new<const D: usize>(cells: &CellList<D>) -> Self {
-        let layers = cells.grid().dims()[D - 1];
-        let wraps = cells.domain().is_periodic(D - 1) && layers > 1;
-        let num_colours = match layers {
-            1 => 1,
-            m if wraps && m % 2 == 1 => 3,
-            _ => 2,
-        };
-        let mut colours = vec![Vec::new(); num_colours];
-        for z in 0..layers {
-            let colour = if num_colours == 3 && z == layers - 1 {
-                2
-            } else {
-                z % 2
-            };
-            colours[colour].push(z);
-        }
-        let mut plan = LayerPlan {
-            bounds: Vec::with_capacity(layers + 1),
-            colours,
-            wraps,
-        };
-        plan.update(cells);
-        plan
-    }
-
-    /// Re-reads the layer bounds from `cells` after a rebin on the same grid.
-    pub fn update<const D: usize>(&mut self, cells: &CellList<D>) {
         let dims = cells.grid().dims();
+        let layers = dims[D - 1];
+        let wraps = cells.domain().is_periodic(D - 1) && layers > 1;
+        let slabs = if wraps && layers % 2 == 1 {
+            layers - 1
+        } else {
+            layers
+        };
+        let colours = if slabs == 1 {
+            vec![vec![0]]
+        } else {
+            vec![
+                (0..slabs).step_by(2).collect(),
+                (1..slabs).step_by(2).collect(),
+            ]
+        };
         let per_layer: usize = dims[..D - 1].iter().product();
         let start = cells.cell_start();
-        self.bounds.clear();
-        self.bounds
-            .extend((0..=dims[D - 1]).map(|z| start[z * per_layer] as usize));
+        let mut bounds: Vec<usize> = (0..slabs).map(|z| start[z * per_layer] as usize).collect();
+        bounds.push(cells.len());
+        LayerPlan {
+            bounds,
+            colours,
+            wraps,
+        }
     }
 
-    /// Number of layers.
+    /// Number of slabs.
     pub fn num_layers(&self) -> usize {
         self.bounds.len() - 1
     }
 
-    /// Slots of layer `z`.
+    /// Slots of slab `z`.
     pub fn rows(&self, z: usize) -> Range<usize> {
         self.bounds[z]..self.bounds[z + 1]
     }
 
-    /// Slots the rows of layer `z` may write, layer `z` and the layer after it, as
+    /// Slots the rows of slab `z` may write, slab `z` and the slab after it, as
     /// `(first, count)` of a cyclic interval of the `n` slots.
     fn reach(&self, z: usize) -> (usize, usize) {
-        let n = *self.bounds.last().expect("bounds has layers + 1 entries");
+        let n = *self.bounds.last().expect("bounds has slabs + 1 entries");
         let first = self.bounds[z];
         let next = if z + 1 < self.num_layers() {
             self.rows(z + 1).len()
@@ -240,6 +233,8 @@ pub struct LayerForces<'s, 'a, const D: usize> {
     first: usize,
     count: usize,
     n: usize,
+    // not Sync: the task that owns the slab is the only thread that may write
+    _one_thread: std::marker::PhantomData<std::cell::Cell<()>>,
 }
 
 impl<const D: usize> LayerForces<'_, '_, D> {
@@ -298,6 +293,7 @@ pub fn scatter_half_rows<const D: usize, T: Send>(
                     first,
                     count,
                     n,
+                    _one_thread: std::marker::PhantomData,
                 };
                 // SAFETY: each layer appears in exactly one colour, once.
                 let tally = unsafe { tallies.get(z) };
@@ -305,4 +301,76 @@ pub fn scatter_half_rows<const D: usize, T: Send>(
             });
         }
     });
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::{Boundary, Domain};
+
+    fn plan_for(layers: usize, periodic: bool) -> LayerPlan {
+        let boundary = if periodic {
+            Boundary::Periodic
+        } else {
+            Boundary::Open
+        };
+        let domain = Domain::new([4.0, layers as f64], [Boundary::Periodic, boundary]).unwrap();
+        let points: Vec<[f64; 2]> = (0..4 * layers)
+            .map(|k| [(k % 4) as f64 + 0.5, (k / 4) as f64 + 0.5])
+            .collect();
+        let cells = CellList::build(&domain, 0.99, &points).unwrap();
+        assert_eq!(cells.grid().dims()[1], layers);
+        LayerPlan::new(&cells)
+    }
+
+    #[test]
+    fn slabs_and_colours_keep_same_colour_writes_apart() {
+        for layers in 1..=9 {
+            // one periodic layer would be narrower than twice the cutoff
+            for periodic in [layers > 1, false] {
+                let plan = plan_for(layers, periodic);
+                let n = 4 * layers;
+                let mut seen = vec![0; plan.num_layers()];
+                for colour in &plan.colours {
+                    let mut written = vec![false; n];
+                    for &z in colour {
+                        seen[z] += 1;
+                        let (first, count) = plan.reach(z);
+                        for k in 0..count {
+                            let slot = (first + k) % n;
+                            assert!(!written[slot], "{layers} layers, periodic {periodic}: slot {slot} twice in one colour");
+                            written[slot] = true;
+                        }
+                    }
+                }
+                assert!(
+                    seen.iter().all(|&c| c == 1),
+                    "every slab in exactly one colour"
+                );
+                assert!(plan.colours.len() <= 2);
+                // a periodic axis with 11 layers: 10 slabs, 5 per colour
+                if periodic && layers > 1 {
+                    assert_eq!(plan.num_layers() % 2, 0);
+                }
+            }
+        }
+    }
+
+    #[test]
+    #[should_panic(expected = "outside the layer's reach")]
+    fn writes_outside_the_reach_are_refused() {
+        let plan = plan_for(6, true);
+        let mut forces = vec![[0.0; 2]; 24];
+        let mut tallies = vec![(); plan.num_layers()];
+        scatter_half_rows(
+            &plan,
+            &mut forces,
+            &mut tallies,
+            &Threads::single(),
+            |rows, f, _| {
+                // a slab two layers ahead is never in reach
+                f.add((rows.start + 8) % 24, &[1.0, 1.0]);
+            },
+        );
+    }
 }

@@ -279,7 +279,7 @@ impl<const D: usize> MdSystem<D> {
             self.skin,
             threads,
         );
-        self.layers.update(&self.cells);
+        self.layers = LayerPlan::new(&self.cells);
         self.rebuilds += 1;
     }
 
