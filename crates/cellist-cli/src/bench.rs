@@ -92,6 +92,11 @@ fn time_half_list<const D: usize>(
 /// `cellist bench lj`: the loop time of the LAMMPS melt, as LAMMPS reports it (set-up
 /// excluded), median over `--repeat` runs from the same start.
 pub fn lj(args: &BenchLjArgs) -> CliResult {
+    if args.atoms_per_side > 1000 {
+        return Err(CliError::Input(
+            "--atoms-per-side must be at most 1000".into(),
+        ));
+    }
     if args.atoms_per_side < 4 {
         return Err(CliError::Input(
             "--atoms-per-side must be at least 4 (the box must hold twice cutoff + skin)".into(),

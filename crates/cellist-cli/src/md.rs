@@ -434,6 +434,21 @@ fn from_data<const D: usize>(
             t + 1
         )));
     }
+    if D == 2 {
+        if let Some(a) = data
+            .atoms
+            .iter()
+            .find(|a| a.position[2] != 0.0 || a.velocity[2] != 0.0)
+        {
+            return Err(CliError::Input(format!(
+                "{}: atom {} has z = {} and vz = {}; a 2D system needs z = 0 and vz = 0 (is this a 3D data file? set dimension = 3)",
+                path.display(),
+                a.id,
+                a.position[2],
+                a.velocity[2]
+            )));
+        }
+    }
     let length: [f64; D] = std::array::from_fn(|a| data.hi[a] - data.lo[a]);
     let mut domain = Domain::periodic(length)
         .map_err(|e| CliError::Input(format!("{}: {e}", path.display())))?;
@@ -567,7 +582,8 @@ impl Outputs {
                 .is_some_and(|d| step % d.every == 0 && d.columns.iter().any(|c| c == "pe"))
     }
 
-    /// Writes what is due at `step`; `forced` writes dump frames whatever the step.
+    /// Writes what is due at `step`; `forced` (after a blow-up) writes the dump
+    /// frames whatever the step, and no thermo (the step did not finish).
     fn observe<const D: usize>(
         &mut self,
         setup: &Setup<D>,
@@ -575,7 +591,7 @@ impl Outputs {
         step: u64,
         forced: bool,
     ) -> CliResult {
-        if Self::is_thermo_step(setup, step) && system.pair_totals().is_some() {
+        if !forced && Self::is_thermo_step(setup, step) && system.pair_totals().is_some() {
             let th = system.thermo();
             self.rows.push((step, th));
             let values = [th.temp, th.pe, th.ke, th.etotal, th.press];

@@ -60,6 +60,7 @@ const SKIPPED_SECTIONS: [&str; 2] = ["Pair Coeffs", "PairIJ Coeffs"];
 
 /// Parses the text of a data file (`path` only names it in errors).
 pub fn parse_data(path: &Path, text: &str) -> Result<DataFile, InputError> {
+    // header counts are not trusted for allocation beyond the file's length (Lines)
     let mut lines = Lines::new(path, text);
     lines.next_raw(); // the title line
     let mut atoms_count: Option<usize> = None;
@@ -77,7 +78,19 @@ pub fn parse_data(path: &Path, text: &str) -> Result<DataFile, InputError> {
         match words.as_slice() {
             [n, "atoms"] => atoms_count = Some(parse_count(path, no, n, "the number of atoms")?),
             [n, "atom", "types"] => {
-                atom_types = Some(parse_count(path, no, n, "the number of atom types")? as u32)
+                let count = parse_count(path, no, n, "the number of atom types")?;
+                atom_types = Some(
+                    u32::try_from(count)
+                        .ok()
+                        .filter(|&t| t < 1 << 20)
+                        .ok_or_else(|| {
+                            InputError::at(
+                                path,
+                                no,
+                                format!("{count} atom types; expected fewer than 2^20"),
+                            )
+                        })?,
+                )
             }
             [lo, hi, axis_lo, axis_hi]
                 if axis_lo.len() == 3 && axis_lo.ends_with("lo") && axis_hi.ends_with("hi") =>
@@ -167,8 +180,9 @@ pub fn parse_data(path: &Path, text: &str) -> Result<DataFile, InputError> {
         };
         match name.as_str() {
             "Masses" => {
+                let entries = lines.entries(atom_types as usize, "Masses")?;
                 let mut m = vec![f64::NAN; atom_types as usize];
-                for (no, line) in lines.entries(atom_types as usize, "Masses")? {
+                for (no, line) in entries {
                     let f = fields(path, no, line, 2, 2, "type mass")?;
                     let t = parse_type(path, no, f[0], atom_types)?;
                     let mass = parse_finite(path, no, f[1], || "the mass".into())?;
@@ -187,8 +201,9 @@ pub fn parse_data(path: &Path, text: &str) -> Result<DataFile, InputError> {
                         format!("atom style '{hint}' is not supported; expected 'atomic' (id type x y z)"),
                     ));
                 }
-                let mut list = Vec::with_capacity(n);
-                for (no, line) in lines.entries(n, "Atoms")? {
+                let entries = lines.entries(n, "Atoms")?;
+                let mut list = Vec::with_capacity(entries.len());
+                for (no, line) in entries {
                     let f = fields(path, no, line, 5, 8, "id type x y z [ix iy iz]")?;
                     if f.len() != 5 && f.len() != 8 {
                         return Err(InputError::at(
@@ -231,8 +246,9 @@ pub fn parse_data(path: &Path, text: &str) -> Result<DataFile, InputError> {
                 atoms = Some(list);
             }
             "Velocities" => {
-                let mut list = Vec::with_capacity(n);
-                for (no, line) in lines.entries(n, "Velocities")? {
+                let entries = lines.entries(n, "Velocities")?;
+                let mut list = Vec::with_capacity(entries.len());
+                for (no, line) in entries {
                     let f = fields(path, no, line, 4, 4, "id vx vy vz")?;
                     let id = parse_id(path, no, f[0])?;
                     let mut v = [0.0; 3];
@@ -246,7 +262,7 @@ pub fn parse_data(path: &Path, text: &str) -> Result<DataFile, InputError> {
             }
             s if SKIPPED_SECTIONS.contains(&s) => {
                 let count = if s == "PairIJ Coeffs" {
-                    (atom_types * (atom_types + 1) / 2) as usize
+                    atom_types as usize * (atom_types as usize + 1) / 2
                 } else {
                     atom_types as usize
                 };
@@ -371,6 +387,7 @@ fn fields<'a>(
 /// The lines of the file with their 1-based numbers, comments (`#`) removed.
 struct Lines<'a> {
     path: &'a Path,
+    max_lines: usize,
     inner: std::iter::Peekable<std::iter::Enumerate<std::str::Lines<'a>>>,
 }
 
@@ -378,6 +395,7 @@ impl<'a> Lines<'a> {
     fn new(path: &'a Path, text: &'a str) -> Self {
         Lines {
             path,
+            max_lines: text.lines().count(),
             inner: text.lines().enumerate().peekable(),
         }
     }
@@ -404,7 +422,7 @@ impl<'a> Lines<'a> {
 
     /// The `count` entries of section `name`: non-blank lines after the keyword.
     fn entries(&mut self, count: usize, name: &str) -> Result<Vec<(usize, &'a str)>, InputError> {
-        let mut out = Vec::with_capacity(count);
+        let mut out = Vec::with_capacity(count.min(self.max_lines));
         while out.len() < count {
             match self.next_content() {
                 Some((no, line)) if is_section(line) => {

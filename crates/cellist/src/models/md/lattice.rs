@@ -93,13 +93,22 @@ pub fn lattice<const D: usize>(
         return Err("lattice cells must be >= 1 along every axis".into());
     }
     let basis = kind.basis();
+    let total = cells
+        .iter()
+        .try_fold(basis.len(), |acc, &c| acc.checked_mul(c))
+        .filter(|&t| t < u32::MAX as usize)
+        .ok_or_else(|| {
+            format!(
+                "{cells:?} cells of {} atoms are more than 2^32 - 1 atoms",
+                basis.len()
+            )
+        })?;
     let aspect = kind.aspect();
     let unit_volume: f64 = aspect[..D].iter().product();
     let a = (basis.len() as f64 / (density * unit_volume)).powf(1.0 / D as f64);
     let side: [f64; D] = std::array::from_fn(|d| a * aspect[d]);
     let length: [f64; D] = std::array::from_fn(|d| cells[d] as f64 * side[d]);
     let domain = Domain::periodic(length).map_err(|e| e.to_string())?;
-    let total = cells.iter().product::<usize>() * basis.len();
     let mut points = Vec::with_capacity(total);
     let mut cell = [0usize; D];
     for _ in 0..total / basis.len() {
