@@ -4,30 +4,16 @@
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 
-fn cellist(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_cellist"))
-        .args(args)
-        .output()
-        .expect("cellist runs")
-}
+mod common;
+use common::{cellist, shared_testdata};
 
 fn text(bytes: &[u8]) -> String {
     String::from_utf8(bytes.to_vec()).unwrap()
 }
 
 fn lammps_data() -> Option<PathBuf> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/testdata/lammps");
-    if dir.is_dir() {
-        Some(dir)
-    } else {
-        eprintln!(
-            "skipped: {} is absent (the shared test data sits beside the project)",
-            dir.display()
-        );
-        None
-    }
+    shared_testdata("lammps")
 }
 
 fn data_2d() -> PathBuf {

@@ -1,14 +1,10 @@
 //! End-to-end runs of `cellist neighbors` and `cellist bench neighbors`.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 
-fn cellist(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_cellist"))
-        .args(args)
-        .output()
-        .expect("cellist runs")
-}
+mod common;
+use common::{cellist, shared_testdata};
 
 fn stdout(o: &Output) -> String {
     String::from_utf8(o.stdout.clone()).unwrap()
@@ -19,16 +15,7 @@ fn stderr(o: &Output) -> String {
 }
 
 fn testdata() -> Option<PathBuf> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/testdata/neighbors");
-    if dir.is_dir() {
-        Some(dir)
-    } else {
-        eprintln!(
-            "skipped: {} is absent (the shared test data sits beside the project)",
-            dir.display()
-        );
-        None
-    }
+    shared_testdata("neighbors")
 }
 
 /// The box side from the header `... L=<value> ...`.

@@ -295,18 +295,19 @@ impl<const D: usize> MdSystem<D> {
 
     fn check_overlaps(&self) -> Result<(), MdError> {
         for i in 0..self.list.len() {
-            let (js, images) = self.list.row(i);
-            for (&j, &image) in js.iter().zip(images) {
-                let xi = &self.atoms.positions[i];
-                let xj = &self.atoms.positions[j as usize];
-                let s = self.list.image_shift(image);
-                let d: [f64; D] = std::array::from_fn(|a| xi[a] - (xj[a] + s[a]));
-                if norm2(&d) == 0.0 {
-                    return Err(MdError::Overlap {
-                        first: self.atoms.ids[i].min(self.atoms.ids[j as usize]),
-                        second: self.atoms.ids[i].max(self.atoms.ids[j as usize]),
-                    });
-                }
+            let mut twin = None;
+            self.list
+                .for_each_in_row(i, &self.atoms.positions, |j, _, r2| {
+                    if r2 == 0.0 && twin.is_none() {
+                        twin = Some(j);
+                    }
+                });
+            if let Some(j) = twin {
+                let (a, b) = (self.atoms.ids[i], self.atoms.ids[j]);
+                return Err(MdError::Overlap {
+                    first: a.min(b),
+                    second: a.max(b),
+                });
             }
         }
         Ok(())

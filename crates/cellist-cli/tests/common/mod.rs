@@ -1,0 +1,28 @@
+//! Helpers shared by the end-to-end tests.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+/// Runs the built `cellist` binary.
+pub fn cellist(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_cellist"))
+        .args(args)
+        .output()
+        .expect("cellist runs")
+}
+
+/// `../shared/testdata/<name>`, or `None` with a message when it is absent.
+pub fn shared_testdata(name: &str) -> Option<PathBuf> {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../../shared/testdata")
+        .join(name);
+    if dir.is_dir() {
+        Some(dir)
+    } else {
+        eprintln!(
+            "skipped: {} is absent (the shared test data sits beside the project)",
+            dir.display()
+        );
+        None
+    }
+}
