@@ -44,7 +44,7 @@ impl Threads {
     /// count), so that per-chunk results concatenated in order are the same for any
     /// number of threads.
     pub fn chunks(n: usize) -> impl IndexedParallelIterator<Item = std::ops::Range<usize>> {
-        const MIN_CHUNK: usize = 64;
+        const MIN_CHUNK: usize = 16;
         const MAX_CHUNKS: usize = 1024;
         let size = n.div_ceil(MAX_CHUNKS).max(MIN_CHUNK);
         (0..n.div_ceil(size))
@@ -58,12 +58,23 @@ pub fn concat_in_order<T: Copy + Send + Sync>(parts: Vec<Vec<T>>) -> Vec<T> {
     if parts.len() == 1 {
         return parts.into_iter().next().unwrap_or_default();
     }
-    let total = parts.iter().map(Vec::len).sum();
-    let mut out: Vec<T> = crate::memory::large_vec(total);
+    let mut out = Vec::new();
+    concat_into(&mut out, &parts);
+    out
+}
+
+/// Replaces the contents of `out` by the parts in order (copied in parallel),
+/// reusing its memory when it has room.
+pub fn concat_into<T: Copy + Send + Sync, P: AsRef<[T]> + Sync>(out: &mut Vec<T>, parts: &[P]) {
+    let total = parts.iter().map(|p| p.as_ref().len()).sum();
+    out.clear();
+    if out.capacity() < total {
+        *out = crate::memory::large_vec(total);
+    }
     let mut slots: Vec<&mut [MaybeUninit<T>]> = Vec::with_capacity(parts.len());
     let mut rest = &mut out.spare_capacity_mut()[..total];
-    for p in &parts {
-        let (head, tail) = rest.split_at_mut(p.len());
+    for p in parts {
+        let (head, tail) = rest.split_at_mut(p.as_ref().len());
         slots.push(head);
         rest = tail;
     }
@@ -71,13 +82,12 @@ pub fn concat_in_order<T: Copy + Send + Sync>(parts: Vec<Vec<T>>) -> Vec<T> {
         .into_par_iter()
         .zip(parts.par_iter())
         .for_each(|(slot, part)| {
-            for (s, v) in slot.iter_mut().zip(part) {
+            for (s, v) in slot.iter_mut().zip(part.as_ref()) {
                 s.write(*v);
             }
         });
     // SAFETY: the slots cover out[0..total] exactly and every one was written above.
     unsafe { out.set_len(total) };
-    out
 }
 
 /// A mutable slice shared by threads that promise to touch disjoint elements.
@@ -151,5 +161,8 @@ mod tests {
         let parts = vec![vec![1, 2], vec![], vec![3], vec![4, 5, 6]];
         assert_eq!(concat_in_order(parts), vec![1, 2, 3, 4, 5, 6]);
         assert_eq!(concat_in_order::<u8>(vec![]), Vec::<u8>::new());
+        let mut out = vec![9; 100];
+        concat_into(&mut out, &[vec![7], vec![8, 9]]);
+        assert_eq!(out, vec![7, 8, 9]);
     }
 }

@@ -6,7 +6,10 @@
 //!   (every pair is evaluated twice);
 //! - coloured passes: anchor cells are split into colours such that the blocks
 //!   `anchor + {0, 1}^D` of one colour are disjoint; each pass runs one colour in
-//!   parallel, each pair once, updating both particles (Newton's third law).
+//!   parallel, each pair once, updating both particles (Newton's third law);
+//! - layers with a halo (over a half Verlet list): every cell layer runs at once,
+//!   writing its own particles directly and the next layer's into a halo buffer
+//!   that only it writes, added afterwards (Newton's third law, one pass).
 
 use super::cell_list::CellList;
 use super::grid::StencilKind;
@@ -151,70 +154,55 @@ pub fn scatter_verlet_serial<const D: usize, K: PairKernel<D>>(
     }
 }
 
-/// Slabs of cell layers along the last axis (z in 3D, y in 2D) and their colours,
-/// for Newton's-third-law sums over a half Verlet list in parallel.
+/// The cell layers along the last axis (z in 3D, y in 2D), for Newton's-third-law
+/// sums over a half Verlet list in parallel.
 ///
-/// Cells are numbered with the last axis slowest, so a layer of cells, and a slab of
-/// consecutive layers, is one contiguous range of slots. The half stencil reaches
-/// only the last-axis offsets 0 and +1, so the rows of a slab write only to that
-/// slab and the next one (cyclically on a periodic axis). A slab is one layer,
-/// except on a periodic axis with an odd layer count `M >= 3`, where the last two
-/// layers form one slab: the slab count is then even and two colours (slab parity)
-/// keep same-colour slabs apart. One colour's slabs write disjoint slots and run in
-/// parallel; colours run one after another. Slabs and colours depend only on the
-/// grid, never on the thread count, so every sum runs in a fixed order.
+/// Cells are numbered with the last axis slowest, so a layer of cells is one
+/// contiguous range of slots. The half stencil reaches only the last-axis offsets 0
+/// and +1, so the rows of layer `z` write only to layer `z` and to the next one
+/// (cyclically on a periodic axis). All layers run at once: layer `z` adds to the
+/// forces of its own slots directly and to those of layer `z + 1` in a separate
+/// halo buffer, each slot of which only layer `z` writes; the halo is then added to
+/// the forces, `f_j = (own rows' sum) + (previous layer's sum)`. Layers depend only
+/// on the grid, never on the thread count, so every sum runs in a fixed order.
 #[derive(Clone, Debug, Default)]
 pub struct LayerPlan {
     bounds: Vec<usize>,
-    colours: Vec<Vec<usize>>,
     wraps: bool,
 }
 
 impl LayerPlan {
-    /// The slabs of `cells` as binned now (make a new plan after every rebin).
+    /// The layers of `cells` as binned now (make a new plan after every rebin).
     pub fn new<const D: usize>(cells: &CellList<D>) -> Self {
         let dims = cells.grid().dims();
         let layers = dims[D - 1];
-        let wraps = cells.domain().is_periodic(D - 1) && layers > 1;
-        let slabs = if wraps && layers % 2 == 1 {
-            layers - 1
-        } else {
-            layers
-        };
-        let colours = if slabs == 1 {
-            vec![vec![0]]
-        } else {
-            vec![
-                (0..slabs).step_by(2).collect(),
-                (1..slabs).step_by(2).collect(),
-            ]
-        };
         let per_layer: usize = dims[..D - 1].iter().product();
         let start = cells.cell_start();
-        let mut bounds: Vec<usize> = (0..slabs).map(|z| start[z * per_layer] as usize).collect();
+        let mut bounds: Vec<usize> = (0..layers).map(|z| start[z * per_layer] as usize).collect();
         bounds.push(cells.len());
         LayerPlan {
             bounds,
-            colours,
-            wraps,
+            // a single periodic layer wraps onto itself: its writes are all its own
+            wraps: cells.domain().is_periodic(D - 1) && layers > 1,
         }
     }
 
-    /// Number of slabs.
+    /// Number of layers.
     pub fn num_layers(&self) -> usize {
         self.bounds.len() - 1
     }
 
-    /// Slots of slab `z`.
+    /// Slots of layer `z`.
     pub fn rows(&self, z: usize) -> Range<usize> {
         self.bounds[z]..self.bounds[z + 1]
     }
 
-    /// Slots the rows of slab `z` may write, slab `z` and the slab after it, as
-    /// `(first, count)` of a cyclic interval of the `n` slots.
-    fn reach(&self, z: usize) -> (usize, usize) {
-        let n = *self.bounds.last().expect("bounds has slabs + 1 entries");
+    /// Slots the rows of layer `z` may write: `(first, own, count)`, the cyclic
+    /// interval of `count` slots from `first`, of which the first `own` are layer
+    /// `z`'s and the rest the next layer's.
+    fn reach(&self, z: usize) -> (usize, usize, usize) {
         let first = self.bounds[z];
+        let own = self.bounds[z + 1] - first;
         let next = if z + 1 < self.num_layers() {
             self.rows(z + 1).len()
         } else if self.wraps {
@@ -222,18 +210,21 @@ impl LayerPlan {
         } else {
             0
         };
-        (first, (self.bounds[z + 1] - first + next).min(n))
+        (first, own, own + next)
     }
 }
 
 /// Write access to the forces of the slots one layer may reach (see [`LayerPlan`]):
-/// the cyclic interval of `count` slots from `first`.
+/// the cyclic interval of `count` slots from `first`, the first `own` of them in the
+/// forces and the rest in the halo.
 pub struct LayerForces<'s, 'a, const D: usize> {
-    shared: &'s DisjointSlice<'a, [f64; D]>,
+    forces: &'s DisjointSlice<'a, [f64; D]>,
+    halo: &'s DisjointSlice<'a, [f64; D]>,
     first: usize,
+    own: usize,
     count: usize,
     n: usize,
-    // not Sync: the task that owns the slab is the only thread that may write
+    // not Sync: the task that owns the layer is the only thread that may write
     _one_thread: std::marker::PhantomData<std::cell::Cell<()>>,
 }
 
@@ -251,9 +242,15 @@ impl<const D: usize> LayerForces<'_, '_, D> {
             offset < self.count && k < self.n,
             "slot {k} outside the layer's reach: not a half list of this cell list"
         );
-        // SAFETY: k lies in this layer or the next (checked above); no other task of
-        // this colour reaches them (LayerPlan), and the reference lives only here.
-        let f = unsafe { self.shared.get_unchecked(k) };
+        let target = if offset < self.own {
+            self.forces
+        } else {
+            self.halo
+        };
+        // SAFETY: k lies in this layer (forces) or the next (halo), checked above; no
+        // other layer writes these elements (LayerPlan), and the reference lives only
+        // here.
+        let f = unsafe { target.get_unchecked(k) };
         for a in 0..D {
             f[a] += delta[a];
         }
@@ -267,41 +264,61 @@ impl<const D: usize> LayerForces<'_, '_, D> {
     }
 }
 
-/// Runs `work(rows, forces, tally)` once per layer of `plan`, layers of one colour
-/// in parallel and colours in order: the parallel form of a Newton's-third-law sum
-/// over the rows of a half Verlet list built on the cell list of `plan`.
-/// `tallies[z]` is layer `z`'s own accumulator (energies, virials), to be reduced in
-/// layer order by the caller.
+/// Runs `work(rows, forces, tally)` once per layer of `plan`, all layers in
+/// parallel, then adds the halo to the forces: the parallel form of a
+/// Newton's-third-law sum over the rows of a half Verlet list built on the cell list
+/// of `plan`. `halo` is scratch (resized and zeroed here). `tallies[z]` is layer
+/// `z`'s own accumulator (energies, virials), to be reduced in layer order by the
+/// caller.
 pub fn scatter_half_rows<const D: usize, T: Send>(
     plan: &LayerPlan,
     forces: &mut [[f64; D]],
+    halo: &mut Vec<[f64; D]>,
     tallies: &mut [T],
     threads: &Threads,
     work: impl Fn(Range<usize>, &LayerForces<D>, &mut T) + Sync,
 ) {
     assert_eq!(tallies.len(), plan.num_layers());
-    assert_eq!(forces.len(), plan.bounds.last().copied().unwrap_or(0));
     let n = forces.len();
-    let shared = DisjointSlice::new(forces);
-    let tallies = DisjointSlice::new(tallies);
+    assert_eq!(n, plan.bounds.last().copied().unwrap_or(0));
+    halo.clear();
+    halo.resize(n, [0.0; D]);
     threads.install(|| {
-        for layers in &plan.colours {
-            layers.par_iter().for_each(|&z| {
-                let (first, count) = plan.reach(z);
+        {
+            let shared = DisjointSlice::new(forces);
+            let shared_halo = DisjointSlice::new(halo);
+            let tallies = DisjointSlice::new(tallies);
+            (0..plan.num_layers()).into_par_iter().for_each(|z| {
+                let (first, own, count) = plan.reach(z);
                 let access = LayerForces {
-                    shared: &shared,
+                    forces: &shared,
+                    halo: &shared_halo,
                     first,
+                    own,
                     count,
                     n,
                     _one_thread: std::marker::PhantomData,
                 };
-                // SAFETY: each layer appears in exactly one colour, once.
+                // SAFETY: each layer index is visited once.
                 let tally = unsafe { tallies.get(z) };
                 work(plan.rows(z), &access, tally);
             });
         }
+        forces
+            .par_chunks_mut(HALO_CHUNK)
+            .zip(halo.par_chunks(HALO_CHUNK))
+            .for_each(|(f, h)| {
+                for (f, h) in f.iter_mut().zip(h) {
+                    for a in 0..D {
+                        f[a] += h[a];
+                    }
+                }
+            });
     });
 }
+
+/// Slots per task when the halo is added to the forces.
+const HALO_CHUNK: usize = 4096;
 
 #[cfg(test)]
 mod tests {
@@ -324,35 +341,57 @@ mod tests {
     }
 
     #[test]
-    fn slabs_and_colours_keep_same_colour_writes_apart() {
+    fn every_slot_has_one_direct_writer_and_at_most_one_halo_writer() {
         for layers in 1..=9 {
             // one periodic layer would be narrower than twice the cutoff
             for periodic in [layers > 1, false] {
                 let plan = plan_for(layers, periodic);
+                assert_eq!(plan.num_layers(), layers);
                 let n = 4 * layers;
-                let mut seen = vec![0; plan.num_layers()];
-                for colour in &plan.colours {
-                    let mut written = vec![false; n];
-                    for &z in colour {
-                        seen[z] += 1;
-                        let (first, count) = plan.reach(z);
-                        for k in 0..count {
-                            let slot = (first + k) % n;
-                            assert!(!written[slot], "{layers} layers, periodic {periodic}: slot {slot} twice in one colour");
-                            written[slot] = true;
+                let mut direct = vec![0; n];
+                let mut halo = vec![0; n];
+                for z in 0..plan.num_layers() {
+                    let (first, own, count) = plan.reach(z);
+                    assert_eq!(plan.rows(z), first..first + own);
+                    for k in 0..count {
+                        let slot = (first + k) % n;
+                        if k < own {
+                            direct[slot] += 1;
+                        } else {
+                            halo[slot] += 1;
                         }
                     }
                 }
-                assert!(
-                    seen.iter().all(|&c| c == 1),
-                    "every slab in exactly one colour"
-                );
-                assert!(plan.colours.len() <= 2);
-                // a periodic axis with 11 layers: 10 slabs, 5 per colour
-                if periodic && layers > 1 {
-                    assert_eq!(plan.num_layers() % 2, 0);
-                }
+                assert!(direct.iter().all(|&c| c == 1), "{layers} {periodic}");
+                assert!(halo.iter().all(|&c| c <= 1), "{layers} {periodic}");
             }
+        }
+    }
+
+    #[test]
+    fn halo_writes_reach_the_forces_for_any_thread_count() {
+        let plan = plan_for(5, true);
+        for threads in [Threads::single(), Threads::new(2).unwrap()] {
+            let mut forces = vec![[0.0; 2]; 20];
+            let mut halo = Vec::new();
+            let mut tallies = vec![0usize; plan.num_layers()];
+            scatter_half_rows(
+                &plan,
+                &mut forces,
+                &mut halo,
+                &mut tallies,
+                &threads,
+                |rows, f, rows_seen| {
+                    for i in rows {
+                        // to the row itself and to the same place one layer on
+                        f.add(i, &[1.0, 0.0]);
+                        f.sub((i + 4) % 20, &[0.0, 1.0]);
+                        *rows_seen += 1;
+                    }
+                },
+            );
+            assert!(forces.iter().all(|f| *f == [1.0, -1.0]));
+            assert_eq!(tallies, vec![4; 5]);
         }
     }
 
@@ -365,6 +404,7 @@ mod tests {
         scatter_half_rows(
             &plan,
             &mut forces,
+            &mut Vec::new(),
             &mut tallies,
             &Threads::single(),
             |rows, f, _| {

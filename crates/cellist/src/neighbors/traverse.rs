@@ -41,18 +41,14 @@ impl CutoffTest {
 
 const BLOCK: usize = 64;
 
-/// The per-block buffers of [`scan`], made once per home cell rather than per scan.
+/// The per-block buffer of [`scan`], made once per home cell rather than per scan.
 pub struct ScanScratch {
     r2s: [f64; BLOCK],
-    hits: [u8; BLOCK],
 }
 
 impl Default for ScanScratch {
     fn default() -> Self {
-        ScanScratch {
-            r2s: [0.0; BLOCK],
-            hits: [0; BLOCK],
-        }
+        ScanScratch { r2s: [0.0; BLOCK] }
     }
 }
 
@@ -62,8 +58,8 @@ impl Default for ScanScratch {
 /// the minimum image `d - L round(d / L)` of a brute-force search forms it, so both
 /// agree to the last bit for particles inside the box.
 ///
-/// The loop is branch-free: it computes `r^2` for a block of candidates and compacts
-/// the indices of those not surely outside, then visits them (with the exact test
+/// The loop is branch-free: it computes `r^2` for a block of 64 candidates and a bit
+/// mask of those not surely outside, then visits the set bits (with the exact test
 /// near the cutoff), because about one candidate in six is a neighbour and a
 /// data-dependent branch per candidate would be mispredicted.
 #[inline(always)]
@@ -76,7 +72,7 @@ pub fn scan<const D: usize, const SHIFTED: bool>(
     test: &CutoffTest,
     mut visit: impl FnMut(usize, &[f64; D], f64),
 ) {
-    let ScanScratch { r2s, hits } = scratch;
+    let ScanScratch { r2s } = scratch;
     let mut start = candidates.start;
     while start < candidates.end {
         let len = (candidates.end - start).min(BLOCK);
@@ -89,14 +85,15 @@ pub fn scan<const D: usize, const SHIFTED: bool>(
                 *r2 = if a == 0 { d * d } else { *r2 + d * d };
             }
         }
-        let mut n = 0;
+        let mut mask = 0u64;
         for (k, &r2) in r2s.iter().enumerate() {
-            hits[n] = k as u8;
-            n += (r2 < test.surely_outside) as usize;
+            mask |= ((r2 < test.surely_outside) as u64) << k;
         }
-        for &k in &hits[..n] {
-            let j = start + k as usize;
-            let r2 = r2s[k as usize];
+        while mask != 0 {
+            let k = mask.trailing_zeros() as usize;
+            mask &= mask - 1;
+            let j = start + k;
+            let r2 = r2s[k];
             if test.accepts(r2) {
                 let d: [f64; D] = std::array::from_fn(|a| {
                     let xj = columns[a][j];

@@ -6,7 +6,7 @@ use super::grid::StencilKind;
 use super::pairs::expected_pairs;
 use super::traverse::{for_each_row_in_cell, CutoffTest};
 use crate::geometry::norm2;
-use crate::threads::{concat_in_order, Threads};
+use crate::threads::{concat_into, Threads};
 use rayon::prelude::*;
 
 /// A neighbour list in compressed-sparse-row form over the sorted slots of a
@@ -29,6 +29,16 @@ pub struct VerletList<const D: usize> {
     images: Vec<u8>,
     image_shifts: Vec<[f64; D]>,
     reference: Vec<[f64; D]>,
+    chunks: Vec<ChunkRows>,
+}
+
+/// The rows of one chunk of home cells, as found by one task of a build; kept
+/// between builds for their memory.
+#[derive(Clone, Debug, Default)]
+struct ChunkRows {
+    lengths: Vec<u32>,
+    neighbors: Vec<u32>,
+    images: Vec<u8>,
 }
 
 impl<const D: usize> VerletList<D> {
@@ -43,68 +53,82 @@ impl<const D: usize> VerletList<D> {
         threads: &Threads,
     ) -> Self {
         assert!(skin >= 0.0, "skin must be >= 0");
-        let reach = cutoff + skin;
+        let mut list = VerletList {
+            kind,
+            cutoff,
+            test: CutoffTest::new(cutoff),
+            skin,
+            start: Vec::new(),
+            neighbors: Vec::new(),
+            images: Vec::new(),
+            image_shifts: Vec::new(),
+            reference: Vec::new(),
+            chunks: Vec::new(),
+        };
+        list.rebuild(cells, threads);
+        list
+    }
+
+    /// Builds the list anew for the particles of `cells` as binned now, reusing the
+    /// memory of the previous build (no allocation once the list has reached its
+    /// size).
+    pub fn rebuild(&mut self, cells: &CellList<D>, threads: &Threads) {
+        let reach = self.cutoff + self.skin;
         assert!(
             reach <= cells.cutoff(),
             "cutoff + skin {reach} above the cell list's {}",
             cells.cutoff()
         );
         let test = CutoffTest::new(reach);
+        let kind = self.kind;
         let grid = cells.grid();
         let per_slot = match kind {
             StencilKind::Half => 1.0,
             StencilKind::Full => 2.0,
         } * expected_pairs(cells, reach) as f64
             / cells.len().max(1) as f64;
-        type Part = (Vec<u32>, Vec<u32>, Vec<u8>);
-        let parts: Vec<Part> = threads.install(|| {
-            Threads::chunks(grid.num_cells())
-                .map(|range| {
+        let ranges = Threads::chunks(grid.num_cells());
+        self.chunks.resize_with(ranges.len(), ChunkRows::default);
+        threads.install(|| {
+            ranges
+                .zip(self.chunks.par_iter_mut())
+                .for_each(|(range, chunk)| {
                     let first_slot = cells.cell_range(range.start).start;
                     let last_slot = cells.cell_range(range.end - 1).end;
-                    let mut lengths = vec![0u32; last_slot - first_slot];
+                    chunk.lengths.clear();
+                    chunk.lengths.resize(last_slot - first_slot, 0);
+                    chunk.neighbors.clear();
+                    chunk.images.clear();
                     let capacity = (per_slot * (last_slot - first_slot) as f64) as usize;
-                    let mut neighbors = Vec::with_capacity(capacity);
-                    let mut images = Vec::with_capacity(capacity);
+                    chunk.neighbors.reserve(capacity);
+                    chunk.images.reserve(capacity);
                     for home in range {
                         for_each_row_in_cell(cells, home, kind, &test, |i, j, image, _, _| {
-                            lengths[i - first_slot] += 1;
-                            neighbors.push(j as u32);
-                            images.push(image);
+                            chunk.lengths[i - first_slot] += 1;
+                            chunk.neighbors.push(j as u32);
+                            chunk.images.push(image);
                         });
                     }
-                    (lengths, neighbors, images)
-                })
-                .collect()
+                });
         });
-        let mut lengths = Vec::with_capacity(cells.len());
-        let mut neighbor_parts = Vec::with_capacity(parts.len());
-        let mut image_parts = Vec::with_capacity(parts.len());
-        for (l, n, im) in parts {
-            lengths.extend(l);
-            neighbor_parts.push(n);
-            image_parts.push(im);
-        }
-        let mut start = Vec::with_capacity(lengths.len() + 1);
-        start.push(0);
+        self.start.clear();
+        self.start.push(0);
         let mut total = 0usize;
-        for l in lengths {
+        for &l in self.chunks.iter().flat_map(|c| &c.lengths) {
             total += l as usize;
-            start.push(total);
+            self.start.push(total);
         }
-        VerletList {
-            kind,
-            cutoff,
-            test: CutoffTest::new(cutoff),
-            skin,
-            start,
-            neighbors: concat_in_order(neighbor_parts),
-            images: concat_in_order(image_parts),
-            image_shifts: (0..3u8.pow(D as u32))
-                .map(|c| grid.image_shift(c))
-                .collect(),
-            reference: cells.positions().to_vec(),
-        }
+        let neighbor_parts: Vec<&[u32]> = self.chunks.iter().map(|c| &c.neighbors[..]).collect();
+        let image_parts: Vec<&[u8]> = self.chunks.iter().map(|c| &c.images[..]).collect();
+        threads.install(|| {
+            concat_into(&mut self.neighbors, &neighbor_parts);
+            concat_into(&mut self.images, &image_parts);
+        });
+        self.image_shifts.clear();
+        self.image_shifts
+            .extend((0..3u8.pow(D as u32)).map(|c| grid.image_shift(c)));
+        self.reference.clear();
+        self.reference.extend_from_slice(cells.positions());
     }
 
     /// Half or full.

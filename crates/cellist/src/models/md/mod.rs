@@ -1,6 +1,7 @@
 //! Molecular dynamics: atoms with a pair potential, summed once per pair (Newton's
-//! third law) over a half Verlet list, in parallel without atomics by colouring the
-//! cell layers ([`LayerPlan`]), and advanced by an [`Integrator`].
+//! third law) over a half Verlet list, in parallel without atomics by cell layers
+//! that write the next layer through a halo ([`LayerPlan`]), and advanced by an
+//! [`Integrator`].
 //!
 //! One step (LAMMPS's order, so that trajectories compare with LAMMPS's):
 //! ```text
@@ -167,6 +168,7 @@ pub struct MdSystem<const D: usize> {
     list: VerletList<D>,
     layers: LayerPlan,
     tallies: Vec<PairTally>,
+    halo: Vec<[f64; D]>,
     totals: Option<PairTally>,
     scratch: Atoms<D>,
     rebuilds: u64,
@@ -197,6 +199,7 @@ impl<const D: usize> MdSystem<D> {
             list: VerletList::build(&cells, StencilKind::Half, potential.cutoff(), skin, threads),
             layers: LayerPlan::new(&cells),
             tallies: Vec::new(),
+            halo: Vec::new(),
             cells,
             atoms,
             potential,
@@ -272,13 +275,7 @@ impl<const D: usize> MdSystem<D> {
     fn rebuild(&mut self, threads: &Threads) {
         self.cells.rebin(&self.atoms.positions);
         self.adopt_cell_order();
-        self.list = VerletList::build(
-            &self.cells,
-            StencilKind::Half,
-            self.potential.cutoff(),
-            self.skin,
-            threads,
-        );
+        self.list.rebuild(&self.cells, threads);
         self.layers = LayerPlan::new(&self.cells);
         self.rebuilds += 1;
     }
@@ -324,7 +321,12 @@ impl<const D: usize> MdSystem<D> {
             positions: &self.atoms.positions,
         };
         if energy {
-            args.run::<true>(&mut self.atoms.forces, &mut self.tallies, threads);
+            args.run::<true>(
+                &mut self.atoms.forces,
+                &mut self.halo,
+                &mut self.tallies,
+                threads,
+            );
             let mut totals = PairTally::default();
             for t in &self.tallies {
                 totals.energy += t.energy;
@@ -332,7 +334,12 @@ impl<const D: usize> MdSystem<D> {
             }
             self.totals = Some(totals);
         } else {
-            args.run::<false>(&mut self.atoms.forces, &mut self.tallies, threads);
+            args.run::<false>(
+                &mut self.atoms.forces,
+                &mut self.halo,
+                &mut self.tallies,
+                threads,
+            );
             self.totals = None;
         }
     }
@@ -438,44 +445,94 @@ struct PairArgs<'a, const D: usize, P> {
     positions: &'a [[f64; D]],
 }
 
+/// Entries of a Verlet row handled together by the pair loop: gathered, then computed
+/// in straight-line (vectorisable) code, then scattered.
+const PAIR_BLOCK: usize = 16;
+
+/// One block of a row: separations `d = x_i - (x_j + shift)` by axis, then the pair
+/// force components and, for the energy, `U` and `-U'/r`.
+struct PairBlock<const D: usize> {
+    d: [[f64; PAIR_BLOCK]; D],
+    f: [[f64; PAIR_BLOCK]; D],
+    energy: [f64; PAIR_BLOCK],
+    f_over_r: [f64; PAIR_BLOCK],
+    r2: [f64; PAIR_BLOCK],
+}
+
+impl<const D: usize> Default for PairBlock<D> {
+    fn default() -> Self {
+        // the lanes beyond a short block are computed but never scattered; start
+        // them at a finite, nonzero separation
+        PairBlock {
+            d: [[1.0; PAIR_BLOCK]; D],
+            f: [[0.0; PAIR_BLOCK]; D],
+            energy: [0.0; PAIR_BLOCK],
+            f_over_r: [0.0; PAIR_BLOCK],
+            r2: [0.0; PAIR_BLOCK],
+        }
+    }
+}
+
 impl<const D: usize, P: PairPotential> PairArgs<'_, D, P> {
     /// `f_i += sum_j f_ij`, `f_j -= f_ij` over the half list, `f_ij = (-U'/r)(x_i - x_j)`
     /// for `r^2 < r_c^2`; with `ENERGY`, each layer's `U` and `W` in `tallies`.
     fn run<const ENERGY: bool>(
         &self,
         forces: &mut [[f64; D]],
+        halo: &mut Vec<[f64; D]>,
         tallies: &mut [PairTally],
         threads: &Threads,
     ) {
         let cutoff2 = self.potential.cutoff() * self.potential.cutoff();
         let (list, positions, potential) = (self.list, self.positions, self.potential);
-        scatter_half_rows(self.layers, forces, tallies, threads, |rows, f, tally| {
-            for i in rows {
-                let xi = positions[i];
-                let mut fi = [0.0; D];
-                let (js, images) = list.row(i);
-                for (&j, &image) in js.iter().zip(images) {
-                    let j = j as usize;
-                    let xj = &positions[j];
-                    let s = list.image_shift(image);
-                    let d: [f64; D] = std::array::from_fn(|a| xi[a] - (xj[a] + s[a]));
-                    let r2 = norm2(&d);
-                    // branch-free: list entries beyond the cutoff contribute exact zeros
-                    let inside = r2 < cutoff2;
-                    let (e, f_over_r) = potential.energy_and_force(r2);
-                    let f_over_r = if inside { f_over_r } else { 0.0 };
-                    let fij: [f64; D] = std::array::from_fn(|a| d[a] * f_over_r);
-                    for a in 0..D {
-                        fi[a] += fij[a];
+        scatter_half_rows(
+            self.layers,
+            forces,
+            halo,
+            tallies,
+            threads,
+            |rows, f, tally| {
+                let mut b = PairBlock::<D>::default();
+                for i in rows {
+                    let xi = positions[i];
+                    let mut fi = [0.0; D];
+                    let (js, images) = list.row(i);
+                    for (jb, ib) in js.chunks(PAIR_BLOCK).zip(images.chunks(PAIR_BLOCK)) {
+                        for (k, (&j, &image)) in jb.iter().zip(ib).enumerate() {
+                            let xj = &positions[j as usize];
+                            let s = list.image_shift(image);
+                            for a in 0..D {
+                                b.d[a][k] = xi[a] - (xj[a] + s[a]);
+                            }
+                        }
+                        // branch-free: entries beyond the cutoff contribute exact zeros
+                        for k in 0..PAIR_BLOCK {
+                            let d: [f64; D] = std::array::from_fn(|a| b.d[a][k]);
+                            let r2 = norm2(&d);
+                            let (e, f_over_r) = potential.energy_and_force(r2);
+                            let f_over_r = if r2 < cutoff2 { f_over_r } else { 0.0 };
+                            for a in 0..D {
+                                b.f[a][k] = d[a] * f_over_r;
+                            }
+                            b.energy[k] = e;
+                            b.f_over_r[k] = f_over_r;
+                            b.r2[k] = r2;
+                        }
+                        for (k, &j) in jb.iter().enumerate() {
+                            let fij: [f64; D] = std::array::from_fn(|a| b.f[a][k]);
+                            for a in 0..D {
+                                fi[a] += fij[a];
+                            }
+                            f.sub(j as usize, &fij);
+                            if ENERGY && b.r2[k] < cutoff2 {
+                                tally.energy += b.energy[k];
+                                tally.virial += b.f_over_r[k] * b.r2[k];
+                            }
+                        }
                     }
-                    f.sub(j, &fij);
-                    if ENERGY && inside {
-                        tally.energy += e;
-                        tally.virial += f_over_r * r2;
-                    }
+                    f.add(i, &fi);
                 }
-                f.add(i, &fi);
-            }
-        });
+            },
+        );
     }
 }
