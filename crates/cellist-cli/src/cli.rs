@@ -21,6 +21,12 @@ pub enum Command {
     /// Print the neighbour list (pairs closer than a cutoff) of a point file.
     #[command(long_about = NEIGHBORS_HELP)]
     Neighbors(NeighborsArgs),
+    /// The hard-disk collision benchmark (seed 001): run, check, generate inputs.
+    Billiards {
+        /// What to do.
+        #[command(subcommand)]
+        which: BilliardsCommand,
+    },
     /// Measure speed on standard workloads.
     Bench {
         /// The workload.
@@ -108,6 +114,164 @@ pub enum BenchCommand {
     /// The LAMMPS Lennard-Jones melt (bench/in.lj): fcc 0.8442, T 3.0, cutoff 2.5,
     /// skin 0.3, dt 0.005, NVE, list rebuilt when an atom moved more than skin/2.
     Lj(BenchLjArgs),
+    /// Run a collision-benchmark input (.in) start to end, without output.
+    Billiards(BenchBilliardsArgs),
+}
+
+/// Flags of `cellist bench billiards`.
+#[derive(Args, Debug)]
+pub struct BenchBilliardsArgs {
+    /// The input file (.in).
+    pub input: PathBuf,
+    /// Worker threads.
+    #[arg(long, default_value_t = 1)]
+    pub threads: usize,
+    /// Steps to run (default: S from the input).
+    #[arg(long)]
+    pub steps: Option<u64>,
+    /// Timed repetitions (each from the input state); the median is reported.
+    #[arg(long, default_value_t = 5)]
+    pub repeat: usize,
+    /// Print one JSON object instead of text.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// The subcommands of `cellist billiards`.
+#[derive(Subcommand, Debug)]
+pub enum BilliardsCommand {
+    /// Simulate an input file and write the final state.
+    #[command(long_about = BILLIARDS_RUN_HELP)]
+    Run(BilliardsRunArgs),
+    /// Check a per-step trajectory as the course's grader does.
+    #[command(long_about = BILLIARDS_CHECK_HELP)]
+    Check(BilliardsCheckArgs),
+    /// Write a random input file.
+    #[command(long_about = BILLIARDS_GEN_HELP)]
+    Gen(BilliardsGenArgs),
+}
+
+const BILLIARDS_RUN_HELP: &str = "\
+Simulate a collision-benchmark input (.in: N, L, r, S, then `i x y vx vy` per \
+particle) for S steps and write the final state.
+
+Each step moves every disc by its velocity, then resolves wall and disc collisions \
+with positions frozen until none is left, in the canonical order of SPEC.md \
+(../shared/testdata/billiards/): walls in vector order, then overlapping pairs in \
+lexicographic order, repeated until a sweep changes nothing. Only the candidates \
+are visited (found on a grid) and each connected group of overlapping discs is \
+resolved on its own, groups in parallel; the result is the same bits for any \
+thread count.
+
+Output: `S i x y vx vy` per particle, with 8 decimals (--format out) or the 16 hex \
+digits of each IEEE-754 value (--format bits), to standard output or --output. \
+--viz writes every step 1..S in the same format (the course validator's \
+visualisation file with --format out). --gif animates the discs coloured by speed; \
+--png draws the last step. A summary goes to standard error.";
+
+const BILLIARDS_CHECK_HELP: &str = "\
+Check a per-step trajectory (steps 1, 2, ... in order, N lines `step i x y vx vy` \
+each, in fixed decimals or bit patterns) against its input, as the course's grader \
+does (SPEC.md section 6): ids, positions moved by the previous velocity, energy per \
+group of touching discs, momentum per group away from the walls, no collision left, \
+with tolerances 1e-4 (absolute and relative). Any valid resolution order passes.
+
+Prints one line: `OK: K steps pass` (exit 0), or `FAIL at step k: <check>: <what>` \
+naming the particle or group (exit 1).";
+
+const BILLIARDS_GEN_HELP: &str = "\
+Write a random input file: N discs of radius R in a box of side L, S steps, each \
+velocity component uniform in [VMIN, VMAX].
+
+By default no disc overlaps another or a wall (one disc per square of side > 2R, \
+at a random place inside it; at most density pi/4). With --overlaps, x and y are \
+uniform in [0, L) as in the course's generator, which made its large inputs: \
+overlaps are then normal. Values are written with enough digits to read back \
+exactly.";
+
+/// Flags of `cellist billiards run`.
+#[derive(Args, Debug)]
+pub struct BilliardsRunArgs {
+    /// The input file (.in).
+    pub input: PathBuf,
+    /// Worker threads (default: every core); the output does not depend on it.
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Steps to run (default: S from the input).
+    #[arg(long)]
+    pub steps: Option<u64>,
+    /// Write the final state here instead of standard output.
+    #[arg(long)]
+    pub output: Option<PathBuf>,
+    /// `out`: 8 decimals; `bits`: IEEE-754 bit patterns (for exact comparison).
+    #[arg(long, value_enum, default_value_t = StateFormatArg::Out)]
+    pub format: StateFormatArg,
+    /// Also write every step 1..S to this file (same format).
+    #[arg(long)]
+    pub viz: Option<PathBuf>,
+    /// Animate the run as a GIF (discs coloured by speed).
+    #[arg(long)]
+    pub gif: Option<PathBuf>,
+    /// Draw the last step as a PNG.
+    #[arg(long)]
+    pub png: Option<PathBuf>,
+    /// A GIF frame every this many steps (default: about 200 frames in all).
+    #[arg(long)]
+    pub frame_every: Option<u64>,
+    /// Side of the pictures in pixels.
+    #[arg(long, default_value_t = 600)]
+    pub picture_size: u32,
+    /// Stop when one step needs more sweeps than this.
+    #[arg(long, default_value_t = cellist::models::billiards::DEFAULT_MAX_SWEEPS)]
+    pub max_sweeps: u64,
+}
+
+/// The state formats of `cellist billiards run`.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StateFormatArg {
+    /// `step i x y vx vy` with 8 decimals.
+    Out,
+    /// `step i` and the 16 hex digits of each value's bit pattern.
+    Bits,
+}
+
+/// Flags of `cellist billiards check`.
+#[derive(Args, Debug)]
+pub struct BilliardsCheckArgs {
+    /// The input file (.in) the trajectory started from.
+    pub input: PathBuf,
+    /// The trajectory: every step 1..K.
+    pub trajectory: PathBuf,
+    /// Worker threads (default: every core).
+    #[arg(long)]
+    pub threads: Option<usize>,
+}
+
+/// Flags of `cellist billiards gen`.
+#[derive(Args, Debug)]
+#[command(allow_negative_numbers = true)]
+pub struct BilliardsGenArgs {
+    /// Number of discs.
+    pub n: usize,
+    /// Side of the box (an integer).
+    pub l: i64,
+    /// Radius of the discs (an integer).
+    pub r: i64,
+    /// Number of steps to write in the file.
+    pub steps: u64,
+    /// Smallest velocity component.
+    pub vmin: f64,
+    /// Largest velocity component.
+    pub vmax: f64,
+    /// Seed of the random numbers.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Uniform positions in [0, L) as the course's generator (discs may overlap).
+    #[arg(long)]
+    pub overlaps: bool,
+    /// Write the input here instead of standard output.
+    #[arg(long)]
+    pub output: Option<PathBuf>,
 }
 
 /// Flags of `cellist bench lj`.

@@ -13,6 +13,9 @@ pub enum CliError {
     Internal(String),
     /// A simulation stopped: it blew up or left its box (exit status 1).
     Run(String),
+    /// A check found a fault: the verdict, printed as it is on standard output
+    /// (exit status 1).
+    Rejected(String),
 }
 
 impl CliError {
@@ -20,7 +23,10 @@ impl CliError {
     pub fn exit_code(&self) -> u8 {
         match self {
             CliError::Input(_) => 2,
-            CliError::Output(..) | CliError::Internal(_) | CliError::Run(_) => 1,
+            CliError::Output(..)
+            | CliError::Internal(_)
+            | CliError::Run(_)
+            | CliError::Rejected(_) => 1,
         }
     }
 
@@ -39,7 +45,7 @@ impl CliError {
 impl fmt::Display for CliError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            CliError::Input(m) | CliError::Run(m) => f.write_str(m),
+            CliError::Input(m) | CliError::Run(m) | CliError::Rejected(m) => f.write_str(m),
             CliError::Internal(m) => write!(f, "internal check failed (a bug in cellist): {m}"),
             CliError::Output(e, what) => write!(f, "cannot write {what}: {e}"),
         }

@@ -1,6 +1,7 @@
 //! `cellist`: the command-line tool of the cellist particle-simulation engine.
 
 mod bench;
+mod billiards;
 mod cli;
 mod error;
 mod md;
@@ -9,7 +10,8 @@ mod run;
 mod scenario;
 
 use clap::Parser;
-use cli::{BenchCommand, Cli, Command};
+use cli::{BenchCommand, BilliardsCommand, Cli, Command};
+use error::CliError;
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
@@ -17,14 +19,24 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Run(args) => run::run(&args),
         Command::Neighbors(args) => neighbors::run(&args),
+        Command::Billiards { which } => match which {
+            BilliardsCommand::Run(args) => billiards::run(&args),
+            BilliardsCommand::Check(args) => billiards::check(&args),
+            BilliardsCommand::Gen(args) => billiards::gen(&args),
+        },
         Command::Bench { which } => match which {
             BenchCommand::Neighbors(args) => bench::neighbors(&args),
             BenchCommand::Lj(args) => bench::lj(&args),
+            BenchCommand::Billiards(args) => billiards::bench(&args),
         },
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) if e.is_broken_pipe() => ExitCode::SUCCESS,
+        Err(CliError::Rejected(verdict)) => {
+            println!("{verdict}");
+            ExitCode::from(1)
+        }
         Err(e) => {
             eprintln!("error: {e}");
             ExitCode::from(e.exit_code())

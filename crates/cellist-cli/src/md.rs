@@ -522,7 +522,8 @@ fn print_header<const D: usize>(
     );
 }
 
-fn progress_bar(steps: u64) -> ProgressBar {
+/// A progress bar over `steps` steps (shown only where the caller decides).
+pub(crate) fn progress_bar(steps: u64) -> ProgressBar {
     let bar = ProgressBar::new(steps);
     bar.set_style(
         ProgressStyle::with_template("{bar:40.cyan/blue} {pos}/{len} steps  {per_sec}  eta {eta}")

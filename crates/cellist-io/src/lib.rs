@@ -4,6 +4,8 @@
 // Loops over the three axes index several per-axis arrays at once.
 #![allow(clippy::needless_range_loop)]
 
+pub mod billiards;
+pub mod disc_picture;
 pub mod dump;
 pub mod error;
 pub mod lammps_data;
@@ -11,6 +13,11 @@ pub mod output;
 pub mod plot;
 pub mod points;
 
+pub use billiards::{
+    parse_billiards_input, read_billiards_input, write_state, BilliardsInput, StateFormat,
+    TrajectoryReader, TrajectoryStep,
+};
+pub use disc_picture::{write_png, DiscPainter, GifAnimation};
 pub use dump::{write_lammps_frame, write_xyz_frame, Frame, DUMP_COLUMNS};
 pub use error::InputError;
 pub use lammps_data::{read_data, DataAtom, DataFile};

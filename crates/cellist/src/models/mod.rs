@@ -1,3 +1,4 @@
 //! Models: a state, one step, and the observables of each kind of particle system.
 
+pub mod billiards;
 pub mod md;

@@ -1,0 +1,588 @@
+//! End-to-end runs of `cellist billiards` and `cellist bench billiards` against the
+//! benchmark's golden files, its reference simulator and its validator.
+
+mod common;
+
+use cellist::models::billiards::{ContactGrid, Separation, Table};
+use cellist::Threads;
+use common::{cellist, shared_testdata};
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// The 15 public inputs, as `(dir__name, path)`.
+fn public_inputs(data: &Path) -> Vec<(String, PathBuf)> {
+    let mut inputs = Vec::new();
+    for dir in ["", "correctness", "small", "standard"] {
+        let folder = data.join("inputs").join(dir);
+        let mut names: Vec<PathBuf> = std::fs::read_dir(&folder)
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .filter(|p| p.extension().is_some_and(|e| e == "in"))
+            .collect();
+        names.sort();
+        for path in names {
+            let stem = path.file_stem().unwrap().to_string_lossy().to_string();
+            let key = if dir.is_empty() {
+                stem
+            } else {
+                format!("{dir}__{stem}")
+            };
+            inputs.push((key, path));
+        }
+    }
+    inputs
+}
+
+fn text(bytes: &[u8]) -> String {
+    String::from_utf8_lossy(bytes).into_owned()
+}
+
+#[test]
+fn final_states_equal_the_golden_bits_with_1_and_2_threads() {
+    let Some(data) = shared_testdata("billiards") else {
+        return;
+    };
+    let inputs = public_inputs(&data);
+    assert_eq!(inputs.len(), 15, "the 15 public inputs");
+    for (key, path) in inputs {
+        let golden = std::fs::read(data.join("golden").join(format!("{key}.final.bits"))).unwrap();
+        for threads in ["1", "2"] {
+            let out = cellist(&[
+                "billiards",
+                "run",
+                path.to_str().unwrap(),
+                "--format",
+                "bits",
+                "--threads",
+                threads,
+            ]);
+            assert!(out.status.success(), "{key}: {}", text(&out.stderr));
+            assert!(
+                out.stdout == golden,
+                "{key} on {threads} thread(s) differs from the golden bits"
+            );
+        }
+        let out = cellist(&["billiards", "run", path.to_str().unwrap()]);
+        let golden_out =
+            std::fs::read(data.join("golden").join(format!("{key}.final.out"))).unwrap();
+        assert!(
+            out.stdout == golden_out,
+            "{key}: the 8-decimal form differs"
+        );
+    }
+}
+
+/// A Python 3 with numpy, for the benchmark's own scripts.
+fn python() -> Option<String> {
+    let candidates = [
+        std::env::var("CELLIST_PYTHON").unwrap_or_default(),
+        "python3".into(),
+        "/usr/bin/python3".into(),
+    ];
+    let found = candidates.into_iter().filter(|c| !c.is_empty()).find(|c| {
+        Command::new(c)
+            .args(["-c", "import numpy"])
+            .output()
+            .is_ok_and(|o| o.status.success())
+    });
+    if found.is_none() {
+        eprintln!("skipped: no python3 with numpy (.ci/run installs python3-numpy)");
+    }
+    found
+}
+
+#[test]
+fn generated_inputs_match_the_reference_simulator() {
+    let (Some(data), Some(python)) = (shared_testdata("billiards"), python()) else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    // the course's recipe (overlaps) at two densities, and the separated placement
+    let cases: [(&str, &[&str]); 4] = [
+        (
+            "dense",
+            &[
+                "400",
+                "40",
+                "1",
+                "30",
+                "-0.5",
+                "0.5",
+                "--overlaps",
+                "--seed",
+                "5",
+            ],
+        ),
+        (
+            "drift",
+            &[
+                "300",
+                "60",
+                "2",
+                "20",
+                "0.2",
+                "0.6",
+                "--overlaps",
+                "--seed",
+                "6",
+            ],
+        ),
+        (
+            "sparse",
+            &[
+                "200",
+                "100",
+                "1",
+                "40",
+                "-1",
+                "1",
+                "--overlaps",
+                "--seed",
+                "7",
+            ],
+        ),
+        (
+            "separated",
+            &["300", "50", "1", "40", "-0.7", "0.7", "--seed", "8"],
+        ),
+    ];
+    for (name, args) in cases {
+        let input = dir.path().join(format!("{name}.in"));
+        let mut gen = vec!["billiards", "gen"];
+        gen.extend_from_slice(args);
+        gen.extend_from_slice(&["--output", input.to_str().unwrap()]);
+        let out = cellist(&gen);
+        assert!(out.status.success(), "{name}: {}", text(&out.stderr));
+        let reference = Command::new(&python)
+            .arg(data.join("ref_sim.py"))
+            .args([input.to_str().unwrap(), "--format", "bits"])
+            .output()
+            .unwrap();
+        assert!(
+            reference.status.success(),
+            "{name}: ref_sim.py: {}",
+            text(&reference.stderr)
+        );
+        for threads in ["1", "2"] {
+            let ours = cellist(&[
+                "billiards",
+                "run",
+                input.to_str().unwrap(),
+                "--format",
+                "bits",
+                "--threads",
+                threads,
+            ]);
+            assert!(ours.status.success(), "{name}: {}", text(&ours.stderr));
+            assert!(
+                ours.stdout == reference.stdout,
+                "{name} on {threads} thread(s) differs from ref_sim.py"
+            );
+        }
+    }
+}
+
+#[test]
+fn the_checker_accepts_our_own_trajectories() {
+    let Some(data) = shared_testdata("billiards") else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    for (key, path) in public_inputs(&data) {
+        let viz = dir.path().join(format!("{key}.viz"));
+        let args = [
+            "billiards",
+            "run",
+            path.to_str().unwrap(),
+            "--viz",
+            viz.to_str().unwrap(),
+            "--output",
+            "/dev/null",
+        ];
+        let out = cellist(&args);
+        assert!(out.status.success(), "{key}: {}", text(&out.stderr));
+        let out = cellist(&[
+            "billiards",
+            "check",
+            path.to_str().unwrap(),
+            viz.to_str().unwrap(),
+        ]);
+        assert!(
+            out.status.success(),
+            "{key}: {}{}",
+            text(&out.stdout),
+            text(&out.stderr)
+        );
+        assert!(
+            text(&out.stdout).starts_with("OK: ") && text(&out.stdout).contains(" steps pass"),
+            "{key}: {}",
+            text(&out.stdout)
+        );
+    }
+}
+
+/// The mistakes the course's grader must catch.
+#[derive(Clone, Copy, Debug)]
+enum Mistake {
+    NoResolution,
+    OneSweep,
+    ResolveBeforeMove,
+    ExtraEnergy,
+}
+
+/// Writes a trajectory of `steps` steps made with `mistake`, in the 8-decimal form.
+fn broken_trajectory(input: &cellist_io::BilliardsInput, steps: u64, mistake: Mistake, out: &Path) {
+    let table = Table {
+        side: input.side,
+        radius: input.radius,
+    };
+    let (mut x, mut y, mut v) = (input.x.clone(), input.y.clone(), input.v.clone());
+    let mut text = Vec::new();
+    let mut grid = ContactGrid::default();
+    let mut contacts = Vec::new();
+    // one canonical sweep, or sweeps until settled, at the current positions
+    let mut resolve = |x: &[f64], y: &[f64], v: &mut Vec<[f64; 2]>, sweeps: usize| {
+        grid.find(x, y, table.contact(), &Threads::single(), &mut contacts);
+        for _ in 0..sweeps {
+            let mut changed = false;
+            for k in 0..x.len() {
+                let w = table.walls_at(x[k], y[k]);
+                if w.collides(&v[k]) {
+                    w.resolve(&mut v[k]);
+                    changed = true;
+                }
+            }
+            for c in &contacts {
+                let (a, b) = (c.a as usize, c.b as usize);
+                let sep = Separation::between([x[a], y[a]], [x[b], y[b]]);
+                let (head, tail) = v.split_at_mut(b);
+                changed |= sep.collide(&mut head[a], &mut tail[0]);
+            }
+            if !changed {
+                break;
+            }
+        }
+    };
+    for step in 1..=steps {
+        let moves = |x: &mut Vec<f64>, y: &mut Vec<f64>, v: &[[f64; 2]]| {
+            for k in 0..x.len() {
+                x[k] += v[k][0];
+                y[k] += v[k][1];
+            }
+        };
+        match mistake {
+            Mistake::NoResolution => moves(&mut x, &mut y, &v),
+            Mistake::OneSweep => {
+                moves(&mut x, &mut y, &v);
+                resolve(&x, &y, &mut v, 1);
+            }
+            Mistake::ResolveBeforeMove => {
+                resolve(&x, &y, &mut v, usize::MAX);
+                moves(&mut x, &mut y, &v);
+            }
+            Mistake::ExtraEnergy => {
+                moves(&mut x, &mut y, &v);
+                resolve(&x, &y, &mut v, usize::MAX);
+                if step == 1 {
+                    for w in v.iter_mut() {
+                        *w = [w[0] * 1.01f64.sqrt(), w[1] * 1.01f64.sqrt()];
+                    }
+                }
+            }
+        }
+        cellist_io::write_state(
+            &mut text,
+            cellist_io::StateFormat::Fixed8,
+            step,
+            &input.ids,
+            &x,
+            &y,
+            &v,
+        )
+        .unwrap();
+    }
+    std::fs::write(out, text).unwrap();
+}
+
+/// The step a verdict line names: `FAIL at step k: ...`.
+fn failing_step(verdict: &str) -> Option<u64> {
+    verdict
+        .strip_prefix("FAIL at step ")?
+        .split(':')
+        .next()?
+        .parse()
+        .ok()
+}
+
+#[test]
+fn the_checker_rejects_broken_runs_where_check_traj_py_does() {
+    let Some(data) = shared_testdata("billiards") else {
+        return;
+    };
+    let python = python();
+    let dir = tempfile::tempdir().unwrap();
+    let cases = [
+        ("small/random80.in", 3, Mistake::NoResolution, 1),
+        ("small/random80.in", 3, Mistake::OneSweep, 1),
+        ("small/random80.in", 3, Mistake::ResolveBeforeMove, 1),
+        ("small/random80.in", 3, Mistake::ExtraEnergy, 1),
+        ("standard/10k_density_0.7.in", 2, Mistake::NoResolution, 1),
+        ("standard/10k_density_0.7.in", 2, Mistake::OneSweep, 1),
+        ("correctness/cradle.in", 300, Mistake::NoResolution, 201),
+    ];
+    for (name, steps, mistake, expected) in cases {
+        let path = data.join("inputs").join(name);
+        let input = cellist_io::read_billiards_input(&path).unwrap();
+        let traj = dir.path().join("broken.viz");
+        broken_trajectory(&input, steps, mistake, &traj);
+        let out = cellist(&[
+            "billiards",
+            "check",
+            path.to_str().unwrap(),
+            traj.to_str().unwrap(),
+        ]);
+        let verdict = text(&out.stdout);
+        assert_eq!(out.status.code(), Some(1), "{name} {mistake:?}: {verdict}");
+        assert_eq!(
+            failing_step(&verdict),
+            Some(expected),
+            "{name} {mistake:?}: {verdict}"
+        );
+        if let Some(python) = &python {
+            let theirs = Command::new(python)
+                .arg(data.join("check_traj.py"))
+                .args([path.to_str().unwrap(), traj.to_str().unwrap()])
+                .output()
+                .unwrap();
+            assert_eq!(theirs.status.code(), Some(1), "{name} {mistake:?}");
+            assert_eq!(
+                failing_step(&text(&theirs.stdout)),
+                Some(expected),
+                "check_traj.py on {name} {mistake:?}"
+            );
+        }
+    }
+}
+
+#[test]
+fn the_checker_agrees_with_check_traj_py_on_accepted_runs() {
+    let (Some(data), Some(python)) = (shared_testdata("billiards"), python()) else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    for name in [
+        "correctness/cradle.in",
+        "small/random10.in",
+        "small/random80.in",
+    ] {
+        let path = data.join("inputs").join(name);
+        let viz = dir.path().join("run.viz");
+        let out = cellist(&[
+            "billiards",
+            "run",
+            path.to_str().unwrap(),
+            "--viz",
+            viz.to_str().unwrap(),
+            "--format",
+            "bits",
+            "--output",
+            "/dev/null",
+        ]);
+        assert!(out.status.success());
+        let ours = cellist(&[
+            "billiards",
+            "check",
+            path.to_str().unwrap(),
+            viz.to_str().unwrap(),
+        ]);
+        let theirs = Command::new(&python)
+            .arg(data.join("check_traj.py"))
+            .args([path.to_str().unwrap(), viz.to_str().unwrap()])
+            .output()
+            .unwrap();
+        assert_eq!(text(&ours.stdout), text(&theirs.stdout), "{name}");
+        assert!(ours.status.success() && theirs.status.success(), "{name}");
+    }
+}
+
+#[test]
+fn bad_inputs_are_named_with_their_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let cases = [
+        ("4\n13\n1\n", ":4: missing; expected the number of steps S"),
+        (
+            "2\n13\n1\n5\n0 1 1 0 0\n",
+            ":6: missing; expected particle line 2 of 2",
+        ),
+        (
+            "1\n13\n1\n5\n0 1 one 0 0\n",
+            ":5: field 3 (y) is 'one'; expected a number",
+        ),
+        (
+            "2\n13\n1\n5\n1 1 1 0 0\n1 5 5 0 0\n",
+            ":6: id 1 was already given on line 5",
+        ),
+        (
+            "1\n13\n0\n5\n0 1 1 0 0\n",
+            ":3: the radius r is 0; it must be at least 1",
+        ),
+        (
+            "1\n0\n1\n5\n0 1 1 0 0\n",
+            ":2: the side L of the box is 0; it must be at least 1",
+        ),
+        (
+            "1\n13\n1\n5\n0 1 1 0\n",
+            ":5: expected 5 fields (i x y vx vy)",
+        ),
+    ];
+    for (k, (content, expected)) in cases.iter().enumerate() {
+        let path = dir.path().join(format!("bad{k}.in"));
+        std::fs::write(&path, content).unwrap();
+        let out = cellist(&["billiards", "run", path.to_str().unwrap()]);
+        assert_eq!(out.status.code(), Some(2), "{content:?}");
+        let err = text(&out.stderr);
+        assert!(err.contains(expected), "{content:?}: {err}");
+        assert!(out.stdout.is_empty());
+    }
+    // lines after the particles: a warning, then the run
+    let path = dir.path().join("extra.in");
+    std::fs::write(&path, "1\n13\n1\n2\n0 5 5 1 0\n1 2 2 0 0\n").unwrap();
+    let out = cellist(&["billiards", "run", path.to_str().unwrap()]);
+    assert!(out.status.success());
+    assert!(
+        text(&out.stderr).contains("warning: "),
+        "{}",
+        text(&out.stderr)
+    );
+    assert_eq!(
+        text(&out.stdout),
+        "2 0 7.00000000 5.00000000 1.00000000 0.00000000\n"
+    );
+    // a step that does not settle within the bound stops with the step named
+    let path = dir.path().join("pair.in");
+    std::fs::write(&path, "2\n20\n1\n3\n0 5 5 0.5 0\n1 7.5 5 -0.5 0\n").unwrap();
+    let out = cellist(&[
+        "billiards",
+        "run",
+        path.to_str().unwrap(),
+        "--max-sweeps",
+        "1",
+    ]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(
+        text(&out.stderr).contains("step 1: the collisions did not settle within 1 sweeps"),
+        "{}",
+        text(&out.stderr)
+    );
+}
+
+#[test]
+fn gen_writes_inputs_that_read_back_exactly() {
+    let dir = tempfile::tempdir().unwrap();
+    for overlaps in [false, true] {
+        let path = dir.path().join("gen.in");
+        let mut args = vec![
+            "billiards",
+            "gen",
+            "500",
+            "200",
+            "3",
+            "7",
+            "-0.5",
+            "0.5",
+            "--seed",
+            "3",
+            "--output",
+            path.to_str().unwrap(),
+        ];
+        if overlaps {
+            args.push("--overlaps");
+        }
+        let out = cellist(&args);
+        assert!(out.status.success(), "{}", text(&out.stderr));
+        let input = cellist_io::read_billiards_input(&path).unwrap();
+        assert_eq!(
+            (input.ids.len(), input.side, input.radius, input.steps),
+            (500, 200, 3, 7)
+        );
+        assert!(input.v.iter().flatten().all(|c| (-0.5..=0.5).contains(c)));
+        let table = Table {
+            side: 200,
+            radius: 3,
+        };
+        let mut contacts = Vec::new();
+        ContactGrid::default().find(
+            &input.x,
+            &input.y,
+            table.contact(),
+            &Threads::single(),
+            &mut contacts,
+        );
+        let on_wall = (0..500)
+            .filter(|&k| table.walls_at(input.x[k], input.y[k]).any())
+            .count();
+        if overlaps {
+            assert!(
+                !contacts.is_empty() && on_wall > 0,
+                "the course recipe overlaps at this density"
+            );
+        } else {
+            assert!(
+                contacts.is_empty() && on_wall == 0,
+                "{} pairs, {on_wall} on walls",
+                contacts.len()
+            );
+        }
+    }
+    let out = cellist(&["billiards", "gen", "10000", "100", "3", "1", "0", "1"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(
+        text(&out.stderr).contains("use --overlaps"),
+        "{}",
+        text(&out.stderr)
+    );
+}
+
+#[test]
+fn pictures_and_the_benchmark_are_written() {
+    let Some(data) = shared_testdata("billiards") else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let input = data.join("inputs/small/random40.in");
+    let (gif, png) = (dir.path().join("run.gif"), dir.path().join("last.png"));
+    let out = cellist(&[
+        "billiards",
+        "run",
+        input.to_str().unwrap(),
+        "--steps",
+        "20",
+        "--gif",
+        gif.to_str().unwrap(),
+        "--png",
+        png.to_str().unwrap(),
+        "--picture-size",
+        "200",
+        "--output",
+        "/dev/null",
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    assert_eq!(&std::fs::read(&gif).unwrap()[..6], b"GIF89a");
+    assert_eq!(&std::fs::read(&png).unwrap()[1..4], b"PNG");
+    let out = cellist(&[
+        "bench",
+        "billiards",
+        input.to_str().unwrap(),
+        "--threads",
+        "2",
+        "--repeat",
+        "1",
+        "--json",
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(json["particles"], 1000);
+    assert_eq!(json["steps"], 100);
+    assert_eq!(json["max_sweeps"], 5);
+    assert!(json["seconds"].as_f64().unwrap() > 0.0);
+}

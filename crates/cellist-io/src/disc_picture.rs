@@ -1,0 +1,200 @@
+//! Pictures of discs in a square box, coloured by speed: frames of a GIF animation
+//! and a PNG of one frame. Indexed colour: white background, the box outline in
+//! grey, and a blue-to-red scale of 250 colours from speed 0 to the scale's top.
+
+use crate::output::AtomicFile;
+use std::io;
+use std::path::Path;
+
+const BACKGROUND: u8 = 0;
+const OUTLINE: u8 = 1;
+const FIRST_SPEED: u8 = 2;
+const SPEEDS: usize = 250;
+
+/// Draws discs of radius `radius` in the box `[0, side]^2` (with a margin of 5% of
+/// the side around it) on `size` x `size` pixels.
+#[derive(Clone, Debug)]
+pub struct DiscPainter {
+    size: u32,
+    side: f64,
+    radius: f64,
+    top_speed: f64,
+    pixels: Vec<u8>,
+}
+
+impl DiscPainter {
+    /// A painter whose colour scale ends at `top_speed` (faster discs are drawn in
+    /// the top colour).
+    pub fn new(size: u32, side: f64, radius: f64, top_speed: f64) -> Self {
+        DiscPainter {
+            size: size.max(16),
+            side,
+            radius,
+            top_speed: if top_speed > 0.0 { top_speed } else { 1.0 },
+            pixels: Vec::new(),
+        }
+    }
+
+    /// The palette as RGB triples (index 0 background, 1 outline, then speeds).
+    pub fn palette() -> Vec<u8> {
+        let mut rgb = vec![255, 255, 255, 120, 120, 120];
+        // blue -> cyan -> yellow -> red
+        const STOPS: [[f64; 3]; 4] = [
+            [40.0, 60.0, 200.0],
+            [30.0, 190.0, 200.0],
+            [240.0, 210.0, 40.0],
+            [210.0, 40.0, 30.0],
+        ];
+        for k in 0..SPEEDS {
+            let t = k as f64 / (SPEEDS - 1) as f64 * (STOPS.len() - 1) as f64;
+            let i = (t.floor() as usize).min(STOPS.len() - 2);
+            let f = t - i as f64;
+            for c in 0..3 {
+                rgb.push((STOPS[i][c] + (STOPS[i + 1][c] - STOPS[i][c]) * f).round() as u8);
+            }
+        }
+        rgb.resize(256 * 3, 0);
+        rgb
+    }
+
+    /// The side of the picture in pixels.
+    pub fn size(&self) -> u32 {
+        self.size
+    }
+
+    /// Renders one frame; returns its palette indices, row by row from the top.
+    pub fn render(&mut self, x: &[f64], y: &[f64], v: &[[f64; 2]]) -> &[u8] {
+        let size = self.size as usize;
+        self.pixels.clear();
+        self.pixels.resize(size * size, BACKGROUND);
+        let margin = 0.05 * self.side;
+        let scale = size as f64 / (self.side + 2.0 * margin);
+        let to_px = |c: f64| (c + margin) * scale;
+        // the box outline
+        let (lo, hi) = (
+            to_px(0.0) as usize,
+            (to_px(self.side) as usize).min(size - 1),
+        );
+        for k in lo..=hi {
+            for (px, py) in [(k, lo), (k, hi), (lo, k), (hi, k)] {
+                self.pixels[(size - 1 - py) * size + px] = OUTLINE;
+            }
+        }
+        let r_px = (self.radius * scale).max(0.5);
+        for k in 0..x.len() {
+            let speed = (v[k][0] * v[k][0] + v[k][1] * v[k][1]).sqrt();
+            let level = ((speed / self.top_speed).min(1.0) * (SPEEDS - 1) as f64) as usize;
+            let colour = FIRST_SPEED + level as u8;
+            let (cx, cy) = (to_px(x[k]), to_px(y[k]));
+            let span = |c: f64| {
+                (
+                    (c - r_px).floor().max(0.0) as usize,
+                    ((c + r_px).ceil().min(size as f64 - 1.0)).max(-1.0),
+                )
+            };
+            let ((x0, x1), (y0, y1)) = (span(cx), span(cy));
+            if x1 < 0.0 || y1 < 0.0 {
+                continue;
+            }
+            for py in y0..=y1 as usize {
+                for px in x0..=x1 as usize {
+                    let (dx, dy) = (px as f64 + 0.5 - cx, py as f64 + 0.5 - cy);
+                    if dx * dx + dy * dy <= r_px * r_px || (px == cx as usize && py == cy as usize)
+                    {
+                        self.pixels[(size - 1 - py) * size + px] = colour;
+                    }
+                }
+            }
+        }
+        &self.pixels
+    }
+}
+
+/// A GIF animation written frame by frame; the file appears whole at `finish`.
+pub struct GifAnimation {
+    encoder: gif::Encoder<AtomicFile>,
+    size: u16,
+}
+
+impl GifAnimation {
+    /// Starts an animation of `size` x `size` frames at `path`, looping forever.
+    pub fn create(path: &Path, size: u32) -> io::Result<Self> {
+        let size = u16::try_from(size)
+            .map_err(|_| io::Error::other("a GIF frame is at most 65535 pixels wide"))?;
+        let file = AtomicFile::create(path)?;
+        let mut encoder = gif::Encoder::new(file, size, size, &DiscPainter::palette())
+            .map_err(io::Error::other)?;
+        encoder
+            .set_repeat(gif::Repeat::Infinite)
+            .map_err(io::Error::other)?;
+        Ok(GifAnimation { encoder, size })
+    }
+
+    /// Appends a frame (palette indices, `size^2`) shown for `delay` hundredths of
+    /// a second.
+    pub fn add_frame(&mut self, pixels: &[u8], delay: u16) -> io::Result<()> {
+        let mut frame = gif::Frame::from_indexed_pixels(self.size, self.size, pixels, None);
+        frame.delay = delay;
+        self.encoder.write_frame(&frame).map_err(io::Error::other)
+    }
+
+    /// Ends the animation and puts the file in place.
+    pub fn finish(self) -> io::Result<()> {
+        let file = self.encoder.into_inner().map_err(io::Error::other)?;
+        file.commit()
+    }
+}
+
+impl io::Write for AtomicFile {
+    fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
+        self.writer().write(buf)
+    }
+
+    fn flush(&mut self) -> io::Result<()> {
+        self.writer().flush()
+    }
+}
+
+/// Writes one frame (palette indices, `size^2`) as an indexed PNG.
+pub fn write_png(path: &Path, size: u32, pixels: &[u8]) -> io::Result<()> {
+    let mut file = AtomicFile::create(path)?;
+    {
+        let mut encoder = png::Encoder::new(file.writer(), size, size);
+        encoder.set_color(png::ColorType::Indexed);
+        encoder.set_depth(png::BitDepth::Eight);
+        encoder.set_palette(DiscPainter::palette());
+        let mut writer = encoder.write_header().map_err(io::Error::other)?;
+        writer.write_image_data(pixels).map_err(io::Error::other)?;
+    }
+    file.commit()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn draws_a_disc_in_its_speed_colour_and_writes_both_files() {
+        let mut painter = DiscPainter::new(100, 10.0, 1.0, 2.0);
+        let pixels = painter.render(&[5.0], &[5.0], &[[2.0, 0.0]]).to_vec();
+        let centre = 50 * 100 + 50;
+        assert_eq!(pixels[centre], FIRST_SPEED + (SPEEDS - 1) as u8);
+        assert_eq!(pixels[0], BACKGROUND);
+        assert!(pixels.contains(&OUTLINE));
+        // a disc far outside the view is skipped, not drawn at the edge
+        let far = painter.render(&[-1e9], &[5.0], &[[0.0, 0.0]]).to_vec();
+        assert!(!far.iter().any(|&p| p >= FIRST_SPEED));
+
+        let dir = tempfile::tempdir().unwrap();
+        let gif_path = dir.path().join("a.gif");
+        let mut gif = GifAnimation::create(&gif_path, 100).unwrap();
+        gif.add_frame(&pixels, 5).unwrap();
+        gif.add_frame(&far, 5).unwrap();
+        gif.finish().unwrap();
+        assert_eq!(&std::fs::read(&gif_path).unwrap()[..6], b"GIF89a");
+        let png_path = dir.path().join("a.png");
+        write_png(&png_path, 100, &pixels).unwrap();
+        assert_eq!(&std::fs::read(&png_path).unwrap()[1..4], b"PNG");
+        assert_eq!(DiscPainter::palette().len(), 768);
+    }
+}

@@ -1,0 +1,295 @@
+//! The hard-disk collision benchmark of seed 001 (CS3210 "particles go brr"), as
+//! `../shared/testdata/billiards/SPEC.md` states it: identical discs in a square box
+//! with walls, moved each step, then wall and pair collisions resolved with frozen
+//! positions until none is left.
+//!
+//! One step:
+//! ```text
+//! move:     x <- x + vx, y <- y + vy                       (every disc)
+//! resolve:  repeat { walls in vector order; pairs (a, b) in lexicographic order }
+//!           until a sweep changes nothing                   (Gauss-Seidel)
+//! ```
+//! The resolution runs in the canonical order of SPEC.md section 4, bit for bit,
+//! but only over the candidates (discs on a wall, overlapping pairs, found on a grid:
+//! E1) and separately for each connected component of the overlap graph (E2), the
+//! components in parallel. Results are the same bits for any thread count.
+
+mod check;
+mod components;
+mod contacts;
+mod generate;
+mod rules;
+
+pub use check::{check_step, CheckFailure, DiscState, StepChecker};
+pub use contacts::{Contact, ContactGrid};
+pub use generate::{separated_discs, uniform_discs, Drawn};
+pub use rules::{Separation, Table, Walls, APPROACH};
+
+use crate::threads::Threads;
+use components::Components;
+use std::fmt;
+
+/// Why a table cannot be set up or a step cannot finish.
+#[derive(Clone, Debug, PartialEq)]
+pub enum BilliardsError {
+    /// The radius or the side is not positive, or `(2r)^2` does not fit.
+    Table(String),
+    /// Position and velocity arrays of different lengths, or a non-finite value.
+    State(String),
+    /// A disc's position overflowed to infinity.
+    Overflow {
+        /// The step.
+        step: u64,
+        /// Its vector position.
+        index: usize,
+    },
+    /// A component of the overlap graph was still changing after the sweep bound.
+    NotConverged {
+        /// The step.
+        step: u64,
+        /// The sweep bound.
+        sweeps: u64,
+        /// The smallest vector position in that component.
+        first: usize,
+        /// Its size.
+        size: usize,
+    },
+}
+
+impl fmt::Display for BilliardsError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            BilliardsError::Table(m) | BilliardsError::State(m) => f.write_str(m),
+            BilliardsError::Overflow { step, index } => write!(
+                f,
+                "step {step}: the position of particle {index} (vector position) overflowed"
+            ),
+            BilliardsError::NotConverged {
+                step,
+                sweeps,
+                first,
+                size,
+            } => write!(
+                f,
+                "step {step}: the collisions did not settle within {sweeps} sweeps (a group of \
+                 {size} overlapping particles, the first at vector position {first})"
+            ),
+        }
+    }
+}
+
+impl std::error::Error for BilliardsError {}
+
+/// What one step did: candidates found and sweeps of the canonical loop.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct StepStats {
+    /// Discs overlapping a wall.
+    pub wall_discs: usize,
+    /// Overlapping pairs.
+    pub pairs: usize,
+    /// Sweeps the global canonical loop would make, the last one changing nothing:
+    /// the largest over the components, at least 1.
+    pub sweeps: u64,
+}
+
+/// The discs in vector (file) order, structure of arrays, and the buffers of a step.
+#[derive(Clone, Debug)]
+pub struct Billiards {
+    table: Table,
+    /// x of each disc.
+    pub x: Vec<f64>,
+    /// y of each disc.
+    pub y: Vec<f64>,
+    /// vx, vy of each disc.
+    pub v: Vec<[f64; 2]>,
+    max_sweeps: u64,
+    grid: ContactGrid,
+    contacts: Vec<Contact>,
+    walls: Vec<(u32, Walls)>,
+    components: Components,
+}
+
+/// Default bound on the sweeps of one step (the reference stops at 10^7; the
+/// hardest public input needs 120).
+pub const DEFAULT_MAX_SWEEPS: u64 = 1_000_000;
+
+impl Billiards {
+    /// A table with discs at `x`, `y` moving with `v` (finite values).
+    pub fn new(
+        table: Table,
+        x: Vec<f64>,
+        y: Vec<f64>,
+        v: Vec<[f64; 2]>,
+    ) -> Result<Self, BilliardsError> {
+        if table.radius <= 0 || table.side <= 0 {
+            return Err(BilliardsError::Table(format!(
+                "the radius ({}) and the side ({}) must be positive",
+                table.radius, table.side
+            )));
+        }
+        if table.radius > 1 << 30 {
+            return Err(BilliardsError::Table(format!(
+                "the radius {} is too large for (2r)^2 in integers",
+                table.radius
+            )));
+        }
+        if x.len() != y.len() || x.len() != v.len() {
+            return Err(BilliardsError::State("x, y and v differ in length".into()));
+        }
+        let finite =
+            |k: usize| x[k].is_finite() && y[k].is_finite() && v[k].iter().all(|c| c.is_finite());
+        if let Some(k) = (0..x.len()).find(|&k| !finite(k)) {
+            return Err(BilliardsError::State(format!(
+                "particle at vector position {k} has a non-finite position or velocity"
+            )));
+        }
+        Ok(Billiards {
+            table,
+            x,
+            y,
+            v,
+            max_sweeps: DEFAULT_MAX_SWEEPS,
+            grid: ContactGrid::default(),
+            contacts: Vec::new(),
+            walls: Vec::new(),
+            components: Components::default(),
+        })
+    }
+
+    /// Sets the bound on sweeps per step (at least 1).
+    pub fn with_max_sweeps(mut self, sweeps: u64) -> Self {
+        self.max_sweeps = sweeps.max(1);
+        self
+    }
+
+    /// The box and radius.
+    pub fn table(&self) -> &Table {
+        &self.table
+    }
+
+    /// Number of discs.
+    pub fn len(&self) -> usize {
+        self.x.len()
+    }
+
+    /// True without discs.
+    pub fn is_empty(&self) -> bool {
+        self.x.is_empty()
+    }
+
+    /// Energy `sum (vx^2 + vy^2)` (no 1/2, as the benchmark defines it).
+    pub fn energy(&self) -> f64 {
+        self.v.iter().map(|v| v[0] * v[0] + v[1] * v[1]).sum()
+    }
+
+    /// Step `step`: move, then resolve over the candidates, component by component
+    /// in parallel.
+    pub fn step(&mut self, step: u64, threads: &Threads) -> Result<StepStats, BilliardsError> {
+        self.advance(step)?;
+        let table = self.table;
+        self.grid.find(
+            &self.x,
+            &self.y,
+            table.contact(),
+            threads,
+            &mut self.contacts,
+        );
+        self.walls.clear();
+        self.walls.extend(
+            self.x
+                .iter()
+                .zip(&self.y)
+                .enumerate()
+                .map(|(k, (&x, &y))| (k as u32, table.walls_at(x, y)))
+                .filter(|(_, w)| w.any()),
+        );
+        let nearby: &[u32] = if self.len() < 2 {
+            &[0]
+        } else {
+            self.grid.nearby_order()
+        };
+        self.components.group(
+            self.len(),
+            &self.contacts,
+            &self.walls,
+            &nearby[..self.len()],
+        );
+        let sweeps = self
+            .components
+            .resolve(&mut self.v, self.max_sweeps, threads)
+            .map_err(|(first, size)| BilliardsError::NotConverged {
+                step,
+                sweeps: self.max_sweeps,
+                first,
+                size,
+            })?;
+        Ok(StepStats {
+            wall_discs: self.walls.len(),
+            pairs: self.contacts.len(),
+            sweeps,
+        })
+    }
+
+    /// The same step by the literal loops of SPEC.md section 4: every disc in the
+    /// wall pass, every pair `a < b` in the pair pass, O(N^2) per sweep. The
+    /// reference the fast step is tested against.
+    pub fn step_brute(&mut self, step: u64) -> Result<StepStats, BilliardsError> {
+        self.advance(step)?;
+        let n = self.len();
+        let table = self.table;
+        let contact = table.contact();
+        let walls: Vec<Walls> = (0..n)
+            .map(|k| table.walls_at(self.x[k], self.y[k]))
+            .collect();
+        let mut sweeps = 0;
+        let mut pairs = 0;
+        loop {
+            sweeps += 1;
+            if sweeps > self.max_sweeps {
+                return Err(BilliardsError::NotConverged {
+                    step,
+                    sweeps: self.max_sweeps,
+                    first: 0,
+                    size: n,
+                });
+            }
+            let mut changed = false;
+            for (k, w) in walls.iter().enumerate() {
+                if w.collides(&self.v[k]) {
+                    w.resolve(&mut self.v[k]);
+                    changed = true;
+                }
+            }
+            for a in 0..n {
+                for b in a + 1..n {
+                    let sep = Separation::between([self.x[a], self.y[a]], [self.x[b], self.y[b]]);
+                    if sep.q <= contact {
+                        pairs += usize::from(sweeps == 1);
+                        let (head, tail) = self.v.split_at_mut(b);
+                        changed |= sep.collide(&mut head[a], &mut tail[0]);
+                    }
+                }
+            }
+            if !changed {
+                break;
+            }
+        }
+        Ok(StepStats {
+            wall_discs: walls.iter().filter(|w| w.any()).count(),
+            pairs,
+            sweeps,
+        })
+    }
+
+    /// Phase I: `x <- x + vx`, `y <- y + vy`.
+    fn advance(&mut self, step: u64) -> Result<(), BilliardsError> {
+        for ((x, y), v) in self.x.iter_mut().zip(&mut self.y).zip(&self.v) {
+            *x += v[0];
+            *y += v[1];
+        }
+        match (0..self.len()).find(|&k| !(self.x[k].is_finite() && self.y[k].is_finite())) {
+            Some(index) => Err(BilliardsError::Overflow { step, index }),
+            None => Ok(()),
+        }
+    }
+}
