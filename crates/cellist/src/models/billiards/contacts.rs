@@ -6,7 +6,7 @@
 //! grid spans their bounding box.
 
 use super::rules::Separation;
-use crate::threads::{concat_into, Threads};
+use crate::threads::Threads;
 use rayon::prelude::*;
 
 /// One overlapping pair: vector positions `a < b` and their frozen separation.
@@ -31,10 +31,10 @@ pub struct ContactGrid {
     start: Vec<u32>,
     cursor: Vec<u32>,
     sorted: Vec<u32>,
-    slot: Vec<u32>,
     sorted_x: Vec<f64>,
     sorted_y: Vec<f64>,
     rows: Vec<Vec<Contact>>,
+    offsets: Vec<u32>,
 }
 
 impl ContactGrid {
@@ -55,19 +55,49 @@ impl ContactGrid {
             return;
         }
         self.bin(x, y, limit);
-        let ranges = Threads::chunks(n);
+        // search square by square (neighbouring discs are close in memory), each
+        // disc's pairs together and sorted by b
+        let ranges = Threads::chunks(self.dims[0] * self.dims[1]);
         let mut rows = std::mem::take(&mut self.rows);
         rows.resize_with(ranges.len(), Vec::new);
         let grid = &*self;
         threads.install(|| {
-            ranges.zip(rows.par_iter_mut()).for_each(|(range, found)| {
-                found.clear();
-                for a in range {
-                    grid.contacts_of(a, limit, found);
-                }
-            });
-            concat_into(out, &rows);
+            ranges
+                .zip(rows.par_iter_mut())
+                .for_each(|(squares, found)| {
+                    found.clear();
+                    for square in squares {
+                        grid.contacts_in(square, limit, found);
+                    }
+                });
         });
+        // then place the pairs row by row in the order of a, each row sorted by b
+        self.offsets.clear();
+        self.offsets.resize(n + 1, 0);
+        for c in rows.iter().flatten() {
+            self.offsets[c.a as usize + 1] += 1;
+        }
+        for a in 0..n {
+            self.offsets[a + 1] += self.offsets[a];
+        }
+        out.resize(self.offsets[n] as usize, Contact::default());
+        self.cursor.clear();
+        self.cursor.extend_from_slice(&self.offsets[..n]);
+        for c in rows.iter().flatten() {
+            out[self.cursor[c.a as usize] as usize] = *c;
+            self.cursor[c.a as usize] += 1;
+        }
+        for a in 0..n {
+            let row = &mut out[self.offsets[a] as usize..self.offsets[a + 1] as usize];
+            // a handful per disc: insertion sort by b
+            for k in 1..row.len() {
+                let mut j = k;
+                while j > 0 && row[j - 1].b > row[j].b {
+                    row.swap(j - 1, j);
+                    j -= 1;
+                }
+            }
+        }
         self.rows = rows;
     }
 
@@ -117,12 +147,8 @@ impl ContactGrid {
         self.sorted.resize(n, 0);
         self.cursor.clear();
         self.cursor.extend_from_slice(&self.start[..squares]);
-        self.slot.clear();
-        self.slot.resize(n, 0);
         for (k, &s) in self.square_of.iter().enumerate() {
-            let slot = self.cursor[s as usize];
-            self.sorted[slot as usize] = k as u32;
-            self.slot[k] = slot;
+            self.sorted[self.cursor[s as usize] as usize] = k as u32;
             self.cursor[s as usize] += 1;
         }
         self.sorted_x.clear();
@@ -139,40 +165,52 @@ impl ContactGrid {
         cy * self.dims[0] + cx
     }
 
-    /// Appends the pairs `(a, b)`, `b > a`, within the limit, sorted by `b`. The
-    /// three squares of a row of the 3 x 3 block are consecutive in square order,
-    /// so each row is one run of the sorted discs.
-    fn contacts_of(&self, a: usize, limit: f64, found: &mut Vec<Contact>) {
-        let first = found.len();
-        let s = self.square_of[a] as usize;
-        let (cx, cy) = (s % self.dims[0], s / self.dims[0]);
-        let (x0, x1) = (cx.saturating_sub(1), (cx + 1).min(self.dims[0] - 1));
-        let pa = [
-            self.sorted_x[self.slot[a] as usize],
-            self.sorted_y[self.slot[a] as usize],
-        ];
-        for ny in cy.saturating_sub(1)..(cy + 2).min(self.dims[1]) {
-            let row = ny * self.dims[0];
-            let run = self.start[row + x0] as usize..self.start[row + x1 + 1] as usize;
-            for m in run {
-                let b = self.sorted[m];
-                let sep = Separation::between(pa, [self.sorted_x[m], self.sorted_y[m]]);
-                // one branch for both tests (each alone would often be mispredicted)
-                if (b as usize > a) & (sep.q <= limit) {
-                    found.push(Contact {
-                        a: a as u32,
-                        b,
-                        sep,
-                    });
-                }
-            }
+    /// Appends the pairs within the limit that the discs of `square` form with the
+    /// discs after them in the square, in the square to the right and in the three
+    /// squares above (half of the 3 x 3 block: every pair of neighbouring squares
+    /// is seen once), as `(min, max)` with the separation of `max` from `min`. The
+    /// rest of the square and the one to its right are consecutive in square
+    /// order, and so are the three above: two runs per disc.
+    fn contacts_in(&self, square: usize, limit: f64, found: &mut Vec<Contact>) {
+        let members = self.start[square] as usize..self.start[square + 1] as usize;
+        if members.is_empty() {
+            return;
         }
-        // a handful per disc: insertion sort
-        for k in first + 1..found.len() {
-            let mut j = k;
-            while j > first && found[j - 1].b > found[j].b {
-                found.swap(j - 1, j);
-                j -= 1;
+        let [columns, rows] = self.dims;
+        let (cx, cy) = (square % columns, square / columns);
+        let right_end = self.start[square + 1 + usize::from(cx + 1 < columns)] as usize;
+        let above = if cy + 1 < rows {
+            let row = (cy + 1) * columns;
+            let (x0, x1) = (cx.saturating_sub(1), (cx + 1).min(columns - 1));
+            self.start[row + x0] as usize..self.start[row + x1 + 1] as usize
+        } else {
+            0..0
+        };
+        for slot in members {
+            let a = self.sorted[slot];
+            let pa = [self.sorted_x[slot], self.sorted_y[slot]];
+            for run in [slot + 1..right_end, above.clone()] {
+                for m in run {
+                    let sep = Separation::between(pa, [self.sorted_x[m], self.sorted_y[m]]);
+                    if sep.q <= limit {
+                        let b = self.sorted[m];
+                        // the roles by vector position: the separation of max from
+                        // min (negating a difference is exact)
+                        found.push(if a < b {
+                            Contact { a, b, sep }
+                        } else {
+                            Contact {
+                                a: b,
+                                b: a,
+                                sep: Separation {
+                                    dx: -sep.dx,
+                                    dy: -sep.dy,
+                                    q: sep.q,
+                                },
+                            }
+                        });
+                    }
+                }
             }
         }
     }
