@@ -47,6 +47,12 @@ pub fn run(args: &BilliardsRunArgs) -> CliResult {
     if args.frame_every == Some(0) {
         return Err(CliError::Input("--frame-every must be at least 1".into()));
     }
+    if !(16..=4096).contains(&args.picture_size) {
+        return Err(CliError::Input(format!(
+            "--picture-size must be between 16 and 4096 pixels, got {}",
+            args.picture_size
+        )));
+    }
     let mut viz = args
         .viz
         .as_deref()
