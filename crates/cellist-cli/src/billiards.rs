@@ -196,7 +196,7 @@ pub fn check(args: &BilliardsCheckArgs) -> CliResult {
     let file = std::fs::File::open(&args.trajectory)
         .map_err(|e| CliError::Input(format!("{}: cannot read: {e}", args.trajectory.display())))?;
     let mut reader = TrajectoryReader::new(&args.trajectory, BufReader::new(file), n);
-    let mut checker = StepChecker::default();
+    let mut checker = StepChecker::new(&table);
     let mut steps = 0i64;
     while let Some(block) = reader.next_step()? {
         if block.step != steps + 1 {

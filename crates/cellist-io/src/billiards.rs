@@ -106,7 +106,6 @@ pub fn parse_billiards_input(path: &Path, text: &str) -> Result<BilliardsInput, 
         v: Vec::with_capacity(n.min(1 << 24)),
         warnings: Vec::new(),
     };
-    let mut seen_at = vec![0usize; n];
     for k in 0..n {
         let number = k + 5;
         let line = lines.next().ok_or_else(|| {
@@ -131,7 +130,8 @@ pub fn parse_billiards_input(path: &Path, text: &str) -> Result<BilliardsInput, 
                 ),
             ));
         }
-        let id = fields[0].parse::<i64>().map_err(|_| {
+        // like the course's reader (`stoi`): the leading integer of the field
+        let id = stoi(fields[0]).ok_or_else(|| {
             InputError::at(
                 path,
                 number,
@@ -145,17 +145,6 @@ pub fn parse_billiards_input(path: &Path, text: &str) -> Result<BilliardsInput, 
                 format!("id {id} is outside 0..{n}: ids must be a permutation of 0..N-1"),
             )
         })?;
-        if seen_at[slot] != 0 {
-            return Err(InputError::at(
-                path,
-                number,
-                format!(
-                    "id {id} was already given on line {}: ids must be a permutation of 0..N-1",
-                    seen_at[slot]
-                ),
-            ));
-        }
-        seen_at[slot] = number;
         const NAMES: [&str; 4] = ["x", "y", "vx", "vy"];
         let mut values = [0.0; 4];
         for (a, value) in values.iter_mut().enumerate() {
@@ -167,6 +156,22 @@ pub fn parse_billiards_input(path: &Path, text: &str) -> Result<BilliardsInput, 
         input.x.push(values[0]);
         input.y.push(values[1]);
         input.v.push([values[2], values[3]]);
+    }
+    // every line is read now, so N is backed by the file's own size
+    let mut seen_at = vec![0usize; n];
+    for (k, &slot) in input.ids.iter().enumerate() {
+        let number = k + 5;
+        if seen_at[slot as usize] != 0 {
+            return Err(InputError::at(
+                path,
+                number,
+                format!(
+                    "id {slot} was already given on line {}: ids must be a permutation of 0..N-1",
+                    seen_at[slot as usize]
+                ),
+            ));
+        }
+        seen_at[slot as usize] = number;
     }
     let rest: Vec<usize> = lines
         .enumerate()
@@ -368,7 +373,8 @@ mod tests {
 
     #[test]
     fn headers_are_read_like_stoi() {
-        let input = parse("  1 particles\r\n+10\n1\n25 steps\n0 5 5 1e-1 -2E0\n\n").unwrap();
+        // ids too: "0.0" is 0, as the course's reader has it
+        let input = parse("  1 particles\r\n+10\n1\n25 steps\n0.0 5 5 1e-1 -2E0\n\n").unwrap();
         assert_eq!((input.side, input.steps), (10, 25));
         assert_eq!(input.v[0], [0.1, -2.0]);
     }
@@ -397,6 +403,10 @@ mod tests {
                 "t.in:6: missing; expected particle line 2 of 2",
             ),
             ("1\n13\n1\n1\n0 1 1 0\n", "t.in:5: expected 5 fields"),
+            (
+                "1\n13\n1\n1\nx 1 1 0 0\n",
+                "t.in:5: id 'x': expected an integer",
+            ),
             (
                 "1\n13\n1\n1\n0 1 abc 0 0\n",
                 "t.in:5: field 3 (y) is 'abc'; expected a number",

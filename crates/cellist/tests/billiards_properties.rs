@@ -5,12 +5,21 @@ use cellist::models::billiards::{Billiards, Table};
 use cellist::Threads;
 use proptest::prelude::*;
 
+fn component() -> impl Strategy<Value = f64> {
+    // exact zeros of both signs: their signs must come out as the literal loop's
+    prop_oneof![3 => -1.5f64..1.5, 1 => Just(0.0), 1 => Just(-0.0)]
+}
+
 fn discs() -> impl Strategy<Value = (Table, Vec<[f64; 4]>)> {
-    (2i64..60, 1i64..4, 0usize..80).prop_flat_map(|(side, radius, n)| {
+    (2i64..60, 1i64..4, 0usize..80, any::<bool>()).prop_flat_map(|(side, radius, n, coarse)| {
         let l = side as f64;
-        // the course's recipe: centres in [0, L), overlaps allowed
-        let disc =
-            (0.0..l, 0.0..l, -1.5f64..1.5, -1.5f64..1.5).prop_map(|(x, y, vx, vy)| [x, y, vx, vy]);
+        // the course's recipe: centres in [0, L), overlaps allowed; or on a coarse
+        // lattice, where discs share coordinates (and separations are exact zeros)
+        let coordinate = move || {
+            (0.0..l).prop_map(move |c: f64| if coarse { (2.0 * c).floor() / 2.0 } else { c })
+        };
+        let disc = (coordinate(), coordinate(), component(), component())
+            .prop_map(|(x, y, vx, vy)| [x, y, vx, vy]);
         (Just(Table { side, radius }), prop::collection::vec(disc, n))
     })
 }
@@ -62,6 +71,25 @@ proptest! {
             prop_assert_eq!(bits(&two), bits(&brute));
         }
     }
+}
+
+#[test]
+fn a_pair_found_from_its_second_disc_keeps_the_sign_of_zero() {
+    // disc 0 is found from disc 1's square; dx = 0 must be +0.0, as x_1 - x_0
+    let table = Table {
+        side: 100,
+        radius: 1,
+    };
+    let discs = [
+        [50.0, 58.0, -0.0, -1.0],
+        [50.0, 54.0, 0.0, 1.0],
+        [50.0, 48.5, 0.0, 0.0],
+    ];
+    let mut brute = table_of(table, &discs);
+    let mut fast = brute.clone();
+    brute.step_brute(1).unwrap();
+    fast.step(1, &Threads::single()).unwrap();
+    assert_eq!(bits(&fast), bits(&brute));
 }
 
 #[test]

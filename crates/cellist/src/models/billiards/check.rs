@@ -141,13 +141,26 @@ impl fmt::Display for CheckFailure {
 }
 
 /// Buffers of the checker, kept between steps.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug)]
 pub struct StepChecker {
     grid: ContactGrid,
     near: Vec<Contact>,
     sets: DisjointSets,
     x: Vec<f64>,
     y: Vec<f64>,
+}
+
+impl StepChecker {
+    /// A checker for discs on `table`.
+    pub fn new(table: &Table) -> Self {
+        StepChecker {
+            grid: table.grid(),
+            near: Vec::new(),
+            sets: DisjointSets::default(),
+            x: Vec::new(),
+            y: Vec::new(),
+        }
+    }
 }
 
 /// `|new - old| > 1e-4` and `|new - old| / old > 1e-4`, `old` signed (as the grader).

@@ -24,6 +24,7 @@ pub struct Contact {
 /// (counting sort), and its buffers kept between searches.
 #[derive(Clone, Debug, Default)]
 pub struct ContactGrid {
+    region: Option<([f64; 2], [f64; 2])>,
     origin: [f64; 2],
     side: f64,
     dims: [usize; 2],
@@ -101,6 +102,14 @@ impl ContactGrid {
         self.rows = rows;
     }
 
+    /// Limits the squares to the region `[lo, hi]` (they span the discs' bounding
+    /// box otherwise); discs outside it go to its border squares. The pairs found
+    /// are the same; only the time changes.
+    pub fn with_region(mut self, lo: [f64; 2], hi: [f64; 2]) -> Self {
+        self.region = Some((lo, hi));
+        self
+    }
+
     /// All discs, square by square (neighbours close together), as of the last
     /// [`ContactGrid::find`] with two discs or more.
     pub fn nearby_order(&self) -> &[u32] {
@@ -116,6 +125,15 @@ impl ContactGrid {
         for (&px, &py) in x.iter().zip(y) {
             lo = [lo[0].min(px), lo[1].min(py)];
             hi = [hi[0].max(px), hi[1].max(py)];
+        }
+        if let Some((region_lo, region_hi)) = self.region {
+            // discs beyond the region share its border squares: clamping keeps
+            // neighbours in neighbouring squares, and a few outliers cannot
+            // stretch the squares over everything else
+            for a in 0..2 {
+                lo[a] = lo[a].max(region_lo[a]).min(region_hi[a]);
+                hi[a] = hi[a].min(region_hi[a]).max(lo[a]);
+            }
         }
         let extent = (hi[0] - lo[0]).max(hi[1] - lo[1]);
         let max_per_axis = ((4 * n) as f64).sqrt().ceil().max(1.0);
@@ -191,22 +209,20 @@ impl ContactGrid {
             let pa = [self.sorted_x[slot], self.sorted_y[slot]];
             for run in [slot + 1..right_end, above.clone()] {
                 for m in run {
-                    let sep = Separation::between(pa, [self.sorted_x[m], self.sorted_y[m]]);
+                    let pb = [self.sorted_x[m], self.sorted_y[m]];
+                    let sep = Separation::between(pa, pb);
                     if sep.q <= limit {
                         let b = self.sorted[m];
                         // the roles by vector position: the separation of max from
-                        // min (negating a difference is exact)
+                        // min, computed in that order (negating would turn +0.0
+                        // into -0.0)
                         found.push(if a < b {
                             Contact { a, b, sep }
                         } else {
                             Contact {
                                 a: b,
                                 b: a,
-                                sep: Separation {
-                                    dx: -sep.dx,
-                                    dy: -sep.dy,
-                                    q: sep.q,
-                                },
+                                sep: Separation::between(pb, pa),
                             }
                         });
                     }
@@ -254,10 +270,14 @@ mod tests {
             x[0] = -5e5;
             x[1] = x[2] + f64::sqrt(limit);
             let expected = brute(&x, &y, limit);
+            let mut clamped =
+                ContactGrid::default().with_region([0.0, 0.0], [spread / 2.0, spread / 2.0]);
             for threads in [Threads::single(), Threads::new(2).unwrap()] {
                 let mut found = Vec::new();
                 grid.find(&x, &y, limit, &threads, &mut found);
                 assert_eq!(found, expected, "n {n}");
+                clamped.find(&x, &y, limit, &threads, &mut found);
+                assert_eq!(found, expected, "n {n}, squares over half the spread");
             }
         }
     }

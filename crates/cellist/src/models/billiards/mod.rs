@@ -149,7 +149,7 @@ impl Billiards {
             y,
             v,
             max_sweeps: DEFAULT_MAX_SWEEPS,
-            grid: ContactGrid::default(),
+            grid: table.grid(),
             contacts: Vec::new(),
             walls: Vec::new(),
             components: Components::default(),
