@@ -35,6 +35,22 @@ fn load(path: &Path, max_sweeps: u64) -> CliResult<(BilliardsInput, Billiards)> 
     Ok((input, system))
 }
 
+/// Runs step `step`, keeping the hardest step so far as `(step, sweeps)`.
+fn step_and_track(
+    system: &mut Billiards,
+    step: u64,
+    pool: &Threads,
+    hardest: &mut (u64, u64),
+) -> CliResult {
+    let stats = system
+        .step(step, pool)
+        .map_err(|e| CliError::Run(e.to_string()))?;
+    if stats.sweeps > hardest.1 {
+        *hardest = (step, stats.sweeps);
+    }
+    Ok(())
+}
+
 /// `cellist billiards run`.
 pub fn run(args: &BilliardsRunArgs) -> CliResult {
     let pool = threads(args.threads)?;
@@ -85,12 +101,7 @@ pub fn run(args: &BilliardsRunArgs) -> CliResult {
     let start = Instant::now();
     let mut hardest = (0, 0);
     for step in 1..=steps {
-        let stats = system
-            .step(step, &pool)
-            .map_err(|e| CliError::Run(e.to_string()))?;
-        if stats.sweeps > hardest.1 {
-            hardest = (step, stats.sweeps);
-        }
+        step_and_track(&mut system, step, &pool, &mut hardest)?;
         if let (Some(file), Some(path)) = (viz.as_mut(), args.viz.as_deref()) {
             write_state(
                 file.writer(),
@@ -292,12 +303,7 @@ pub fn bench(args: &BenchBilliardsArgs) -> CliResult {
         let mut system = start_state.clone();
         let start = Instant::now();
         for step in 1..=steps {
-            let stats = system
-                .step(step, &pool)
-                .map_err(|e| CliError::Run(e.to_string()))?;
-            if stats.sweeps > hardest.1 {
-                hardest = (step, stats.sweeps);
-            }
+            step_and_track(&mut system, step, &pool, &mut hardest)?;
         }
         samples.push(start.elapsed().as_secs_f64());
     }
