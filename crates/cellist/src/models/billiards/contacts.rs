@@ -52,10 +52,13 @@ impl ContactGrid {
         assert_eq!(x.len(), y.len());
         out.clear();
         let n = x.len();
-        if n < 2 || limit.is_nan() || limit < 0.0 {
+        if limit.is_nan() || limit < 0.0 {
             return;
         }
         self.bin(x, y, limit);
+        if n < 2 {
+            return;
+        }
         // search square by square (neighbouring discs are close in memory), each
         // disc's pairs together and sorted by b
         let ranges = Threads::chunks(self.dims[0] * self.dims[1]);
@@ -111,7 +114,7 @@ impl ContactGrid {
     }
 
     /// All discs, square by square (neighbours close together), as of the last
-    /// [`ContactGrid::find`] with two discs or more.
+    /// [`ContactGrid::find`].
     pub fn nearby_order(&self) -> &[u32] {
         &self.sorted
     }

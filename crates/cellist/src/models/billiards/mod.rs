@@ -203,16 +203,11 @@ impl Billiards {
                 .map(|(k, (&x, &y))| (k as u32, table.walls_at(x, y)))
                 .filter(|(_, w)| w.any()),
         );
-        let nearby: &[u32] = if self.len() < 2 {
-            &[0]
-        } else {
-            self.grid.nearby_order()
-        };
         self.components.group(
             self.len(),
             &self.contacts,
             &self.walls,
-            &nearby[..self.len()],
+            self.grid.nearby_order(),
         );
         let sweeps = self
             .components
