@@ -127,6 +127,22 @@ impl<'a, T> DisjointSlice<'a, T> {
         &mut *self.ptr.add(k)
     }
 
+    /// Elements `range` as one slice.
+    ///
+    /// # Safety
+    /// No other thread, and no other live reference from this thread, may access
+    /// any element of `range` while the returned slice lives.
+    #[inline]
+    #[allow(clippy::mut_from_ref)]
+    pub unsafe fn range(&self, range: std::ops::Range<usize>) -> &mut [T] {
+        assert!(
+            range.start <= range.end && range.end <= self.len,
+            "range {range:?} out of {}",
+            self.len
+        );
+        std::slice::from_raw_parts_mut(self.ptr.add(range.start), range.len())
+    }
+
     /// Element `k` without the bounds check.
     ///
     /// # Safety

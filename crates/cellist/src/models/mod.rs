@@ -2,3 +2,4 @@
 
 pub mod billiards;
 pub mod md;
+pub mod pse;

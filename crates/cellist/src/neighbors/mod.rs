@@ -17,7 +17,7 @@ pub use grid::{
 pub use pairs::half_pairs;
 pub use parallel::{
     gather_cells, gather_verlet, scatter_coloured, scatter_half_rows, scatter_verlet_serial,
-    LayerForces, LayerPlan, PairKernel,
+    LayerForces, LayerPlan, PairKernel, Summand,
 };
 pub use traverse::{for_each_anchored_pair, for_each_row_in_cell, scan, CutoffTest, ScanScratch};
 pub use verlet::VerletList;

@@ -214,12 +214,55 @@ impl LayerPlan {
     }
 }
 
-/// Write access to the forces of the slots one layer may reach (see [`LayerPlan`]):
+/// A per-particle sum that a layer scatter accumulates: a force vector `[f64; D]`,
+/// a scalar rate `f64`.
+pub trait Summand: Copy + Send + Sync {
+    /// The empty sum.
+    const ZERO: Self;
+
+    /// `self += delta`, component by component.
+    fn add_assign(&mut self, delta: &Self);
+
+    /// `-self`.
+    fn negated(&self) -> Self;
+}
+
+impl Summand for f64 {
+    const ZERO: Self = 0.0;
+
+    #[inline(always)]
+    fn add_assign(&mut self, delta: &Self) {
+        *self += delta;
+    }
+
+    #[inline(always)]
+    fn negated(&self) -> Self {
+        -self
+    }
+}
+
+impl<const D: usize> Summand for [f64; D] {
+    const ZERO: Self = [0.0; D];
+
+    #[inline(always)]
+    fn add_assign(&mut self, delta: &Self) {
+        for a in 0..D {
+            self[a] += delta[a];
+        }
+    }
+
+    #[inline(always)]
+    fn negated(&self) -> Self {
+        std::array::from_fn(|a| -self[a])
+    }
+}
+
+/// Write access to the sums of the slots one layer may reach (see [`LayerPlan`]):
 /// the cyclic interval of `count` slots from `first`, the first `own` of them in the
-/// forces and the rest in the halo.
-pub struct LayerForces<'s, 'a, const D: usize> {
-    forces: &'s DisjointSlice<'a, [f64; D]>,
-    halo: &'s DisjointSlice<'a, [f64; D]>,
+/// sums and the rest in the halo.
+pub struct LayerForces<'s, 'a, V> {
+    forces: &'s DisjointSlice<'a, V>,
+    halo: &'s DisjointSlice<'a, V>,
     first: usize,
     own: usize,
     count: usize,
@@ -228,10 +271,10 @@ pub struct LayerForces<'s, 'a, const D: usize> {
     _one_thread: std::marker::PhantomData<std::cell::Cell<()>>,
 }
 
-impl<const D: usize> LayerForces<'_, '_, D> {
+impl<V: Summand> LayerForces<'_, '_, V> {
     /// `f[k] += delta`.
     #[inline(always)]
-    pub fn add(&self, k: usize, delta: &[f64; D]) {
+    pub fn add(&self, k: usize, delta: &V) {
         // offset of k in the cyclic interval: one compare, one select
         let offset = if k >= self.first {
             k - self.first
@@ -251,38 +294,35 @@ impl<const D: usize> LayerForces<'_, '_, D> {
         // other layer writes these elements (LayerPlan), and the reference lives only
         // here.
         let f = unsafe { target.get_unchecked(k) };
-        for a in 0..D {
-            f[a] += delta[a];
-        }
+        f.add_assign(delta);
     }
 
     /// `f[k] -= delta`.
     #[inline(always)]
-    pub fn sub(&self, k: usize, delta: &[f64; D]) {
-        let minus: [f64; D] = std::array::from_fn(|a| -delta[a]);
-        self.add(k, &minus);
+    pub fn sub(&self, k: usize, delta: &V) {
+        self.add(k, &delta.negated());
     }
 }
 
 /// Runs `work(rows, forces, tally)` once per layer of `plan`, all layers in
-/// parallel, then adds the halo to the forces: the parallel form of a
-/// Newton's-third-law sum over the rows of a half Verlet list built on the cell list
+/// parallel, then adds the halo to the sums (`forces`: vectors, scalars, any
+/// [`Summand`]): the parallel form of a Newton's-third-law sum over the rows of a half Verlet list built on the cell list
 /// of `plan`. `halo` is scratch (resized and zeroed here). `tallies[z]` is layer
 /// `z`'s own accumulator (energies, virials), to be reduced in layer order by the
 /// caller.
-pub fn scatter_half_rows<const D: usize, T: Send>(
+pub fn scatter_half_rows<V: Summand, T: Send>(
     plan: &LayerPlan,
-    forces: &mut [[f64; D]],
-    halo: &mut Vec<[f64; D]>,
+    forces: &mut [V],
+    halo: &mut Vec<V>,
     tallies: &mut [T],
     threads: &Threads,
-    work: impl Fn(Range<usize>, &LayerForces<D>, &mut T) + Sync,
+    work: impl Fn(Range<usize>, &LayerForces<V>, &mut T) + Sync,
 ) {
     assert_eq!(tallies.len(), plan.num_layers());
     let n = forces.len();
     assert_eq!(n, plan.bounds.last().copied().unwrap_or(0));
     halo.clear();
-    halo.resize(n, [0.0; D]);
+    halo.resize(n, V::ZERO);
     threads.install(|| {
         {
             let shared = DisjointSlice::new(forces);
@@ -309,9 +349,7 @@ pub fn scatter_half_rows<const D: usize, T: Send>(
             .zip(halo.par_chunks(HALO_CHUNK))
             .for_each(|(f, h)| {
                 for (f, h) in f.iter_mut().zip(h) {
-                    for a in 0..D {
-                        f[a] += h[a];
-                    }
+                    f.add_assign(h);
                 }
             });
     });

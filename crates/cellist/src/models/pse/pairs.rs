@@ -1,0 +1,324 @@
+//! The pair sums of the PSE rate, `out_i = sum_j w(r_ij^2) (phi_j - phi_i)`, each pair
+//! evaluated once and applied to both particles (so that `sum_i out_i = 0` to
+//! round-off), in parallel without atomics and with every particle's sum in an
+//! order fixed by the data, never by the thread count:
+//! - all pairs: blocks of particles met in a round-robin tournament, each round a
+//!   set of disjoint block pairs run in parallel;
+//! - cell list: a half Verlet list of the static particles, built once, summed
+//!   layer by layer with a halo ([`scatter_half_rows`]).
+
+use super::kernel::PairWeight;
+use crate::geometry::Domain;
+use crate::neighbors::{scatter_half_rows, CellList, LayerPlan, StencilKind, VerletList};
+use crate::threads::{DisjointSlice, Threads};
+use rayon::prelude::*;
+use std::ops::Range;
+
+/// What a pair sum adds up: `(phi_j - phi_i) w` (the rate, antisymmetric), or the
+/// weights `w` themselves (the row sums `S_i = sum_j w_ij`, symmetric).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Summed {
+    Rate,
+    Weights,
+}
+
+/// Entries handled together: gathered, computed in straight-line (SIMD) code, then
+/// scattered.
+const BLOCK: usize = 16;
+
+/// One block of pairs: separations by axis, `phi_j - phi_i`, and the pair values.
+struct PairBlock<const D: usize> {
+    d: [[f64; BLOCK]; D],
+    dphi: [f64; BLOCK],
+    value: [f64; BLOCK],
+}
+
+impl<const D: usize> Default for PairBlock<D> {
+    fn default() -> Self {
+        PairBlock {
+            d: [[1.0; BLOCK]; D],
+            dphi: [0.0; BLOCK],
+            value: [0.0; BLOCK],
+        }
+    }
+}
+
+impl<const D: usize> PairBlock<D> {
+    /// `value[k] = w(|d_k|^2) dphi[k]` (or `w` alone) for every lane.
+    #[inline(always)]
+    fn evaluate(&mut self, weight: &PairWeight, summed: Summed) {
+        for k in 0..BLOCK {
+            let mut r2 = 0.0;
+            for a in 0..D {
+                r2 += self.d[a][k] * self.d[a][k];
+            }
+            let w = weight.at(r2);
+            self.value[k] = match summed {
+                Summed::Rate => w * self.dphi[k],
+                Summed::Weights => w,
+            };
+        }
+    }
+}
+
+/// The sign with which particle `j` receives a pair's value.
+#[inline(always)]
+fn partner_sign(summed: Summed) -> f64 {
+    match summed {
+        Summed::Rate => -1.0,
+        Summed::Weights => 1.0,
+    }
+}
+
+/// Particles per block of the all-pairs sum.
+const DIRECT_BLOCK: usize = 256;
+
+/// All pairs under the minimum image: the blocks and the rounds in which they meet.
+#[derive(Clone, Debug)]
+pub(super) struct AllPairs<const D: usize> {
+    domain: Domain<D>,
+    n: usize,
+    /// Round 0 pairs every block with itself; then each round holds disjoint pairs.
+    rounds: Vec<Vec<(usize, usize)>>,
+}
+
+impl<const D: usize> AllPairs<D> {
+    pub(super) fn new(domain: &Domain<D>, n: usize) -> Self {
+        AllPairs {
+            domain: *domain,
+            n,
+            rounds: tournament(n.div_ceil(DIRECT_BLOCK)),
+        }
+    }
+
+    /// Pairs evaluated per sum.
+    pub(super) fn pairs(&self) -> u64 {
+        let n = self.n as u64;
+        n * n.saturating_sub(1) / 2
+    }
+
+    pub(super) fn sum(
+        &self,
+        weight: &PairWeight,
+        summed: Summed,
+        positions: &[[f64; D]],
+        phi: &[f64],
+        out: &mut [f64],
+        threads: &Threads,
+    ) {
+        out.fill(0.0);
+        let shared = DisjointSlice::new(out);
+        let block = |b: usize| b * DIRECT_BLOCK..((b + 1) * DIRECT_BLOCK).min(self.n);
+        threads.install(|| {
+            for round in &self.rounds {
+                round.par_iter().for_each(|&(a, b)| {
+                    let (ra, rb) = (block(a), block(b));
+                    let mut pb = PairBlock::<D>::default();
+                    if a == b {
+                        // SAFETY: each block occurs once in round 0.
+                        let out_a = unsafe { shared.range(ra.clone()) };
+                        for (local, i) in ra.clone().enumerate() {
+                            let (own, later) = out_a.split_at_mut(local + 1);
+                            let partners = i + 1..ra.end;
+                            own[local] += self
+                                .row(&mut pb, weight, summed, i, positions, phi, partners, later);
+                        }
+                    } else {
+                        // SAFETY: the pairs of a tournament round are disjoint.
+                        let (out_a, out_b) =
+                            unsafe { (shared.range(ra.clone()), shared.range(rb.clone())) };
+                        for (local, i) in ra.clone().enumerate() {
+                            out_a[local] += self.row(
+                                &mut pb,
+                                weight,
+                                summed,
+                                i,
+                                positions,
+                                phi,
+                                rb.clone(),
+                                out_b,
+                            );
+                        }
+                    }
+                });
+            }
+        });
+    }
+
+    /// Particle `i` against the consecutive `partners`, whose sums are
+    /// `partner_out` (same length): adds each pair's share to the partner and
+    /// returns `i`'s share, summed in partner order.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn row(
+        &self,
+        pb: &mut PairBlock<D>,
+        weight: &PairWeight,
+        summed: Summed,
+        i: usize,
+        positions: &[[f64; D]],
+        phi: &[f64],
+        partners: Range<usize>,
+        partner_out: &mut [f64],
+    ) -> f64 {
+        let (xi, phii) = (positions[i], phi[i]);
+        let half: [f64; D] = std::array::from_fn(|a| 0.5 * self.domain.length[a]);
+        let length = self.domain.length;
+        let sign = partner_sign(summed);
+        let mut acc = 0.0;
+        for (chunk, out_chunk) in partners
+            .clone()
+            .step_by(BLOCK)
+            .zip(partner_out.chunks_mut(BLOCK))
+        {
+            let js = chunk..(chunk + BLOCK).min(partners.end);
+            for (k, j) in js.enumerate() {
+                for a in 0..D {
+                    // the minimum image of wrapped positions
+                    let d = positions[j][a] - xi[a];
+                    pb.d[a][k] = if d > half[a] {
+                        d - length[a]
+                    } else if d < -half[a] {
+                        d + length[a]
+                    } else {
+                        d
+                    };
+                }
+                pb.dphi[k] = phi[j] - phii;
+            }
+            pb.evaluate(weight, summed);
+            for (k, o) in out_chunk.iter_mut().enumerate() {
+                acc += pb.value[k];
+                *o += sign * pb.value[k];
+            }
+        }
+        acc
+    }
+}
+
+/// The rounds of a round-robin tournament of `blocks` players (the circle method):
+/// round 0 is every block with itself, then `m - 1` rounds (`m` = `blocks` rounded up
+/// to even) in which every block meets a different one, so that every unordered
+/// pair of blocks meets exactly once and no block plays twice in a round. Each pair
+/// is `(smaller, larger)`.
+fn tournament(blocks: usize) -> Vec<Vec<(usize, usize)>> {
+    let mut rounds = vec![(0..blocks).map(|b| (b, b)).collect::<Vec<_>>()];
+    let m = blocks + blocks % 2;
+    for r in 0..m.saturating_sub(1) {
+        let mut round = Vec::new();
+        for k in 0..m / 2 {
+            let (a, b) = if k == 0 {
+                (r, m - 1)
+            } else {
+                ((r + k) % (m - 1), (r + m - 1 - k) % (m - 1))
+            };
+            // the odd one out meets the padding block: a bye
+            if a < blocks && b < blocks {
+                round.push((a.min(b), a.max(b)));
+            }
+        }
+        rounds.push(round);
+    }
+    rounds
+}
+
+/// The pairs within the cutoff of static particles: a half Verlet list (no skin)
+/// over a cell list, and the layers that sum it in parallel.
+#[derive(Clone, Debug)]
+pub(super) struct ListPairs<const D: usize> {
+    list: VerletList<D>,
+    plan: LayerPlan,
+    halo: Vec<f64>,
+    tallies: Vec<()>,
+}
+
+impl<const D: usize> ListPairs<D> {
+    /// The list for the particles of `cells` (binned for at least `cutoff`).
+    pub(super) fn new(cells: &CellList<D>, cutoff: f64, threads: &Threads) -> Self {
+        let plan = LayerPlan::new(cells);
+        ListPairs {
+            list: VerletList::build(cells, StencilKind::Half, cutoff, 0.0, threads),
+            tallies: vec![(); plan.num_layers()],
+            plan,
+            halo: Vec::new(),
+        }
+    }
+
+    /// Pairs evaluated per sum.
+    pub(super) fn pairs(&self) -> u64 {
+        self.list.num_entries() as u64
+    }
+
+    /// The pair sum over the list; `positions` in the cell list's slot order.
+    pub(super) fn sum(
+        &mut self,
+        weight: &PairWeight,
+        summed: Summed,
+        positions: &[[f64; D]],
+        phi: &[f64],
+        out: &mut [f64],
+        threads: &Threads,
+    ) {
+        out.fill(0.0);
+        let list = &self.list;
+        let sign = partner_sign(summed);
+        scatter_half_rows(
+            &self.plan,
+            out,
+            &mut self.halo,
+            &mut self.tallies,
+            threads,
+            |rows, sums, _| {
+                let mut pb = PairBlock::<D>::default();
+                for i in rows {
+                    let (xi, phii) = (positions[i], phi[i]);
+                    let mut acc = 0.0;
+                    let (js, images) = list.row(i);
+                    for (jb, ib) in js.chunks(BLOCK).zip(images.chunks(BLOCK)) {
+                        for (k, (&j, &image)) in jb.iter().zip(ib).enumerate() {
+                            let (xj, s) = (&positions[j as usize], list.image_shift(image));
+                            for a in 0..D {
+                                pb.d[a][k] = (xj[a] + s[a]) - xi[a];
+                            }
+                            pb.dphi[k] = phi[j as usize] - phii;
+                        }
+                        pb.evaluate(weight, summed);
+                        for (k, &j) in jb.iter().enumerate() {
+                            acc += pb.value[k];
+                            sums.add(j as usize, &(sign * pb.value[k]));
+                        }
+                    }
+                    sums.add(i, &acc);
+                }
+            },
+        );
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_pair_of_blocks_meets_once_and_no_block_twice_in_a_round() {
+        for blocks in 0..12 {
+            let rounds = tournament(blocks);
+            let mut met = vec![vec![0; blocks]; blocks];
+            for round in &rounds {
+                let mut playing = vec![false; blocks];
+                for &(a, b) in round {
+                    assert!(a <= b);
+                    met[a][b] += 1;
+                    assert!(!playing[a] && !playing[b], "{blocks}: a block plays twice");
+                    playing[a] = true;
+                    playing[b] = true;
+                }
+            }
+            for a in 0..blocks {
+                for b in a..blocks {
+                    assert_eq!(met[a][b], 1, "{blocks} blocks: {a} and {b}");
+                }
+            }
+        }
+    }
+}
