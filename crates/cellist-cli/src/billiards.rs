@@ -89,7 +89,7 @@ pub fn run(args: &BilliardsRunArgs) -> CliResult {
     let frame_every = args.frame_every.unwrap_or(steps.div_ceil(200).max(1));
     let mut gif = match &args.gif {
         Some(p) => {
-            let mut gif = GifAnimation::create(p, painter.size())
+            let mut gif = GifAnimation::create(p, painter.size(), &DiscPainter::palette())
                 .map_err(CliError::output(p.display().to_string()))?;
             gif.add_frame(painter.render(&system.x, &system.y, &system.v), 8)
                 .map_err(CliError::output(p.display().to_string()))?;
@@ -139,7 +139,8 @@ pub fn run(args: &BilliardsRunArgs) -> CliResult {
     if let Some(path) = &args.png {
         let size = painter.size();
         let pixels = painter.render(&system.x, &system.y, &system.v);
-        write_png(path, size, pixels).map_err(CliError::output(path.display().to_string()))?;
+        write_png(path, size, pixels, &DiscPainter::palette())
+            .map_err(CliError::output(path.display().to_string()))?;
     }
     write_final(args, format, steps, &input.ids, &system)?;
     eprintln!(

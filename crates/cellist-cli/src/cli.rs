@@ -116,6 +116,51 @@ pub enum BenchCommand {
     Lj(BenchLjArgs),
     /// Run a collision-benchmark input (.in) start to end, without output.
     Billiards(BenchBilliardsArgs),
+    /// Diffusion by particle strength exchange: forward Euler steps on a uniform
+    /// lattice in the unit box, a sine field; time per step and pair-kernel
+    /// evaluations per second.
+    Pse(BenchPseArgs),
+}
+
+/// The pair sum of `cellist bench pse`.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PseMethodArg {
+    /// All pairs, O(N^2).
+    Direct,
+    /// Pairs within cutoff_factor * eps from a cell list, O(N).
+    CellList,
+}
+
+/// Flags of `cellist bench pse`.
+#[derive(Args, Debug)]
+pub struct BenchPseArgs {
+    /// Particles per side of the lattice (N = n^dim).
+    #[arg(long)]
+    pub n_per_side: usize,
+    /// Dimension (2 or 3).
+    #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u8).range(2..=3))]
+    pub dim: u8,
+    /// All pairs or cell list.
+    #[arg(long, value_enum, default_value_t = PseMethodArg::CellList)]
+    pub method: PseMethodArg,
+    /// Kernel width in lattice spacings, eps / h.
+    #[arg(long, default_value_t = 1.0)]
+    pub eps_over_h: f64,
+    /// Cutoff of the cell list in units of eps.
+    #[arg(long, default_value_t = 5.0)]
+    pub cutoff_factor: f64,
+    /// Timed steps per repetition (forward Euler: one rate evaluation each).
+    #[arg(long, default_value_t = 5)]
+    pub steps: u64,
+    /// Worker threads.
+    #[arg(long, default_value_t = 1)]
+    pub threads: usize,
+    /// Timed repetitions; the median is reported.
+    #[arg(long, default_value_t = 3)]
+    pub repeat: usize,
+    /// Print one JSON object instead of text.
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// Flags of `cellist bench billiards`.

@@ -6,6 +6,7 @@ mod cli;
 mod error;
 mod md;
 mod neighbors;
+mod pse;
 mod run;
 mod scenario;
 
@@ -28,6 +29,7 @@ fn main() -> ExitCode {
             BenchCommand::Neighbors(args) => bench::neighbors(&args),
             BenchCommand::Lj(args) => bench::lj(&args),
             BenchCommand::Billiards(args) => billiards::bench(&args),
+            BenchCommand::Pse(args) => pse::bench(&args),
         },
     };
     match result {

@@ -4,11 +4,13 @@
 use crate::cli::RunArgs;
 use crate::error::{threads, CliResult};
 use crate::md;
+use crate::pse;
 use crate::scenario::Scenario;
 use std::path::Path;
 
 /// The models this build runs, for messages.
-const MODELS: &str = "md (Lennard-Jones molecular dynamics)";
+const MODELS: &str =
+    "md (Lennard-Jones molecular dynamics), pse (diffusion by particle strength exchange)";
 
 /// Runs `cellist run`.
 pub fn run(args: &RunArgs) -> CliResult {
@@ -21,6 +23,7 @@ pub fn run(args: &RunArgs) -> CliResult {
         .unwrap_or_else(|| Path::new("out").join(&scenario.name));
     match model.as_str() {
         "md" => md::run(&scenario, &out_dir, &pool),
+        "pse" => pse::run(&scenario, &out_dir, &pool),
         other => Err(scenario.error(format!(
             "model '{other}' is unknown; this build runs: {MODELS}"
         ))),

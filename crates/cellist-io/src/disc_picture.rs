@@ -117,13 +117,13 @@ pub struct GifAnimation {
 }
 
 impl GifAnimation {
-    /// Starts an animation of `size` x `size` frames at `path`, looping forever.
-    pub fn create(path: &Path, size: u32) -> io::Result<Self> {
+    /// Starts an animation of `size` x `size` frames at `path` in `palette` (RGB
+    /// triples), looping forever.
+    pub fn create(path: &Path, size: u32, palette: &[u8]) -> io::Result<Self> {
         let size = u16::try_from(size)
             .map_err(|_| io::Error::other("a GIF frame is at most 65535 pixels wide"))?;
         let file = AtomicFile::create(path)?;
-        let mut encoder = gif::Encoder::new(file, size, size, &DiscPainter::palette())
-            .map_err(io::Error::other)?;
+        let mut encoder = gif::Encoder::new(file, size, size, palette).map_err(io::Error::other)?;
         encoder
             .set_repeat(gif::Repeat::Infinite)
             .map_err(io::Error::other)?;
@@ -155,14 +155,14 @@ impl io::Write for AtomicFile {
     }
 }
 
-/// Writes one frame (palette indices, `size^2`) as an indexed PNG.
-pub fn write_png(path: &Path, size: u32, pixels: &[u8]) -> io::Result<()> {
+/// Writes one frame (indices into `palette`, `size^2`) as an indexed PNG.
+pub fn write_png(path: &Path, size: u32, pixels: &[u8], palette: &[u8]) -> io::Result<()> {
     let mut file = AtomicFile::create(path)?;
     {
         let mut encoder = png::Encoder::new(file.writer(), size, size);
         encoder.set_color(png::ColorType::Indexed);
         encoder.set_depth(png::BitDepth::Eight);
-        encoder.set_palette(DiscPainter::palette());
+        encoder.set_palette(palette);
         let mut writer = encoder.write_header().map_err(io::Error::other)?;
         writer.write_image_data(pixels).map_err(io::Error::other)?;
     }
@@ -187,13 +187,13 @@ mod tests {
 
         let dir = tempfile::tempdir().unwrap();
         let gif_path = dir.path().join("a.gif");
-        let mut gif = GifAnimation::create(&gif_path, 100).unwrap();
+        let mut gif = GifAnimation::create(&gif_path, 100, &DiscPainter::palette()).unwrap();
         gif.add_frame(&pixels, 5).unwrap();
         gif.add_frame(&far, 5).unwrap();
         gif.finish().unwrap();
         assert_eq!(&std::fs::read(&gif_path).unwrap()[..6], b"GIF89a");
         let png_path = dir.path().join("a.png");
-        write_png(&png_path, 100, &pixels).unwrap();
+        write_png(&png_path, 100, &pixels, &DiscPainter::palette()).unwrap();
         assert_eq!(&std::fs::read(&png_path).unwrap()[1..4], b"PNG");
         assert_eq!(DiscPainter::palette().len(), 768);
     }

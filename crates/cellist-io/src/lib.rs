@@ -8,6 +8,8 @@ pub mod billiards;
 pub mod disc_picture;
 pub mod dump;
 pub mod error;
+pub mod field_csv;
+pub mod field_picture;
 pub mod lammps_data;
 pub mod output;
 pub mod plot;
@@ -20,6 +22,8 @@ pub use billiards::{
 pub use disc_picture::{write_png, DiscPainter, GifAnimation};
 pub use dump::{write_lammps_frame, write_xyz_frame, Frame, DUMP_COLUMNS};
 pub use error::InputError;
+pub use field_csv::{field_header, parse_field, read_field, write_field};
+pub use field_picture::FieldPainter;
 pub use lammps_data::{read_data, DataAtom, DataFile};
 pub use output::{format_g17, write_pairs, AtomicFile};
 pub use points::{read_points, BoxInfo, PointFile, Points};

@@ -11,7 +11,9 @@ pub fn cellist(args: &[&str]) -> Output {
         .expect("cellist runs")
 }
 
-/// `../shared/testdata/<name>`, or `None` with a message when it is absent.
+/// `../shared/testdata/<name>`, or `None` with a message when it is absent (not
+/// every test crate reads shared data).
+#[allow(dead_code)]
 pub fn shared_testdata(name: &str) -> Option<PathBuf> {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../../../shared/testdata")

@@ -33,35 +33,38 @@ impl PairWeight {
     }
 }
 
-/// `log2(e)`.
-const LOG2_E: f64 = std::f64::consts::LOG2_E;
-/// `ln 2` split in two (Cody and Waite): `LN2_HI` has trailing zero bits so that
-/// `n LN2_HI` is exact for the `n` that occur.
-const LN2_HI: f64 = f64::from_bits(0x3fe6_2e42_fee0_0000);
-const LN2_LO: f64 = f64::from_bits(0x3dea_39ef_3579_3c76);
+/// `4 log2(e)`: quarters of a binary order of magnitude.
+const QUARTERS_PER_E: f64 = 4.0 * std::f64::consts::LOG2_E;
+/// `ln 2 / 4` split in two (Cody and Waite): `QUARTER_LN2_HI` has trailing zero bits
+/// so that `k QUARTER_LN2_HI` is exact for the `k` that occur.
+const QUARTER_LN2_HI: f64 = f64::from_bits(0x3fe6_2e42_fee0_0000) / 4.0;
+const QUARTER_LN2_LO: f64 = f64::from_bits(0x3dea_39ef_3579_3c76) / 4.0;
 /// `1.5 * 2^52`: adding it rounds to an integer held in the low mantissa bits.
 const ROUNDER: f64 = 6_755_399_441_055_744.0;
+/// `2^(j/4)` for `j = 0..3`.
+const QUARTER_POWERS: [f64; 4] = [
+    1.0,
+    1.189_207_115_002_721,
+    std::f64::consts::SQRT_2,
+    1.681_792_830_507_429,
+];
 /// Below this, `exp(x)` is under `3.3e-308` and returned as 0.
 const UNDERFLOW: f64 = -708.0;
 
 /// `exp(x)` for `x <= 0` (and `x` not NaN), within a few ulps of `f64::exp`, in
-/// branch-free arithmetic that vectorises: `x = n ln2 + r` with `|r| <= ln2 / 2`,
-/// `exp(r)` by its Taylor polynomial of degree 13 (truncation below `1e-17`
-/// relative), times `2^n` built from the exponent bits. Results below `3.3e-308`
-/// are flushed to 0.
+/// branch-free arithmetic that vectorises: `x = (4n + j) ln2 / 4 + r` with
+/// `|r| <= ln2 / 8`, `exp(r)` by its Taylor polynomial of degree 9 (truncation below
+/// `1e-17` relative), times `2^(j/4)` picked by selects (no table lookup) and `2^n`
+/// built from the exponent bits. Results below `3.3e-308` are flushed to 0.
 #[inline(always)]
 pub fn exp_nonpositive(x: f64) -> f64 {
     let clamped = x.max(UNDERFLOW);
-    let shifted = clamped * LOG2_E + ROUNDER;
-    let n = shifted - ROUNDER;
-    let r = (clamped - n * LN2_HI) - n * LN2_LO;
-    // Horner, 1/k! coefficients
-    let mut p = 1.0 / 6_227_020_800.0;
+    let shifted = clamped * QUARTERS_PER_E + ROUNDER;
+    let k = shifted - ROUNDER;
+    let r = (clamped - k * QUARTER_LN2_HI) - k * QUARTER_LN2_LO;
+    // Horner, 1/i! coefficients
+    let mut p = 1.0 / 362_880.0;
     for c in [
-        1.0 / 479_001_600.0,
-        1.0 / 39_916_800.0,
-        1.0 / 3_628_800.0,
-        1.0 / 362_880.0,
         1.0 / 40_320.0,
         1.0 / 5_040.0,
         1.0 / 720.0,
@@ -74,12 +77,25 @@ pub fn exp_nonpositive(x: f64) -> f64 {
     ] {
         p = p * r + c;
     }
-    let n_bits = (shifted.to_bits() as i64).wrapping_sub(ROUNDER.to_bits() as i64);
-    let two_n = f64::from_bits((n_bits + 1023).wrapping_shl(52) as u64);
+    let k_bits = (shifted.to_bits() as i64).wrapping_sub(ROUNDER.to_bits() as i64);
+    // k = 4n + j with j in 0..4 (the shift floors negative k)
+    let (n, j) = (k_bits >> 2, k_bits & 3);
+    let low = if j & 1 == 0 {
+        QUARTER_POWERS[0]
+    } else {
+        QUARTER_POWERS[1]
+    };
+    let high = if j & 1 == 0 {
+        QUARTER_POWERS[2]
+    } else {
+        QUARTER_POWERS[3]
+    };
+    let quarter = if j & 2 == 0 { low } else { high };
+    let two_n = f64::from_bits((n + 1023).wrapping_shl(52) as u64);
     if x < UNDERFLOW {
         0.0
     } else {
-        p * two_n
+        p * quarter * two_n
     }
 }
 
