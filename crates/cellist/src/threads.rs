@@ -143,6 +143,14 @@ impl<'a, T> DisjointSlice<'a, T> {
         std::slice::from_raw_parts_mut(self.ptr.add(range.start), range.len())
     }
 
+    /// The first element's address, for callers that check their indices once
+    /// against the length and then write through it under the same promise as
+    /// [`DisjointSlice::get`].
+    #[inline(always)]
+    pub fn base(&self) -> *mut T {
+        self.ptr
+    }
+
     /// Element `k` without the bounds check.
     ///
     /// # Safety

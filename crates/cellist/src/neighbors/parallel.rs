@@ -261,8 +261,10 @@ impl<const D: usize> Summand for [f64; D] {
 /// the cyclic interval of `count` slots from `first`, the first `own` of them in the
 /// sums and the rest in the halo.
 pub struct LayerForces<'s, 'a, V> {
-    forces: &'s DisjointSlice<'a, V>,
-    halo: &'s DisjointSlice<'a, V>,
+    // the two slices' base pointers, taken once: a write picks one by a select
+    forces: *mut V,
+    halo: *mut V,
+    _slices: std::marker::PhantomData<&'s DisjointSlice<'a, V>>,
     first: usize,
     own: usize,
     count: usize,
@@ -290,10 +292,10 @@ impl<V: Summand> LayerForces<'_, '_, V> {
         } else {
             self.halo
         };
-        // SAFETY: k lies in this layer (forces) or the next (halo), checked above; no
-        // other layer writes these elements (LayerPlan), and the reference lives only
-        // here.
-        let f = unsafe { target.get_unchecked(k) };
+        // SAFETY: both slices have n elements and k < n, checked above; k lies in
+        // this layer (forces) or the next (halo), whose elements no other layer
+        // writes (LayerPlan), and the reference lives only here.
+        let f = unsafe { &mut *target.add(k) };
         f.add_assign(delta);
     }
 
@@ -331,8 +333,9 @@ pub fn scatter_half_rows<V: Summand, T: Send>(
             (0..plan.num_layers()).into_par_iter().for_each(|z| {
                 let (first, own, count) = plan.reach(z);
                 let access = LayerForces {
-                    forces: &shared,
-                    halo: &shared_halo,
+                    forces: shared.base(),
+                    halo: shared_halo.base(),
+                    _slices: std::marker::PhantomData,
                     first,
                     own,
                     count,
