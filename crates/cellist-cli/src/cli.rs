@@ -39,10 +39,12 @@ const RUN_HELP: &str = "\
 Run a scenario file (TOML). Without one, run the built-in Lennard-Jones melt \
 (examples/lj-melt.toml: 32000 atoms, 1000 steps, LAMMPS's bench/in.lj set-up).
 
-The scenario names its model (model = \"md\") and its keys; see docs/models.md and \
-examples/. Input paths in the scenario are relative to the scenario file; output \
-files go to the output folder (--out, default out/<scenario name>/): thermo.csv, \
-energy.png and the dumps the scenario asks for. The thermo table is printed as the run \
+The scenario names its model (model = \"md\": Lennard-Jones molecular dynamics; \
+model = \"pse\": diffusion by particle strength exchange) and its keys; see \
+docs/models.md and examples/. Input paths in the scenario are relative to the \
+scenario file; output files go to the output folder (--out, default \
+out/<scenario name>/): thermo.csv, a plot (energy.png or error.png) and the dumps, \
+field files and pictures the scenario asks for. The thermo table is printed as the run \
 goes, with a progress bar on a terminal, and a breakdown of the loop time at the end.";
 
 const NEIGHBORS_HELP: &str = "\
