@@ -163,6 +163,32 @@ impl<'a, T> DisjointSlice<'a, T> {
     }
 }
 
+/// The rounds of a round-robin tournament of `blocks` players (the circle method):
+/// round 0 is every block with itself, then `m - 1` rounds (`m` = `blocks` rounded up
+/// to even) in which every block meets a different one, so that every unordered
+/// pair of blocks meets exactly once and no block plays twice in a round. Each pair
+/// is `(smaller, larger)`.
+pub fn tournament(blocks: usize) -> Vec<Vec<(usize, usize)>> {
+    let mut rounds = vec![(0..blocks).map(|b| (b, b)).collect::<Vec<_>>()];
+    let m = blocks + blocks % 2;
+    for r in 0..m.saturating_sub(1) {
+        let mut round = Vec::new();
+        for k in 0..m / 2 {
+            let (a, b) = if k == 0 {
+                (r, m - 1)
+            } else {
+                ((r + k) % (m - 1), (r + m - 1 - k) % (m - 1))
+            };
+            // the odd one out meets the padding block: a bye
+            if a < blocks && b < blocks {
+                round.push((a.min(b), a.max(b)));
+            }
+        }
+        rounds.push(round);
+    }
+    rounds
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -188,5 +214,28 @@ mod tests {
         let mut out = vec![9; 100];
         concat_into(&mut out, &[vec![7], vec![8, 9]]);
         assert_eq!(out, vec![7, 8, 9]);
+    }
+
+    #[test]
+    fn every_pair_of_blocks_meets_once_and_no_block_twice_in_a_round() {
+        for blocks in 0..12 {
+            let rounds = tournament(blocks);
+            let mut met = vec![vec![0; blocks]; blocks];
+            for round in &rounds {
+                let mut playing = vec![false; blocks];
+                for &(a, b) in round {
+                    assert!(a <= b);
+                    met[a][b] += 1;
+                    assert!(!playing[a] && !playing[b], "{blocks}: a block plays twice");
+                    playing[a] = true;
+                    playing[b] = true;
+                }
+            }
+            for a in 0..blocks {
+                for b in a..blocks {
+                    assert_eq!(met[a][b], 1, "{blocks} blocks: {a} and {b}");
+                }
+            }
+        }
     }
 }

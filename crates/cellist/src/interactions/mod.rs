@@ -2,8 +2,10 @@
 //! potential is chosen once per run and inlined into the loop, never looked up per
 //! pair.
 
+pub mod gravity;
 pub mod lj;
 
+pub use gravity::GravityLaw;
 pub use lj::LennardJones;
 
 /// One pair's energy and force, as functions of the squared distance.

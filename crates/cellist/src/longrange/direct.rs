@@ -1,0 +1,424 @@
+//! All pairs, each once (Newton's third law): `acc_i += k_ij m_j d_ij` and
+//! `acc_j -= k_ij m_i d_ij` with `d_ij = x_j - x_i`, `k_ij = G/s^3 (1 - a^4/s^4)`,
+//! `s^2 = |d_ij|^2 + eps^2` (see [`GravityLaw`]).
+//!
+//! The particles are copied to structure-of-arrays buffers and cut into blocks of
+//! [`BLOCK`]; blocks meet in the rounds of a round-robin [`tournament`], the pairs
+//! of a round running in parallel on disjoint blocks. A row (one particle against
+//! a run of partners) is computed [`LANES`] partners at a time in straight-line
+//! code that the compiler turns into SIMD. Every sum runs in an order fixed by the
+//! data, so the result does not depend on the thread count.
+
+use super::{FieldOut, Sources};
+use crate::interactions::GravityLaw;
+use crate::threads::{tournament, DisjointSlice, Threads};
+use rayon::prelude::*;
+use std::ops::Range;
+
+/// Particles per block: a block's positions, masses and sums (8 arrays of 8 bytes)
+/// take 16 KiB, so two blocks stay in the level-1 cache.
+pub const BLOCK: usize = 256;
+
+/// Partners per step of a row: two AVX2 vectors.
+pub const LANES: usize = 8;
+
+/// Per-axis positions and masses, and the running sums, as structure of arrays.
+#[derive(Clone, Debug, Default)]
+struct Columns {
+    x: [Vec<f64>; 3],
+    m: Vec<f64>,
+    acc: [Vec<f64>; 3],
+    /// `sum_j m_j (phi factor)`: the potential before its `-G`.
+    pot: Vec<f64>,
+}
+
+/// The direct solver: its buffers and the tournament's rounds for one particle
+/// count.
+#[derive(Clone, Debug)]
+pub struct DirectSum {
+    law: GravityLaw,
+    n: usize,
+    rounds: Vec<Vec<(usize, usize)>>,
+    columns: Columns,
+}
+
+impl DirectSum {
+    /// The solver for `n` particles under `law`.
+    pub fn new(law: GravityLaw, n: usize) -> Self {
+        DirectSum {
+            law,
+            n,
+            rounds: tournament(n.div_ceil(BLOCK)),
+            columns: Columns {
+                x: std::array::from_fn(|_| vec![0.0; n]),
+                m: vec![0.0; n],
+                acc: std::array::from_fn(|_| vec![0.0; n]),
+                pot: vec![0.0; n],
+            },
+        }
+    }
+
+    /// Pair interactions per evaluation, `N (N - 1) / 2`.
+    pub fn pairs(&self) -> u64 {
+        let n = self.n as u64;
+        n * n.saturating_sub(1) / 2
+    }
+
+    /// Fills `out` with the exact accelerations and potentials of `sources`
+    /// (which must hold the `n` particles this solver was made for).
+    pub fn compute(&mut self, sources: &Sources, out: FieldOut, threads: &Threads) {
+        assert_eq!(
+            sources.mass.len(),
+            self.n,
+            "direct sum built for {} particles",
+            self.n
+        );
+        let c = &mut self.columns;
+        for (i, p) in sources.position.iter().enumerate() {
+            for a in 0..3 {
+                c.x[a][i] = p[a];
+            }
+        }
+        c.m.copy_from_slice(sources.mass);
+        for a in 0..3 {
+            c.acc[a].fill(0.0);
+        }
+        c.pot.fill(0.0);
+        if self.law.has_repulsion() {
+            self.sum::<true>(threads);
+        } else {
+            self.sum::<false>(threads);
+        }
+        let g = self.law.g();
+        let c = &self.columns;
+        for i in 0..self.n {
+            out.acc[i] = [g * c.acc[0][i], g * c.acc[1][i], g * c.acc[2][i]];
+            out.phi[i] = -g * c.pot[i];
+        }
+    }
+
+    fn sum<const REPULSION: bool>(&mut self, threads: &Threads) {
+        let n = self.n;
+        let block = |b: usize| b * BLOCK..((b + 1) * BLOCK).min(n);
+        let kernel = Kernel::new(&self.law);
+        let Columns { x, m, acc, pot } = &mut self.columns;
+        let (x, m) = (&*x, &*m);
+        let [ax, ay, az] = acc;
+        let sums = [
+            DisjointSlice::new(ax),
+            DisjointSlice::new(ay),
+            DisjointSlice::new(az),
+            DisjointSlice::new(pot),
+        ];
+        threads.install(|| {
+            for round in &self.rounds {
+                round.par_iter().for_each(|&(a, b)| {
+                    if a == b {
+                        // SAFETY: each block occurs once in round 0.
+                        let mut own = unsafe { Block::of(&sums, block(a)) };
+                        for i in block(a) {
+                            let local = i - block(a).start;
+                            let partners = block(a).start + local + 1..block(a).end;
+                            let (mut mine, later) = own.split(local);
+                            let got = kernel.row::<REPULSION>(x, m, i, partners, later);
+                            mine.add(0, got);
+                        }
+                    } else {
+                        // SAFETY: the block pairs of one round are disjoint.
+                        let (mut own, other) =
+                            unsafe { (Block::of(&sums, block(a)), Block::of(&sums, block(b))) };
+                        let mut other = other;
+                        for i in block(a) {
+                            let got = kernel.row::<REPULSION>(x, m, i, block(b), other.reborrow());
+                            own.add(i - block(a).start, got);
+                        }
+                    }
+                });
+            }
+        });
+    }
+}
+
+/// The running sums of a run of particles: x, y, z and potential.
+struct Block<'s> {
+    sums: [&'s mut [f64]; 4],
+}
+
+impl<'s> Block<'s> {
+    /// The sums of the particles `range`.
+    ///
+    /// # Safety
+    /// No other thread may touch those particles' sums while the block lives.
+    unsafe fn of(sums: &'s [DisjointSlice<'_, f64>; 4], range: Range<usize>) -> Self {
+        Block {
+            sums: [
+                sums[0].range(range.clone()),
+                sums[1].range(range.clone()),
+                sums[2].range(range.clone()),
+                sums[3].range(range),
+            ],
+        }
+    }
+
+    /// Particle `local` alone, and the particles after it.
+    fn split(&mut self, local: usize) -> (Block<'_>, Block<'_>) {
+        let [x, y, z, p] = &mut self.sums;
+        let (x0, x1) = x.split_at_mut(local + 1);
+        let (y0, y1) = y.split_at_mut(local + 1);
+        let (z0, z1) = z.split_at_mut(local + 1);
+        let (p0, p1) = p.split_at_mut(local + 1);
+        (
+            Block {
+                sums: [
+                    &mut x0[local..],
+                    &mut y0[local..],
+                    &mut z0[local..],
+                    &mut p0[local..],
+                ],
+            },
+            Block {
+                sums: [x1, y1, z1, p1],
+            },
+        )
+    }
+
+    fn reborrow(&mut self) -> Block<'_> {
+        let [x, y, z, p] = &mut self.sums;
+        Block { sums: [x, y, z, p] }
+    }
+
+    #[inline(always)]
+    fn add(&mut self, local: usize, v: [f64; 4]) {
+        for (s, v) in self.sums.iter_mut().zip(v) {
+            s[local] += v;
+        }
+    }
+}
+
+/// The pair formula without `G`, with its constants hoisted.
+#[derive(Clone, Copy, Debug)]
+struct Kernel {
+    eps2: f64,
+    a4: f64,
+}
+
+impl Kernel {
+    fn new(law: &GravityLaw) -> Self {
+        let a2 = law.repulsion_radius() * law.repulsion_radius();
+        Kernel {
+            eps2: law.softening2(),
+            a4: a2 * a2,
+        }
+    }
+
+    /// `(k, p)` at squared separation `r2`: `k = 1/s^3 (1 - a^4/s^4)` and
+    /// `p = 1/s (1 - a^4/(5 s^4))`.
+    #[inline(always)]
+    fn at<const REPULSION: bool>(&self, r2: f64) -> (f64, f64) {
+        let s2 = r2 + self.eps2;
+        let inv = 1.0 / s2.sqrt();
+        let inv2 = inv * inv;
+        if REPULSION {
+            let q = self.a4 * inv2 * inv2;
+            (inv * inv2 * (1.0 - q), inv * (1.0 - 0.2 * q))
+        } else {
+            (inv * inv2, inv)
+        }
+    }
+
+    /// Particle `i` against the consecutive `partners`, whose sums are `theirs`:
+    /// adds `-k m_i d` and `m_i p` to each partner and returns `i`'s
+    /// `(sum k m_j d, sum m_j p)`, summed lane by lane and then across lanes.
+    #[inline(always)]
+    fn row<const REPULSION: bool>(
+        &self,
+        x: &[Vec<f64>; 3],
+        m: &[f64],
+        i: usize,
+        partners: Range<usize>,
+        mut theirs: Block,
+    ) -> [f64; 4] {
+        let xi = [x[0][i], x[1][i], x[2][i]];
+        let mi = m[i];
+        let len = partners.len();
+        let [px, py, pz] = [
+            &x[0][partners.clone()],
+            &x[1][partners.clone()],
+            &x[2][partners.clone()],
+        ];
+        let pm = &m[partners];
+        let [sx, sy, sz, sp] = &mut theirs.sums;
+        let mut lanes = [[0.0; LANES]; 4];
+        let whole = len - len % LANES;
+        for start in (0..whole).step_by(LANES) {
+            let r = start..start + LANES;
+            let jx: &[f64; LANES] = px[r.clone()].try_into().unwrap();
+            let jy: &[f64; LANES] = py[r.clone()].try_into().unwrap();
+            let jz: &[f64; LANES] = pz[r.clone()].try_into().unwrap();
+            let jm: &[f64; LANES] = pm[r.clone()].try_into().unwrap();
+            let ox: &mut [f64; LANES] = (&mut sx[r.clone()]).try_into().unwrap();
+            let oy: &mut [f64; LANES] = (&mut sy[r.clone()]).try_into().unwrap();
+            let oz: &mut [f64; LANES] = (&mut sz[r.clone()]).try_into().unwrap();
+            let op: &mut [f64; LANES] = (&mut sp[r]).try_into().unwrap();
+            for l in 0..LANES {
+                let d = [jx[l] - xi[0], jy[l] - xi[1], jz[l] - xi[2]];
+                let (k, p) = self.at::<REPULSION>(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+                let (kj, ki) = (k * jm[l], k * mi);
+                lanes[0][l] += kj * d[0];
+                lanes[1][l] += kj * d[1];
+                lanes[2][l] += kj * d[2];
+                lanes[3][l] += p * jm[l];
+                ox[l] -= ki * d[0];
+                oy[l] -= ki * d[1];
+                oz[l] -= ki * d[2];
+                op[l] += p * mi;
+            }
+        }
+        let mut total = lanes.map(|v| v.iter().sum::<f64>());
+        for j in whole..len {
+            let d = [px[j] - xi[0], py[j] - xi[1], pz[j] - xi[2]];
+            let (k, p) = self.at::<REPULSION>(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+            let (kj, ki) = (k * pm[j], k * mi);
+            total[0] += kj * d[0];
+            total[1] += kj * d[1];
+            total[2] += kj * d[2];
+            total[3] += p * pm[j];
+            sx[j] -= ki * d[0];
+            sy[j] -= ki * d[1];
+            sz[j] -= ki * d[2];
+            sp[j] += p * mi;
+        }
+        total
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The plain double loop over ordered pairs, from the law's own formula.
+    fn reference(law: &GravityLaw, m: &[f64], x: &[[f64; 3]]) -> (Vec<[f64; 3]>, Vec<f64>) {
+        let n = m.len();
+        let mut acc = vec![[0.0; 3]; n];
+        let mut phi = vec![0.0; n];
+        for i in 0..n {
+            for j in 0..n {
+                if i != j {
+                    let d = [x[j][0] - x[i][0], x[j][1] - x[i][1], x[j][2] - x[i][2]];
+                    let (p, k) = law.unit_pair(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+                    for a in 0..3 {
+                        acc[i][a] += k * m[j] * d[a];
+                    }
+                    phi[i] += p * m[j];
+                }
+            }
+        }
+        (acc, phi)
+    }
+
+    fn cloud(n: usize, seed: u64) -> (Vec<f64>, Vec<[f64; 3]>) {
+        let mut rng = crate::random::Rng::new(seed);
+        let m = (0..n).map(|_| 0.5 + rng.uniform()).collect();
+        let x = (0..n)
+            .map(|_| [rng.uniform(), rng.uniform(), rng.uniform()])
+            .collect();
+        (m, x)
+    }
+
+    #[test]
+    fn matches_the_double_loop_across_block_edges() {
+        for (n, eps, a) in [
+            (1, 0.0, 0.0),
+            (7, 0.0, 0.0),
+            (300, 0.01, 0.0),
+            (600, 0.02, 0.03),
+        ] {
+            let law = GravityLaw::new(1.3, eps, a).unwrap();
+            let (m, x) = cloud(n, n as u64);
+            let (want_acc, want_phi) = reference(&law, &m, &x);
+            let mut acc = vec![[0.0; 3]; n];
+            let mut phi = vec![0.0; n];
+            let mut direct = DirectSum::new(law, n);
+            let sources = Sources {
+                mass: &m,
+                position: &x,
+            };
+            direct.compute(
+                &sources,
+                FieldOut {
+                    acc: &mut acc,
+                    phi: &mut phi,
+                },
+                &Threads::single(),
+            );
+            for i in 0..n {
+                let scale = want_acc[i]
+                    .iter()
+                    .map(|v| v * v)
+                    .sum::<f64>()
+                    .sqrt()
+                    .max(1e-300);
+                for a in 0..3 {
+                    assert!(
+                        (acc[i][a] - want_acc[i][a]).abs() <= 1e-12 * scale,
+                        "n {n} i {i}"
+                    );
+                }
+                assert!((phi[i] - want_phi[i]).abs() <= 1e-12 * want_phi[i].abs().max(1e-300));
+            }
+        }
+    }
+
+    #[test]
+    fn one_and_two_threads_give_the_same_bits() {
+        let n = 1100;
+        let law = GravityLaw::new(1.0, 0.01, 0.0).unwrap();
+        let (m, x) = cloud(n, 5);
+        let run = |threads: &Threads| {
+            let mut acc = vec![[0.0; 3]; n];
+            let mut phi = vec![0.0; n];
+            let sources = Sources {
+                mass: &m,
+                position: &x,
+            };
+            DirectSum::new(law, n).compute(
+                &sources,
+                FieldOut {
+                    acc: &mut acc,
+                    phi: &mut phi,
+                },
+                threads,
+            );
+            (acc, phi)
+        };
+        let one = run(&Threads::single());
+        let two = run(&Threads::new(2).unwrap());
+        assert_eq!(format!("{:?}", one), format!("{:?}", two));
+    }
+
+    #[test]
+    fn momentum_is_conserved_to_round_off() {
+        let n = 700;
+        let law = GravityLaw::new(1.0, 0.0, 0.0).unwrap();
+        let (m, x) = cloud(n, 9);
+        let mut acc = vec![[0.0; 3]; n];
+        let mut phi = vec![0.0; n];
+        let sources = Sources {
+            mass: &m,
+            position: &x,
+        };
+        DirectSum::new(law, n).compute(
+            &sources,
+            FieldOut {
+                acc: &mut acc,
+                phi: &mut phi,
+            },
+            &Threads::single(),
+        );
+        for a in 0..3 {
+            let total: f64 = (0..n).map(|i| m[i] * acc[i][a]).sum();
+            let scale: f64 = (0..n).map(|i| (m[i] * acc[i][a]).abs()).sum();
+            assert!(total.abs() <= 1e-13 * scale, "axis {a}: {total} of {scale}");
+        }
+    }
+}

@@ -1,0 +1,77 @@
+//! Long-range solvers for the softened gravity of [`GravityLaw`]: each fills the
+//! acceleration `acc_i = sum_j acc_ij` and potential `phi_i = sum_j phi_ij` of
+//! every particle (in input order, self term excluded), exactly ([`direct`]) or
+//! approximately ([`tree`], [`mesh`]).
+//!
+//! Every solver is deterministic: each particle's sum runs in an order fixed by
+//! the data, so 1 and N threads give the same bits.
+
+pub mod direct;
+
+pub use direct::DirectSum;
+
+use crate::interactions::GravityLaw;
+
+/// The particles a solver sees: masses and positions, in input order.
+#[derive(Clone, Copy, Debug)]
+pub struct Sources<'a> {
+    /// `m_i > 0`.
+    pub mass: &'a [f64],
+    /// `x_i`.
+    pub position: &'a [[f64; 3]],
+}
+
+/// What a solver writes: per particle, in input order.
+#[derive(Debug)]
+pub struct FieldOut<'a> {
+    /// `acc_i`.
+    pub acc: &'a mut [[f64; 3]],
+    /// `phi_i` (the potential energy is `1/2 sum_i m_i phi_i`).
+    pub phi: &'a mut [f64],
+}
+
+/// Checks shared by every solver's input: equal lengths, positive finite masses,
+/// finite positions, and no two particles at one point when the law is unsoftened.
+pub fn check_sources(law: &GravityLaw, sources: &Sources) -> Result<(), String> {
+    if sources.mass.len() != sources.position.len() {
+        return Err(format!(
+            "{} masses for {} positions",
+            sources.mass.len(),
+            sources.position.len()
+        ));
+    }
+    if let Some(i) = sources
+        .mass
+        .iter()
+        .position(|m| !(m.is_finite() && *m > 0.0))
+    {
+        return Err(format!(
+            "particle {i}: mass must be finite and > 0, got {}",
+            sources.mass[i]
+        ));
+    }
+    if let Some(i) = sources
+        .position
+        .iter()
+        .position(|x| x.iter().any(|c| !c.is_finite()))
+    {
+        return Err(format!(
+            "particle {i}: position {:?} is not finite",
+            sources.position[i]
+        ));
+    }
+    if law.softening() == 0.0 {
+        let mut order: Vec<usize> = (0..sources.position.len()).collect();
+        let key = |i: &usize| sources.position[*i].map(|c| (c + 0.0).to_bits());
+        order.sort_unstable_by_key(key);
+        if let Some(w) = order.windows(2).find(|w| key(&w[0]) == key(&w[1])) {
+            return Err(format!(
+                "particles {} and {} are at the same point {:?} and the softening is 0",
+                w[0].min(w[1]),
+                w[0].max(w[1]),
+                sources.position[w[0]]
+            ));
+        }
+    }
+    Ok(())
+}
