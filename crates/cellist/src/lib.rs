@@ -14,6 +14,7 @@ pub mod memory;
 pub mod models;
 pub mod neighbors;
 pub mod random;
+pub mod simd;
 pub mod threads;
 
 pub use geometry::{Boundary, Domain, GeometryError};

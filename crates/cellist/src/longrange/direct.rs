@@ -11,6 +11,7 @@
 
 use super::{FieldOut, Sources};
 use crate::interactions::GravityLaw;
+use crate::simd::F64x4;
 use crate::threads::{tournament, DisjointSlice, Threads};
 use rayon::prelude::*;
 use std::ops::Range;
@@ -19,8 +20,8 @@ use std::ops::Range;
 /// take 16 KiB, so two blocks stay in the level-1 cache.
 pub const BLOCK: usize = 256;
 
-/// Partners per step of a row: two AVX2 vectors.
-pub const LANES: usize = 8;
+/// Partners per step of a row: one AVX2 vector.
+pub const LANES: usize = 4;
 
 /// Per-axis positions and masses, and the running sums, as structure of arrays.
 #[derive(Clone, Debug, Default)]
@@ -197,13 +198,13 @@ impl<'s> Block<'s> {
 
 /// The pair formula without `G`, with its constants hoisted.
 #[derive(Clone, Copy, Debug)]
-struct Kernel {
+pub(crate) struct Kernel {
     eps2: f64,
     a4: f64,
 }
 
 impl Kernel {
-    fn new(law: &GravityLaw) -> Self {
+    pub(crate) fn new(law: &GravityLaw) -> Self {
         let a2 = law.repulsion_radius() * law.repulsion_radius();
         Kernel {
             eps2: law.softening2(),
@@ -212,11 +213,15 @@ impl Kernel {
     }
 
     /// `(k, p)` at squared separation `r2`: `k = 1/s^3 (1 - a^4/s^4)` and
-    /// `p = 1/s (1 - a^4/(5 s^4))`.
+    /// `p = 1/s (1 - a^4/(5 s^4))` with `s^2 = r2 + eps^2`.
     #[inline(always)]
-    fn at<const REPULSION: bool>(&self, r2: f64) -> (f64, f64) {
-        let s2 = r2 + self.eps2;
-        let inv = 1.0 / s2.sqrt();
+    pub(crate) fn at<const REPULSION: bool>(&self, r2: f64) -> (f64, f64) {
+        self.factors::<REPULSION>(1.0 / (r2 + self.eps2).sqrt())
+    }
+
+    /// `(k, p)` from `inv = 1/s`.
+    #[inline(always)]
+    pub(crate) fn factors<const REPULSION: bool>(&self, inv: f64) -> (f64, f64) {
         let inv2 = inv * inv;
         if REPULSION {
             let q = self.a4 * inv2 * inv2;
@@ -224,6 +229,31 @@ impl Kernel {
         } else {
             (inv * inv2, inv)
         }
+    }
+
+    /// [`Kernel::factors`] on four lanes, from `1/s`.
+    #[inline(always)]
+    pub(crate) fn factors4<const REPULSION: bool>(&self, inv: F64x4) -> (F64x4, F64x4) {
+        let inv2 = inv * inv;
+        if REPULSION {
+            let q = F64x4::splat(self.a4) * inv2 * inv2;
+            let one = F64x4::splat(1.0);
+            (
+                inv * inv2 * (one - q),
+                inv * F64x4::splat(-0.2).mul_add(q, one),
+            )
+        } else {
+            (inv * inv2, inv)
+        }
+    }
+
+    /// `eps^2` on four lanes plus the squared length of `d`.
+    #[inline(always)]
+    pub(crate) fn s2(&self, d: [F64x4; 3]) -> F64x4 {
+        d[0].mul_add(
+            d[0],
+            d[1].mul_add(d[1], d[2].mul_add(d[2], F64x4::splat(self.eps2))),
+        )
     }
 
     /// Particle `i` against the consecutive `partners`, whose sums are `theirs`:
@@ -248,33 +278,30 @@ impl Kernel {
         ];
         let pm = &m[partners];
         let [sx, sy, sz, sp] = &mut theirs.sums;
-        let mut lanes = [[0.0; LANES]; 4];
         let whole = len - len % LANES;
-        for start in (0..whole).step_by(LANES) {
-            let r = start..start + LANES;
-            let jx: &[f64; LANES] = px[r.clone()].try_into().unwrap();
-            let jy: &[f64; LANES] = py[r.clone()].try_into().unwrap();
-            let jz: &[f64; LANES] = pz[r.clone()].try_into().unwrap();
-            let jm: &[f64; LANES] = pm[r.clone()].try_into().unwrap();
-            let ox: &mut [f64; LANES] = (&mut sx[r.clone()]).try_into().unwrap();
-            let oy: &mut [f64; LANES] = (&mut sy[r.clone()]).try_into().unwrap();
-            let oz: &mut [f64; LANES] = (&mut sz[r.clone()]).try_into().unwrap();
-            let op: &mut [f64; LANES] = (&mut sp[r]).try_into().unwrap();
-            for l in 0..LANES {
-                let d = [jx[l] - xi[0], jy[l] - xi[1], jz[l] - xi[2]];
-                let (k, p) = self.at::<REPULSION>(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-                let (kj, ki) = (k * jm[l], k * mi);
-                lanes[0][l] += kj * d[0];
-                lanes[1][l] += kj * d[1];
-                lanes[2][l] += kj * d[2];
-                lanes[3][l] += p * jm[l];
-                ox[l] -= ki * d[0];
-                oy[l] -= ki * d[1];
-                oz[l] -= ki * d[2];
-                op[l] += p * mi;
+        let (xi4, mi4) = (xi.map(F64x4::splat), F64x4::splat(mi));
+        let one = F64x4::splat(1.0);
+        let mut lanes = [F64x4::splat(0.0); 4];
+        for j in (0..whole).step_by(LANES) {
+            let d = [
+                F64x4::load(&px[j..]) - xi4[0],
+                F64x4::load(&py[j..]) - xi4[1],
+                F64x4::load(&pz[j..]) - xi4[2],
+            ];
+            let (k, p) = self.factors4::<REPULSION>(one / self.s2(d).sqrt());
+            let mj = F64x4::load(&pm[j..]);
+            let (kj, ki) = (k * mj, k * mi4);
+            for a in 0..3 {
+                lanes[a] = kj.mul_add(d[a], lanes[a]);
             }
+            lanes[3] = p.mul_add(mj, lanes[3]);
+            for (a, s) in [&mut *sx, &mut *sy, &mut *sz].into_iter().enumerate() {
+                ki.neg_mul_add(d[a], F64x4::load(&s[j..]))
+                    .store(&mut s[j..]);
+            }
+            p.mul_add(mi4, F64x4::load(&sp[j..])).store(&mut sp[j..]);
         }
-        let mut total = lanes.map(|v| v.iter().sum::<f64>());
+        let mut total = lanes.map(F64x4::sum);
         for j in whole..len {
             let d = [px[j] - xi[0], py[j] - xi[1], pz[j] - xi[2]];
             let (k, p) = self.at::<REPULSION>(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);

@@ -7,8 +7,10 @@
 //! the data, so 1 and N threads give the same bits.
 
 pub mod direct;
+pub mod tree;
 
 pub use direct::DirectSum;
+pub use tree::{BarnesHut, TreeParams};
 
 use crate::interactions::GravityLaw;
 

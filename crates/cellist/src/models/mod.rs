@@ -1,5 +1,6 @@
 //! Models: a state, one step, and the observables of each kind of particle system.
 
 pub mod billiards;
+pub mod gravity;
 pub mod md;
 pub mod pse;

@@ -1,0 +1,224 @@
+//! The octree: particles sorted along a Morton (Z-order) curve, nodes cut from
+//! the sorted range by the key's octal digits, depth first, with a `next` link
+//! that skips a node's subtree so that the walk needs no stack.
+
+use crate::threads::Threads;
+use rayon::prelude::*;
+
+/// Bits per axis in a Morton key (3 x 21 = 63 bits).
+const KEY_BITS: u32 = 21;
+
+/// `v`'s low 21 bits spread to every third bit.
+#[inline]
+fn spread(v: u64) -> u64 {
+    let mut x = v & 0x1f_ffff;
+    x = (x | (x << 32)) & 0x001f_0000_0000_ffff;
+    x = (x | (x << 16)) & 0x001f_0000_ff00_00ff;
+    x = (x | (x << 8)) & 0x100f_00f0_0f00_f00f;
+    x = (x | (x << 4)) & 0x10c3_0c30_c30c_30c3;
+    x = (x | (x << 2)) & 0x1249_2492_4924_9249;
+    x
+}
+
+/// The Morton key of integer cell coordinates `q` (each below `2^21`): the bits
+/// of x, y and z interleaved, x lowest.
+#[inline]
+pub(super) fn morton(q: [u64; 3]) -> u64 {
+    spread(q[0]) | (spread(q[1]) << 1) | (spread(q[2]) << 2)
+}
+
+/// Most particles in a leaf and in a walk group.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) struct Sizes {
+    pub leaf: usize,
+    pub group: usize,
+}
+
+/// One node: its cube, its particles (a range of the sorted order) and the link
+/// past its subtree. Its children, if any, follow it directly.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Node {
+    /// The lower corner of the node's cube.
+    pub corner: [f64; 3],
+    /// The cube's side.
+    pub side: f64,
+    /// Sorted particles `start..end`.
+    pub start: u32,
+    /// End of the particle range.
+    pub end: u32,
+    /// The index of the first node after this subtree.
+    pub next: u32,
+    /// Whether the node has no children.
+    pub leaf: bool,
+}
+
+/// The particles in Morton order and the nodes over them.
+#[derive(Clone, Debug, Default)]
+pub(super) struct Octree {
+    /// `order[s]`: the input index of sorted particle `s`.
+    pub order: Vec<u32>,
+    keys: Vec<(u64, u32)>,
+    /// Depth-first nodes; node 0 is the root.
+    pub nodes: Vec<Node>,
+    /// The walk's groups, in order: the largest nodes of at most `group_size`
+    /// particles. They partition the particles.
+    pub groups: Vec<u32>,
+}
+
+impl Octree {
+    /// Sorts `positions` along the Morton curve of their bounding cube and cuts
+    /// the nodes, leaves holding at most `leaf_size` particles (or sitting at the
+    /// keys' last level), and marks the groups of at most `group_size`.
+    pub fn build(&mut self, positions: &[[f64; 3]], sizes: Sizes, threads: &Threads) {
+        let n = positions.len();
+        let (corner, side) = bounding_cube(positions);
+        let scale = (1u64 << KEY_BITS) as f64 / side;
+        let top = (1u64 << KEY_BITS) - 1;
+        threads.install(|| {
+            positions
+                .par_iter()
+                .enumerate()
+                .map(|(i, x)| {
+                    let q = std::array::from_fn(|a| (((x[a] - corner[a]) * scale) as u64).min(top));
+                    (morton(q), i as u32)
+                })
+                .collect_into_vec(&mut self.keys);
+            self.keys.par_sort_unstable();
+        });
+        self.order.clear();
+        self.order.extend(self.keys.iter().map(|k| k.1));
+        self.nodes.clear();
+        self.groups.clear();
+        if n > 0 {
+            self.cut(0, n, 0, corner, side, sizes, false);
+        }
+    }
+
+    /// Appends the node of sorted particles `start..end` at `level` (its cube at
+    /// `corner` with `side`) and its subtree; `grouped` when an ancestor is a group.
+    #[allow(clippy::too_many_arguments)]
+    fn cut(
+        &mut self,
+        start: usize,
+        end: usize,
+        level: u32,
+        corner: [f64; 3],
+        side: f64,
+        sizes: Sizes,
+        grouped: bool,
+    ) {
+        let index = self.nodes.len();
+        let leaf = end - start <= sizes.leaf || level == KEY_BITS;
+        let group = !grouped && (end - start <= sizes.group || leaf);
+        if group {
+            self.groups.push(index as u32);
+        }
+        self.nodes.push(Node {
+            corner,
+            side,
+            start: start as u32,
+            end: end as u32,
+            next: 0,
+            leaf,
+        });
+        if !leaf {
+            let shift = 3 * (KEY_BITS - 1 - level);
+            let half = 0.5 * side;
+            let mut from = start;
+            for octant in 0..8u64 {
+                let to =
+                    from + self.keys[from..end].partition_point(|k| (k.0 >> shift) & 7 <= octant);
+                if to > from {
+                    let child =
+                        std::array::from_fn(|a| corner[a] + half * ((octant >> a) & 1) as f64);
+                    self.cut(from, to, level + 1, child, half, sizes, grouped || group);
+                }
+                from = to;
+            }
+        }
+        self.nodes[index].next = self.nodes.len() as u32;
+    }
+}
+
+/// The smallest axis-aligned cube holding `positions` (a unit cube if there are
+/// none), grown by a relative `1e-12` so that the largest coordinates fall inside.
+fn bounding_cube(positions: &[[f64; 3]]) -> ([f64; 3], f64) {
+    let (lo, hi) = crate::geometry::bounding_box(positions);
+    if positions.is_empty() {
+        return ([0.0; 3], 1.0);
+    }
+    let extent = (0..3).map(|a| hi[a] - lo[a]).fold(0.0, f64::max);
+    let magnitude = (0..3)
+        .map(|a| lo[a].abs().max(hi[a].abs()))
+        .fold(0.0, f64::max);
+    let side = (extent * (1.0 + 1e-12))
+        .max(magnitude * 1e-12)
+        .max(f64::MIN_POSITIVE);
+    (lo, side)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::random::Rng;
+
+    #[test]
+    fn morton_interleaves_the_axes() {
+        assert_eq!(morton([1, 0, 0]), 1);
+        assert_eq!(morton([0, 1, 0]), 2);
+        assert_eq!(morton([0, 0, 1]), 4);
+        assert_eq!(morton([3, 0, 0]), 0b1001);
+        let top = (1 << KEY_BITS) - 1;
+        assert_eq!(morton([top, top, top]), (1u64 << 63) - 1);
+    }
+
+    #[test]
+    fn nodes_partition_their_particles_and_hold_them_in_their_cubes() {
+        let mut rng = Rng::new(3);
+        let mut x: Vec<[f64; 3]> = (0..3000)
+            .map(|_| [rng.normal(), rng.normal() * 0.1, rng.uniform()])
+            .collect();
+        x.push(x[10]); // a duplicate point
+        let mut tree = Octree::default();
+        tree.build(&x, Sizes { leaf: 8, group: 40 }, &Threads::single());
+        let mut at = 0;
+        for &g in &tree.groups {
+            let node = &tree.nodes[g as usize];
+            assert_eq!(node.start, at);
+            assert!(node.end - node.start <= 40 || node.leaf);
+            at = node.end;
+        }
+        assert_eq!(at as usize, x.len());
+        let mut seen = tree.order.clone();
+        seen.sort_unstable();
+        assert_eq!(seen, (0..x.len() as u32).collect::<Vec<_>>());
+        let mut leaf_particles = 0;
+        for (k, node) in tree.nodes.iter().enumerate() {
+            for s in node.start..node.end {
+                let p = x[tree.order[s as usize] as usize];
+                for a in 0..3 {
+                    assert!(
+                        p[a] >= node.corner[a] - 1e-12
+                            && p[a] <= node.corner[a] + node.side * (1.0 + 1e-9)
+                    );
+                }
+            }
+            if node.leaf {
+                assert!(node.end - node.start <= 8);
+                assert_eq!(node.next as usize, k + 1);
+                leaf_particles += node.end - node.start;
+            } else {
+                // the children tile the parent's range in order
+                let mut c = k + 1;
+                let mut at = node.start;
+                while c < node.next as usize {
+                    assert_eq!(tree.nodes[c].start, at);
+                    at = tree.nodes[c].end;
+                    c = tree.nodes[c].next as usize;
+                }
+                assert_eq!(at, node.end);
+            }
+        }
+        assert_eq!(leaf_particles as usize, x.len());
+    }
+}

@@ -1,0 +1,311 @@
+//! Self-gravitating bodies (seeds 003 and 004): softened Newtonian gravity (with
+//! seed 003's optional short-range repulsion) from one of the [`longrange`]
+//! solvers, moved by explicit Euler, symplectic Euler or kick-drift-kick leapfrog.
+//!
+//! [`longrange`]: crate::longrange
+
+mod initial;
+
+pub use initial::{plummer, two_body_seed004, Bodies};
+
+use crate::interactions::GravityLaw;
+use crate::longrange::{check_sources, BarnesHut, DirectSum, FieldOut, Sources, TreeParams};
+use crate::threads::Threads;
+use std::fmt;
+
+/// Which solver computes the forces, and its settings.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum SolverChoice {
+    /// All pairs, exact.
+    Direct,
+    /// The Barnes-Hut tree.
+    BarnesHut(TreeParams),
+}
+
+/// A solver, built for one run.
+#[derive(Debug)]
+pub enum Solver {
+    /// All pairs.
+    Direct(DirectSum),
+    /// Barnes-Hut.
+    BarnesHut(Box<BarnesHut>),
+}
+
+impl Solver {
+    /// The solver `choice` for `n` bodies under `law`.
+    pub fn new(choice: &SolverChoice, law: GravityLaw, n: usize) -> Result<Self, String> {
+        Ok(match choice {
+            SolverChoice::Direct => Solver::Direct(DirectSum::new(law, n)),
+            SolverChoice::BarnesHut(params) => {
+                Solver::BarnesHut(Box::new(BarnesHut::new(law, *params)?))
+            }
+        })
+    }
+
+    /// Fills `out` with the accelerations and potentials of `sources`.
+    pub fn compute(&mut self, sources: &Sources, out: FieldOut, threads: &Threads) {
+        match self {
+            Solver::Direct(s) => s.compute(sources, out, threads),
+            Solver::BarnesHut(s) => s.compute(sources, out, threads),
+        }
+    }
+}
+
+/// Time integrators; each takes one force evaluation per step.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Integrator {
+    /// Explicit Euler, first order: `x' = x + dt v`, `v' = v + dt a(x)`.
+    Euler,
+    /// Symplectic Euler, first order: `v' = v + dt a(x)`, `x' = x + dt v'`.
+    SymplecticEuler,
+    /// Kick-drift-kick leapfrog (velocity Verlet), second order:
+    /// `v += dt/2 a(x)`, `x += dt v`, `v += dt/2 a(x)`.
+    Leapfrog,
+}
+
+impl Integrator {
+    /// Names in scenario files, with their integrators.
+    pub const ALL: [(&'static str, Integrator); 3] = [
+        ("euler", Integrator::Euler),
+        ("symplectic-euler", Integrator::SymplecticEuler),
+        ("leapfrog", Integrator::Leapfrog),
+    ];
+
+    /// The integrator called `name`.
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.iter().find(|(n, _)| *n == name).map(|(_, i)| *i)
+    }
+}
+
+/// Why a system cannot be built or stepped.
+#[derive(Clone, Debug, PartialEq)]
+pub enum GravityError {
+    /// A parameter or a body out of range.
+    Parameter(String),
+    /// A position or velocity became NaN or infinite.
+    NotFinite {
+        /// The body (input order).
+        index: usize,
+    },
+}
+
+impl fmt::Display for GravityError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            GravityError::Parameter(m) => f.write_str(m),
+            GravityError::NotFinite { index } => {
+                write!(f, "the state of body {index} is not finite")
+            }
+        }
+    }
+}
+
+impl std::error::Error for GravityError {}
+
+/// The conserved quantities: energies, momentum and angular momentum.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Observables {
+    /// `T = 1/2 sum m v^2`.
+    pub kinetic: f64,
+    /// `W = 1/2 sum m phi` (the solver's potential).
+    pub potential: f64,
+    /// `P = sum m v`.
+    pub momentum: [f64; 3],
+    /// `L = sum m x cross v`.
+    pub angular_momentum: [f64; 3],
+}
+
+impl Observables {
+    /// `E = T + W`.
+    pub fn total(&self) -> f64 {
+        self.kinetic + self.potential
+    }
+}
+
+/// Bodies, their current accelerations and potentials, and the solver.
+#[derive(Debug)]
+pub struct GravitySystem {
+    law: GravityLaw,
+    bodies: Bodies,
+    acc: Vec<[f64; 3]>,
+    phi: Vec<f64>,
+    solver: Solver,
+}
+
+impl GravitySystem {
+    /// The system of `bodies` under `law`, with the forces of `choice` computed.
+    pub fn new(
+        law: GravityLaw,
+        bodies: Bodies,
+        choice: &SolverChoice,
+        threads: &Threads,
+    ) -> Result<Self, GravityError> {
+        let n = bodies.len();
+        if bodies.velocity.len() != n {
+            return Err(GravityError::Parameter(format!(
+                "{} velocities for {n} bodies",
+                bodies.velocity.len()
+            )));
+        }
+        let sources = Sources {
+            mass: &bodies.mass,
+            position: &bodies.position,
+        };
+        check_sources(&law, &sources).map_err(GravityError::Parameter)?;
+        if let Some(i) = bodies
+            .velocity
+            .iter()
+            .position(|v| v.iter().any(|c| !c.is_finite()))
+        {
+            return Err(GravityError::Parameter(format!(
+                "body {i}: velocity is not finite"
+            )));
+        }
+        let solver = Solver::new(choice, law, n).map_err(GravityError::Parameter)?;
+        let mut system = GravitySystem {
+            law,
+            bodies,
+            acc: vec![[0.0; 3]; n],
+            phi: vec![0.0; n],
+            solver,
+        };
+        system.compute_forces(threads);
+        Ok(system)
+    }
+
+    /// Number of bodies.
+    pub fn len(&self) -> usize {
+        self.bodies.len()
+    }
+
+    /// Whether there are no bodies.
+    pub fn is_empty(&self) -> bool {
+        self.bodies.is_empty()
+    }
+
+    /// The law.
+    pub fn law(&self) -> &GravityLaw {
+        &self.law
+    }
+
+    /// Masses, positions and velocities.
+    pub fn bodies(&self) -> &Bodies {
+        &self.bodies
+    }
+
+    /// Accelerations at the current positions.
+    pub fn accelerations(&self) -> &[[f64; 3]] {
+        &self.acc
+    }
+
+    /// Potentials `phi_i` at the current positions.
+    pub fn potentials(&self) -> &[f64] {
+        &self.phi
+    }
+
+    /// The solver (for its statistics).
+    pub fn solver(&self) -> &Solver {
+        &self.solver
+    }
+
+    fn compute_forces(&mut self, threads: &Threads) {
+        let sources = Sources {
+            mass: &self.bodies.mass,
+            position: &self.bodies.position,
+        };
+        let out = FieldOut {
+            acc: &mut self.acc,
+            phi: &mut self.phi,
+        };
+        self.solver.compute(&sources, out, threads);
+    }
+
+    /// One step of `dt` with `integrator`; accelerations and potentials are left at
+    /// the new positions. A NaN or infinite position or velocity is an error
+    /// naming the first such body.
+    pub fn step(
+        &mut self,
+        dt: f64,
+        integrator: Integrator,
+        threads: &Threads,
+    ) -> Result<(), GravityError> {
+        let Bodies {
+            position, velocity, ..
+        } = &mut self.bodies;
+        match integrator {
+            Integrator::Euler => {
+                for ((x, v), a) in position.iter_mut().zip(velocity.iter_mut()).zip(&self.acc) {
+                    for k in 0..3 {
+                        x[k] += dt * v[k];
+                        v[k] += dt * a[k];
+                    }
+                }
+                self.compute_forces(threads);
+            }
+            Integrator::SymplecticEuler => {
+                for ((x, v), a) in position.iter_mut().zip(velocity.iter_mut()).zip(&self.acc) {
+                    for k in 0..3 {
+                        v[k] += dt * a[k];
+                        x[k] += dt * v[k];
+                    }
+                }
+                self.compute_forces(threads);
+            }
+            Integrator::Leapfrog => {
+                let half = 0.5 * dt;
+                for ((x, v), a) in position.iter_mut().zip(velocity.iter_mut()).zip(&self.acc) {
+                    for k in 0..3 {
+                        v[k] += half * a[k];
+                        x[k] += dt * v[k];
+                    }
+                }
+                self.compute_forces(threads);
+                for (v, a) in self.bodies.velocity.iter_mut().zip(&self.acc) {
+                    for k in 0..3 {
+                        v[k] += half * a[k];
+                    }
+                }
+            }
+        }
+        let bad = |i: usize| {
+            let b = &self.bodies;
+            b.position[i]
+                .iter()
+                .chain(&b.velocity[i])
+                .chain(&self.acc[i])
+                .any(|c| !c.is_finite())
+        };
+        match (0..self.len()).find(|&i| bad(i)) {
+            Some(index) => Err(GravityError::NotFinite { index }),
+            None => Ok(()),
+        }
+    }
+
+    /// Energies, momentum and angular momentum now.
+    pub fn observables(&self) -> Observables {
+        let b = &self.bodies;
+        let mut o = Observables {
+            kinetic: 0.0,
+            potential: 0.0,
+            momentum: [0.0; 3],
+            angular_momentum: [0.0; 3],
+        };
+        for i in 0..self.len() {
+            let (m, x, v) = (b.mass[i], b.position[i], b.velocity[i]);
+            o.kinetic += 0.5 * m * (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+            o.potential += 0.5 * m * self.phi[i];
+            for a in 0..3 {
+                o.momentum[a] += m * v[a];
+            }
+            let l = [
+                x[1] * v[2] - x[2] * v[1],
+                x[2] * v[0] - x[0] * v[2],
+                x[0] * v[1] - x[1] * v[0],
+            ];
+            for a in 0..3 {
+                o.angular_momentum[a] += m * l[a];
+            }
+        }
+        o
+    }
+}
