@@ -40,7 +40,8 @@ Run a scenario file (TOML). Without one, run the built-in Lennard-Jones melt \
 (examples/lj-melt.toml: 32000 atoms, 1000 steps, LAMMPS's bench/in.lj set-up).
 
 The scenario names its model (model = \"md\": Lennard-Jones molecular dynamics; \
-model = \"pse\": diffusion by particle strength exchange) and its keys; see \
+model = \"pse\": diffusion by particle strength exchange; model = \"gravity\": \
+self-gravitating bodies, direct or Barnes-Hut) and its keys; see \
 docs/models.md and examples/. Input paths in the scenario are relative to the \
 scenario file; output files go to the output folder (--out, default \
 out/<scenario name>/): thermo.csv, a plot (energy.png or error.png) and the dumps, \
@@ -122,6 +123,57 @@ pub enum BenchCommand {
     /// lattice in the unit box, a sine field; time per step and pair-kernel
     /// evaluations per second.
     Pse(BenchPseArgs),
+    /// Gravity on a Plummer sphere (G = M = a = 1): time per force evaluation (ns
+    /// per pair for direct) and, for the approximate solvers, the RMS relative force
+    /// error against the direct sum.
+    Gravity(BenchGravityArgs),
+}
+
+/// The solver of `cellist bench gravity`.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GravitySolverArg {
+    /// All pairs, exact.
+    Direct,
+    /// Barnes-Hut octree.
+    BarnesHut,
+}
+
+/// Flags of `cellist bench gravity`.
+#[derive(Args, Debug)]
+pub struct BenchGravityArgs {
+    /// The solver.
+    #[arg(long, value_enum)]
+    pub solver: GravitySolverArg,
+    /// Bodies in the Plummer sphere.
+    #[arg(long)]
+    pub n: usize,
+    /// Opening angle (barnes-hut), in (0, 1.2].
+    #[arg(long, default_value_t = 0.5)]
+    pub theta: f64,
+    /// Monopoles only (barnes-hut; default: quadrupoles).
+    #[arg(long)]
+    pub monopole: bool,
+    /// Most bodies per tree leaf (barnes-hut).
+    #[arg(long, default_value_t = 16)]
+    pub leaf_size: usize,
+    /// Most bodies per walk group (barnes-hut).
+    #[arg(long, default_value_t = 128)]
+    pub group_size: usize,
+    /// Plummer softening length.
+    #[arg(long, default_value_t = 0.01)]
+    pub softening: f64,
+    /// Seed of the Plummer sphere.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Worker threads.
+    #[arg(long, default_value_t = 1)]
+    pub threads: usize,
+    /// Timed force evaluations; the median is reported.
+    #[arg(long, default_value_t = 5)]
+    pub repeat: usize,
+    /// Print one JSON object instead of text.
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// The pair sum of `cellist bench pse`.

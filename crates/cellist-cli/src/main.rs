@@ -4,6 +4,7 @@ mod bench;
 mod billiards;
 mod cli;
 mod error;
+mod gravity;
 mod md;
 mod neighbors;
 mod pse;
@@ -30,6 +31,7 @@ fn main() -> ExitCode {
             BenchCommand::Lj(args) => bench::lj(&args),
             BenchCommand::Billiards(args) => billiards::bench(&args),
             BenchCommand::Pse(args) => pse::bench(&args),
+            BenchCommand::Gravity(args) => gravity::bench(&args),
         },
     };
     match result {

@@ -788,6 +788,9 @@ impl FrameArrays {
             velocities: &self.velocities,
             forces: &self.forces,
             energies: self.energies.as_deref(),
+            masses: None,
+            accelerations: None,
+            potentials: None,
         }
     }
 }

@@ -3,6 +3,7 @@
 
 use crate::cli::RunArgs;
 use crate::error::{threads, CliResult};
+use crate::gravity;
 use crate::md;
 use crate::pse;
 use crate::scenario::Scenario;
@@ -10,7 +11,8 @@ use std::path::Path;
 
 /// The models this build runs, for messages.
 const MODELS: &str =
-    "md (Lennard-Jones molecular dynamics), pse (diffusion by particle strength exchange)";
+    "md (Lennard-Jones molecular dynamics), pse (diffusion by particle strength exchange), \
+     gravity (self-gravitating bodies)";
 
 /// Runs `cellist run`.
 pub fn run(args: &RunArgs) -> CliResult {
@@ -24,6 +26,7 @@ pub fn run(args: &RunArgs) -> CliResult {
     match model.as_str() {
         "md" => md::run(&scenario, &out_dir, &pool),
         "pse" => pse::run(&scenario, &out_dir, &pool),
+        "gravity" => gravity::run(&scenario, &out_dir, &pool),
         other => Err(scenario.error(format!(
             "model '{other}' is unknown; this build runs: {MODELS}"
         ))),

@@ -8,6 +8,11 @@ pub const DUMP_COLUMNS: [&str; 12] = [
     "id", "type", "x", "y", "z", "vx", "vy", "vz", "fx", "fy", "fz", "pe",
 ];
 
+/// The per-body columns a gravity dump may hold.
+pub const GRAVITY_DUMP_COLUMNS: [&str; 12] = [
+    "id", "mass", "x", "y", "z", "vx", "vy", "vz", "ax", "ay", "az", "phi",
+];
+
 /// One frame's data, atoms already in the order to write (sorted by id).
 pub struct Frame<'a> {
     /// Timestep number.
@@ -30,10 +35,26 @@ pub struct Frame<'a> {
     pub forces: &'a [[f64; 3]],
     /// Per-atom potential energy, when a column asks for it.
     pub energies: Option<&'a [f64]>,
+    /// Masses, for a `mass` column.
+    pub masses: Option<&'a [f64]>,
+    /// Accelerations, for `ax ay az` columns.
+    pub accelerations: Option<&'a [[f64; 3]]>,
+    /// Potentials `phi` (energy per unit mass), for a `phi` column.
+    pub potentials: Option<&'a [f64]>,
 }
 
-/// C's `%-1.16e` (LAMMPS's box-bound format): `d.dddddddddddddddde+XX`.
+/// C's `%-1.16e` (LAMMPS's box-bound format): `d.dddddddddddddddde+XX`; `inf`,
+/// `-inf` and `nan` as C prints them.
 pub fn format_e16(x: f64) -> String {
+    if !x.is_finite() {
+        return if x.is_nan() {
+            "nan".into()
+        } else if x > 0.0 {
+            "inf".into()
+        } else {
+            "-inf".into()
+        };
+    }
     let s = format!("{x:.16e}");
     let (mantissa, exponent) = s.split_once('e').expect("exponent form");
     let exponent: i32 = exponent.parse().expect("integer exponent");
@@ -84,6 +105,18 @@ pub fn write_lammps_frame<W: Write + ?Sized>(
                 "fx" | "fy" | "fz" => format_g17(frame.forces[k][axis(name)], &mut line),
                 "pe" => format_g17(
                     frame.energies.expect("energies computed for a pe column")[k],
+                    &mut line,
+                ),
+                "mass" => format_g17(
+                    frame.masses.expect("masses for a mass column")[k],
+                    &mut line,
+                ),
+                "ax" | "ay" | "az" => format_g17(
+                    frame.accelerations.expect("accelerations for a column")[k][axis(name)],
+                    &mut line,
+                ),
+                "phi" => format_g17(
+                    frame.potentials.expect("potentials for a phi column")[k],
                     &mut line,
                 ),
                 other => panic!("unknown dump column {other}"),
@@ -169,6 +202,9 @@ mod tests {
             velocities: &[[0.0; 3], [1.0, -1.0, 0.5]],
             forces: &[[1e-20, 0.0, 0.0], [0.0; 3]],
             energies,
+            masses: Some(&[2.0, 3.0]),
+            accelerations: Some(&[[0.5, 0.0, 0.0], [0.0, 0.0, -1.0]]),
+            potentials: Some(&[-1.0, -2.5]),
         }
     }
 
@@ -188,6 +224,29 @@ mod tests {
              0.0000000000000000e+00 2.0000000000000000e+00\n\
              0.0000000000000000e+00 3.0000000000000000e+00\n\
              ITEM: ATOMS id type x fx pe\n1 1 0.10000000000000001 9.9999999999999995e-21 -1.5\n2 2 1 0 2\n"
+        );
+    }
+
+    #[test]
+    fn box_bounds_print_infinities_as_c_does() {
+        assert_eq!(format_e16(f64::INFINITY), "inf");
+        assert_eq!(format_e16(f64::NEG_INFINITY), "-inf");
+        assert_eq!(format_e16(f64::NAN), "nan");
+        assert_eq!(format_e16(-0.5), "-5.0000000000000000e-01");
+    }
+
+    #[test]
+    fn gravity_columns() {
+        let mut out = Vec::new();
+        let cols: Vec<String> = ["id", "mass", "ax", "az", "phi"]
+            .iter()
+            .map(|s| s.to_string())
+            .collect();
+        write_lammps_frame(&mut out, &frame(None), &cols).unwrap();
+        let text = String::from_utf8(out).unwrap();
+        assert!(
+            text.ends_with("ITEM: ATOMS id mass ax az phi\n1 2 0.5 0 -1\n2 3 0 -1 -2.5\n"),
+            "{text}"
         );
     }
 

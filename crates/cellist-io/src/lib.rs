@@ -5,6 +5,7 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod billiards;
+pub mod bodies;
 pub mod disc_picture;
 pub mod dump;
 pub mod error;
@@ -19,8 +20,9 @@ pub use billiards::{
     parse_billiards_input, read_billiards_input, write_state, BilliardsInput, StateFormat,
     TrajectoryReader, TrajectoryStep,
 };
+pub use bodies::{parse_bodies, read_bodies, BodyFile};
 pub use disc_picture::{write_png, DiscPainter, GifAnimation};
-pub use dump::{write_lammps_frame, write_xyz_frame, Frame, DUMP_COLUMNS};
+pub use dump::{write_lammps_frame, write_xyz_frame, Frame, DUMP_COLUMNS, GRAVITY_DUMP_COLUMNS};
 pub use error::InputError;
 pub use field_csv::{field_header, parse_field, read_field, write_field};
 pub use field_picture::FieldPainter;

@@ -28,3 +28,20 @@ pub fn shared_testdata(name: &str) -> Option<PathBuf> {
         None
     }
 }
+
+/// Writes `scenario` to `dir/<name>.toml` and runs it with `--out dir/<name>` and
+/// the `extra` flags; returns the output folder and the run.
+#[allow(dead_code)]
+pub fn run_scenario(dir: &Path, name: &str, scenario: &str, extra: &[&str]) -> (PathBuf, Output) {
+    let path = dir.join(format!("{name}.toml"));
+    std::fs::write(&path, scenario).unwrap();
+    let out = dir.join(name);
+    let mut args = vec![
+        "run",
+        path.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    args.extend_from_slice(extra);
+    (out.clone(), cellist(&args))
+}

@@ -24,11 +24,13 @@ pub enum SolverChoice {
 
 /// A solver, built for one run.
 #[derive(Debug)]
+// built once per run and matched once per step: its size does not matter
+#[allow(clippy::large_enum_variant)]
 pub enum Solver {
     /// All pairs.
     Direct(DirectSum),
     /// Barnes-Hut.
-    BarnesHut(Box<BarnesHut>),
+    BarnesHut(BarnesHut),
 }
 
 impl Solver {
@@ -36,9 +38,7 @@ impl Solver {
     pub fn new(choice: &SolverChoice, law: GravityLaw, n: usize) -> Result<Self, String> {
         Ok(match choice {
             SolverChoice::Direct => Solver::Direct(DirectSum::new(law, n)),
-            SolverChoice::BarnesHut(params) => {
-                Solver::BarnesHut(Box::new(BarnesHut::new(law, *params)?))
-            }
+            SolverChoice::BarnesHut(params) => Solver::BarnesHut(BarnesHut::new(law, *params)?),
         })
     }
 

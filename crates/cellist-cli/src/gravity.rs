@@ -1,0 +1,750 @@
+//! `cellist run` for `model = "gravity"`: scenario keys, the initial bodies, the
+//! run loop with the thermo table (energies, momentum, angular momentum), LAMMPS
+//! text dumps with accelerations and potentials, and the energy-error plot; and
+//! `cellist bench gravity`.
+
+use crate::bench::median;
+use crate::cli::{BenchGravityArgs, GravitySolverArg};
+use crate::error::{threads, CliError, CliResult};
+use crate::md::progress_bar;
+use crate::scenario::Scenario;
+use cellist::interactions::GravityLaw;
+use cellist::longrange::{DirectSum, FieldOut, Sources, TreeParams};
+use cellist::models::gravity::{
+    plummer, two_body_seed004, Bodies, GravitySystem, Integrator, Observables, Solver, SolverChoice,
+};
+use cellist::Threads;
+use cellist_io::plot::{line_chart, Series};
+use cellist_io::{
+    format_g17, read_bodies, write_lammps_frame, AtomicFile, Frame, GRAVITY_DUMP_COLUMNS,
+};
+use serde::Deserialize;
+use std::io::{BufWriter, IsTerminal, Write};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// The keys of a gravity scenario.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct GravityScenario {
+    model: String,
+    #[serde(default = "three")]
+    dimension: u64,
+    system: SystemKeys,
+    run: RunKeys,
+    #[serde(default)]
+    output: OutputKeys,
+}
+
+fn three() -> u64 {
+    3
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SystemKeys {
+    initial: InitialKeys,
+    #[serde(rename = "G", default = "one")]
+    g: f64,
+    #[serde(default)]
+    softening: f64,
+    #[serde(default)]
+    repulsion_radius: f64,
+    #[serde(default = "direct")]
+    solver: SolverKeys,
+}
+
+fn one() -> f64 {
+    1.0
+}
+
+fn direct() -> SolverKeys {
+    SolverKeys::Name("direct".into())
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct InitialKeys {
+    kind: Option<String>,
+    n: Option<i64>,
+    seed: Option<u64>,
+    file: Option<PathBuf>,
+}
+
+/// `solver = "direct"` or `solver = { kind = ..., ... }`.
+#[derive(Deserialize)]
+#[serde(untagged)]
+enum SolverKeys {
+    Name(String),
+    Table(SolverTable),
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SolverTable {
+    kind: String,
+    theta: Option<f64>,
+    quadrupole: Option<bool>,
+    leaf_size: Option<i64>,
+    group_size: Option<i64>,
+    grid: Option<i64>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RunKeys {
+    steps: u64,
+    dt: f64,
+    #[serde(default = "leapfrog")]
+    integrator: String,
+}
+
+fn leapfrog() -> String {
+    "leapfrog".into()
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields, default)]
+struct OutputKeys {
+    thermo_every: u64,
+    dump: Option<DumpKeys>,
+}
+
+impl Default for OutputKeys {
+    fn default() -> Self {
+        OutputKeys {
+            thermo_every: 10,
+            dump: None,
+        }
+    }
+}
+
+#[derive(Deserialize, Clone)]
+#[serde(deny_unknown_fields)]
+struct DumpKeys {
+    every: u64,
+    #[serde(default = "dump_file")]
+    file: PathBuf,
+    #[serde(default = "dump_columns")]
+    columns: Vec<String>,
+}
+
+fn dump_file() -> PathBuf {
+    "bodies.dump".into()
+}
+
+fn dump_columns() -> Vec<String> {
+    GRAVITY_DUMP_COLUMNS.iter().map(|c| c.to_string()).collect()
+}
+
+/// Everything a run needs, checked.
+struct Setup {
+    law: GravityLaw,
+    bodies: Bodies,
+    initial: String,
+    choice: SolverChoice,
+    solver_name: String,
+    integrator: Integrator,
+    integrator_name: String,
+    dt: f64,
+    steps: u64,
+    thermo_every: u64,
+    dump: Option<DumpKeys>,
+}
+
+/// Runs a gravity scenario.
+pub fn run(scenario: &Scenario, out_dir: &Path, threads: &Threads) -> CliResult {
+    let keys: GravityScenario = scenario.parse()?;
+    debug_assert_eq!(keys.model, "gravity");
+    if keys.dimension != 3 {
+        return Err(scenario.error(format!(
+            "dimension must be 3 for gravity (got {}); a 2D system is a 3D one with z = 0",
+            keys.dimension
+        )));
+    }
+    let setup = build(scenario, &keys, threads)?;
+    run_setup(scenario, &setup, out_dir, threads)
+}
+
+/// The solver of `keys` and its name for messages.
+fn solver_choice(keys: &SolverKeys) -> Result<(SolverChoice, String), String> {
+    let table = match keys {
+        SolverKeys::Name(name) => SolverTable {
+            kind: name.clone(),
+            theta: None,
+            quadrupole: None,
+            leaf_size: None,
+            group_size: None,
+            grid: None,
+        },
+        SolverKeys::Table(t) => SolverTable {
+            kind: t.kind.clone(),
+            ..*t
+        },
+    };
+    let tree_only = |key: &str, set: bool| {
+        if set && table.kind != "barnes-hut" {
+            Err(format!(
+                "system.solver.{key} applies to kind = \"barnes-hut\" only"
+            ))
+        } else {
+            Ok(())
+        }
+    };
+    tree_only("theta", table.theta.is_some())?;
+    tree_only("quadrupole", table.quadrupole.is_some())?;
+    tree_only("leaf_size", table.leaf_size.is_some())?;
+    tree_only("group_size", table.group_size.is_some())?;
+    match table.kind.as_str() {
+        "direct" => {
+            if table.grid.is_some() {
+                return Err("system.solver.grid applies to the mesh solvers only".into());
+            }
+            Ok((SolverChoice::Direct, "direct (all pairs)".into()))
+        }
+        "barnes-hut" => {
+            if table.grid.is_some() {
+                return Err("system.solver.grid applies to the mesh solvers only".into());
+            }
+            let d = TreeParams::default();
+            let size = |v: Option<i64>, default: usize| {
+                v.map_or(Ok(default), |v| usize::try_from(v).map_err(|_| v))
+            };
+            let params = TreeParams {
+                theta: table.theta.unwrap_or(d.theta),
+                quadrupole: table.quadrupole.unwrap_or(d.quadrupole),
+                leaf_size: size(table.leaf_size, d.leaf_size)
+                    .map_err(|v| format!("system.solver.leaf_size must be in 1..=256, got {v}"))?,
+                group_size: size(table.group_size, d.group_size)
+                    .map_err(|v| format!("system.solver.group_size must be in 1..=256, got {v}"))?,
+            };
+            params.check().map_err(|e| format!("system.solver: {e}"))?;
+            let name = format!(
+                "barnes-hut (theta {}, {}, leaves of {}, groups of {})",
+                params.theta,
+                if params.quadrupole {
+                    "quadrupoles"
+                } else {
+                    "monopoles"
+                },
+                params.leaf_size,
+                params.group_size
+            );
+            Ok((SolverChoice::BarnesHut(params), name))
+        }
+        other => Err(format!(
+            "system.solver kind '{other}' is unknown; expected \"direct\" or \"barnes-hut\""
+        )),
+    }
+}
+
+impl Clone for SolverTable {
+    fn clone(&self) -> Self {
+        SolverTable {
+            kind: self.kind.clone(),
+            ..*self
+        }
+    }
+}
+
+/// The initial bodies of `keys` and a description.
+fn initial_bodies(
+    scenario: &Scenario,
+    keys: &InitialKeys,
+    law: &GravityLaw,
+    threads: &Threads,
+) -> CliResult<(Bodies, String)> {
+    let err = |m: String| scenario.error(m);
+    match (&keys.kind, &keys.file) {
+        (Some(_), Some(_)) => Err(err("system.initial has both kind and file; give one".into())),
+        (None, None) => Err(err(
+            "system.initial needs kind = \"plummer\" (with n, seed), kind = \"two-body-seed004\", or file = \"bodies.txt\"".into(),
+        )),
+        (None, Some(file)) => {
+            if keys.n.is_some() || keys.seed.is_some() {
+                return Err(err("system.initial.n and .seed apply to kind = \"plummer\" only".into()));
+            }
+            let path = scenario.input_path(file);
+            let read = read_bodies(&path).map_err(|e| CliError::Input(e.to_string()))?;
+            if read.extra_columns {
+                eprintln!("warning: {}: columns after the 7th (m x y z vx vy vz) are ignored", path.display());
+            }
+            let text = format!("{} bodies from {}", read.mass.len(), path.display());
+            Ok((Bodies { mass: read.mass, position: read.position, velocity: read.velocity }, text))
+        }
+        (Some(kind), None) => match kind.as_str() {
+            "plummer" => {
+                let n = keys.n.ok_or_else(|| err("system.initial.n is required for a Plummer sphere".into()))?;
+                if !(2..=100_000_000).contains(&n) {
+                    return Err(err(format!("system.initial.n must be in 2..=100000000, got {n}")));
+                }
+                let seed = keys.seed.unwrap_or(1);
+                let bodies = plummer(n as usize, seed, law, threads);
+                Ok((bodies, format!("Plummer sphere of {n} bodies (seed {seed}, G = M = a = 1, virial 2T = |W|)")))
+            }
+            "two-body-seed004" => {
+                if keys.n.is_some() || keys.seed.is_some() {
+                    return Err(err("system.initial.n and .seed apply to kind = \"plummer\" only".into()));
+                }
+                Ok((two_body_seed004(), "seed 004's two bodies (m = 50 at (0,0,0) and (0,30,0), v = (1,0,0))".into()))
+            }
+            other => Err(err(format!(
+                "system.initial.kind '{other}' is unknown; expected \"plummer\" or \"two-body-seed004\" (or file = ...)"
+            ))),
+        },
+    }
+}
+
+/// Checks the scenario and builds the bodies.
+fn build(scenario: &Scenario, keys: &GravityScenario, threads: &Threads) -> CliResult<Setup> {
+    let err = |m: String| scenario.error(m);
+    let s = &keys.system;
+    if !(s.softening.is_finite() && s.softening >= 0.0) {
+        return Err(err(format!(
+            "system.softening must be >= 0, got {}",
+            s.softening
+        )));
+    }
+    let law = GravityLaw::new(s.g, s.softening, s.repulsion_radius)
+        .map_err(|e| err(format!("system: {e}")))?;
+    let (choice, solver_name) = solver_choice(&s.solver).map_err(err)?;
+    let (bodies, initial) = initial_bodies(scenario, &s.initial, &law, threads)?;
+    let integrator = Integrator::from_name(&keys.run.integrator).ok_or_else(|| {
+        err(format!(
+            "run.integrator '{}' is unknown; expected one of: {}",
+            keys.run.integrator,
+            Integrator::ALL.map(|(n, _)| n).join(", ")
+        ))
+    })?;
+    if !(keys.run.dt.is_finite() && keys.run.dt > 0.0) {
+        return Err(err(format!("run.dt must be > 0, got {}", keys.run.dt)));
+    }
+    if let Some(d) = &keys.output.dump {
+        if d.every == 0 {
+            return Err(err("output.dump.every must be >= 1".into()));
+        }
+        if d.columns.is_empty() {
+            return Err(err("output.dump.columns is empty".into()));
+        }
+        if let Some(c) = d
+            .columns
+            .iter()
+            .find(|c| !GRAVITY_DUMP_COLUMNS.contains(&c.as_str()))
+        {
+            return Err(err(format!(
+                "output.dump.columns: '{c}' is unknown; expected some of {}",
+                GRAVITY_DUMP_COLUMNS.join(" ")
+            )));
+        }
+    }
+    Ok(Setup {
+        law,
+        bodies,
+        initial,
+        choice,
+        solver_name,
+        integrator,
+        integrator_name: keys.run.integrator.clone(),
+        dt: keys.run.dt,
+        steps: keys.run.steps,
+        thermo_every: keys.output.thermo_every,
+        dump: keys.output.dump.clone(),
+    })
+}
+
+fn run_setup(scenario: &Scenario, setup: &Setup, out_dir: &Path, threads: &Threads) -> CliResult {
+    let started = Instant::now();
+    let mut system = GravitySystem::new(setup.law, setup.bodies.clone(), &setup.choice, threads)
+        .map_err(|e| scenario.error(e))?;
+    println!(
+        "gravity: {}; G {}, softening {}{}; solver {}",
+        setup.initial,
+        setup.law.g(),
+        setup.law.softening(),
+        if setup.law.has_repulsion() {
+            format!(", repulsion radius {}", setup.law.repulsion_radius())
+        } else {
+            String::new()
+        },
+        setup.solver_name
+    );
+    println!(
+        "run: {} steps of dt {} with {}, {} thread(s); results in {}",
+        setup.steps,
+        setup.dt,
+        setup.integrator_name,
+        threads.count(),
+        out_dir.display()
+    );
+    std::fs::create_dir_all(out_dir)
+        .map_err(CliError::output(format!("folder {}", out_dir.display())))?;
+    let mut out = Outputs::create(setup, &system, out_dir)?;
+    out.observe(setup, &system, 0, false)?;
+    let bar = progress_bar(setup.steps);
+    if !std::io::stderr().is_terminal() {
+        bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
+    }
+    out.bar = Some(bar.clone());
+    let loop_start = Instant::now();
+    for step in 1..=setup.steps {
+        if let Err(e) = system.step(setup.dt, setup.integrator, threads) {
+            bar.abandon();
+            out.observe(setup, &system, step, true)?;
+            out.finish()?;
+            return Err(CliError::Run(format!(
+                "step {step}: {e}; the state of that step is in {}",
+                out.last_frame_file(setup).display()
+            )));
+        }
+        out.observe(setup, &system, step, false)?;
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    let loop_time = loop_start.elapsed().as_secs_f64();
+    out.finish()?;
+    if setup.steps > 0 {
+        println!(
+            "\nLoop time of {loop_time:.4} s on {} thread(s) for {} steps with {} bodies: {:.4e} s per step",
+            threads.count(),
+            setup.steps,
+            system.len(),
+            loop_time / setup.steps as f64
+        );
+    }
+    println!(
+        "total wall time {:.2} s; results in {}",
+        started.elapsed().as_secs_f64(),
+        out_dir.display()
+    );
+    Ok(())
+}
+
+const THERMO_COLUMNS: [&str; 12] = [
+    "step",
+    "time",
+    "ke",
+    "pe",
+    "etotal",
+    "rel_energy_error",
+    "px",
+    "py",
+    "pz",
+    "lx",
+    "ly",
+    "lz",
+];
+
+/// Thermo CSV, dump and plot.
+struct Outputs {
+    dir: PathBuf,
+    thermo_csv: Option<AtomicFile>,
+    dump: Option<BufWriter<std::fs::File>>,
+    e0: f64,
+    rows: Vec<(f64, f64)>,
+    ids: Vec<u64>,
+    bar: Option<indicatif::ProgressBar>,
+}
+
+impl Outputs {
+    fn create(setup: &Setup, system: &GravitySystem, dir: &Path) -> CliResult<Self> {
+        let csv_path = dir.join("thermo.csv");
+        let mut csv = AtomicFile::create(&csv_path)
+            .map_err(CliError::output(csv_path.display().to_string()))?;
+        writeln!(csv.writer(), "{}", THERMO_COLUMNS.join(","))
+            .map_err(CliError::output("thermo.csv"))?;
+        println!(
+            "{}",
+            THERMO_COLUMNS[..6]
+                .iter()
+                .map(|c| format!("{c:>18}"))
+                .collect::<String>()
+        );
+        let dump = match &setup.dump {
+            Some(d) => {
+                let path = dir.join(&d.file);
+                let file = std::fs::File::create(&path)
+                    .map_err(CliError::output(path.display().to_string()))?;
+                Some(BufWriter::new(file))
+            }
+            None => None,
+        };
+        Ok(Outputs {
+            dir: dir.to_path_buf(),
+            thermo_csv: Some(csv),
+            dump,
+            e0: system.observables().total(),
+            rows: Vec::new(),
+            ids: (1..=system.len() as u64).collect(),
+            bar: None,
+        })
+    }
+
+    /// The file that holds the last frame after a blow-up.
+    fn last_frame_file(&self, setup: &Setup) -> PathBuf {
+        match &setup.dump {
+            Some(d) => self.dir.join(&d.file),
+            None => self.dir.join("last.dump"),
+        }
+    }
+
+    /// Writes what is due at `step`; `forced` (after a blow-up) writes a dump frame
+    /// whatever the step, to the dump file or to `last.dump`, and no thermo line.
+    fn observe(
+        &mut self,
+        setup: &Setup,
+        system: &GravitySystem,
+        step: u64,
+        forced: bool,
+    ) -> CliResult {
+        let last = setup.steps;
+        let thermo = !forced
+            && (step == 0
+                || step == last
+                || (setup.thermo_every > 0 && step % setup.thermo_every == 0));
+        if thermo {
+            let o = system.observables();
+            let time = step as f64 * setup.dt;
+            let rel = relative_error(&o, self.e0);
+            self.rows.push((time, rel.abs()));
+            let values = [
+                time,
+                o.kinetic,
+                o.potential,
+                o.total(),
+                rel,
+                o.momentum[0],
+                o.momentum[1],
+                o.momentum[2],
+                o.angular_momentum[0],
+                o.angular_momentum[1],
+                o.angular_momentum[2],
+            ];
+            let mut line = step.to_string();
+            for v in values {
+                line.push(',');
+                format_g17(v, &mut line);
+            }
+            if let Some(csv) = self.thermo_csv.as_mut() {
+                writeln!(csv.writer(), "{line}").map_err(CliError::output("thermo.csv"))?;
+            }
+            let table = format!("{step:>18}")
+                + &values[..5]
+                    .iter()
+                    .map(|v| format!("{v:>18.10e}"))
+                    .collect::<String>();
+            match &self.bar {
+                Some(bar) => bar.suspend(|| println!("{table}")),
+                None => println!("{table}"),
+            }
+        }
+        let dump_due = setup.dump.as_ref().is_some_and(|d| step % d.every == 0);
+        if dump_due || forced {
+            let columns = setup
+                .dump
+                .as_ref()
+                .map_or_else(dump_columns, |d| d.columns.clone());
+            let frame = frame(&self.ids, system, step);
+            let what = self.last_frame_file(setup).display().to_string();
+            match (self.dump.as_mut(), forced) {
+                (Some(w), _) => {
+                    write_lammps_frame(w, &frame, &columns).map_err(CliError::output(what))?
+                }
+                (None, true) => {
+                    let mut file = AtomicFile::create(&self.last_frame_file(setup))
+                        .map_err(CliError::output(what.clone()))?;
+                    write_lammps_frame(file.writer(), &frame, &columns)
+                        .map_err(CliError::output(what.clone()))?;
+                    file.commit().map_err(CliError::output(what))?;
+                }
+                (None, false) => {}
+            }
+        }
+        Ok(())
+    }
+}
+
+/// A dump frame of `system` at `step`, its box the bodies' bounding box.
+fn frame<'a>(ids: &'a [u64], system: &'a GravitySystem, step: u64) -> Frame<'a> {
+    let b = system.bodies();
+    let (lo, hi) = cellist::geometry::bounding_box(&b.position);
+    Frame {
+        step,
+        lo,
+        hi,
+        periodic: [false; 3],
+        ids,
+        types: &[],
+        positions: &b.position,
+        velocities: &b.velocity,
+        forces: &[],
+        energies: None,
+        masses: Some(&b.mass),
+        accelerations: Some(system.accelerations()),
+        potentials: Some(system.potentials()),
+    }
+}
+
+impl Outputs {
+    /// Commits the thermo CSV, flushes the dump and plots the energy error.
+    fn finish(&mut self) -> CliResult {
+        if let Some(csv) = self.thermo_csv.take() {
+            csv.commit().map_err(CliError::output("thermo.csv"))?;
+        }
+        if let Some(mut w) = self.dump.take() {
+            w.flush().map_err(CliError::output("the dump file"))?;
+        }
+        if self.rows.len() >= 2 {
+            let path = self.dir.join("energy.png");
+            line_chart(
+                &path,
+                "Relative energy error",
+                "time",
+                "|E - E0| / |E0|",
+                &[Series {
+                    label: "relative energy error",
+                    points: &self.rows,
+                }],
+            )
+            .map_err(|e| CliError::Output(std::io::Error::other(e), path.display().to_string()))?;
+        }
+        Ok(())
+    }
+}
+
+/// `(E - E0) / |E0|` (or `E - E0` when `E0 = 0`).
+fn relative_error(o: &Observables, e0: f64) -> f64 {
+    let de = o.total() - e0;
+    if e0 == 0.0 {
+        de
+    } else {
+        de / e0.abs()
+    }
+}
+
+/// `cellist bench gravity`.
+pub fn bench(args: &BenchGravityArgs) -> CliResult {
+    if args.n < 2 {
+        return Err(CliError::Input("--n must be at least 2".into()));
+    }
+    if args.repeat == 0 {
+        return Err(CliError::Input("--repeat must be at least 1".into()));
+    }
+    let pool = threads(Some(args.threads))?;
+    let law = GravityLaw::new(1.0, args.softening, 0.0).map_err(CliError::Input)?;
+    let bodies = plummer(args.n, args.seed, &law, &pool);
+    let (choice, name) = match args.solver {
+        GravitySolverArg::Direct => (SolverChoice::Direct, "direct".to_string()),
+        GravitySolverArg::BarnesHut => {
+            let params = TreeParams {
+                theta: args.theta,
+                quadrupole: !args.monopole,
+                leaf_size: args.leaf_size,
+                group_size: args.group_size,
+            };
+            params.check().map_err(CliError::Input)?;
+            (SolverChoice::BarnesHut(params), "barnes-hut".to_string())
+        }
+    };
+    let mut solver = Solver::new(&choice, law, args.n).map_err(CliError::Input)?;
+    let sources = Sources {
+        mass: &bodies.mass,
+        position: &bodies.position,
+    };
+    let mut acc = vec![[0.0; 3]; args.n];
+    let mut phi = vec![0.0; args.n];
+    solver.compute(
+        &sources,
+        FieldOut {
+            acc: &mut acc,
+            phi: &mut phi,
+        },
+        &pool,
+    );
+    let mut samples = Vec::with_capacity(args.repeat);
+    for _ in 0..args.repeat {
+        let start = Instant::now();
+        solver.compute(
+            &sources,
+            FieldOut {
+                acc: &mut acc,
+                phi: &mut phi,
+            },
+            &pool,
+        );
+        samples.push(start.elapsed().as_secs_f64());
+    }
+    let seconds = median(&mut samples);
+    let pairs = (args.n as f64) * (args.n as f64 - 1.0) / 2.0;
+    let rms = match choice {
+        SolverChoice::Direct => None,
+        _ => {
+            let mut exact = vec![[0.0; 3]; args.n];
+            let mut exact_phi = vec![0.0; args.n];
+            DirectSum::new(law, args.n).compute(
+                &sources,
+                FieldOut {
+                    acc: &mut exact,
+                    phi: &mut exact_phi,
+                },
+                &pool,
+            );
+            Some(rms_relative_error(&acc, &exact))
+        }
+    };
+    let interactions = match &solver {
+        Solver::BarnesHut(t) => Some(t.interactions()),
+        _ => None,
+    };
+    if args.json {
+        let mut obj = serde_json::json!({
+            "solver": name, "n": args.n, "threads": args.threads, "softening": args.softening,
+            "seconds_per_force": seconds, "repeat": args.repeat, "seed": args.seed,
+        });
+        match choice {
+            SolverChoice::Direct => {
+                obj["ns_per_pair"] = serde_json::json!(seconds / pairs * 1e9);
+            }
+            SolverChoice::BarnesHut(p) => {
+                obj["theta"] = serde_json::json!(p.theta);
+                obj["quadrupole"] = serde_json::json!(p.quadrupole);
+                obj["leaf_size"] = serde_json::json!(p.leaf_size);
+                obj["group_size"] = serde_json::json!(p.group_size);
+            }
+        }
+        if let Some(r) = rms {
+            obj["rms_relative_force_error"] = serde_json::json!(r);
+        }
+        if let Some((nodes, particles)) = interactions {
+            obj["node_interactions"] = serde_json::json!(nodes);
+            obj["particle_interactions"] = serde_json::json!(particles);
+        }
+        println!("{obj}");
+    } else {
+        let mut line = format!(
+            "gravity {name}: {} bodies (Plummer, seed {}, softening {}), {} thread(s): {seconds:.4e} s per force evaluation (median of {})",
+            args.n, args.seed, args.softening, args.threads, args.repeat
+        );
+        if let SolverChoice::Direct = choice {
+            line += &format!(", {:.3} ns per pair", seconds / pairs * 1e9);
+        }
+        if let Some(r) = rms {
+            line += &format!(", RMS relative force error against direct {r:.3e}");
+        }
+        if let Some((nodes, particles)) = interactions {
+            line += &format!(", {nodes} node and {particles} body interactions");
+        }
+        println!("{line}");
+    }
+    Ok(())
+}
+
+/// `sqrt(mean_i (|a_i - e_i| / |e_i|)^2)`.
+fn rms_relative_error(got: &[[f64; 3]], exact: &[[f64; 3]]) -> f64 {
+    let norm = |v: [f64; 3]| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+    let sum: f64 = got
+        .iter()
+        .zip(exact)
+        .map(|(g, e)| (norm([g[0] - e[0], g[1] - e[1], g[2] - e[2]]) / norm(*e)).powi(2))
+        .sum();
+    (sum / got.len() as f64).sqrt()
+}

@@ -1,0 +1,289 @@
+//! End-to-end runs of `cellist run` with `model = "gravity"` and of `cellist bench
+//! gravity`: the outputs, the shared reference states through a body file,
+//! thread independence of the dumps for every solver, and errors.
+
+use std::path::Path;
+
+mod common;
+use common::{cellist, run_scenario, shared_testdata};
+
+fn text(bytes: &[u8]) -> String {
+    String::from_utf8(bytes.to_vec()).unwrap()
+}
+
+/// A gravity scenario of a small Plummer sphere with `solver` and `extra` lines
+/// appended to `[system]`.
+fn plummer_scenario(solver: &str, extra: &str) -> String {
+    format!(
+        r#"
+model = "gravity"
+[system]
+initial = {{ kind = "plummer", n = 600, seed = 3 }}
+G = 1.0
+softening = 0.01
+solver = {solver}
+{extra}
+[run]
+steps = 20
+dt = 0.01
+integrator = "leapfrog"
+[output]
+thermo_every = 5
+dump = {{ every = 10, file = "stars.dump" }}
+"#
+    )
+}
+
+const THERMO_HEADER: &str = "step,time,ke,pe,etotal,rel_energy_error,px,py,pz,lx,ly,lz";
+
+fn thermo(out: &Path) -> Vec<Vec<f64>> {
+    let text = std::fs::read_to_string(out.join("thermo.csv")).unwrap();
+    let mut lines = text.lines();
+    assert_eq!(lines.next(), Some(THERMO_HEADER));
+    lines
+        .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+        .collect()
+}
+
+/// The rows of the frames of a LAMMPS dump, `(step, rows)`.
+fn dump_frames(path: &Path) -> Vec<(u64, Vec<Vec<f64>>)> {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut lines = text.lines();
+    let mut frames = Vec::new();
+    while let Some(l) = lines.next() {
+        assert_eq!(l, "ITEM: TIMESTEP");
+        let step = lines.next().unwrap().parse().unwrap();
+        assert_eq!(lines.next(), Some("ITEM: NUMBER OF ATOMS"));
+        let n: usize = lines.next().unwrap().parse().unwrap();
+        for _ in 0..4 {
+            lines.next();
+        }
+        assert!(lines.next().unwrap().starts_with("ITEM: ATOMS "));
+        let rows = (0..n)
+            .map(|_| {
+                lines
+                    .next()
+                    .unwrap()
+                    .split(' ')
+                    .map(|v| v.parse().unwrap())
+                    .collect()
+            })
+            .collect();
+        frames.push((step, rows));
+    }
+    frames
+}
+
+#[test]
+fn a_run_writes_thermo_dumps_and_plot_and_ignores_the_thread_count() {
+    let dir = tempfile::tempdir().unwrap();
+    for (name, solver) in [
+        ("direct", r#""direct""#),
+        (
+            "tree",
+            r#"{ kind = "barnes-hut", theta = 0.6, quadrupole = true }"#,
+        ),
+    ] {
+        let scenario = plummer_scenario(solver, "");
+        let (one, run1) = run_scenario(
+            dir.path(),
+            &format!("{name}1"),
+            &scenario,
+            &["--threads", "1"],
+        );
+        assert!(run1.status.success(), "{name}: {}", text(&run1.stderr));
+        let (two, run2) = run_scenario(
+            dir.path(),
+            &format!("{name}2"),
+            &scenario,
+            &["--threads", "2"],
+        );
+        assert!(run2.status.success(), "{name}: {}", text(&run2.stderr));
+        for file in ["stars.dump", "thermo.csv"] {
+            assert_eq!(
+                std::fs::read(one.join(file)).unwrap(),
+                std::fs::read(two.join(file)).unwrap(),
+                "{name}: {file} differs between 1 and 2 threads"
+            );
+        }
+        assert!(one.join("energy.png").is_file());
+        let rows = thermo(&one);
+        assert_eq!(
+            rows.iter().map(|r| r[0] as u64).collect::<Vec<_>>(),
+            vec![0, 5, 10, 15, 20]
+        );
+        for r in &rows {
+            assert!((r[4] - (r[2] + r[3])).abs() <= 1e-15, "etotal = ke + pe");
+            assert!(r[5].abs() < 1e-4, "{name}: energy error {}", r[5]);
+            // all pairs conserve momentum to round-off; the tree only approximately
+            let bound = if name == "direct" { 1e-12 } else { 1e-5 };
+            assert!(
+                r[6..9].iter().all(|p| p.abs() < bound),
+                "{name}: momentum {:?}",
+                &r[6..9]
+            );
+        }
+        let frames = dump_frames(&one.join("stars.dump"));
+        assert_eq!(
+            frames.iter().map(|f| f.0).collect::<Vec<_>>(),
+            vec![0, 10, 20]
+        );
+        assert_eq!(frames[0].1.len(), 600);
+        assert_eq!(
+            frames[0].1[0].len(),
+            12,
+            "id mass x y z vx vy vz ax ay az phi"
+        );
+    }
+}
+
+#[test]
+fn a_body_file_run_reproduces_the_shared_leapfrog_and_euler_states() {
+    let Some(dir) = shared_testdata("gravity") else {
+        return;
+    };
+    let start = dir.join("plummer_n1000_eps0.01.txt");
+    let tmp = tempfile::tempdir().unwrap();
+    for (integrator, reference) in [("leapfrog", "kdk10"), ("euler", "euler10")] {
+        let scenario = format!(
+            r#"
+model = "gravity"
+[system]
+initial = {{ file = "{}" }}
+softening = 0.01
+[run]
+steps = 10
+dt = 0.01
+integrator = "{integrator}"
+[output]
+dump = {{ every = 10, columns = ["x", "y", "z", "vx", "vy", "vz", "ax", "ay", "az"] }}
+"#,
+            start.display()
+        );
+        let (out, run) = run_scenario(tmp.path(), integrator, &scenario, &[]);
+        assert!(run.status.success(), "{}", text(&run.stderr));
+        assert!(
+            text(&run.stderr).contains("columns after the 7th"),
+            "the extra columns are named"
+        );
+        let frames = dump_frames(&out.join("bodies.dump"));
+        let got = &frames.last().unwrap().1;
+        let want: Vec<Vec<f64>> =
+            std::fs::read_to_string(dir.join(format!("plummer_n1000_eps0.01_{reference}.txt")))
+                .unwrap()
+                .lines()
+                .filter(|l| !l.starts_with('#'))
+                .map(|l| l.split_whitespace().map(|v| v.parse().unwrap()).collect())
+                .collect();
+        assert_eq!(got.len(), want.len());
+        for (g, w) in got.iter().zip(&want) {
+            for k in (0..9).step_by(3) {
+                let norm = |v: &[f64]| v.iter().map(|c| c * c).sum::<f64>().sqrt();
+                let diff: Vec<f64> = (k..k + 3).map(|a| g[a] - w[a]).collect();
+                assert!(
+                    norm(&diff) <= 1e-10 * norm(&w[k..k + 3]),
+                    "{integrator}: {g:?} vs {w:?}"
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn bad_input_exits_with_status_2_and_names_the_problem() {
+    let dir = tempfile::tempdir().unwrap();
+    let bodies = dir.path().join("bodies.txt");
+    std::fs::write(&bodies, "1 0 0 0 0 0 0\n-2 1 0 0 0 0 0\n").unwrap();
+    let same = dir.path().join("same.txt");
+    std::fs::write(&same, "1 0 0 0 0 0 0\n1 0.5 0 0 0 0 0\n1 0 0 0 1 0 0\n").unwrap();
+    let file_scenario = |path: &Path, softening: f64| {
+        format!(
+            "model = \"gravity\"\n[system]\ninitial = {{ file = \"{}\" }}\nsoftening = {softening}\n[run]\nsteps = 1\ndt = 0.01\n",
+            path.display()
+        )
+    };
+    let cases = [
+        (
+            file_scenario(&bodies, 0.0),
+            "bodies.txt:2: mass -2 must be > 0",
+        ),
+        (
+            file_scenario(&same, 0.0),
+            "particles 0 and 2 are at the same point",
+        ),
+        (
+            plummer_scenario(r#""direct""#, "").replace("softening = 0.01", "softening = -0.1"),
+            "softening",
+        ),
+        (
+            plummer_scenario(r#"{ kind = "barnes-hut", theta = 1.5 }"#, ""),
+            "theta must be in (0, 1.2]",
+        ),
+        (
+            plummer_scenario(r#"{ kind = "barnes-hut", theta = 0.0 }"#, ""),
+            "theta must be in (0, 1.2]",
+        ),
+        (
+            plummer_scenario(r#"{ kind = "octree" }"#, ""),
+            "solver kind 'octree' is unknown",
+        ),
+        (
+            plummer_scenario(r#""direct""#, "").replace("leapfrog", "rk4"),
+            "run.integrator 'rk4' is unknown",
+        ),
+        (plummer_scenario(r#""direct""#, "colour = 1"), "colour"),
+    ];
+    for (k, (scenario, expected)) in cases.iter().enumerate() {
+        let (_, run) = run_scenario(dir.path(), &format!("bad{k}"), scenario, &[]);
+        assert_eq!(
+            run.status.code(),
+            Some(2),
+            "case {k}: {}",
+            text(&run.stderr)
+        );
+        assert!(
+            text(&run.stderr).contains(expected),
+            "case {k}: expected '{expected}' in {}",
+            text(&run.stderr)
+        );
+    }
+    // two bodies at the same point are fine with softening
+    let (_, run) = run_scenario(dir.path(), "soft", &file_scenario(&same, 0.1), &[]);
+    assert!(run.status.success(), "{}", text(&run.stderr));
+}
+
+#[test]
+fn a_state_that_overflows_stops_the_run_naming_the_step_and_body() {
+    let dir = tempfile::tempdir().unwrap();
+    let bodies = dir.path().join("fast.txt");
+    std::fs::write(&bodies, "1 0 0 0 0 0 0\n1 10 0 0 1e300 0 0\n").unwrap();
+    let scenario = format!(
+        "model = \"gravity\"\n[system]\ninitial = {{ file = \"{}\" }}\n[run]\nsteps = 5\ndt = 1e10\nintegrator = \"euler\"\n",
+        bodies.display()
+    );
+    let (out, run) = run_scenario(dir.path(), "nan", &scenario, &[]);
+    assert_eq!(run.status.code(), Some(1), "{}", text(&run.stderr));
+    let err = text(&run.stderr);
+    assert!(err.contains("step 1: the state of body "), "{err}");
+    assert!(out.join("last.dump").is_file());
+    assert!(out.join("thermo.csv").is_file());
+}
+
+#[test]
+fn bench_gravity_reports_time_and_error_as_json() {
+    for solver in ["direct", "barnes-hut"] {
+        let run = cellist(&[
+            "bench", "gravity", "--solver", solver, "--n", "500", "--repeat", "1", "--json",
+        ]);
+        assert!(run.status.success(), "{}", text(&run.stderr));
+        let v: serde_json::Value = serde_json::from_str(text(&run.stdout).trim()).unwrap();
+        assert_eq!(v["n"], 500);
+        assert!(v["seconds_per_force"].as_f64().unwrap() > 0.0);
+        if solver == "direct" {
+            assert!(v["ns_per_pair"].as_f64().unwrap() > 0.0);
+        } else {
+            let e = v["rms_relative_force_error"].as_f64().unwrap();
+            assert!(e > 0.0 && e < 1e-3, "{e}");
+        }
+    }
+}
