@@ -7,8 +7,12 @@
 //! the data, so 1 and N threads give the same bits.
 
 pub mod direct;
+pub mod mesh;
+pub mod p3m;
 
 pub use direct::DirectSum;
+pub use mesh::{MeshBoundary, MeshParams, ParticleMesh};
+pub use p3m::P3m;
 
 use crate::interactions::GravityLaw;
 

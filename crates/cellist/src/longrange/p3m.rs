@@ -1,0 +1,434 @@
+//! P3M (particle-particle particle-mesh, TreePM-style split): the mesh carries the
+//! long-range part of gravity, `phi_L(r) = -G erf(r / (2 r_s)) / r`, and a cell
+//! list sums the rest exactly for the pairs within `r_cut = CUT r_s`:
+//!
+//! `phi_i = phi_L,mesh(x_i) + sum_{j: r_ij < r_cut} m_j (phi(r_ij) - phi_L(r_ij))`,
+//! `acc_i = acc_L,mesh(x_i) + sum_{j: r_ij < r_cut} m_j (k(r_ij) - k_L(r_ij)) (x_j - x_i)`,
+//!
+//! with `(phi, k)` the softened law and `(phi_L, k_L)` from [`long_pair`]. The
+//! mesh's Green's function is divided by the cloud-in-cell window `W(k)^2`, so
+//! that the mesh pair force follows the erf kernel down to about a cell. Beyond
+//! `r_cut` the dropped short-range force is the fraction
+//! `erfc(x) + 2x/sqrt(pi) exp(-x^2)`, `x = r_cut / (2 r_s) = 2.75`, of the
+//! Newtonian one: 0.17 %.
+
+use super::mesh::green::{long_pair, Reach};
+use super::mesh::{MeshBoundary, MeshParams, MeshSolver};
+use super::{FieldOut, Sources};
+use crate::interactions::GravityLaw;
+use crate::threads::Threads;
+use rayon::prelude::*;
+
+/// `r_cut / r_s`.
+pub const CUT: f64 = 5.5;
+
+/// The default splitting radius in mesh cells, `r_s / h`.
+pub const SPLIT_CELLS: f64 = 1.25;
+
+/// Particles per parallel task of the short-range sum.
+const CHUNK: usize = 64;
+
+/// A box cut into cells: cells per axis, the cell side, the lower corner.
+#[derive(Clone, Copy, Debug, Default)]
+struct Grid {
+    count: [usize; 3],
+    side: [f64; 3],
+    lo: [f64; 3],
+}
+
+impl Grid {
+    /// The cell coordinates of a (wrapped) position.
+    fn coords(&self, x: &[f64; 3]) -> [usize; 3] {
+        std::array::from_fn(|a| {
+            let u = ((x[a] - self.lo[a]) / self.side[a]).floor().max(0.0) as usize;
+            u.min(self.count[a] - 1)
+        })
+    }
+
+    /// The row-major index of cell coordinates `c`.
+    fn index(&self, c: [usize; 3]) -> usize {
+        (c[0] * self.count[1] + c[1]) * self.count[2] + c[2]
+    }
+}
+
+/// The short-range cell list: particles counting-sorted by cell, as structure of
+/// arrays.
+#[derive(Default)]
+struct Cells {
+    grid: Grid,
+    /// `start[c]..start[c + 1]`: the sorted particles of cell `c`.
+    start: Vec<usize>,
+    cell_of: Vec<usize>,
+    /// Sorted slot of each input particle.
+    slot: Vec<usize>,
+    x: [Vec<f64>; 3],
+    m: Vec<f64>,
+    /// `(acc, phi)` of each sorted particle.
+    sum: Vec<[f64; 4]>,
+}
+
+/// The P3M solver: [`super::ParticleMesh`]'s machinery for the long range and
+/// an exact pair sum within `r_cut` for the short range.
+pub struct P3m {
+    mesh: MeshSolver,
+    split: f64,
+    cells: Cells,
+}
+
+impl P3m {
+    /// The solver for `law` with `params` and splitting radius
+    /// `r_s = split_cells h` (default [`SPLIT_CELLS`]). Refuses what
+    /// [`super::ParticleMesh::new`] refuses, a bad `split_cells`, and a periodic box
+    /// narrower than `2 r_cut`.
+    pub fn new(law: GravityLaw, params: MeshParams, split_cells: f64) -> Result<Self, String> {
+        if !(split_cells.is_finite() && split_cells > 0.0) {
+            return Err(format!(
+                "split_cells must be finite and > 0, got {split_cells}"
+            ));
+        }
+        let mesh = MeshSolver::new(law, params, Reach::Long { cells: split_cells })?;
+        if let MeshBoundary::Periodic { .. } = params.boundary {
+            let cut = CUT * split_cells;
+            if 2.0 * cut > params.grid as f64 {
+                return Err(format!(
+                    "split_cells {split_cells}: the cut {CUT} r_s = {cut} cells must be at \
+                     most half the grid ({})",
+                    params.grid
+                ));
+            }
+        }
+        Ok(P3m {
+            mesh,
+            split: split_cells,
+            cells: Cells::default(),
+        })
+    }
+
+    /// The mesh cell `h` of the last evaluation (isolated) or of the box (periodic).
+    pub fn cell(&self) -> f64 {
+        self.mesh.cell()
+    }
+
+    /// Fills `out` with the P3M accelerations and potentials of `sources`.
+    pub fn compute(&mut self, sources: &Sources, out: FieldOut, threads: &Threads) {
+        if sources.mass.len() < 2 {
+            out.acc.fill([0.0; 3]);
+            out.phi.fill(0.0);
+            return;
+        }
+        self.mesh.place(sources.position, threads);
+        let r_s = self.split * self.mesh.cell();
+        let periodic = match self.mesh.params().boundary {
+            MeshBoundary::Periodic { origin, length } => Some((origin, length)),
+            MeshBoundary::Isolated => None,
+        };
+        self.cells.sort(sources, CUT * r_s, periodic);
+        self.cells
+            .sum(self.mesh.law(), r_s, CUT * r_s, periodic, threads);
+        let FieldOut { acc, phi } = out;
+        self.mesh.solve(
+            sources,
+            FieldOut {
+                acc: &mut *acc,
+                phi: &mut *phi,
+            },
+            threads,
+        );
+        let cells = &self.cells;
+        threads.install(|| {
+            acc.par_iter_mut()
+                .zip(phi.par_iter_mut())
+                .zip(cells.slot.par_iter())
+                .for_each(|((acc, phi), &s)| {
+                    let add = cells.sum[s];
+                    for a in 0..3 {
+                        acc[a] += add[a];
+                    }
+                    *phi += add[3];
+                });
+        });
+    }
+}
+
+impl Cells {
+    /// Counting-sorts `sources` into cells of side `>= r_cut` over their bounding
+    /// box (isolated) or the box `(origin, length)`, positions wrapped into it.
+    fn sort(&mut self, sources: &Sources, r_cut: f64, periodic: Option<([f64; 3], f64)>) {
+        let n = sources.mass.len();
+        let wrap = |x: &[f64; 3]| -> [f64; 3] {
+            match periodic {
+                Some((origin, length)) => std::array::from_fn(|a| {
+                    let u = (x[a] - origin[a]).rem_euclid(length);
+                    if u >= length {
+                        0.0
+                    } else {
+                        u
+                    }
+                }),
+                None => *x,
+            }
+        };
+        match periodic {
+            Some((_, length)) => {
+                let count = ((length / r_cut).floor() as usize).max(1);
+                self.grid = Grid {
+                    count: [count; 3],
+                    side: [length / count as f64; 3],
+                    lo: [0.0; 3],
+                };
+            }
+            None => {
+                let mut lo = [f64::INFINITY; 3];
+                let mut hi = [f64::NEG_INFINITY; 3];
+                for x in sources.position {
+                    for a in 0..3 {
+                        lo[a] = lo[a].min(x[a]);
+                        hi[a] = hi[a].max(x[a]);
+                    }
+                }
+                for a in 0..3 {
+                    let extent = hi[a] - lo[a];
+                    let count = ((extent / r_cut).floor() as usize).max(1);
+                    self.grid.count[a] = count;
+                    self.grid.side[a] = if extent > 0.0 {
+                        extent / count as f64
+                    } else {
+                        1.0
+                    };
+                }
+                self.grid.lo = lo;
+            }
+        }
+        let cells = self.grid.count.iter().product::<usize>();
+        self.start.clear();
+        self.start.resize(cells + 1, 0);
+        self.cell_of.resize(n, 0);
+        for (i, x) in sources.position.iter().enumerate() {
+            let c = self.grid.index(self.grid.coords(&wrap(x)));
+            self.cell_of[i] = c;
+            self.start[c + 1] += 1;
+        }
+        for c in 0..cells {
+            self.start[c + 1] += self.start[c];
+        }
+        self.slot.resize(n, 0);
+        for a in 0..3 {
+            self.x[a].resize(n, 0.0);
+        }
+        self.m.resize(n, 0.0);
+        self.sum.resize(n, [0.0; 4]);
+        // start[c] runs ahead while filling; it is restored below
+        for (i, x) in sources.position.iter().enumerate() {
+            let c = self.cell_of[i];
+            let s = self.start[c];
+            self.start[c] += 1;
+            self.slot[i] = s;
+            let x = wrap(x);
+            for a in 0..3 {
+                self.x[a][s] = x[a];
+            }
+            self.m[s] = sources.mass[i];
+        }
+        for c in (0..cells).rev() {
+            self.start[c + 1] = self.start[c];
+        }
+        self.start[0] = 0;
+    }
+
+    /// Each sorted particle's short-range `(acc, phi)` over the 27 (fewer when
+    /// the periodic box has fewer than 3 cells per axis) cells around its own,
+    /// minimum image when periodic.
+    fn sum(
+        &mut self,
+        law: &GravityLaw,
+        r_s: f64,
+        r_cut: f64,
+        periodic: Option<([f64; 3], f64)>,
+        threads: &Threads,
+    ) {
+        let Cells {
+            grid,
+            start,
+            x,
+            m,
+            sum,
+            ..
+        } = self;
+        let (grid, start, x, m) = (*grid, &*start, &*x, &*m);
+        let span = |count: usize| -> &'static [isize] {
+            match (periodic, count) {
+                (Some(_), 1) => &[0],
+                (Some(_), 2) => &[0, 1],
+                _ => &[-1, 0, 1],
+            }
+        };
+        let spans = grid.count.map(span);
+        let length = periodic.map_or(0.0, |(_, length)| length);
+        let (g, r_cut2) = (law.g(), r_cut * r_cut);
+        threads.install(|| {
+            sum.par_chunks_mut(CHUNK)
+                .enumerate()
+                .for_each(|(chunk, sums)| {
+                    for (k, out) in sums.iter_mut().enumerate() {
+                        let i = chunk * CHUNK + k;
+                        let xi = [x[0][i], x[1][i], x[2][i]];
+                        let own = grid.coords(&xi);
+                        let mut total = [0.0; 4];
+                        for &o0 in spans[0] {
+                            for &o1 in spans[1] {
+                                for &o2 in spans[2] {
+                                    let Some(c) = neighbour(&grid, own, [o0, o1, o2], periodic)
+                                    else {
+                                        continue;
+                                    };
+                                    for j in start[c]..start[c + 1] {
+                                        if j == i {
+                                            continue;
+                                        }
+                                        let mut d =
+                                            [x[0][j] - xi[0], x[1][j] - xi[1], x[2][j] - xi[2]];
+                                        if periodic.is_some() {
+                                            for v in &mut d {
+                                                *v -= length * (*v / length).round();
+                                            }
+                                        }
+                                        let r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+                                        if r2 >= r_cut2 {
+                                            continue;
+                                        }
+                                        let (phi, k) = law.unit_pair(r2);
+                                        let (phi_l, k_l) = long_pair(g, r_s, r2.sqrt());
+                                        let km = (k - k_l) * m[j];
+                                        total[0] += km * d[0];
+                                        total[1] += km * d[1];
+                                        total[2] += km * d[2];
+                                        total[3] += (phi - phi_l) * m[j];
+                                    }
+                                }
+                            }
+                        }
+                        *out = total;
+                    }
+                });
+        });
+    }
+}
+
+/// The cell at offset `o` from cell `c`: wrapped when periodic, `None` outside
+/// an isolated grid.
+fn neighbour(
+    grid: &Grid,
+    c: [usize; 3],
+    o: [isize; 3],
+    periodic: Option<([f64; 3], f64)>,
+) -> Option<usize> {
+    let mut at = [0; 3];
+    for a in 0..3 {
+        let n = grid.count[a] as isize;
+        let v = c[a] as isize + o[a];
+        at[a] = if periodic.is_some() {
+            v.rem_euclid(n) as usize
+        } else if (0..n).contains(&v) {
+            v as usize
+        } else {
+            return None;
+        };
+    }
+    Some(grid.index(at))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::longrange::mesh::testkit::{cloud, direct, pair_error, rms_relative, run};
+
+    fn law() -> GravityLaw {
+        GravityLaw::new(1.3, 0.05, 0.0).unwrap()
+    }
+
+    fn isolated(grid: usize) -> MeshParams {
+        MeshParams {
+            grid,
+            boundary: MeshBoundary::Isolated,
+        }
+    }
+
+    #[test]
+    fn pair_force_is_accurate_at_every_separation() {
+        let mut solver = P3m::new(law(), isolated(32), SPLIT_CELLS).unwrap();
+        let threads = Threads::single();
+        // r_cut = 6.875 cells
+        for sep in [0.1, 0.5, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 6.8, 7.0, 8.0, 10.0] {
+            let (rms, max) =
+                pair_error(law(), 32, sep, 10, 3, |s, o| solver.compute(s, o, &threads));
+            // the pair sum is exact; the mesh's erf part carries the cloud-in-cell
+            // anisotropy, about 0.3 / sep^2 of it
+            let (want_rms, want_max) = if sep <= 1.0 {
+                (3e-3, 6e-3)
+            } else {
+                (1.5e-2, 3.5e-2)
+            };
+            assert!(rms < want_rms && max < want_max, "sep {sep}: {rms} {max}");
+        }
+    }
+
+    #[test]
+    fn cloud_error_against_the_direct_sum() {
+        let (m, x) = cloud(2000, 1.0, [0.0; 3], 11);
+        let (want_acc, want_phi) = direct(law(), &m, &x);
+        let mut solver = P3m::new(law(), isolated(32), SPLIT_CELLS).unwrap();
+        let (acc, phi) = run(&m, &x, |s, o| solver.compute(s, o, &Threads::single()));
+        let rms = rms_relative(&acc, &want_acc);
+        assert!(rms < 1e-2, "rms {rms}");
+        let worst = phi
+            .iter()
+            .zip(&want_phi)
+            .map(|(p, w)| ((p - w) / w).abs())
+            .fold(0.0, f64::max);
+        assert!(worst < 1e-2, "phi {worst}");
+    }
+
+    #[test]
+    fn periodic_matches_the_direct_sum_for_a_compact_cloud() {
+        // images and background act at (size / length)^3 ~ 1e-4 of the inner pull
+        let params = MeshParams {
+            grid: 32,
+            boundary: MeshBoundary::Periodic {
+                origin: [0.0; 3],
+                length: 20.0,
+            },
+        };
+        let (m, x) = cloud(1000, 0.5, [10.0, 9.0, 11.0], 5);
+        let (want, _) = direct(law(), &m, &x);
+        let mut solver = P3m::new(law(), params, SPLIT_CELLS).unwrap();
+        let (acc, _) = run(&m, &x, |s, o| solver.compute(s, o, &Threads::single()));
+        let rms = rms_relative(&acc, &want);
+        assert!(rms < 1e-2, "rms {rms}");
+    }
+
+    #[test]
+    fn bad_parameters_are_refused() {
+        for split in [0.0, -1.0, f64::NAN] {
+            let error = P3m::new(law(), isolated(16), split).err().unwrap();
+            assert!(error.contains("split_cells"), "{error}");
+        }
+        let periodic = MeshParams {
+            grid: 16,
+            boundary: MeshBoundary::Periodic {
+                origin: [0.0; 3],
+                length: 1.0,
+            },
+        };
+        assert!(P3m::new(law(), periodic, 1.25).is_ok());
+        assert!(P3m::new(law(), periodic, 1.5)
+            .err()
+            .unwrap()
+            .contains("half"));
+        assert!(P3m::new(law(), isolated(12), 1.25)
+            .err()
+            .unwrap()
+            .contains("grid"));
+        let repulsive = GravityLaw::new(1.0, 0.0, 0.1).unwrap();
+        assert!(P3m::new(repulsive, isolated(16), 1.25).is_err());
+    }
+}
