@@ -5,7 +5,8 @@
 //! `phi_i = phi_L,mesh(x_i) + sum_{j: r_ij < r_cut} m_j (phi(r_ij) - phi_L(r_ij))`,
 //! `acc_i = acc_L,mesh(x_i) + sum_{j: r_ij < r_cut} m_j (k(r_ij) - k_L(r_ij)) (x_j - x_i)`,
 //!
-//! with `(phi, k)` the softened law and `(phi_L, k_L)` from [`long_pair`]. The
+//! with `(phi, k)` the softened law and `(phi_L, k_L)` from [`long_pair`]
+//! (tabulated, [`LongTable`]). The
 //! mesh's Green's function is divided by the cloud-in-cell window `W(k)^2`, so
 //! that the mesh pair force follows the erf kernel down to about a cell. Beyond
 //! `r_cut` the dropped short-range force is the fraction
@@ -18,12 +19,56 @@ use super::{FieldOut, Sources};
 use crate::interactions::GravityLaw;
 use crate::threads::Threads;
 use rayon::prelude::*;
+use std::ops::Range;
 
 /// `r_cut / r_s`.
 pub const CUT: f64 = 5.5;
 
 /// The default splitting radius in mesh cells, `r_s / h`.
 pub const SPLIT_CELLS: f64 = 1.25;
+
+/// Table intervals of the long-range kernel.
+const TABLE: usize = 8192;
+
+/// The long-range pair kernel as functions of `u = r^2 / (4 r_s^2)` on
+/// `[0, CUT^2 / 4]`, linearly interpolated (relative error below `1e-7`):
+/// `F_k(u) = (erf(sqrt u) - 2 sqrt(u / pi) exp(-u)) / u^(3/2)` and
+/// `F_phi(u) = erf(sqrt u) / sqrt u`, so that `k_L = G F_k / (8 r_s^3)` and
+/// `phi_L = -G F_phi / (2 r_s)`.
+struct LongTable {
+    /// Intervals per unit of `u`.
+    density: f64,
+    /// `[F_k, F_phi]` at `u = i / density`.
+    values: Vec<[f64; 2]>,
+}
+
+impl LongTable {
+    fn new() -> Self {
+        let density = TABLE as f64 / (CUT * CUT / 4.0);
+        let values = (0..TABLE + 2)
+            .map(|i| {
+                // r_s = 1/2: u = r^2
+                let (phi, k) = long_pair(1.0, 0.5, (i as f64 / density).sqrt());
+                [k, -phi]
+            })
+            .collect();
+        LongTable { density, values }
+    }
+
+    /// `[F_k(u), F_phi(u)]` for `0 <= u <= CUT^2 / 4`.
+    #[inline(always)]
+    fn at(&self, u: f64) -> [f64; 2] {
+        let t = u * self.density;
+        let i = t as usize;
+        let f = t - i as f64;
+        let (a, b) = (self.values[i], self.values[i + 1]);
+        [a[0] + f * (b[0] - a[0]), a[1] + f * (b[1] - a[1])]
+    }
+}
+
+/// Short-range cells per `r_cut`: cells of side `>= r_cut / REACH`, each particle
+/// visiting the `(2 REACH + 1)^3` around its own.
+const REACH: usize = 2;
 
 /// Particles per parallel task of the short-range sum.
 const CHUNK: usize = 64;
@@ -43,6 +88,26 @@ impl Grid {
             let u = ((x[a] - self.lo[a]) / self.side[a]).floor().max(0.0) as usize;
             u.min(self.count[a] - 1)
         })
+    }
+
+    /// The cells within [`REACH`] of cell `c` along axis `a`, as at most two runs
+    /// of consecutive cells (the second empty unless a periodic span wraps; every
+    /// cell once when the periodic axis has fewer than `2 REACH + 1`).
+    fn span(&self, c: usize, periodic: bool, a: usize) -> [Range<usize>; 2] {
+        let n = self.count[a] as isize;
+        let (lo, hi) = (c as isize - REACH as isize, c as isize + REACH as isize + 1);
+        let run = |lo: isize, hi: isize| lo as usize..hi as usize;
+        if !periodic {
+            [run(lo.max(0), hi.min(n)), 0..0]
+        } else if n < 2 * REACH as isize + 1 {
+            [run(0, n), 0..0]
+        } else if lo < 0 {
+            [run(0, hi), run(n + lo, n)]
+        } else if hi > n {
+            [run(lo, n), run(0, hi - n)]
+        } else {
+            [run(lo, hi), 0..0]
+        }
     }
 
     /// The row-major index of cell coordinates `c`.
@@ -72,6 +137,7 @@ struct Cells {
 pub struct P3m {
     mesh: MeshSolver,
     split: f64,
+    table: LongTable,
     cells: Cells,
 }
 
@@ -100,6 +166,7 @@ impl P3m {
         Ok(P3m {
             mesh,
             split: split_cells,
+            table: LongTable::new(),
             cells: Cells::default(),
         })
     }
@@ -123,8 +190,14 @@ impl P3m {
             MeshBoundary::Isolated => None,
         };
         self.cells.sort(sources, CUT * r_s, periodic);
-        self.cells
-            .sum(self.mesh.law(), r_s, CUT * r_s, periodic, threads);
+        self.cells.sum(
+            self.mesh.law(),
+            &self.table,
+            r_s,
+            CUT * r_s,
+            periodic,
+            threads,
+        );
         let FieldOut { acc, phi } = out;
         self.mesh.solve(
             sources,
@@ -151,7 +224,7 @@ impl P3m {
 }
 
 impl Cells {
-    /// Counting-sorts `sources` into cells of side `>= r_cut` over their bounding
+    /// Counting-sorts `sources` into cells of side `>= r_cut / REACH` over their bounding
     /// box (isolated) or the box `(origin, length)`, positions wrapped into it.
     fn sort(&mut self, sources: &Sources, r_cut: f64, periodic: Option<([f64; 3], f64)>) {
         let n = sources.mass.len();
@@ -170,7 +243,7 @@ impl Cells {
         };
         match periodic {
             Some((_, length)) => {
-                let count = ((length / r_cut).floor() as usize).max(1);
+                let count = ((REACH as f64 * length / r_cut).floor() as usize).max(1);
                 self.grid = Grid {
                     count: [count; 3],
                     side: [length / count as f64; 3],
@@ -188,7 +261,7 @@ impl Cells {
                 }
                 for a in 0..3 {
                     let extent = hi[a] - lo[a];
-                    let count = ((extent / r_cut).floor() as usize).max(1);
+                    let count = ((REACH as f64 * extent / r_cut).floor() as usize).max(1);
                     self.grid.count[a] = count;
                     self.grid.side[a] = if extent > 0.0 {
                         extent / count as f64
@@ -235,12 +308,13 @@ impl Cells {
         self.start[0] = 0;
     }
 
-    /// Each sorted particle's short-range `(acc, phi)` over the 27 (fewer when
-    /// the periodic box has fewer than 3 cells per axis) cells around its own,
-    /// minimum image when periodic.
+    /// Each sorted particle's short-range `(acc, phi)` over the cells within
+    /// [`REACH`] of its own (the runs along the last axis being consecutive in the
+    /// sorted order), minimum image when periodic.
     fn sum(
         &mut self,
         law: &GravityLaw,
+        table: &LongTable,
         r_s: f64,
         r_cut: f64,
         periodic: Option<([f64; 3], f64)>,
@@ -255,16 +329,10 @@ impl Cells {
             ..
         } = self;
         let (grid, start, x, m) = (*grid, &*start, &*x, &*m);
-        let span = |count: usize| -> &'static [isize] {
-            match (periodic, count) {
-                (Some(_), 1) => &[0],
-                (Some(_), 2) => &[0, 1],
-                _ => &[-1, 0, 1],
-            }
-        };
-        let spans = grid.count.map(span);
         let length = periodic.map_or(0.0, |(_, length)| length);
-        let (g, r_cut2) = (law.g(), r_cut * r_cut);
+        let r_cut2 = r_cut * r_cut;
+        let to_u = 1.0 / (4.0 * r_s * r_s);
+        let (k_scale, phi_scale) = (law.g() / (8.0 * r_s * r_s * r_s), law.g() / (2.0 * r_s));
         threads.install(|| {
             sum.par_chunks_mut(CHUNK)
                 .enumerate()
@@ -274,14 +342,13 @@ impl Cells {
                         let xi = [x[0][i], x[1][i], x[2][i]];
                         let own = grid.coords(&xi);
                         let mut total = [0.0; 4];
-                        for &o0 in spans[0] {
-                            for &o1 in spans[1] {
-                                for &o2 in spans[2] {
-                                    let Some(c) = neighbour(&grid, own, [o0, o1, o2], periodic)
-                                    else {
-                                        continue;
-                                    };
-                                    for j in start[c]..start[c + 1] {
+                        let [s0, s1, s2] =
+                            [0, 1, 2].map(|a| grid.span(own[a], periodic.is_some(), a));
+                        for c0 in s0.into_iter().flatten() {
+                            for c1 in s1.clone().into_iter().flatten() {
+                                let row = grid.index([c0, c1, 0]);
+                                for run in s2.iter().filter(|r| !r.is_empty()) {
+                                    for j in start[row + run.start]..start[row + run.end] {
                                         if j == i {
                                             continue;
                                         }
@@ -297,7 +364,8 @@ impl Cells {
                                             continue;
                                         }
                                         let (phi, k) = law.unit_pair(r2);
-                                        let (phi_l, k_l) = long_pair(g, r_s, r2.sqrt());
+                                        let [f_k, f_phi] = table.at(r2 * to_u);
+                                        let (phi_l, k_l) = (-phi_scale * f_phi, k_scale * f_k);
                                         let km = (k - k_l) * m[j];
                                         total[0] += km * d[0];
                                         total[1] += km * d[1];
@@ -312,29 +380,6 @@ impl Cells {
                 });
         });
     }
-}
-
-/// The cell at offset `o` from cell `c`: wrapped when periodic, `None` outside
-/// an isolated grid.
-fn neighbour(
-    grid: &Grid,
-    c: [usize; 3],
-    o: [isize; 3],
-    periodic: Option<([f64; 3], f64)>,
-) -> Option<usize> {
-    let mut at = [0; 3];
-    for a in 0..3 {
-        let n = grid.count[a] as isize;
-        let v = c[a] as isize + o[a];
-        at[a] = if periodic.is_some() {
-            v.rem_euclid(n) as usize
-        } else if (0..n).contains(&v) {
-            v as usize
-        } else {
-            return None;
-        };
-    }
-    Some(grid.index(at))
 }
 
 #[cfg(test)]
@@ -404,6 +449,41 @@ mod tests {
         let (acc, _) = run(&m, &x, |s, o| solver.compute(s, o, &Threads::single()));
         let rms = rms_relative(&acc, &want);
         assert!(rms < 1e-2, "rms {rms}");
+    }
+
+    #[test]
+    fn periodic_forces_do_not_see_where_the_box_is_cut() {
+        // the same cloud in the middle of the box and across its corner, shifted
+        // by 16 cells: minimum images and wrapped cell runs give the same forces
+        let params = MeshParams {
+            grid: 32,
+            boundary: MeshBoundary::Periodic {
+                origin: [0.0; 3],
+                length: 20.0,
+            },
+        };
+        let (m, x) = cloud(1000, 1.0, [10.0; 3], 6);
+        let corner: Vec<[f64; 3]> = x.iter().map(|p| p.map(|c| c - 10.0)).collect();
+        let mut solver = P3m::new(law(), params, SPLIT_CELLS).unwrap();
+        let threads = Threads::single();
+        let (a, _) = run(&m, &x, |s, o| solver.compute(s, o, &threads));
+        let (b, _) = run(&m, &corner, |s, o| solver.compute(s, o, &threads));
+        let rms = rms_relative(&b, &a);
+        assert!(rms < 1e-9, "rms {rms}");
+    }
+
+    #[test]
+    fn table_follows_the_long_range_kernel() {
+        let table = LongTable::new();
+        let mut rng = crate::random::Rng::new(1);
+        for _ in 0..10_000 {
+            // r_s = 1/2: r up to r_cut = CUT / 2
+            let r = CUT / 2.0 * rng.uniform();
+            let (phi, k) = long_pair(1.0, 0.5, r);
+            let [f_k, f_phi] = table.at(r * r);
+            assert!((f_k - k).abs() < 1e-7 * k, "r {r}: {f_k} {k}");
+            assert!((f_phi + phi).abs() < 1e-7 * -phi, "r {r}: {f_phi} {phi}");
+        }
     }
 
     #[test]

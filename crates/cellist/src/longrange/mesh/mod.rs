@@ -473,25 +473,41 @@ mod tests {
         assert!(ParticleMesh::new(law(), periodic([0.0; 3], 1.0)).is_ok());
     }
 
-    /// Prints the pair error against separation (grid 64) and, for 10^4
-    /// particles, the RMS error and the time of one evaluation on 1 thread. Run
-    /// with `cargo test --release -p cellist --lib study -- --ignored --nocapture`.
+    /// Prints the pair force's relative error against separation in cells on a
+    /// 64 mesh. Run with
+    /// `cargo test --release -p cellist --lib study_pair -- --ignored --nocapture`.
     #[test]
     #[ignore]
-    fn study() {
+    fn study_pair_error() {
         let law = law();
         let threads = Threads::single();
         let split = crate::longrange::p3m::SPLIT_CELLS;
         let mut pm = ParticleMesh::new(law, isolated(64)).unwrap();
         let mut p3m = P3m::new(law, isolated(64), split).unwrap();
-        println!("sep  pm_rms pm_max  p3m_rms p3m_max");
+        let mut wide = P3m::new(law, isolated(64), 2.0).unwrap();
+        println!("sep  pm_rms pm_max  p3m_rms p3m_max  p3m(split 2)_rms max");
         for sep in [
             0.25, 0.5, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 6.8, 7.0, 8.0, 12.0, 16.0, 24.0,
         ] {
             let a = pair_error(law, 64, sep, 50, 1, |s, o| pm.compute(s, o, &threads));
             let b = pair_error(law, 64, sep, 50, 1, |s, o| p3m.compute(s, o, &threads));
-            println!("{sep:5} {:.2e} {:.2e}  {:.2e} {:.2e}", a.0, a.1, b.0, b.1);
+            let c = pair_error(law, 64, sep, 50, 1, |s, o| wide.compute(s, o, &threads));
+            println!(
+                "{sep:5} {:.2e} {:.2e}  {:.2e} {:.2e}  {:.2e} {:.2e}",
+                a.0, a.1, b.0, b.1, c.0, c.1
+            );
         }
+    }
+
+    /// Prints, for 10^4 clustered particles, the RMS relative acceleration error
+    /// and the time of one evaluation on 1 thread, against the direct sum. Run with
+    /// `cargo test --release -p cellist --lib study_cloud -- --ignored --nocapture`.
+    #[test]
+    #[ignore]
+    fn study_cloud() {
+        let law = law();
+        let threads = Threads::single();
+        let split = crate::longrange::p3m::SPLIT_CELLS;
         let (m, x) = cloud(10_000, 1.0, [0.0; 3], 3);
         let t = std::time::Instant::now();
         let (want, _) = direct(law, &m, &x);
