@@ -282,7 +282,8 @@ impl MeshSolver {
 /// cell average `-2.3800772 G / h`), and `acc = sum_y -G d / (|d|^2 + eps^2)^(3/2)
 /// m(y)`, by FFT on the zero-padded mesh. Periodic: `hat phi(k) = -4 pi G / k^2
 /// hat rho(k)` and `hat acc = -i k hat phi` (the softening is not applied: the
-/// mesh cell smooths more). Each particle's own cloud is removed from `phi_i`.
+/// mesh cell smooths more). Each particle's own cloud is removed from `phi_i`
+/// (periodic: with it the constant `m_i xi` of its own images and background).
 pub struct ParticleMesh {
     solver: MeshSolver,
 }
@@ -316,7 +317,7 @@ impl ParticleMesh {
 
 #[cfg(test)]
 mod tests {
-    use super::testkit::{cloud, direct, pair_error, rms_relative, run, Field};
+    use super::testkit::{cloud, direct, gaussian, pair_error, rms_relative, run, Field};
     use super::*;
     use crate::longrange::P3m;
 
@@ -507,27 +508,31 @@ mod tests {
     fn study_cloud() {
         let law = law();
         let threads = Threads::single();
-        let split = crate::longrange::p3m::SPLIT_CELLS;
-        let (m, x) = cloud(10_000, 1.0, [0.0; 3], 3);
-        let t = std::time::Instant::now();
-        let (want, _) = direct(law, &m, &x);
-        println!("direct {:.3}s", t.elapsed().as_secs_f64());
-        for grid in [32, 64, 128] {
-            let mut pm = ParticleMesh::new(law, isolated(grid)).unwrap();
-            let mut p3m = P3m::new(law, isolated(grid), split).unwrap();
-            run(&m, &x, |s, o| pm.compute(s, o, &threads));
+        let timed = |solve: &mut dyn FnMut(&Sources, FieldOut), m: &[f64], x: &[[f64; 3]]| {
+            run(m, x, &mut *solve);
             let t = std::time::Instant::now();
-            let (got, _) = run(&m, &x, |s, o| pm.compute(s, o, &threads));
-            let t_pm = t.elapsed().as_secs_f64();
-            run(&m, &x, |s, o| p3m.compute(s, o, &threads));
+            let (acc, _) = run(m, x, &mut *solve);
+            (acc, t.elapsed().as_secs_f64())
+        };
+        for (name, (m, x)) in [
+            ("clustered", cloud(10_000, 1.0, [0.0; 3], 3)),
+            ("gaussian", gaussian(10_000, 1.0, 3)),
+        ] {
             let t = std::time::Instant::now();
-            let (got3, _) = run(&m, &x, |s, o| p3m.compute(s, o, &threads));
-            let t_p3m = t.elapsed().as_secs_f64();
-            println!(
-                "grid {grid}: pm rms {:.2e} {t_pm:.3}s  p3m rms {:.2e} {t_p3m:.3}s",
-                rms_relative(&got, &want),
-                rms_relative(&got3, &want)
-            );
+            let (want, _) = direct(law, &m, &x);
+            println!("{name}: direct {:.3}s", t.elapsed().as_secs_f64());
+            for grid in [32, 64, 128] {
+                let mut pm = ParticleMesh::new(law, isolated(grid)).unwrap();
+                let (acc, t) = timed(&mut |s, o| pm.compute(s, o, &threads), &m, &x);
+                let rms = rms_relative(&acc, &want);
+                println!("{name}: pm grid {grid}: rms {rms:.2e} {t:.3}s");
+                for split in [1.25, 2.0] {
+                    let mut p3m = P3m::new(law, isolated(grid), split).unwrap();
+                    let (acc, t) = timed(&mut |s, o| p3m.compute(s, o, &threads), &m, &x);
+                    let rms = rms_relative(&acc, &want);
+                    println!("{name}: p3m grid {grid} split {split}: rms {rms:.2e} {t:.3}s");
+                }
+            }
         }
     }
 }

@@ -59,6 +59,17 @@ pub(crate) fn cloud(
     (m, x)
 }
 
+/// `n` particles in a Gaussian of standard deviation `sigma` around the origin,
+/// masses uniform in `[0.5, 1.5)`.
+pub(crate) fn gaussian(n: usize, sigma: f64, seed: u64) -> (Vec<f64>, Vec<[f64; 3]>) {
+    let mut rng = Rng::new(seed);
+    let m = (0..n).map(|_| 0.5 + rng.uniform()).collect();
+    let x = (0..n)
+        .map(|_| std::array::from_fn(|_| sigma * rng.normal()))
+        .collect();
+    (m, x)
+}
+
 /// `sqrt(mean_i |a_i - b_i|^2 / |b_i|^2)`.
 pub(crate) fn rms_relative(a: &[[f64; 3]], b: &[[f64; 3]]) -> f64 {
     let sum: f64 = a
