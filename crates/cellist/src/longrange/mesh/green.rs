@@ -18,15 +18,16 @@ pub(crate) enum Reach {
     /// All of it: `phi(r) = -G / sqrt(r^2 + eps^2)`.
     Full,
     /// The long-range part for the splitting radius `r_s` (in mesh cells):
-    /// `phi(r) = -G erf(r / (2 r_s)) / r`, in Fourier space `-4 pi G / k^2
-    /// exp(-k^2 r_s^2)`.
+    /// isolated, `phi(r) = -G erf(s / (2 r_s)) / s` with `s^2 = r^2 + eps^2`, so
+    /// that the mesh carries the whole softened law beyond the split; periodic,
+    /// `-4 pi G / k^2 exp(-k^2 r_s^2)` in Fourier space (`eps = 0`).
     Long {
         /// `r_s / h`.
         cells: f64,
     },
 }
 
-/// `(phi, k)` of a unit source at distance `r` under the long-range kernel with
+/// `(phi, k)` of a unit source at distance `r` (or `s`) under the long-range kernel with
 /// splitting radius `r_s`: `phi = -G erf(x) / r` and
 /// `k = G (erf x - 2x/sqrt(pi) exp(-x^2)) / r^3`, `x = r / (2 r_s)`, the
 /// acceleration being `k (x_j - x_i)`. Small `x` uses the series
@@ -69,6 +70,32 @@ fn signed(q: usize, m: usize) -> f64 {
     } else {
         q as f64 - m as f64
     }
+}
+
+/// The deconvolution term of the isolated long-range Green's function,
+/// `(1/W^2 - 1)` times the kernel's continuous transform on the mesh's
+/// frequencies, scaled like `P` and `A_a` (`/ (h^3 M^3)`): that transform is
+/// `-4 pi G exp(-k^2 r_s^2) / k^2` for `component` 0 (phi) and `-k_a` times it
+/// for `component` `a` (acc; zero on the Nyquist plane of `a`). At `k = 0`,
+/// `1/W^2 - 1 ~ k^2 h^2 / 6` leaves the limit `-4 pi G h^2 / 6` for phi.
+fn deconvolution(g: f64, r_s: f64, cell: f64, q: [usize; 3], m: usize, component: usize) -> f64 {
+    let scale = 1.0 / (cell * cell * cell * (m * m * m) as f64);
+    let k = q.map(|qa| 2.0 * PI * signed(qa, m) / (m as f64 * cell));
+    let k2 = k[0] * k[0] + k[1] * k[1] + k[2] * k[2];
+    if k2 == 0.0 {
+        return if component == 0 {
+            -4.0 * PI * g * cell * cell / 6.0 * scale
+        } else {
+            0.0
+        };
+    }
+    let phi = (1.0 / cic_window2(q, m) - 1.0) * -4.0 * PI * g * (-k2 * r_s * r_s).exp() / k2;
+    scale
+        * match component {
+            0 => phi,
+            a if q[a - 1] == m / 2 => 0.0,
+            a => -k[a - 1] * phi,
+        }
 }
 
 /// `W(q)^2` of cloud-in-cell, assigned and interpolated:
@@ -141,7 +168,13 @@ impl Spectra {
     /// the transforms of the real-space kernels `phi(r)` and `-k(r) d_a` of
     /// [`Reach`] on the offsets `d = h (o0, o1, o2)`, `-M/2 < o_a < M/2` (zero on
     /// the `o_a = -M/2` planes, which no pair of the unpadded `M/2` mesh reaches),
-    /// divided by `M^3` (and by `W^2` for the long range). `work` is scratch.
+    /// divided by `M^3`. The long range is deconvolved by adding
+    /// `(1/W^2 - 1)` times its continuous transform ([`deconvolution`]), not by
+    /// dividing the sampled one by `W^2`: the latter would amplify the ringing of
+    /// the kernel's cut at the padded box's edge. That transform is the unsoftened
+    /// one: the softening changes it at `k ~ 1/eps`, where `1 - W^2` is small
+    /// unless `eps` is below a cell, and then `exp(-k^2 r_s^2)` is. `work` is
+    /// scratch.
     pub(crate) fn isolated(
         &mut self,
         law: &GravityLaw,
@@ -163,10 +196,9 @@ impl Spectra {
                     (-g * inv, g * inv * inv * inv)
                 }
             }
-            Reach::Long { cells } => long_pair(g, cells * cell, r2.sqrt()),
+            Reach::Long { cells } => long_pair(g, cells * cell, (r2 + eps2).sqrt()),
         };
         let norm = 1.0 / (m * m * m) as f64;
-        let deconvolve = matches!(reach, Reach::Long { .. });
         for component in 0..4 {
             fft.forward(m, work, |i, j, row| {
                 let (di, dj) = (signed(i, m), signed(j, m));
@@ -192,13 +224,12 @@ impl Spectra {
                 .enumerate()
                 .for_each(|(row, (o, w))| {
                     for q2 in 0..h {
-                        let window = if deconvolve {
-                            cic_window2([row / m, row % m, q2], m)
-                        } else {
-                            1.0
-                        };
+                        let q = [row / m, row % m, q2];
                         let v = if imaginary { w[q2].im } else { w[q2].re };
-                        o[q2] = v * norm / window;
+                        o[q2] = v * norm;
+                        if let Reach::Long { cells } = reach {
+                            o[q2] += deconvolution(g, cells * cell, cell, q, m, component);
+                        }
                     }
                 });
         }

@@ -1,6 +1,6 @@
-//! Particle-mesh gravity: cloud-in-cell masses on a `grid^3` mesh ([`cic`]), the
+//! Particle-mesh gravity: cloud-in-cell masses on a `grid^3` mesh (module `cic`), the
 //! potential and acceleration as Fourier-space products with the Green's function
-//! ([`green`], [`fft`]), read back at the particles with the same weights.
+//! (modules `green`, `fft`), read back at the particles with the same weights.
 //!
 //! Interlaced (Hockney and Eastwood): the result is the mean of two meshes whose
 //! nodes are offset by half a cell along every axis. This cancels most of
