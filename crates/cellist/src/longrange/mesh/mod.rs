@@ -521,9 +521,9 @@ mod tests {
         for sep in [
             0.25, 0.5, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 6.8, 7.0, 8.0, 12.0, 16.0, 24.0,
         ] {
-            let a = pair_error(law, 64, sep, 50, 1, |s, o| pm.compute(s, o, &threads));
-            let b = pair_error(law, 64, sep, 50, 1, |s, o| p3m.compute(s, o, &threads));
-            let c = pair_error(law, 64, sep, 50, 1, |s, o| wide.compute(s, o, &threads));
+            let a = pair_error(law, 64, sep, 20, 1, |s, o| pm.compute(s, o, &threads));
+            let b = pair_error(law, 64, sep, 20, 1, |s, o| p3m.compute(s, o, &threads));
+            let c = pair_error(law, 64, sep, 20, 1, |s, o| wide.compute(s, o, &threads));
             println!(
                 "{sep:5} {:.2e} {:.2e}  {:.2e} {:.2e}  {:.2e} {:.2e}",
                 a.0, a.1, b.0, b.1, c.0, c.1
