@@ -1,15 +1,19 @@
 //! Long-range solvers for the softened gravity of [`GravityLaw`]: each fills the
 //! acceleration `acc_i = sum_j acc_ij` and potential `phi_i = sum_j phi_ij` of
 //! every particle (in input order, self term excluded), exactly ([`direct`]) or
-//! approximately ([`tree`], [`mesh`]).
+//! approximately ([`tree`], [`mesh`], [`p3m`]).
 //!
 //! Every solver is deterministic: each particle's sum runs in an order fixed by
 //! the data, so 1 and N threads give the same bits.
 
 pub mod direct;
+pub mod mesh;
+pub mod p3m;
 pub mod tree;
 
 pub use direct::DirectSum;
+pub use mesh::{MeshBoundary, MeshParams, ParticleMesh};
+pub use p3m::P3m;
 pub use tree::{BarnesHut, TreeParams};
 
 use crate::interactions::GravityLaw;

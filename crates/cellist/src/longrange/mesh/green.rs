@@ -1,0 +1,259 @@
+//! The mesh's Green's functions in Fourier space, `hat phi(q) = P(q) F(q)` and
+//! `hat acc_a(q) = i A_a(q) F(q)` with `F` the transformed mesh masses; `P` and
+//! `A_a` carry the inverse transform's `1/M^3`.
+
+use super::fft::Fft3;
+use crate::interactions::GravityLaw;
+use rayon::prelude::*;
+use rustfft::num_complex::Complex;
+use std::f64::consts::PI;
+
+/// Mean of `1/r` over the unit cube centred on `r = 0`: the cell-averaged
+/// potential kernel at zero separation when there is no softening.
+const CUBE_MEAN_INV_R: f64 = 2.380_077_2;
+
+/// How much of the law a mesh carries.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum Reach {
+    /// All of it: `phi(r) = -G / sqrt(r^2 + eps^2)`.
+    Full,
+    /// The long-range part for the splitting radius `r_s` (in mesh cells):
+    /// isolated, `phi(r) = -G erf(s / (2 r_s)) / s` with `s^2 = r^2 + eps^2`, so
+    /// that the mesh carries the whole softened law beyond the split; periodic,
+    /// `-4 pi G / k^2 exp(-k^2 r_s^2)` in Fourier space (`eps = 0`).
+    Long {
+        /// `r_s / h`.
+        cells: f64,
+    },
+}
+
+/// `(phi, k)` of a unit source at distance `r` (or `s`) under the long-range kernel with
+/// splitting radius `r_s`: `phi = -G erf(x) / r` and
+/// `k = G (erf x - 2x/sqrt(pi) exp(-x^2)) / r^3`, `x = r / (2 r_s)`, the
+/// acceleration being `k (x_j - x_i)`. Small `x` uses the series
+/// `phi = -G/(r_s sqrt pi) (1 - x^2/3)`, `k = G/(6 r_s^3 sqrt pi) (1 - 3 x^2/5)`.
+#[inline]
+pub(crate) fn long_pair(g: f64, r_s: f64, r: f64) -> (f64, f64) {
+    let x = r / (2.0 * r_s);
+    let root_pi = PI.sqrt();
+    if x < 1e-3 {
+        let x2 = x * x;
+        (
+            -g / (r_s * root_pi) * (1.0 - x2 / 3.0),
+            g / (6.0 * r_s * r_s * r_s * root_pi) * (1.0 - 0.6 * x2),
+        )
+    } else {
+        let erf = libm::erf(x);
+        (
+            -g * erf / r,
+            g * (erf - 2.0 * x / root_pi * (-x * x).exp()) / (r * r * r),
+        )
+    }
+}
+
+/// `P`, `A_a` on the half spectrum of an `M^3` mesh, and the mesh's own
+/// potential kernel at the offsets a particle's cloud has with itself.
+pub(crate) struct Spectra {
+    /// `P(q)`, real.
+    pub(crate) phi: Vec<f64>,
+    /// `A_a(q)`, real.
+    pub(crate) acc: [Vec<f64>; 3],
+    /// `g_c`: the mesh potential kernel at offset `(1,..,1,0,..)` with `c` ones.
+    pub(crate) own: [f64; 4],
+}
+
+/// The signed frequency (or offset) of index `q` on a mesh of side `m`:
+/// `q` for `q <= m/2`, else `q - m`.
+fn signed(q: usize, m: usize) -> f64 {
+    if q <= m / 2 {
+        q as f64
+    } else {
+        q as f64 - m as f64
+    }
+}
+
+/// The deconvolution term of the isolated long-range Green's function,
+/// `(1/W^2 - 1)` times the kernel's continuous transform on the mesh's
+/// frequencies, scaled like `P` and `A_a` (`/ (h^3 M^3)`): that transform is
+/// `-4 pi G exp(-k^2 r_s^2) / k^2` for `component` 0 (phi) and `-k_a` times it
+/// for `component` `a` (acc; zero on the Nyquist plane of `a`). At `k = 0`,
+/// `1/W^2 - 1 ~ k^2 h^2 / 6` leaves the limit `-4 pi G h^2 / 6` for phi.
+fn deconvolution(g: f64, r_s: f64, cell: f64, q: [usize; 3], m: usize, component: usize) -> f64 {
+    let scale = 1.0 / (cell * cell * cell * (m * m * m) as f64);
+    let k = q.map(|qa| 2.0 * PI * signed(qa, m) / (m as f64 * cell));
+    let k2 = k[0] * k[0] + k[1] * k[1] + k[2] * k[2];
+    if k2 == 0.0 {
+        return if component == 0 {
+            -4.0 * PI * g * cell * cell / 6.0 * scale
+        } else {
+            0.0
+        };
+    }
+    let phi = (1.0 / cic_window2(q, m) - 1.0) * -4.0 * PI * g * (-k2 * r_s * r_s).exp() / k2;
+    scale
+        * match component {
+            0 => phi,
+            a if q[a - 1] == m / 2 => 0.0,
+            a => -k[a - 1] * phi,
+        }
+}
+
+/// `W(q)^2` of cloud-in-cell, assigned and interpolated:
+/// `prod_a sinc^4(pi q_a / M)`.
+fn cic_window2(q: [usize; 3], m: usize) -> f64 {
+    q.iter()
+        .map(|&qa| {
+            let x = PI * signed(qa, m) / m as f64;
+            if x == 0.0 {
+                1.0
+            } else {
+                (x.sin() / x).powi(4)
+            }
+        })
+        .product()
+}
+
+impl Spectra {
+    /// Zeroed spectra for `fft`'s mesh.
+    pub(crate) fn new(fft: &Fft3) -> Self {
+        let len = fft.spectrum_len();
+        Spectra {
+            phi: vec![0.0; len],
+            acc: std::array::from_fn(|_| vec![0.0; len]),
+            own: [0.0; 4],
+        }
+    }
+
+    /// The periodic box of side `length` on an `M^3` mesh:
+    /// `P = -4 pi G / (k^2 L^3)` (times `exp(-k^2 r_s^2) / W^2` for the long
+    /// range), `A_a = -k_a P` (zero on the Nyquist plane of axis `a`), both zero
+    /// at `k = 0`.
+    pub(crate) fn periodic(&mut self, law: &GravityLaw, reach: Reach, length: f64, m: usize) {
+        let h = m / 2 + 1;
+        let volume = length * length * length;
+        let h_cell = length / m as f64;
+        let Spectra { phi, acc, .. } = self;
+        let [ax, ay, az] = acc;
+        phi.par_chunks_mut(h)
+            .zip(ax.par_chunks_mut(h))
+            .zip(ay.par_chunks_mut(h))
+            .zip(az.par_chunks_mut(h))
+            .enumerate()
+            .for_each(|(row, (((p, a0), a1), a2))| {
+                let (q0, q1) = (row / m, row % m);
+                for q2 in 0..h {
+                    let q = [q0, q1, q2];
+                    let k = q.map(|qa| 2.0 * PI * signed(qa, m) / length);
+                    let k2 = k[0] * k[0] + k[1] * k[1] + k[2] * k[2];
+                    let mut v = if k2 == 0.0 {
+                        0.0
+                    } else {
+                        -4.0 * PI * law.g() / (k2 * volume)
+                    };
+                    if let Reach::Long { cells } = reach {
+                        let r_s = cells * h_cell;
+                        v *= (-k2 * r_s * r_s).exp() / cic_window2(q, m);
+                    }
+                    p[q2] = v;
+                    let nyquist = q.map(|qa| qa == m / 2);
+                    for (a, out) in [(0, &mut *a0), (1, &mut *a1), (2, &mut *a2)] {
+                        out[q2] = if nyquist[a] { 0.0 } else { -k[a] * v };
+                    }
+                }
+            });
+        self.own = self.own_kernel(m);
+    }
+
+    /// The isolated mesh of cell `cell` zero-padded to `M^3`: `P` and `A_a` are
+    /// the transforms of the real-space kernels `phi(r)` and `-k(r) d_a` of
+    /// [`Reach`] on the offsets `d = h (o0, o1, o2)`, `-M/2 < o_a < M/2` (zero on
+    /// the `o_a = -M/2` planes, which no pair of the unpadded `M/2` mesh reaches),
+    /// divided by `M^3`. The long range is deconvolved by adding
+    /// `(1/W^2 - 1)` times its continuous transform ([`deconvolution`]), not by
+    /// dividing the sampled one by `W^2`: the latter would amplify the ringing of
+    /// the kernel's cut at the padded box's edge. That transform is the unsoftened
+    /// one: the softening changes it at `k ~ 1/eps`, where `1 - W^2` is small
+    /// unless `eps` is below a cell, and then `exp(-k^2 r_s^2)` is. `work` is
+    /// scratch.
+    pub(crate) fn isolated(
+        &mut self,
+        law: &GravityLaw,
+        reach: Reach,
+        cell: f64,
+        fft: &mut Fft3,
+        work: &mut [Complex<f64>],
+    ) {
+        let m = fft.size();
+        let (g, eps2) = (law.g(), law.softening2());
+        // (phi, k) of a unit source at distance r
+        let pair = move |r2: f64| match reach {
+            Reach::Full => {
+                let s2 = r2 + eps2;
+                if s2 == 0.0 {
+                    (-g * CUBE_MEAN_INV_R / cell, 0.0)
+                } else {
+                    let inv = 1.0 / s2.sqrt();
+                    (-g * inv, g * inv * inv * inv)
+                }
+            }
+            Reach::Long { cells } => long_pair(g, cells * cell, (r2 + eps2).sqrt()),
+        };
+        let norm = 1.0 / (m * m * m) as f64;
+        for component in 0..4 {
+            fft.forward(m, work, |i, j, row| {
+                let (di, dj) = (signed(i, m), signed(j, m));
+                for (l, v) in row.iter_mut().enumerate() {
+                    let d = [di, dj, signed(l, m)].map(|o| o * cell);
+                    let edge = [i, j, l].contains(&(m / 2));
+                    let (p, k) = pair(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+                    *v = match (edge, component) {
+                        (true, _) => 0.0,
+                        (false, 0) => p,
+                        (false, a) => -k * d[a - 1],
+                    };
+                }
+            });
+            // phi's transform is real, acc_a's imaginary
+            let (out, imaginary) = match component {
+                0 => (&mut self.phi, false),
+                a => (&mut self.acc[a - 1], true),
+            };
+            let h = m / 2 + 1;
+            out.par_chunks_mut(h)
+                .zip(work.par_chunks(h))
+                .enumerate()
+                .for_each(|(row, (o, w))| {
+                    for q2 in 0..h {
+                        let q = [row / m, row % m, q2];
+                        let v = if imaginary { w[q2].im } else { w[q2].re };
+                        o[q2] = v * norm;
+                        if let Reach::Long { cells } = reach {
+                            o[q2] += deconvolution(g, cells * cell, cell, q, m, component);
+                        }
+                    }
+                });
+        }
+        self.own = self.own_kernel(m);
+    }
+
+    /// `g_c = sum_q P(q) cos(2 pi q.o_c / M)` over the full spectrum (the half
+    /// spectrum with the `0 < q2 < M/2` terms doubled, `P` being even), with
+    /// `o_c` the first `c` axes set to 1.
+    fn own_kernel(&self, m: usize) -> [f64; 4] {
+        let h = m / 2 + 1;
+        let mut own = [0.0; 4];
+        for (row, p) in self.phi.chunks(h).enumerate() {
+            let c = [row / m, row % m].map(|qa| (2.0 * PI * qa as f64 / m as f64).cos());
+            for (q2, &v) in p.iter().enumerate() {
+                let weight = if q2 == 0 || q2 == m / 2 { 1.0 } else { 2.0 };
+                let c2 = (2.0 * PI * q2 as f64 / m as f64).cos();
+                let v = weight * v;
+                own[0] += v;
+                own[1] += v * c[0];
+                own[2] += v * c[0] * c[1];
+                own[3] += v * c[0] * c[1] * c2;
+            }
+        }
+        own
+    }
+}
