@@ -41,7 +41,7 @@ Run a scenario file (TOML). Without one, run the built-in Lennard-Jones melt \
 
 The scenario names its model (model = \"md\": Lennard-Jones molecular dynamics; \
 model = \"pse\": diffusion by particle strength exchange; model = \"gravity\": \
-self-gravitating bodies, direct or Barnes-Hut) and its keys; see \
+self-gravitating bodies, direct, Barnes-Hut, PM or P3M) and its keys; see \
 docs/models.md and examples/. Input paths in the scenario are relative to the \
 scenario file; output files go to the output folder (--out, default \
 out/<scenario name>/): thermo.csv, a plot (energy.png or error.png) and the dumps, \
@@ -136,6 +136,10 @@ pub enum GravitySolverArg {
     Direct,
     /// Barnes-Hut octree.
     BarnesHut,
+    /// Particle-mesh (isolated: zero-padded FFT).
+    Pm,
+    /// Particle-mesh plus the short-range pairs on a cell list.
+    P3m,
 }
 
 /// Flags of `cellist bench gravity`.
@@ -159,6 +163,12 @@ pub struct BenchGravityArgs {
     /// Most bodies per walk group (barnes-hut).
     #[arg(long, default_value_t = 128)]
     pub group_size: usize,
+    /// Mesh nodes per axis (pm, p3m): a power of two >= 8.
+    #[arg(long, default_value_t = 64)]
+    pub grid: usize,
+    /// Splitting radius in mesh cells (p3m).
+    #[arg(long, default_value_t = 1.25)]
+    pub split: f64,
     /// Plummer softening length.
     #[arg(long, default_value_t = 0.01)]
     pub softening: f64,

@@ -9,7 +9,8 @@ use crate::error::{threads, CliError, CliResult};
 use crate::md::progress_bar;
 use crate::scenario::Scenario;
 use cellist::interactions::GravityLaw;
-use cellist::longrange::{DirectSum, FieldOut, Sources, TreeParams};
+use cellist::longrange::p3m::SPLIT_CELLS;
+use cellist::longrange::{DirectSum, FieldOut, MeshBoundary, MeshParams, Sources, TreeParams};
 use cellist::models::gravity::{
     plummer, two_body_seed004, Bodies, GravitySystem, Integrator, Observables, Solver, SolverChoice,
 };
@@ -79,7 +80,7 @@ enum SolverKeys {
     Table(SolverTable),
 }
 
-#[derive(Deserialize)]
+#[derive(Deserialize, Clone, Default)]
 #[serde(deny_unknown_fields)]
 struct SolverTable {
     kind: String,
@@ -88,6 +89,10 @@ struct SolverTable {
     leaf_size: Option<i64>,
     group_size: Option<i64>,
     grid: Option<i64>,
+    split: Option<f64>,
+    boundary: Option<String>,
+    #[serde(rename = "box")]
+    side: Option<f64>,
 }
 
 #[derive(Deserialize)]
@@ -171,80 +176,113 @@ fn solver_choice(keys: &SolverKeys) -> Result<(SolverChoice, String), String> {
     let table = match keys {
         SolverKeys::Name(name) => SolverTable {
             kind: name.clone(),
-            theta: None,
-            quadrupole: None,
-            leaf_size: None,
-            group_size: None,
-            grid: None,
+            ..SolverTable::default()
         },
-        SolverKeys::Table(t) => SolverTable {
-            kind: t.kind.clone(),
-            ..*t
-        },
+        SolverKeys::Table(t) => t.clone(),
     };
-    let tree_only = |key: &str, set: bool| {
-        if set && table.kind != "barnes-hut" {
-            Err(format!(
-                "system.solver.{key} applies to kind = \"barnes-hut\" only"
-            ))
-        } else {
-            Ok(())
+    const TREE: &[&str] = &["barnes-hut"];
+    const MESH: &[&str] = &["pm", "p3m"];
+    for (key, set, kinds) in [
+        ("theta", table.theta.is_some(), TREE),
+        ("quadrupole", table.quadrupole.is_some(), TREE),
+        ("leaf_size", table.leaf_size.is_some(), TREE),
+        ("group_size", table.group_size.is_some(), TREE),
+        ("grid", table.grid.is_some(), MESH),
+        ("boundary", table.boundary.is_some(), MESH),
+        ("box", table.side.is_some(), MESH),
+        ("split", table.split.is_some(), &["p3m"]),
+    ] {
+        if set && !kinds.contains(&table.kind.as_str()) {
+            return Err(format!(
+                "system.solver.{key} applies to kind = {} only",
+                kinds
+                    .iter()
+                    .map(|k| format!("\"{k}\""))
+                    .collect::<Vec<_>>()
+                    .join(" or ")
+            ));
         }
-    };
-    tree_only("theta", table.theta.is_some())?;
-    tree_only("quadrupole", table.quadrupole.is_some())?;
-    tree_only("leaf_size", table.leaf_size.is_some())?;
-    tree_only("group_size", table.group_size.is_some())?;
+    }
     match table.kind.as_str() {
-        "direct" => {
-            if table.grid.is_some() {
-                return Err("system.solver.grid applies to the mesh solvers only".into());
-            }
-            Ok((SolverChoice::Direct, "direct (all pairs)".into()))
-        }
+        "direct" => Ok((SolverChoice::Direct, "direct (all pairs)".into())),
         "barnes-hut" => {
-            if table.grid.is_some() {
-                return Err("system.solver.grid applies to the mesh solvers only".into());
-            }
             let d = TreeParams::default();
-            let size = |v: Option<i64>, default: usize| {
-                v.map_or(Ok(default), |v| usize::try_from(v).map_err(|_| v))
+            let size = |key: &str, v: Option<i64>, default: usize| {
+                v.map_or(Ok(default), |v| {
+                    usize::try_from(v).map_err(|_| format!("system.solver.{key} must be in 1..=256, got {v}"))
+                })
             };
             let params = TreeParams {
                 theta: table.theta.unwrap_or(d.theta),
                 quadrupole: table.quadrupole.unwrap_or(d.quadrupole),
-                leaf_size: size(table.leaf_size, d.leaf_size)
-                    .map_err(|v| format!("system.solver.leaf_size must be in 1..=256, got {v}"))?,
-                group_size: size(table.group_size, d.group_size)
-                    .map_err(|v| format!("system.solver.group_size must be in 1..=256, got {v}"))?,
+                leaf_size: size("leaf_size", table.leaf_size, d.leaf_size)?,
+                group_size: size("group_size", table.group_size, d.group_size)?,
             };
             params.check().map_err(|e| format!("system.solver: {e}"))?;
-            let name = format!(
-                "barnes-hut (theta {}, {}, leaves of {}, groups of {})",
-                params.theta,
-                if params.quadrupole {
-                    "quadrupoles"
-                } else {
-                    "monopoles"
-                },
-                params.leaf_size,
-                params.group_size
-            );
-            Ok((SolverChoice::BarnesHut(params), name))
+            Ok((SolverChoice::BarnesHut(params), tree_name(&params)))
+        }
+        "pm" | "p3m" => {
+            let grid = table.grid.unwrap_or(64);
+            let grid = usize::try_from(grid)
+                .map_err(|_| format!("system.solver.grid must be a power of two >= 8, got {grid}"))?;
+            let boundary = mesh_boundary(table.boundary.as_deref(), table.side)?;
+            let mesh = MeshParams { grid, boundary };
+            if table.kind == "pm" {
+                Ok((SolverChoice::Pm(mesh), mesh_name("pm", &mesh, None)))
+            } else {
+                let split_cells = table.split.unwrap_or(SPLIT_CELLS);
+                Ok((SolverChoice::P3m { mesh, split_cells }, mesh_name("p3m", &mesh, Some(split_cells))))
+            }
         }
         other => Err(format!(
-            "system.solver kind '{other}' is unknown; expected \"direct\" or \"barnes-hut\""
+            "system.solver kind '{other}' is unknown; expected \"direct\", \"barnes-hut\", \"pm\" or \"p3m\""
         )),
     }
 }
 
-impl Clone for SolverTable {
-    fn clone(&self) -> Self {
-        SolverTable {
-            kind: self.kind.clone(),
-            ..*self
+/// `boundary = "isolated"` (default) or `"periodic"` with `box = L`: the periodic
+/// cube of side `L` centred on the origin.
+fn mesh_boundary(boundary: Option<&str>, side: Option<f64>) -> Result<MeshBoundary, String> {
+    match (boundary.unwrap_or("isolated"), side) {
+        ("isolated", None) => Ok(MeshBoundary::Isolated),
+        ("isolated", Some(_)) => {
+            Err("system.solver.box applies to boundary = \"periodic\" only".into())
         }
+        ("periodic", Some(l)) if l.is_finite() && l > 0.0 => Ok(MeshBoundary::Periodic {
+            origin: [-0.5 * l; 3],
+            length: l,
+        }),
+        ("periodic", Some(l)) => Err(format!("system.solver.box must be > 0, got {l}")),
+        ("periodic", None) => Err(
+            "system.solver.boundary = \"periodic\" needs box = L (the cube [-L/2, L/2)^3)".into(),
+        ),
+        (other, _) => Err(format!(
+            "system.solver.boundary '{other}' is unknown; expected \"isolated\" or \"periodic\""
+        )),
     }
+}
+
+fn tree_name(p: &TreeParams) -> String {
+    format!(
+        "barnes-hut (theta {}, {}, leaves of {}, groups of {})",
+        p.theta,
+        if p.quadrupole {
+            "quadrupoles"
+        } else {
+            "monopoles"
+        },
+        p.leaf_size,
+        p.group_size
+    )
+}
+
+fn mesh_name(kind: &str, mesh: &MeshParams, split: Option<f64>) -> String {
+    let boundary = match mesh.boundary {
+        MeshBoundary::Isolated => "isolated".to_string(),
+        MeshBoundary::Periodic { length, .. } => format!("periodic box {length}"),
+    };
+    let split = split.map_or(String::new(), |s| format!(", split {s} cells"));
+    format!("{kind} (grid {}^3, {boundary}{split})", mesh.grid)
 }
 
 /// The initial bodies of `keys` and a description.
@@ -644,6 +682,23 @@ pub fn bench(args: &BenchGravityArgs) -> CliResult {
             params.check().map_err(CliError::Input)?;
             (SolverChoice::BarnesHut(params), "barnes-hut".to_string())
         }
+        GravitySolverArg::Pm => (
+            SolverChoice::Pm(MeshParams {
+                grid: args.grid,
+                boundary: MeshBoundary::Isolated,
+            }),
+            "pm".to_string(),
+        ),
+        GravitySolverArg::P3m => (
+            SolverChoice::P3m {
+                mesh: MeshParams {
+                    grid: args.grid,
+                    boundary: MeshBoundary::Isolated,
+                },
+                split_cells: args.split,
+            },
+            "p3m".to_string(),
+        ),
     };
     let mut solver = Solver::new(&choice, law, args.n).map_err(CliError::Input)?;
     let sources = Sources {
@@ -709,6 +764,11 @@ pub fn bench(args: &BenchGravityArgs) -> CliResult {
                 obj["quadrupole"] = serde_json::json!(p.quadrupole);
                 obj["leaf_size"] = serde_json::json!(p.leaf_size);
                 obj["group_size"] = serde_json::json!(p.group_size);
+            }
+            SolverChoice::Pm(m) => obj["grid"] = serde_json::json!(m.grid),
+            SolverChoice::P3m { mesh, split_cells } => {
+                obj["grid"] = serde_json::json!(mesh.grid);
+                obj["split_cells"] = serde_json::json!(split_cells);
             }
         }
         if let Some(r) = rms {

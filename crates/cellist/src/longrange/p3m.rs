@@ -148,6 +148,12 @@ pub struct P3m {
     cells: Cells,
 }
 
+impl std::fmt::Debug for P3m {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        self.mesh.describe(f, "P3m")
+    }
+}
+
 impl P3m {
     /// The solver for `law` with `params` and splitting radius
     /// `r_s = split_cells h` (default [`SPLIT_CELLS`]). Refuses what

@@ -115,6 +115,14 @@ pub(crate) struct MeshSolver {
 }
 
 impl MeshSolver {
+    /// `name { params, cell }` for `Debug` (the FFT plans have none).
+    pub(crate) fn describe(&self, f: &mut std::fmt::Formatter<'_>, name: &str) -> std::fmt::Result {
+        f.debug_struct(name)
+            .field("params", &self.params)
+            .field("cell", &self.cell())
+            .finish_non_exhaustive()
+    }
+
     /// The solver for `law` carrying `reach` of it.
     pub(crate) fn new(law: GravityLaw, params: MeshParams, reach: Reach) -> Result<Self, String> {
         params.check()?;
@@ -315,6 +323,12 @@ impl MeshSolver {
 /// (periodic: with it the constant `m_i xi` of its own images and background).
 pub struct ParticleMesh {
     solver: MeshSolver,
+}
+
+impl std::fmt::Debug for ParticleMesh {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        self.solver.describe(f, "ParticleMesh")
+    }
 }
 
 impl ParticleMesh {

@@ -9,7 +9,10 @@ mod initial;
 pub use initial::{plummer, two_body_seed004, Bodies};
 
 use crate::interactions::GravityLaw;
-use crate::longrange::{check_sources, BarnesHut, DirectSum, FieldOut, Sources, TreeParams};
+use crate::longrange::{
+    check_sources, BarnesHut, DirectSum, FieldOut, MeshParams, P3m, ParticleMesh, Sources,
+    TreeParams,
+};
 use crate::threads::Threads;
 use std::fmt;
 
@@ -20,6 +23,15 @@ pub enum SolverChoice {
     Direct,
     /// The Barnes-Hut tree.
     BarnesHut(TreeParams),
+    /// Particle-mesh: cloud-in-cell, FFT Poisson solve, interpolation back.
+    Pm(MeshParams),
+    /// P3M: the mesh for the long range, pairs on a cell list for the short range.
+    P3m {
+        /// The mesh.
+        mesh: MeshParams,
+        /// The splitting radius in mesh cells.
+        split_cells: f64,
+    },
 }
 
 /// A solver, built for one run.
@@ -31,6 +43,10 @@ pub enum Solver {
     Direct(DirectSum),
     /// Barnes-Hut.
     BarnesHut(BarnesHut),
+    /// Particle-mesh.
+    Pm(ParticleMesh),
+    /// P3M.
+    P3m(P3m),
 }
 
 impl Solver {
@@ -39,6 +55,10 @@ impl Solver {
         Ok(match choice {
             SolverChoice::Direct => Solver::Direct(DirectSum::new(law, n)),
             SolverChoice::BarnesHut(params) => Solver::BarnesHut(BarnesHut::new(law, *params)?),
+            SolverChoice::Pm(mesh) => Solver::Pm(ParticleMesh::new(law, *mesh)?),
+            SolverChoice::P3m { mesh, split_cells } => {
+                Solver::P3m(P3m::new(law, *mesh, *split_cells)?)
+            }
         })
     }
 
@@ -47,6 +67,8 @@ impl Solver {
         match self {
             Solver::Direct(s) => s.compute(sources, out, threads),
             Solver::BarnesHut(s) => s.compute(sources, out, threads),
+            Solver::Pm(s) => s.compute(sources, out, threads),
+            Solver::P3m(s) => s.compute(sources, out, threads),
         }
     }
 }
