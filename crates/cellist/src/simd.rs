@@ -71,6 +71,25 @@ mod lanes {
             self.store(&mut out);
             out
         }
+        /// `if a < b { self } else { zero }` lane by lane.
+        #[inline(always)]
+        pub fn zero_unless_less(self, a: Self, b: Self) -> Self {
+            unsafe { F64x4(_mm256_and_pd(_mm256_cmp_pd::<_CMP_LT_OQ>(a.0, b.0), self.0)) }
+        }
+        /// Lane-wise minimum.
+        #[inline(always)]
+        pub fn min(self, b: Self) -> Self {
+            unsafe { F64x4(_mm256_min_pd(self.0, b.0)) }
+        }
+        /// Rounded to the nearest integer, ties to even.
+        #[inline(always)]
+        pub fn round_ties_even(self) -> Self {
+            unsafe {
+                F64x4(_mm256_round_pd::<
+                    { _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC },
+                >(self.0))
+            }
+        }
     }
 
     macro_rules! binary {
@@ -147,6 +166,27 @@ mod lanes {
         pub fn to_array(self) -> [f64; 4] {
             self.0
         }
+        /// `if a < b { self } else { zero }` lane by lane.
+        #[inline(always)]
+        pub fn zero_unless_less(self, a: Self, b: Self) -> Self {
+            F64x4(std::array::from_fn(|l| {
+                if a.0[l] < b.0[l] {
+                    self.0[l]
+                } else {
+                    0.0
+                }
+            }))
+        }
+        /// Lane-wise minimum.
+        #[inline(always)]
+        pub fn min(self, b: Self) -> Self {
+            F64x4(std::array::from_fn(|l| self.0[l].min(b.0[l])))
+        }
+        /// Rounded to the nearest integer, ties to even.
+        #[inline(always)]
+        pub fn round_ties_even(self) -> Self {
+            F64x4(self.0.map(f64::round_ties_even))
+        }
     }
 
     macro_rules! binary {
@@ -198,6 +238,13 @@ mod tests {
             [1.0, 4.0, 0.0, 16.0]
         );
         assert_eq!(a.sum(), 30.0);
+        assert_eq!(
+            a.zero_unless_less(a, F64x4::splat(5.0)).to_array(),
+            [1.0, 4.0, 0.0, 0.0]
+        );
+        assert_eq!(a.min(F64x4::splat(5.0)).to_array(), [1.0, 4.0, 5.0, 5.0]);
+        let r = F64x4::load(&[0.5, 1.5, -2.5, 2.7]).round_ties_even();
+        assert_eq!(r.to_array(), [0.0, 2.0, -2.0, 3.0]);
         let mut out = [0.0; 5];
         a.store(&mut out[1..]);
         assert_eq!(out, [0.0, 1.0, 4.0, 9.0, 16.0]);

@@ -24,6 +24,7 @@ use super::mesh::green::{long_pair, Reach};
 use super::mesh::{MeshBoundary, MeshParams, MeshSolver};
 use super::{FieldOut, Sources};
 use crate::interactions::GravityLaw;
+use crate::simd::F64x4;
 use crate::threads::Threads;
 use rayon::prelude::*;
 use std::ops::Range;
@@ -60,6 +61,26 @@ impl LongTable {
             })
             .collect();
         LongTable { density, values }
+    }
+
+    /// [`LongTable::at`] on four lanes, `u` clamped to the table's end.
+    #[inline(always)]
+    fn at4(&self, u: F64x4) -> [F64x4; 2] {
+        let t = (u.min(F64x4::splat(CUT * CUT / 4.0)) * F64x4::splat(self.density)).to_array();
+        let mut lo = [[0.0; 4]; 2];
+        let mut step = [[0.0; 4]; 2];
+        let mut frac = [0.0; 4];
+        for l in 0..4 {
+            let i = t[l] as usize;
+            frac[l] = t[l] - i as f64;
+            let (a, b) = (self.values[i], self.values[i + 1]);
+            for k in 0..2 {
+                lo[k][l] = a[k];
+                step[k][l] = b[k] - a[k];
+            }
+        }
+        let frac = F64x4::load(&frac);
+        [0, 1].map(|k| frac.mul_add(F64x4::load(&step[k]), F64x4::load(&lo[k])))
     }
 
     /// `[F_k(u), F_phi(u)]` for `0 <= u <= CUT^2 / 4`.
@@ -358,6 +379,19 @@ impl Cells {
             law.softening2()
         };
         let (k_scale, phi_scale) = (law.g() / (8.0 * r_s * r_s * r_s), law.g() / (2.0 * r_s));
+        let pairs = ShortPairs {
+            law,
+            table,
+            x,
+            m,
+            length,
+            periodic: periodic.is_some(),
+            r_cut2,
+            to_u,
+            eps2,
+            k_scale,
+            phi_scale,
+        };
         threads.install(|| {
             sum.par_chunks_mut(CHUNK)
                 .enumerate()
@@ -367,45 +401,119 @@ impl Cells {
                         let xi = [x[0][i], x[1][i], x[2][i]];
                         let own = grid.coords(&xi);
                         let mut total = [0.0; 4];
+                        let mut lanes = [F64x4::splat(0.0); 4];
                         let [s0, s1, s2] =
                             [0, 1, 2].map(|a| grid.span(own[a], periodic.is_some(), a));
                         for c0 in s0.into_iter().flatten() {
                             for c1 in s1.clone().into_iter().flatten() {
                                 let row = grid.index([c0, c1, 0]);
                                 for run in s2.iter().filter(|r| !r.is_empty()) {
-                                    for j in start[row + run.start]..start[row + run.end] {
-                                        if j == i {
-                                            continue;
-                                        }
-                                        let mut d =
-                                            [x[0][j] - xi[0], x[1][j] - xi[1], x[2][j] - xi[2]];
-                                        if periodic.is_some() {
-                                            for v in &mut d {
-                                                *v -= length * (*v / length).round();
-                                            }
-                                        }
-                                        let r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-                                        // s^2 of the split
-                                        let s2 = r2 + eps2;
-                                        if s2 >= r_cut2 {
-                                            continue;
-                                        }
-                                        let (phi, k) = law.unit_pair(r2);
-                                        let [f_k, f_phi] = table.at(s2 * to_u);
-                                        let (phi_l, k_l) = (-phi_scale * f_phi, k_scale * f_k);
-                                        let km = (k - k_l) * m[j];
-                                        total[0] += km * d[0];
-                                        total[1] += km * d[1];
-                                        total[2] += km * d[2];
-                                        total[3] += (phi - phi_l) * m[j];
-                                    }
+                                    let js = start[row + run.start]..start[row + run.end];
+                                    pairs.run(i, xi, js, &mut lanes, &mut total);
                                 }
                             }
+                        }
+                        for (t, l) in total.iter_mut().zip(lanes) {
+                            *t += l.sum();
                         }
                         *out = total;
                     }
                 });
         });
+    }
+}
+
+/// The short-range pair term of one body against runs of sorted bodies: the exact
+/// softened law minus the long-range kernel, for pairs with `s^2 < r_cut^2`.
+struct ShortPairs<'a> {
+    law: &'a GravityLaw,
+    table: &'a LongTable,
+    x: &'a [Vec<f64>; 3],
+    m: &'a [f64],
+    length: f64,
+    periodic: bool,
+    r_cut2: f64,
+    to_u: f64,
+    eps2: f64,
+    k_scale: f64,
+    phi_scale: f64,
+}
+
+impl ShortPairs<'_> {
+    /// Adds the pairs of body `i` (at `xi`) with the sorted bodies `js`: four at a
+    /// time into `lanes`, the rest into `total`.
+    #[inline(always)]
+    fn run(
+        &self,
+        i: usize,
+        xi: [f64; 3],
+        js: Range<usize>,
+        lanes: &mut [F64x4; 4],
+        total: &mut [f64; 4],
+    ) {
+        let x = self.x;
+        let whole = js.start + (js.len() - js.len() % 4);
+        let xi4 = xi.map(F64x4::splat);
+        let (length, inv_length) = (F64x4::splat(self.length), F64x4::splat(1.0 / self.length));
+        let (one, g, i4) = (
+            F64x4::splat(1.0),
+            F64x4::splat(self.law.g()),
+            F64x4::splat(i as f64),
+        );
+        let (cut2, law_eps2, split_eps2) = (
+            F64x4::splat(self.r_cut2),
+            F64x4::splat(self.law.softening2()),
+            F64x4::splat(self.eps2),
+        );
+        for j in (js.start..whole).step_by(4) {
+            let mut d = [0, 1, 2].map(|a| F64x4::load(&x[a][j..]) - xi4[a]);
+            if self.periodic {
+                for v in &mut d {
+                    *v = (*v * inv_length).round_ties_even().neg_mul_add(length, *v);
+                }
+            }
+            let r2 = d[0].mul_add(d[0], d[1].mul_add(d[1], d[2] * d[2]));
+            let s2 = r2 + split_eps2;
+            let inv = one / (r2 + law_eps2).sqrt();
+            let [f_k, f_phi] = self.table.at4(s2 * F64x4::splat(self.to_u));
+            let k = g * inv * inv * inv - F64x4::splat(self.k_scale) * f_k;
+            let phi = F64x4::splat(self.phi_scale) * f_phi - g * inv;
+            // pairs beyond the cut and the self pair add zero (masked after the
+            // products, which may be infinite for the self pair without softening)
+            let ids = F64x4::load(&[j as f64, (j + 1) as f64, (j + 2) as f64, (j + 3) as f64]);
+            let keep = |v: F64x4| v.zero_unless_less(s2, cut2).zero_where_equal(ids, i4);
+            let m = F64x4::load(&self.m[j..]);
+            let (km, pm) = (keep(k * m), keep(phi * m));
+            for a in 0..3 {
+                lanes[a] = km.mul_add(d[a], lanes[a]);
+            }
+            lanes[3] = lanes[3] + pm;
+        }
+        for j in whole..js.end {
+            if j == i {
+                continue;
+            }
+            let mut d = [x[0][j] - xi[0], x[1][j] - xi[1], x[2][j] - xi[2]];
+            if self.periodic {
+                for v in &mut d {
+                    *v -= self.length * (*v / self.length).round_ties_even();
+                }
+            }
+            let r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+            // s^2 of the split
+            let s2 = r2 + self.eps2;
+            if s2 >= self.r_cut2 {
+                continue;
+            }
+            let (phi, k) = self.law.unit_pair(r2);
+            let [f_k, f_phi] = self.table.at(s2 * self.to_u);
+            let (phi_l, k_l) = (-self.phi_scale * f_phi, self.k_scale * f_k);
+            let km = (k - k_l) * self.m[j];
+            total[0] += km * d[0];
+            total[1] += km * d[1];
+            total[2] += km * d[2];
+            total[3] += (phi - phi_l) * self.m[j];
+        }
     }
 }
 
