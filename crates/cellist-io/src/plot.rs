@@ -23,6 +23,18 @@ pub struct Series<'a> {
     pub points: &'a [(f64, f64)],
 }
 
+/// A tick label that keeps small and large values apart: scientific notation
+/// below 0.01 and from 10^5 on (so `4e-5` does not print as `0.00004` or `0.0`).
+fn tick_label(v: f64) -> String {
+    if v == 0.0 {
+        "0".into()
+    } else if v.abs() < 1e-2 || v.abs() >= 1e5 {
+        format!("{v:.2e}")
+    } else {
+        format!("{v:.3}")
+    }
+}
+
 /// Draws `series` as lines on one chart and writes it to `path` (PNG), replacing the
 /// file only once the picture is complete.
 pub fn line_chart(
@@ -49,6 +61,7 @@ pub fn line_chart(
             .configure_mesh()
             .x_desc(x_label)
             .y_desc(y_label)
+            .y_label_formatter(&|v| tick_label(*v))
             .label_style(("sans-serif", 16))
             .draw()
             .map_err(|e| e.to_string())?;
@@ -100,6 +113,15 @@ fn ranges(series: &[Series<'_>]) -> (std::ops::Range<f64>, std::ops::Range<f64>)
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn tick_labels_tell_small_values_apart() {
+        assert_eq!(tick_label(0.0), "0");
+        assert_eq!(tick_label(4e-5), "4.00e-5");
+        assert_eq!(tick_label(3.5e-5), "3.50e-5");
+        assert_eq!(tick_label(-0.25), "-0.250");
+        assert_eq!(tick_label(2.0e6), "2.00e6");
+    }
 
     #[test]
     fn writes_a_png() {
