@@ -12,7 +12,8 @@ use cellist::interactions::GravityLaw;
 use cellist::longrange::p3m::SPLIT_CELLS;
 use cellist::longrange::{DirectSum, FieldOut, MeshBoundary, MeshParams, Sources, TreeParams};
 use cellist::models::gravity::{
-    plummer, two_body_seed004, Bodies, GravitySystem, Integrator, Observables, Solver, SolverChoice,
+    plummer, two_body_seed004, Bodies, GravityError, GravitySystem, Integrator, Observables,
+    Solver, SolverChoice,
 };
 use cellist::Threads;
 use cellist_io::plot::{line_chart, Series};
@@ -23,6 +24,10 @@ use serde::Deserialize;
 use std::io::{BufWriter, IsTerminal, Write};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
+
+/// The most bodies a generated sphere or a benchmark may have (about 1 GB of
+/// bodies and solver buffers).
+const MAX_BODIES: usize = 10_000_000;
 
 /// The keys of a gravity scenario.
 #[derive(Deserialize)]
@@ -161,13 +166,21 @@ struct Setup {
 pub fn run(scenario: &Scenario, out_dir: &Path, threads: &Threads) -> CliResult {
     let keys: GravityScenario = scenario.parse()?;
     debug_assert_eq!(keys.model, "gravity");
-    if keys.dimension != 3 {
-        return Err(scenario.error(format!(
-            "dimension must be 3 for gravity (got {}); a 2D system is a 3D one with z = 0",
-            keys.dimension
-        )));
+    if !(keys.dimension == 2 || keys.dimension == 3) {
+        return Err(scenario.error(format!("dimension must be 2 or 3, got {}", keys.dimension)));
     }
     let setup = build(scenario, &keys, threads)?;
+    if keys.dimension == 2 {
+        let b = &setup.bodies;
+        if let Some(i) = (0..b.len()).find(|&i| b.position[i][2] != 0.0 || b.velocity[i][2] != 0.0)
+        {
+            return Err(scenario.error(format!(
+                "dimension = 2 needs z = 0 and vz = 0 for every body (the plane z = 0 of the \
+                 3D model); body {i} has z = {}, vz = {}",
+                b.position[i][2], b.velocity[i][2]
+            )));
+        }
+    }
     run_setup(scenario, &setup, out_dir, threads)
 }
 
@@ -313,8 +326,8 @@ fn initial_bodies(
         (Some(kind), None) => match kind.as_str() {
             "plummer" => {
                 let n = keys.n.ok_or_else(|| err("system.initial.n is required for a Plummer sphere".into()))?;
-                if !(2..=100_000_000).contains(&n) {
-                    return Err(err(format!("system.initial.n must be in 2..=100000000, got {n}")));
+                if !(2..=MAX_BODIES as i64).contains(&n) {
+                    return Err(err(format!("system.initial.n must be in 2..={MAX_BODIES}, got {n}")));
                 }
                 let seed = keys.seed.unwrap_or(1);
                 let bodies = plummer(n as usize, seed, law, threads);
@@ -393,7 +406,12 @@ fn build(scenario: &Scenario, keys: &GravityScenario, threads: &Threads) -> CliR
 fn run_setup(scenario: &Scenario, setup: &Setup, out_dir: &Path, threads: &Threads) -> CliResult {
     let started = Instant::now();
     let mut system = GravitySystem::new(setup.law, setup.bodies.clone(), &setup.choice, threads)
-        .map_err(|e| scenario.error(e))?;
+        .map_err(|e| match e {
+            GravityError::NotFinite { .. } => {
+                scenario.error(format!("step 0 (the first forces): {e}"))
+            }
+            GravityError::Parameter(_) => scenario.error(e),
+        })?;
     println!(
         "gravity: {}; G {}, softening {}{}; solver {}",
         setup.initial,
@@ -661,8 +679,11 @@ fn relative_error(o: &Observables, e0: f64) -> f64 {
 
 /// `cellist bench gravity`.
 pub fn bench(args: &BenchGravityArgs) -> CliResult {
-    if args.n < 2 {
-        return Err(CliError::Input("--n must be at least 2".into()));
+    if !(2..=MAX_BODIES).contains(&args.n) {
+        return Err(CliError::Input(format!(
+            "--n must be in 2..={MAX_BODIES}, got {}",
+            args.n
+        )));
     }
     if args.repeat == 0 {
         return Err(CliError::Input("--repeat must be at least 1".into()));

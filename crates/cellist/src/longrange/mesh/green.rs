@@ -189,8 +189,11 @@ impl Spectra {
         let pair = move |r2: f64| match reach {
             Reach::Full => {
                 let s2 = r2 + eps2;
-                if s2 == 0.0 {
-                    (-g * CUBE_MEAN_INV_R / cell, 0.0)
+                if r2 == 0.0 {
+                    // bodies sharing a node: the cube's mean 1/r unless the
+                    // softening is wider (a sample -G/eps would make every
+                    // same-cell pair as deep as a pair at distance eps)
+                    (-g * (CUBE_MEAN_INV_R / cell).min(1.0 / s2.sqrt()), 0.0)
                 } else {
                     let inv = 1.0 / s2.sqrt();
                     (-g * inv, g * inv * inv * inv)

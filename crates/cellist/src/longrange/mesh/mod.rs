@@ -34,6 +34,9 @@ use green::{Reach, Spectra};
 use rayon::prelude::*;
 use rustfft::num_complex::Complex;
 
+/// The largest grid accepted.
+pub const MAX_GRID: usize = 256;
+
 /// The mesh's boundary.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum MeshBoundary {
@@ -54,7 +57,7 @@ pub enum MeshBoundary {
 /// A mesh solver's settings.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct MeshParams {
-    /// Mesh nodes per axis: a power of two `>= 8`.
+    /// Mesh nodes per axis: a power of two in `8..=MAX_GRID`.
     pub grid: usize,
     /// The boundary.
     pub boundary: MeshBoundary,
@@ -66,6 +69,13 @@ impl MeshParams {
         if !(self.grid >= 8 && self.grid.is_power_of_two()) {
             return Err(format!(
                 "grid must be a power of two >= 8, got {}",
+                self.grid
+            ));
+        }
+        if self.grid > MAX_GRID {
+            return Err(format!(
+                "grid must be at most {MAX_GRID}, got {} (an isolated mesh is padded to \
+                 (2 grid)^3: grid 256 already takes about 4.5 GB)",
                 self.grid
             ));
         }
@@ -314,8 +324,8 @@ impl MeshSolver {
 /// (without repulsion), smoothed on the scale of the mesh cell.
 ///
 /// Isolated: `phi(x) = sum_y g(x - y) m(y)` over the cloud-in-cell mesh masses
-/// `m(y)`, with `g(d) = -G / sqrt(|d|^2 + eps^2)` (at `d = 0` with `eps = 0`, the
-/// cell average `-2.3800772 G / h`), and `acc = sum_y -G d / (|d|^2 + eps^2)^(3/2)
+/// `m(y)`, with `g(d) = -G / sqrt(|d|^2 + eps^2)` (at `d = 0` the larger of
+/// `-G / eps` and the cell average `-2.3800772 G / h`), and `acc = sum_y -G d / (|d|^2 + eps^2)^(3/2)
 /// m(y)`, by FFT on the zero-padded mesh. Periodic: `hat phi(k) = -4 pi G / k^2
 /// hat rho(k)` and `hat acc = -i k hat phi` (the softening is not applied: the
 /// mesh cell smooths more). Both are averaged over two meshes offset by half a

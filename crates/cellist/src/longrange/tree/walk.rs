@@ -12,9 +12,11 @@ use rayon::prelude::*;
 /// Entries per step of the list sums: one AVX2 vector.
 const LANES: usize = 4;
 
-/// Where list padding sits: far from any real particle, with zero mass, so that it
-/// adds exactly zero.
-const FAR: f64 = 1e30;
+/// A node whose centre of mass is farther than this many sides from a group
+/// holds all its bodies outside the group's box whatever theta (the bodies lie
+/// within `sqrt(3)/2 l + delta` of the centre of mass): the floor of the opening
+/// distance, which matters for theta above `2 / sqrt(3)`.
+const HALF_DIAGONAL: f64 = 0.866_025_403_784_438_6;
 
 /// The particles in tree order (structure of arrays) and every node's moments.
 #[derive(Clone, Debug, Default)]
@@ -86,7 +88,7 @@ impl Moments {
                     .map(|a| (com[a] - (node.corner[a] + 0.5 * node.side)).powi(2))
                     .sum::<f64>()
                     .sqrt();
-                let open = node.side / params.theta + delta;
+                let open = (node.side / params.theta).max(HALF_DIAGONAL * node.side) + delta;
                 let walk = WalkNode {
                     com,
                     open2: open * open,
@@ -183,11 +185,15 @@ impl Lists {
                 k += 1;
             }
         }
-        self.fill(moments, quadrupole);
+        // list padding: zero mass, three root sides beyond the root's corner, so
+        // that no padding entry sits on a body
+        let root = &tree.nodes[0];
+        let far = root.corner.map(|c| c + 3.0 * root.side);
+        self.fill(moments, quadrupole, far);
     }
 
     /// Copies the listed nodes and particles into the padded SoA lists.
-    fn fill(&mut self, moments: &Moments, quadrupole: bool) {
+    fn fill(&mut self, moments: &Moments, quadrupole: bool, far: [f64; 3]) {
         let ids = &self.accepted;
         let pad = |v: &mut Vec<f64>, value: f64| v.resize(v.len().next_multiple_of(LANES), value);
         let copy = |dst: &mut Vec<f64>, src: &[f64], value: f64| {
@@ -196,7 +202,7 @@ impl Lists {
             pad(dst, value);
         };
         for a in 0..3 {
-            copy(&mut self.node_x[a], &moments.com[a], FAR);
+            copy(&mut self.node_x[a], &moments.com[a], far[a]);
         }
         copy(&mut self.node_m, &moments.mass, 0.0);
         for j in 0..6 {
@@ -214,7 +220,7 @@ impl Lists {
             for r in spans() {
                 dst.extend_from_slice(&moments.x[a][r]);
             }
-            pad(dst, FAR);
+            pad(dst, far[a]);
         }
         self.part_m.clear();
         self.part_id.clear();

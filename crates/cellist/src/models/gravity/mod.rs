@@ -192,6 +192,7 @@ impl GravitySystem {
             solver,
         };
         system.compute_forces(threads);
+        system.check_finite()?;
         Ok(system)
     }
 
@@ -289,12 +290,19 @@ impl GravitySystem {
                 }
             }
         }
+        self.check_finite()
+    }
+
+    /// The first body whose position, velocity, acceleration or potential is NaN
+    /// or infinite, as an error.
+    fn check_finite(&self) -> Result<(), GravityError> {
+        let b = &self.bodies;
         let bad = |i: usize| {
-            let b = &self.bodies;
             b.position[i]
                 .iter()
                 .chain(&b.velocity[i])
                 .chain(&self.acc[i])
+                .chain(std::iter::once(&self.phi[i]))
                 .any(|c| !c.is_finite())
         };
         match (0..self.len()).find(|&i| bad(i)) {
