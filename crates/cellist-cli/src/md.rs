@@ -529,6 +529,9 @@ pub(crate) fn progress_bar(steps: u64) -> ProgressBar {
         ProgressStyle::with_template("{bar:40.cyan/blue} {pos}/{len} steps  {per_sec}  eta {eta}")
             .expect("a valid progress template"),
     );
+    if !std::io::IsTerminal::is_terminal(&std::io::stderr()) {
+        bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
+    }
     bar
 }
 

@@ -15,7 +15,7 @@ use cellist_io::{
     format_g17, read_field, write_field, write_png, AtomicFile, FieldPainter, GifAnimation,
 };
 use serde::Deserialize;
-use std::io::{IsTerminal, Write};
+use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -423,10 +423,6 @@ fn run_in<const D: usize>(
     let mut out = Outputs::create(&setup, &system, out_dir)?;
     out.observe(&setup, &system, 0)?;
     let bar = progress_bar(setup.steps);
-    let show = std::io::stderr().is_terminal();
-    if !show {
-        bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
-    }
     out.bar = Some(bar.clone());
     let loop_start = Instant::now();
     for step in 1..=setup.steps {

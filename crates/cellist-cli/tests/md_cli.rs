@@ -22,17 +22,7 @@ fn data_2d() -> PathBuf {
 
 /// Runs a scenario text (written to `dir/s.toml`) with extra flags; returns the output folder.
 fn run_scenario(dir: &Path, scenario: &str, extra: &[&str]) -> PathBuf {
-    let path = dir.join("s.toml");
-    std::fs::write(&path, scenario).unwrap();
-    let out = dir.join("out");
-    let mut args = vec![
-        "run",
-        path.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-    ];
-    args.extend_from_slice(extra);
-    let o = cellist(&args);
+    let (out, o) = common::run_scenario(dir, "s", scenario, extra);
     assert!(
         o.status.success(),
         "cellist failed: {}\n{}",

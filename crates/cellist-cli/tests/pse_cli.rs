@@ -2,11 +2,10 @@
 //! outputs, thread independence, conservation, restart from a field file, and
 //! errors.
 
-use std::path::{Path, PathBuf};
-use std::process::Output;
+use std::path::Path;
 
 mod common;
-use common::cellist;
+use common::{cellist, run_scenario as run};
 
 fn text(bytes: &[u8]) -> String {
     String::from_utf8(bytes.to_vec()).unwrap()
@@ -31,21 +30,6 @@ thermo_every = 10
 field = { every = 20, file = "field.csv" }
 gif = { every = 10 }
 "#;
-
-/// Runs `scenario` with `sets` (`--set` values) and extra flags in `dir/<name>`.
-fn run(dir: &Path, name: &str, scenario: &str, extra: &[&str]) -> (PathBuf, Output) {
-    let path = dir.join(format!("{name}.toml"));
-    std::fs::write(&path, scenario).unwrap();
-    let out = dir.join(name);
-    let mut args = vec![
-        "run",
-        path.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-    ];
-    args.extend_from_slice(extra);
-    (out.clone(), cellist(&args))
-}
 
 fn thermo(out: &Path) -> Vec<Vec<f64>> {
     let text = std::fs::read_to_string(out.join("thermo.csv")).unwrap();

@@ -3,7 +3,7 @@
 //! columns (such as the shared reference files, which go on with
 //! `ax ay az phi`) are read for their first seven.
 
-use crate::error::{parse_finite, InputError};
+use crate::error::{data_lines, parse_finite, InputError};
 use std::path::Path;
 
 /// Masses, positions and velocities as read, in file order.
@@ -30,15 +30,7 @@ pub fn read_bodies(path: &Path) -> Result<BodyFile, InputError> {
 /// positive; an empty file is an error.
 pub fn parse_bodies(path: &Path, text: &str) -> Result<BodyFile, InputError> {
     let mut out = BodyFile::default();
-    for (index, raw) in text.lines().enumerate() {
-        let line = raw.trim();
-        if line.is_empty() || line.starts_with('#') {
-            continue;
-        }
-        let tokens: Vec<&str> = line
-            .split(|c: char| c == ',' || c.is_whitespace())
-            .filter(|t| !t.is_empty())
-            .collect();
+    for (index, tokens) in data_lines(text) {
         if tokens.len() < 7 {
             return Err(InputError::at(
                 path,

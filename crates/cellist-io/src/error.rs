@@ -46,6 +46,21 @@ impl fmt::Display for InputError {
 
 impl std::error::Error for InputError {}
 
+/// The data lines of `text`: `(0-based line index, tokens)` for every line that is
+/// neither blank nor a `#` comment, the tokens split at commas and whitespace.
+pub fn data_lines(text: &str) -> impl Iterator<Item = (usize, Vec<&str>)> {
+    text.lines().enumerate().filter_map(|(index, raw)| {
+        let line = raw.trim();
+        (!line.is_empty() && !line.starts_with('#')).then(|| {
+            let tokens = line
+                .split(|c: char| c == ',' || c.is_whitespace())
+                .filter(|t| !t.is_empty())
+                .collect();
+            (index, tokens)
+        })
+    })
+}
+
 /// Parses one number of a line, refusing text, NaN and infinities.
 pub fn parse_finite(
     path: &Path,

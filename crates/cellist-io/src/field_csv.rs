@@ -1,7 +1,7 @@
 //! Particle fields as CSV: a header `x,y[,z],phi`, then one particle per line,
 //! numbers to 17 significant digits (they read back to the same bits).
 
-use crate::error::{parse_finite, InputError};
+use crate::error::{data_lines, parse_finite, InputError};
 use crate::output::format_g17;
 use std::io::{self, Write};
 use std::path::Path;
@@ -53,15 +53,7 @@ pub fn parse_field<const D: usize>(
     let (mut points, mut phi) = (Vec::new(), Vec::new());
     let expected = field_header(D);
     let mut first = true;
-    for (index, raw) in text.lines().enumerate() {
-        let line = raw.trim();
-        if line.is_empty() || line.starts_with('#') {
-            continue;
-        }
-        let tokens: Vec<&str> = line
-            .split(|c: char| c == ',' || c.is_whitespace())
-            .filter(|t| !t.is_empty())
-            .collect();
+    for (index, tokens) in data_lines(text) {
         let header = first && tokens.first().is_some_and(|t| t.parse::<f64>().is_err());
         first = false;
         if header {
@@ -69,7 +61,10 @@ pub fn parse_field<const D: usize>(
                 return Err(InputError::at(
                     path,
                     index + 1,
-                    format!("the header is '{line}'; expected '{expected}' for a {D}D field"),
+                    format!(
+                        "the header is '{}'; expected '{expected}' for a {D}D field",
+                        tokens.join(",")
+                    ),
                 ));
             }
             continue;

@@ -343,6 +343,31 @@ mod tests {
         (acc, phi)
     }
 
+    /// The direct solver's accelerations and potentials of masses `m` at `x`.
+    fn field(
+        law: GravityLaw,
+        m: &[f64],
+        x: &[[f64; 3]],
+        threads: &Threads,
+    ) -> (Vec<[f64; 3]>, Vec<f64>) {
+        let n = m.len();
+        let mut acc = vec![[0.0; 3]; n];
+        let mut phi = vec![0.0; n];
+        let sources = Sources {
+            mass: m,
+            position: x,
+        };
+        DirectSum::new(law, n).compute(
+            &sources,
+            FieldOut {
+                acc: &mut acc,
+                phi: &mut phi,
+            },
+            threads,
+        );
+        (acc, phi)
+    }
+
     fn cloud(n: usize, seed: u64) -> (Vec<f64>, Vec<[f64; 3]>) {
         let mut rng = crate::random::Rng::new(seed);
         let m = (0..n).map(|_| 0.5 + rng.uniform()).collect();
@@ -363,21 +388,7 @@ mod tests {
             let law = GravityLaw::new(1.3, eps, a).unwrap();
             let (m, x) = cloud(n, n as u64);
             let (want_acc, want_phi) = reference(&law, &m, &x);
-            let mut acc = vec![[0.0; 3]; n];
-            let mut phi = vec![0.0; n];
-            let mut direct = DirectSum::new(law, n);
-            let sources = Sources {
-                mass: &m,
-                position: &x,
-            };
-            direct.compute(
-                &sources,
-                FieldOut {
-                    acc: &mut acc,
-                    phi: &mut phi,
-                },
-                &Threads::single(),
-            );
+            let (acc, phi) = field(law, &m, &x, &Threads::single());
             for i in 0..n {
                 let scale = want_acc[i]
                     .iter()
@@ -401,25 +412,8 @@ mod tests {
         let n = 1100;
         let law = GravityLaw::new(1.0, 0.01, 0.0).unwrap();
         let (m, x) = cloud(n, 5);
-        let run = |threads: &Threads| {
-            let mut acc = vec![[0.0; 3]; n];
-            let mut phi = vec![0.0; n];
-            let sources = Sources {
-                mass: &m,
-                position: &x,
-            };
-            DirectSum::new(law, n).compute(
-                &sources,
-                FieldOut {
-                    acc: &mut acc,
-                    phi: &mut phi,
-                },
-                threads,
-            );
-            (acc, phi)
-        };
-        let one = run(&Threads::single());
-        let two = run(&Threads::new(2).unwrap());
+        let one = field(law, &m, &x, &Threads::single());
+        let two = field(law, &m, &x, &Threads::new(2).unwrap());
         assert_eq!(format!("{:?}", one), format!("{:?}", two));
     }
 
@@ -428,20 +422,7 @@ mod tests {
         let n = 700;
         let law = GravityLaw::new(1.0, 0.0, 0.0).unwrap();
         let (m, x) = cloud(n, 9);
-        let mut acc = vec![[0.0; 3]; n];
-        let mut phi = vec![0.0; n];
-        let sources = Sources {
-            mass: &m,
-            position: &x,
-        };
-        DirectSum::new(law, n).compute(
-            &sources,
-            FieldOut {
-                acc: &mut acc,
-                phi: &mut phi,
-            },
-            &Threads::single(),
-        );
+        let (acc, _) = field(law, &m, &x, &Threads::single());
         for a in 0..3 {
             let total: f64 = (0..n).map(|i| m[i] * acc[i][a]).sum();
             let scale: f64 = (0..n).map(|i| (m[i] * acc[i][a]).abs()).sum();
