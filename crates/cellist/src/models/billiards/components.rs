@@ -2,12 +2,12 @@
 //! changes velocities only inside one component, so each component runs the
 //! canonical loop on its own (its wall discs ascending, then its pairs in
 //! lexicographic order, until a sweep changes nothing), and components run in
-//! parallel. Each component's discs are gathered into one contiguous block, so
-//! every task owns a plain `&mut` slice: no shared writes at all.
+//! parallel. Each component's discs are gathered into one contiguous block of
+//! velocities, so every task owns its own range: no shared writes at all.
 
 use super::contacts::Contact;
 use super::rules::{Separation, Walls};
-use crate::threads::Threads;
+use crate::threads::{DisjointSlice, Threads};
 use rayon::prelude::*;
 
 /// A pair in a component, by positions within the component's block.
@@ -18,11 +18,11 @@ struct LocalPair {
     sep: Separation,
 }
 
-/// A disc of a component's block: its velocity and its component.
+/// A disc of a component's block: its velocity (16 bytes, so that four share a
+/// cache line).
 #[derive(Clone, Copy, Debug)]
 struct LocalDisc {
     v: [f64; 2],
-    component: u32,
 }
 
 /// The components of one step and their buffers (kept between steps).
@@ -164,21 +164,21 @@ impl Components {
         self.discs.clear();
         let read: &[[f64; 2]] = v;
         let (members, member_start) = (&self.members, &self.member_start);
-        self.discs.extend((0..components).flat_map(|c| {
-            let range = member_start[c] as usize..member_start[c + 1] as usize;
-            members[range].iter().map(move |&k| LocalDisc {
-                v: read[k as usize],
-                component: c as u32,
-            })
+        self.discs.extend(members.iter().map(|&k| LocalDisc {
+            v: read[k as usize],
         }));
         let (pairs, walls) = (&self.pairs, &self.walls);
         let (pair_start, wall_start) = (&self.pair_start, &self.wall_start);
         // (largest sweep count, first component that did not settle)
+        let shared = DisjointSlice::new(&mut self.discs);
         let (sweeps, failed) = threads.install(|| {
-            self.discs
-                .par_chunk_by_mut(|a, b| a.component == b.component)
-                .map(|block| {
-                    let c = block[0].component as usize;
+            (0..components)
+                .into_par_iter()
+                .map(|c| {
+                    // SAFETY: the components' member ranges are disjoint
+                    let block = unsafe {
+                        shared.range(member_start[c] as usize..member_start[c + 1] as usize)
+                    };
                     let component = Component {
                         walls: &walls[wall_start[c] as usize..wall_start[c + 1] as usize],
                         pairs: &pairs[pair_start[c] as usize..pair_start[c + 1] as usize],
