@@ -6,7 +6,7 @@ use crate::cli::{
     BenchBilliardsArgs, BilliardsCheckArgs, BilliardsGenArgs, BilliardsRunArgs, StateFormatArg,
 };
 use crate::error::{threads, CliError, CliResult};
-use crate::md::progress_bar;
+use crate::progress::progress_bar;
 use cellist::models::billiards::{
     check_step, separated_discs, uniform_discs, Billiards, DiscState, StepChecker, Table,
 };

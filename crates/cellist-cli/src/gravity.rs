@@ -6,7 +6,7 @@
 use crate::bench::median;
 use crate::cli::{BenchGravityArgs, GravitySolverArg};
 use crate::error::{threads, CliError, CliResult};
-use crate::md::progress_bar;
+use crate::progress::{progress_bar, thermo_row};
 use crate::scenario::Scenario;
 use cellist::interactions::GravityLaw;
 use cellist::longrange::p3m::SPLIT_CELLS;
@@ -17,9 +17,7 @@ use cellist::models::gravity::{
 };
 use cellist::Threads;
 use cellist_io::plot::{line_chart, Series};
-use cellist_io::{
-    format_g17, read_bodies, write_lammps_frame, AtomicFile, Frame, GRAVITY_DUMP_COLUMNS,
-};
+use cellist_io::{read_bodies, write_lammps_frame, AtomicFile, Frame, GRAVITY_DUMP_COLUMNS};
 use serde::Deserialize;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
@@ -572,23 +570,18 @@ impl Outputs {
                 o.angular_momentum[1],
                 o.angular_momentum[2],
             ];
-            let mut line = step.to_string();
-            for v in values {
-                line.push(',');
-                format_g17(v, &mut line);
-            }
-            if let Some(csv) = self.thermo_csv.as_mut() {
-                writeln!(csv.writer(), "{line}").map_err(CliError::output("thermo.csv"))?;
-            }
             let table = format!("{step:>18}")
                 + &values[..5]
                     .iter()
                     .map(|v| format!("{v:>18.10e}"))
                     .collect::<String>();
-            match &self.bar {
-                Some(bar) => bar.suspend(|| println!("{table}")),
-                None => println!("{table}"),
-            }
+            thermo_row(
+                self.thermo_csv.as_mut(),
+                self.bar.as_ref(),
+                step,
+                &values,
+                &table,
+            )?;
         }
         let dump_due = setup.dump.as_ref().is_some_and(|d| step % d.every == 0);
         if dump_due || forced {

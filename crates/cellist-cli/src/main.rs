@@ -7,6 +7,7 @@ mod error;
 mod gravity;
 mod md;
 mod neighbors;
+mod progress;
 mod pse;
 mod run;
 mod scenario;

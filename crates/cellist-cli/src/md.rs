@@ -2,6 +2,7 @@
 //! thermo, dumps, progress bar and stage timers, and the energy plot.
 
 use crate::error::{CliError, CliResult};
+use crate::progress::{progress_bar, thermo_row};
 use crate::scenario::Scenario;
 use cellist::geometry::{Boundary, Domain};
 use cellist::interactions::{LennardJones, PairPotential};
@@ -11,10 +12,8 @@ use cellist::models::md::{
 };
 use cellist::Threads;
 use cellist_io::plot::{line_chart, Series};
-use cellist_io::{
-    format_g17, read_data, write_lammps_frame, write_xyz_frame, AtomicFile, Frame, DUMP_COLUMNS,
-};
-use indicatif::{ProgressBar, ProgressStyle};
+use cellist_io::{read_data, write_lammps_frame, write_xyz_frame, AtomicFile, Frame, DUMP_COLUMNS};
+use indicatif::ProgressBar;
 use serde::Deserialize;
 use std::fs::File;
 use std::io::{BufWriter, Write};
@@ -522,19 +521,6 @@ fn print_header<const D: usize>(
     );
 }
 
-/// A progress bar over `steps` steps (shown only where the caller decides).
-pub(crate) fn progress_bar(steps: u64) -> ProgressBar {
-    let bar = ProgressBar::new(steps);
-    bar.set_style(
-        ProgressStyle::with_template("{bar:40.cyan/blue} {pos}/{len} steps  {per_sec}  eta {eta}")
-            .expect("a valid progress template"),
-    );
-    if !std::io::IsTerminal::is_terminal(&std::io::stderr()) {
-        bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
-    }
-    bar
-}
-
 /// Thermo, dumps and the plot.
 struct Outputs {
     dir: PathBuf,
@@ -599,19 +585,14 @@ impl Outputs {
             let th = system.thermo();
             self.rows.push((step, th));
             let values = [th.temp, th.pe, th.ke, th.etotal, th.press];
-            let mut line = step.to_string();
-            for v in values {
-                line.push(',');
-                format_g17(v, &mut line);
-            }
-            if let Some(csv) = self.thermo_csv.as_mut() {
-                writeln!(csv.writer(), "{line}").map_err(CliError::output("thermo.csv"))?;
-            }
             let table = format!("{step:>15}") + &values.map(|v| format!("{v:>15.8}")).join("");
-            match &self.bar {
-                Some(bar) => bar.suspend(|| println!("{table}")),
-                None => println!("{table}"),
-            }
+            thermo_row(
+                self.thermo_csv.as_mut(),
+                self.bar.as_ref(),
+                step,
+                &values,
+                &table,
+            )?;
         }
         if let (Some(w), Some(d)) = (self.dump.as_mut(), &setup.dump) {
             if forced || step % d.every == 0 {

@@ -6,14 +6,12 @@
 use crate::bench::median;
 use crate::cli::{BenchPseArgs, PseMethodArg};
 use crate::error::{threads, CliError, CliResult};
-use crate::md::progress_bar;
+use crate::progress::{progress_bar, thermo_row};
 use crate::scenario::Scenario;
 use cellist::models::pse::{lattice, InitialField, Integrator, Method, PseParams, PseSystem};
 use cellist::{Domain, Threads};
 use cellist_io::plot::{line_chart, Series};
-use cellist_io::{
-    format_g17, read_field, write_field, write_png, AtomicFile, FieldPainter, GifAnimation,
-};
+use cellist_io::{read_field, write_field, write_png, AtomicFile, FieldPainter, GifAnimation};
 use serde::Deserialize;
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -587,19 +585,14 @@ impl Outputs {
             };
             self.rows.push((time, l2));
             let values = [time, system.total(), l2, max];
-            let mut line = step.to_string();
-            for v in values {
-                line.push(',');
-                format_g17(v, &mut line);
-            }
-            if let Some(csv) = self.thermo_csv.as_mut() {
-                writeln!(csv.writer(), "{line}").map_err(CliError::output("thermo.csv"))?;
-            }
             let table = format!("{step:>16}") + &values.map(|v| format!("{v:>16.8e}")).join("");
-            match &self.bar {
-                Some(bar) => bar.suspend(|| println!("{table}")),
-                None => println!("{table}"),
-            }
+            thermo_row(
+                self.thermo_csv.as_mut(),
+                self.bar.as_ref(),
+                step,
+                &values,
+                &table,
+            )?;
         }
         if let Some(f) = setup
             .field
