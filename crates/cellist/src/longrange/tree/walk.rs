@@ -23,12 +23,19 @@ const HALF_DIAGONAL: f64 = 0.866_025_403_784_438_6;
 pub(crate) struct Moments {
     x: [Vec<f64>; 3],
     m: Vec<f64>,
-    com: [Vec<f64>; 3],
-    mass: Vec<f64>,
-    /// Traceless quadrupole `xx, xy, xz, yy, yz, zz` about the centre of mass.
-    quad: [Vec<f64>; 6],
-    /// What the walk reads of each node, packed into one cache line.
+    /// What the walk reads of each node (with its centre of mass), packed into
+    /// one cache line.
     walk: Vec<WalkNode>,
+    /// What the list sums read of each accepted node besides its centre of mass.
+    multipole: Vec<Multipole>,
+}
+
+/// A node's mass and traceless quadrupole `xx, xy, xz, yy, yz, zz` about its
+/// centre of mass.
+#[derive(Clone, Copy, Debug, Default)]
+struct Multipole {
+    mass: f64,
+    quad: [f64; 6],
 }
 
 /// A node as the walk sees it.
@@ -97,25 +104,12 @@ impl Moments {
                     next: node.next,
                     leaf: node.leaf,
                 };
-                (walk, mass, quad)
+                (walk, Multipole { mass, quad })
             };
-            let mut all = Vec::new();
             tree.nodes
                 .par_iter()
                 .map(of_node)
-                .collect_into_vec(&mut all);
-            for a in 0..3 {
-                self.com[a].clear();
-                self.com[a].extend(all.iter().map(|n| n.0.com[a]));
-            }
-            self.mass.clear();
-            self.mass.extend(all.iter().map(|n| n.1));
-            for j in 0..6 {
-                self.quad[j].clear();
-                self.quad[j].extend(all.iter().map(|n| n.2[j]));
-            }
-            self.walk.clear();
-            self.walk.extend(all.iter().map(|n| n.0));
+                .unzip_into_vecs(&mut self.walk, &mut self.multipole);
         });
     }
 }
@@ -196,18 +190,21 @@ impl Lists {
     fn fill(&mut self, moments: &Moments, quadrupole: bool, far: [f64; 3]) {
         let ids = &self.accepted;
         let pad = |v: &mut Vec<f64>, value: f64| v.resize(v.len().next_multiple_of(LANES), value);
-        let copy = |dst: &mut Vec<f64>, src: &[f64], value: f64| {
+        /// `dst = [of(k) for k in ids]`, padded to whole lanes with `value`.
+        fn copy(dst: &mut Vec<f64>, ids: &[u32], value: f64, of: impl Fn(usize) -> f64) {
             dst.clear();
-            dst.extend(ids.iter().map(|&k| src[k as usize]));
-            pad(dst, value);
-        };
-        for a in 0..3 {
-            copy(&mut self.node_x[a], &moments.com[a], far[a]);
+            dst.extend(ids.iter().map(|&k| of(k as usize)));
+            dst.resize(dst.len().next_multiple_of(LANES), value);
         }
-        copy(&mut self.node_m, &moments.mass, 0.0);
+        for a in 0..3 {
+            copy(&mut self.node_x[a], ids, far[a], |k| moments.walk[k].com[a]);
+        }
+        copy(&mut self.node_m, ids, 0.0, |k| moments.multipole[k].mass);
         for j in 0..6 {
             if quadrupole {
-                copy(&mut self.node_q[j], &moments.quad[j], 0.0);
+                copy(&mut self.node_q[j], ids, 0.0, |k| {
+                    moments.multipole[k].quad[j]
+                });
             } else {
                 self.node_q[j].clear();
             }
