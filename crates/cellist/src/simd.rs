@@ -90,6 +90,47 @@ mod lanes {
                 >(self.0))
             }
         }
+        /// `if a < b { then } else { otherwise }` lane by lane.
+        #[inline(always)]
+        pub fn select_less(a: Self, b: Self, then: Self, otherwise: Self) -> Self {
+            unsafe {
+                let less = _mm256_cmp_pd::<_CMP_LT_OQ>(a.0, b.0);
+                F64x4(_mm256_blendv_pd(otherwise.0, then.0, less))
+            }
+        }
+        /// Whether `a < b` in some lane.
+        #[inline(always)]
+        pub fn any_less(a: Self, b: Self) -> bool {
+            unsafe { _mm256_movemask_pd(_mm256_cmp_pd::<_CMP_LT_OQ>(a.0, b.0)) != 0 }
+        }
+        /// Four pairs `p[l] = [x_l, y_l]` as the lanes `x` and `y`.
+        #[inline(always)]
+        pub fn unzip_pairs(p: [[f64; 2]; 4]) -> (Self, Self) {
+            unsafe {
+                let pair = |l: usize| _mm_loadu_pd(p[l].as_ptr());
+                // (x0, y0, x2, y2) and (x1, y1, x3, y3)
+                let even = _mm256_insertf128_pd::<1>(_mm256_castpd128_pd256(pair(0)), pair(2));
+                let odd = _mm256_insertf128_pd::<1>(_mm256_castpd128_pd256(pair(1)), pair(3));
+                (
+                    F64x4(_mm256_unpacklo_pd(even, odd)),
+                    F64x4(_mm256_unpackhi_pd(even, odd)),
+                )
+            }
+        }
+        /// The inverse of [`F64x4::unzip_pairs`]: `[x_l, y_l]` for each lane `l`.
+        #[inline(always)]
+        pub fn zip_pairs(x: Self, y: Self) -> [[f64; 2]; 4] {
+            unsafe {
+                let even = _mm256_unpacklo_pd(x.0, y.0);
+                let odd = _mm256_unpackhi_pd(x.0, y.0);
+                let mut out = [[0.0; 2]; 4];
+                _mm_storeu_pd(out[0].as_mut_ptr(), _mm256_castpd256_pd128(even));
+                _mm_storeu_pd(out[1].as_mut_ptr(), _mm256_castpd256_pd128(odd));
+                _mm_storeu_pd(out[2].as_mut_ptr(), _mm256_extractf128_pd::<1>(even));
+                _mm_storeu_pd(out[3].as_mut_ptr(), _mm256_extractf128_pd::<1>(odd));
+                out
+            }
+        }
     }
 
     macro_rules! binary {
@@ -187,6 +228,32 @@ mod lanes {
         pub fn round_ties_even(self) -> Self {
             F64x4(self.0.map(f64::round_ties_even))
         }
+        /// `if a < b { then } else { otherwise }` lane by lane.
+        #[inline(always)]
+        pub fn select_less(a: Self, b: Self, then: Self, otherwise: Self) -> Self {
+            F64x4(std::array::from_fn(|l| {
+                if a.0[l] < b.0[l] {
+                    then.0[l]
+                } else {
+                    otherwise.0[l]
+                }
+            }))
+        }
+        /// Whether `a < b` in some lane.
+        #[inline(always)]
+        pub fn any_less(a: Self, b: Self) -> bool {
+            (0..4).any(|l| a.0[l] < b.0[l])
+        }
+        /// Four pairs `p[l] = [x_l, y_l]` as the lanes `x` and `y`.
+        #[inline(always)]
+        pub fn unzip_pairs(p: [[f64; 2]; 4]) -> (Self, Self) {
+            (F64x4(p.map(|q| q[0])), F64x4(p.map(|q| q[1])))
+        }
+        /// The inverse of [`F64x4::unzip_pairs`]: `[x_l, y_l]` for each lane `l`.
+        #[inline(always)]
+        pub fn zip_pairs(x: Self, y: Self) -> [[f64; 2]; 4] {
+            std::array::from_fn(|l| [x.0[l], y.0[l]])
+        }
     }
 
     macro_rules! binary {
@@ -248,5 +315,24 @@ mod tests {
         let mut out = [0.0; 5];
         a.store(&mut out[1..]);
         assert_eq!(out, [0.0, 1.0, 4.0, 9.0, 16.0]);
+        let five = F64x4::splat(5.0);
+        assert_eq!(
+            F64x4::select_less(a, five, b, a).to_array(),
+            [2.0, 2.0, 9.0, 16.0]
+        );
+        assert!(F64x4::any_less(a, F64x4::splat(1.5)));
+        assert!(!F64x4::any_less(a, F64x4::splat(1.0)));
+        assert!(!F64x4::any_less(F64x4::splat(f64::NAN), five));
+        let pairs = [[1.0, -1.0], [2.0, -2.0], [3.0, -0.0], [4.0, -4.0]];
+        let (x, y) = F64x4::unzip_pairs(pairs);
+        assert_eq!(x.to_array(), [1.0, 2.0, 3.0, 4.0]);
+        assert_eq!(
+            y.to_array().map(f64::to_bits),
+            [-1.0, -2.0, -0.0, -4.0f64].map(f64::to_bits)
+        );
+        assert_eq!(
+            F64x4::zip_pairs(x, y).map(|p| p.map(f64::to_bits)),
+            pairs.map(|p| p.map(f64::to_bits))
+        );
     }
 }

@@ -4,18 +4,30 @@
 //! lexicographic order, until a sweep changes nothing), and components run in
 //! parallel. Each component's discs are gathered into one contiguous block of
 //! velocities, so every task owns its own range: no shared writes at all.
+//!
+//! Within a sweep only the order of the pairs that share a disc matters: each pair
+//! reads and writes the velocities of its two discs alone. The pairs are therefore
+//! run by *level* (a pair's level is one more than the highest level of the earlier
+//! pairs, in canonical order, that share a disc with it; see [`levels`]). Every
+//! disc meets its pairs in the canonical order, so the bits are those of the
+//! canonical loop, and the pairs of one level share no disc, so they run four at a
+//! time in SIMD lanes without waiting for each other.
 
 use super::contacts::Contact;
-use super::rules::{Separation, Walls};
+use super::rules::{collide_four, Separation, Walls};
+use crate::simd::F64x4;
 use crate::threads::{DisjointSlice, Threads};
 use rayon::prelude::*;
 
-/// A pair in a component, by positions within the component's block.
-#[derive(Clone, Copy, Debug)]
-struct LocalPair {
-    a: u32,
-    b: u32,
-    sep: Separation,
+/// The pairs of all components by positions within their component's block,
+/// structure of arrays, ordered by component, then level, then canonical order.
+#[derive(Clone, Debug, Default)]
+struct LocalPairs {
+    a: Vec<u32>,
+    b: Vec<u32>,
+    dx: Vec<f64>,
+    dy: Vec<f64>,
+    q: Vec<f64>,
 }
 
 /// A disc of a component's block: its velocity (16 bytes, so that four share a
@@ -34,8 +46,11 @@ pub(super) struct Components {
     local: Vec<u32>,
     member_start: Vec<u32>,
     members: Vec<u32>,
-    pair_start: Vec<u32>,
-    pairs: Vec<LocalPair>,
+    depth: Vec<u32>,
+    run: Vec<u32>,
+    run_base: Vec<u32>,
+    run_start: Vec<u32>,
+    pairs: LocalPairs,
     wall_start: Vec<u32>,
     walls: Vec<(u32, Walls)>,
     discs: Vec<LocalDisc>,
@@ -106,33 +121,40 @@ impl Components {
             }
         }
 
+        // pairs by component and level (a run), in canonical order within a run
+        levels(&mut self.depth, &mut self.run, n, contacts);
+        self.run_base.clear();
+        self.run_base.resize(components + 1, 0);
+        for (c, &level) in contacts.iter().zip(&self.run) {
+            let runs = &mut self.run_base[self.label[c.a as usize] as usize + 1];
+            *runs = (*runs).max(level + 1);
+        }
+        for c in 0..components {
+            self.run_base[c + 1] += self.run_base[c];
+        }
+        for (c, run) in contacts.iter().zip(&mut self.run) {
+            *run += self.run_base[self.label[c.a as usize] as usize];
+        }
         counting_starts(
-            &mut self.pair_start,
-            components,
-            contacts.iter().map(|c| self.label[c.a as usize]),
+            &mut self.run_start,
+            self.run_base[components] as usize,
+            self.run.iter().copied(),
         );
-        self.pairs.clear();
-        self.pairs.resize(
-            contacts.len(),
-            LocalPair {
-                a: 0,
-                b: 0,
-                sep: Separation {
-                    dx: 0.0,
-                    dy: 0.0,
-                    q: 0.0,
-                },
-            },
-        );
-        self.cursor.clone_from(&self.pair_start);
-        for c in contacts {
-            let comp = self.label[c.a as usize] as usize;
-            self.pairs[self.cursor[comp] as usize] = LocalPair {
-                a: self.local[c.a as usize],
-                b: self.local[c.b as usize],
-                sep: c.sep,
-            };
-            self.cursor[comp] += 1;
+        let pairs = &mut self.pairs;
+        pairs.a.resize(contacts.len(), 0);
+        pairs.b.resize(contacts.len(), 0);
+        pairs.dx.resize(contacts.len(), 0.0);
+        pairs.dy.resize(contacts.len(), 0.0);
+        pairs.q.resize(contacts.len(), 0.0);
+        self.cursor.clone_from(&self.run_start);
+        for (c, &run) in contacts.iter().zip(&self.run) {
+            let slot = self.cursor[run as usize] as usize;
+            self.cursor[run as usize] += 1;
+            pairs.a[slot] = self.local[c.a as usize];
+            pairs.b[slot] = self.local[c.b as usize];
+            pairs.dx[slot] = c.sep.dx;
+            pairs.dy[slot] = c.sep.dy;
+            pairs.q[slot] = c.sep.q;
         }
 
         counting_starts(
@@ -168,7 +190,7 @@ impl Components {
             v: read[k as usize],
         }));
         let (pairs, walls) = (&self.pairs, &self.walls);
-        let (pair_start, wall_start) = (&self.pair_start, &self.wall_start);
+        let (run_base, run_start, wall_start) = (&self.run_base, &self.run_start, &self.wall_start);
         // (largest sweep count, first component that did not settle)
         let shared = DisjointSlice::new(&mut self.discs);
         let (sweeps, failed) = threads.install(|| {
@@ -179,9 +201,11 @@ impl Components {
                     let block = unsafe {
                         shared.range(member_start[c] as usize..member_start[c + 1] as usize)
                     };
+                    let runs = &run_start[run_base[c] as usize..=run_base[c + 1] as usize];
                     let component = Component {
                         walls: &walls[wall_start[c] as usize..wall_start[c + 1] as usize],
-                        pairs: &pairs[pair_start[c] as usize..pair_start[c + 1] as usize],
+                        pairs,
+                        runs,
                     };
                     match component.settle(block, max_sweeps) {
                         Some(sweeps) => (sweeps, NONE),
@@ -246,10 +270,30 @@ fn counting_starts(starts: &mut Vec<u32>, components: usize, labels: impl Iterat
     }
 }
 
-/// One component's walls and pairs, in canonical order.
+/// The level of each pair of `contacts` (canonical order): one more than the
+/// highest level among the earlier pairs sharing a disc with it, 0 without such
+/// pairs. A disc's pairs have rising levels, and pairs of one level share no disc.
+/// `depth` is scratch: per disc, one more than the level of its latest pair.
+fn levels(depth: &mut Vec<u32>, level: &mut Vec<u32>, n: usize, contacts: &[Contact]) {
+    depth.clear();
+    depth.resize(n, 0);
+    level.clear();
+    level.extend(contacts.iter().map(|c| {
+        let (a, b) = (c.a as usize, c.b as usize);
+        let l = depth[a].max(depth[b]);
+        depth[a] = l + 1;
+        depth[b] = l + 1;
+        l
+    }));
+}
+
+/// One component's walls (ascending) and its pairs, run by run.
 struct Component<'a> {
     walls: &'a [(u32, Walls)],
-    pairs: &'a [LocalPair],
+    /// All components' pairs.
+    pairs: &'a LocalPairs,
+    /// `runs[k]..runs[k + 1]`: the pairs of this component's level `k`.
+    runs: &'a [u32],
 }
 
 impl Component<'_> {
@@ -270,18 +314,55 @@ impl Component<'_> {
                     changed = true;
                 }
             }
-            for p in self.pairs {
-                let (a, b) = (p.a as usize, p.b as usize);
-                let (mut va, mut vb) = (block[a].v, block[b].v);
-                if p.sep.collide(&mut va, &mut vb) {
-                    block[a].v = va;
-                    block[b].v = vb;
-                    changed = true;
+            for run in self.runs.windows(2) {
+                let (start, end) = (run[0] as usize, run[1] as usize);
+                let four = start + (end - start) / 4 * 4;
+                for first in (start..four).step_by(4) {
+                    changed |= self.collide_four(block, first);
+                }
+                for pair in four..end {
+                    changed |= self.collide_one(block, pair);
                 }
             }
             if !changed {
                 return Some(sweeps);
             }
         }
+    }
+
+    /// Pairs `first..first + 4` (one level: no disc shared) in SIMD lanes.
+    #[inline(always)]
+    fn collide_four(&self, block: &mut [LocalDisc], first: usize) -> bool {
+        let p = self.pairs;
+        let lanes = first..first + 4;
+        let (a, b) = (&p.a[lanes.clone()], &p.b[lanes.clone()]);
+        let separation = [&p.dx, &p.dy, &p.q].map(|column| F64x4::load(&column[lanes.clone()]));
+        let mut va = std::array::from_fn(|l| block[a[l] as usize].v);
+        let mut vb = std::array::from_fn(|l| block[b[l] as usize].v);
+        let collided = collide_four(separation, &mut va, &mut vb);
+        for l in 0..4 {
+            block[a[l] as usize].v = va[l];
+            block[b[l] as usize].v = vb[l];
+        }
+        collided
+    }
+
+    /// Pair `pair` on its own.
+    #[inline(always)]
+    fn collide_one(&self, block: &mut [LocalDisc], pair: usize) -> bool {
+        let p = self.pairs;
+        let (a, b) = (p.a[pair] as usize, p.b[pair] as usize);
+        let sep = Separation {
+            dx: p.dx[pair],
+            dy: p.dy[pair],
+            q: p.q[pair],
+        };
+        let (mut va, mut vb) = (block[a].v, block[b].v);
+        let collided = sep.collide(&mut va, &mut vb);
+        if collided {
+            block[a].v = va;
+            block[b].v = vb;
+        }
+        collided
     }
 }
