@@ -204,7 +204,7 @@ impl Components {
                     let runs = &run_start[run_base[c] as usize..=run_base[c + 1] as usize];
                     let component = Component {
                         walls: &walls[wall_start[c] as usize..wall_start[c + 1] as usize],
-                        pairs,
+                        pairs: pairs.columns(runs[0] as usize..runs[runs.len() - 1] as usize),
                         runs,
                     };
                     match component.settle(block, max_sweeps) {
@@ -287,12 +287,33 @@ fn levels(depth: &mut Vec<u32>, level: &mut Vec<u32>, n: usize, contacts: &[Cont
     }));
 }
 
+/// One component's pairs: the columns of [`LocalPairs`] over its range.
+#[derive(Clone, Copy)]
+struct PairColumns<'a> {
+    a: &'a [u32],
+    b: &'a [u32],
+    dx: &'a [f64],
+    dy: &'a [f64],
+    q: &'a [f64],
+}
+
+impl LocalPairs {
+    fn columns(&self, range: std::ops::Range<usize>) -> PairColumns<'_> {
+        PairColumns {
+            a: &self.a[range.clone()],
+            b: &self.b[range.clone()],
+            dx: &self.dx[range.clone()],
+            dy: &self.dy[range.clone()],
+            q: &self.q[range],
+        }
+    }
+}
+
 /// One component's walls (ascending) and its pairs, run by run.
 struct Component<'a> {
     walls: &'a [(u32, Walls)],
-    /// All components' pairs.
-    pairs: &'a LocalPairs,
-    /// `runs[k]..runs[k + 1]`: the pairs of this component's level `k`.
+    pairs: PairColumns<'a>,
+    /// `runs[k] - runs[0]..runs[k + 1] - runs[0]`: the pairs of level `k`.
     runs: &'a [u32],
 }
 
@@ -300,6 +321,9 @@ impl Component<'_> {
     /// The canonical loop on this component: sweeps until one changes nothing; the
     /// number of sweeps (the last included), or `None` past `max_sweeps`.
     fn settle(&self, block: &mut [LocalDisc], max_sweeps: u64) -> Option<u64> {
+        let p = self.pairs;
+        // the lanes below index `block` unchecked
+        assert!(p.a.iter().chain(p.b).all(|&k| (k as usize) < block.len()));
         let mut sweeps = 0;
         loop {
             sweeps += 1;
@@ -314,55 +338,46 @@ impl Component<'_> {
                     changed = true;
                 }
             }
+            let first = self.runs[0];
             for run in self.runs.windows(2) {
-                let (start, end) = (run[0] as usize, run[1] as usize);
+                let (start, end) = ((run[0] - first) as usize, (run[1] - first) as usize);
                 let four = start + (end - start) / 4 * 4;
-                for first in (start..four).step_by(4) {
-                    changed |= self.collide_four(block, first);
+                for lanes in (start..four).step_by(4) {
+                    let lanes = lanes..lanes + 4;
+                    let a: [u32; 4] = p.a[lanes.clone()].try_into().unwrap();
+                    let b: [u32; 4] = p.b[lanes.clone()].try_into().unwrap();
+                    let separation =
+                        [p.dx, p.dy, p.q].map(|column| F64x4::load(&column[lanes.clone()]));
+                    // SAFETY: every index was checked against `block.len()` above
+                    let velocity = |k: u32| unsafe { block.get_unchecked(k as usize).v };
+                    let (mut va, mut vb) = (a.map(velocity), b.map(velocity));
+                    changed |= collide_four(separation, &mut va, &mut vb);
+                    for l in 0..4 {
+                        // SAFETY: as above
+                        unsafe {
+                            block.get_unchecked_mut(a[l] as usize).v = va[l];
+                            block.get_unchecked_mut(b[l] as usize).v = vb[l];
+                        }
+                    }
                 }
                 for pair in four..end {
-                    changed |= self.collide_one(block, pair);
+                    let (a, b) = (p.a[pair] as usize, p.b[pair] as usize);
+                    let sep = Separation {
+                        dx: p.dx[pair],
+                        dy: p.dy[pair],
+                        q: p.q[pair],
+                    };
+                    let (mut va, mut vb) = (block[a].v, block[b].v);
+                    if sep.collide(&mut va, &mut vb) {
+                        block[a].v = va;
+                        block[b].v = vb;
+                        changed = true;
+                    }
                 }
             }
             if !changed {
                 return Some(sweeps);
             }
         }
-    }
-
-    /// Pairs `first..first + 4` (one level: no disc shared) in SIMD lanes.
-    #[inline(always)]
-    fn collide_four(&self, block: &mut [LocalDisc], first: usize) -> bool {
-        let p = self.pairs;
-        let lanes = first..first + 4;
-        let (a, b) = (&p.a[lanes.clone()], &p.b[lanes.clone()]);
-        let separation = [&p.dx, &p.dy, &p.q].map(|column| F64x4::load(&column[lanes.clone()]));
-        let mut va = std::array::from_fn(|l| block[a[l] as usize].v);
-        let mut vb = std::array::from_fn(|l| block[b[l] as usize].v);
-        let collided = collide_four(separation, &mut va, &mut vb);
-        for l in 0..4 {
-            block[a[l] as usize].v = va[l];
-            block[b[l] as usize].v = vb[l];
-        }
-        collided
-    }
-
-    /// Pair `pair` on its own.
-    #[inline(always)]
-    fn collide_one(&self, block: &mut [LocalDisc], pair: usize) -> bool {
-        let p = self.pairs;
-        let (a, b) = (p.a[pair] as usize, p.b[pair] as usize);
-        let sep = Separation {
-            dx: p.dx[pair],
-            dy: p.dy[pair],
-            q: p.q[pair],
-        };
-        let (mut va, mut vb) = (block[a].v, block[b].v);
-        let collided = sep.collide(&mut va, &mut vb);
-        if collided {
-            block[a].v = va;
-            block[b].v = vb;
-        }
-        collided
     }
 }
