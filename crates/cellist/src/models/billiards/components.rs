@@ -8,7 +8,7 @@
 //! Within a sweep only the order of the pairs that share a disc matters: each pair
 //! reads and writes the velocities of its two discs alone. The pairs are therefore
 //! run by *level* (a pair's level is one more than the highest level of the earlier
-//! pairs, in canonical order, that share a disc with it; see [`levels`]). Every
+//! pairs, in canonical order, that share a disc with it). Every
 //! disc meets its pairs in the canonical order, so the bits are those of the
 //! canonical loop, and the pairs of one level share no disc, so they run four at a
 //! time in SIMD lanes without waiting for each other.
@@ -72,20 +72,29 @@ impl Components {
         walls: &[(u32, Walls)],
         nearby: &[u32],
     ) {
+        // one pass in canonical order: union-find, and each pair's level (one more
+        // than the highest level among the earlier pairs sharing a disc with it;
+        // `depth` holds, per disc, one more than the level of its latest pair)
         self.sets.reset(n);
-        self.label.clear();
-        self.label.resize(n, NONE);
+        self.depth.clear();
+        self.depth.resize(n, 0);
+        self.run.clear();
         for c in contacts {
             self.sets.union(c.a, c.b);
-            self.label[c.a as usize] = 0;
-            self.label[c.b as usize] = 0;
+            let (a, b) = (c.a as usize, c.b as usize);
+            let level = self.depth[a].max(self.depth[b]);
+            self.depth[a] = level + 1;
+            self.depth[b] = level + 1;
+            self.run.push(level);
         }
+        self.label.clear();
+        self.label.resize(n, NONE);
         for &(k, _) in walls {
             self.label[k as usize] = 0;
         }
         let mut count = 0u32;
         for k in 0..n {
-            if self.label[k] == NONE {
+            if self.label[k] == NONE && self.depth[k] == 0 {
                 continue;
             }
             let r = self.sets.root(k as u32) as usize;
@@ -122,7 +131,6 @@ impl Components {
         }
 
         // pairs by component and level (a run), in canonical order within a run
-        levels(&mut self.depth, &mut self.run, n, contacts);
         self.run_base.clear();
         self.run_base.resize(components + 1, 0);
         for (c, &level) in contacts.iter().zip(&self.run) {
@@ -270,23 +278,6 @@ fn counting_starts(starts: &mut Vec<u32>, components: usize, labels: impl Iterat
     }
 }
 
-/// The level of each pair of `contacts` (canonical order): one more than the
-/// highest level among the earlier pairs sharing a disc with it, 0 without such
-/// pairs. A disc's pairs have rising levels, and pairs of one level share no disc.
-/// `depth` is scratch: per disc, one more than the level of its latest pair.
-fn levels(depth: &mut Vec<u32>, level: &mut Vec<u32>, n: usize, contacts: &[Contact]) {
-    depth.clear();
-    depth.resize(n, 0);
-    level.clear();
-    level.extend(contacts.iter().map(|c| {
-        let (a, b) = (c.a as usize, c.b as usize);
-        let l = depth[a].max(depth[b]);
-        depth[a] = l + 1;
-        depth[b] = l + 1;
-        l
-    }));
-}
-
 /// One component's pairs: the columns of [`LocalPairs`] over its range.
 #[derive(Clone, Copy)]
 struct PairColumns<'a> {
@@ -379,5 +370,63 @@ impl Component<'_> {
                 return Some(sweeps);
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::models::billiards::ContactGrid;
+    use crate::random::Rng;
+
+    #[test]
+    fn levels_share_no_disc_and_every_disc_meets_its_pairs_in_canonical_order() {
+        let mut rng = Rng::new(5);
+        let n = 2000;
+        let x: Vec<f64> = (0..n).map(|_| rng.uniform() * 60.0).collect();
+        let y: Vec<f64> = (0..n).map(|_| rng.uniform() * 60.0).collect();
+        let mut contacts = Vec::new();
+        let mut grid = ContactGrid::default();
+        grid.find(&x, &y, 4.0, &Threads::single(), &mut contacts);
+        let mut components = Components::default();
+        components.group(n, &contacts, &[], grid.nearby_order());
+        let c = &components;
+        assert_eq!(c.pairs.a.len(), contacts.len());
+        let components_count = c.member_start.len() - 1;
+        let mut largest_run = 0;
+        for comp in 0..components_count {
+            let global = |local: u32| c.members[(c.member_start[comp] + local) as usize];
+            let runs = &c.run_start[c.run_base[comp] as usize..=c.run_base[comp + 1] as usize];
+            // the (a, b) of this component's pairs in the order they run
+            let order: Vec<(u32, u32)> = (runs[0]..runs[runs.len() - 1])
+                .map(|i| (global(c.pairs.a[i as usize]), global(c.pairs.b[i as usize])))
+                .collect();
+            for run in runs.windows(2) {
+                let range = (run[0] - runs[0]) as usize..(run[1] - runs[0]) as usize;
+                largest_run = largest_run.max(range.len());
+                let mut discs: Vec<u32> = order[range].iter().flat_map(|&(a, b)| [a, b]).collect();
+                let count = discs.len();
+                discs.sort_unstable();
+                discs.dedup();
+                assert_eq!(discs.len(), count, "a level shares a disc");
+            }
+            // each disc's pairs, in running order, are in lexicographic order
+            let mut last_seen = std::collections::HashMap::new();
+            for &(a, b) in &order {
+                for d in [a, b] {
+                    if let Some(&previous) = last_seen.get(&d) {
+                        assert!(
+                            previous < (a, b),
+                            "disc {d} meets {previous:?} after {a},{b}"
+                        );
+                    }
+                    last_seen.insert(d, (a, b));
+                }
+            }
+        }
+        assert!(
+            largest_run >= 8,
+            "the test should have levels worth running in lanes"
+        );
     }
 }
