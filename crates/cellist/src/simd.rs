@@ -1,11 +1,14 @@
 //! Four `f64` lanes: AVX2 and FMA registers when the build targets them (the
 //! project builds with `-C target-cpu=native`), plain arrays otherwise. The hot
-//! loops of the long-range solvers are written on this type so that they run as
-//! SIMD without hoping for the auto-vectoriser.
+//! loops of the long-range solvers and of the collision benchmark are written on
+//! this type so that they run as SIMD without hoping for the auto-vectoriser.
 //!
-//! Results are the same bits on every run of one build; a build with FMA rounds
-//! `a * b + c` once and a build without it twice, so the two builds may differ in
-//! the last bits.
+//! `+ - * /`, `sqrt`, the comparisons, selects, rounding and the pair shuffles are
+//! exact IEEE binary64 operations lane by lane in both implementations, so they
+//! give the same bits everywhere (the collision benchmark depends on it); the
+//! tests compile both implementations and compare them. What differs: `mul_add`
+//! and `neg_mul_add` (a build with FMA rounds `a * b + c` once, one without it
+//! twice) and `min` with a NaN lane.
 
 #[cfg(all(
     target_arch = "x86_64",
@@ -150,12 +153,17 @@ mod lanes {
     binary!(Div, div, _mm256_div_pd);
 }
 
-#[cfg(not(all(
-    target_arch = "x86_64",
-    target_feature = "avx2",
-    target_feature = "fma"
-)))]
-mod lanes {
+#[cfg(any(
+    test,
+    not(all(
+        target_arch = "x86_64",
+        target_feature = "avx2",
+        target_feature = "fma"
+    ))
+))]
+// in test builds next to the AVX lanes: only the exact operations are compared
+#[cfg_attr(test, allow(dead_code))]
+mod portable {
     /// Four `f64` as an array.
     #[derive(Clone, Copy, Debug)]
     pub struct F64x4([f64; 4]);
@@ -273,7 +281,18 @@ mod lanes {
     binary!(Div, div, /);
 }
 
+#[cfg(all(
+    target_arch = "x86_64",
+    target_feature = "avx2",
+    target_feature = "fma"
+))]
 pub use lanes::F64x4;
+#[cfg(not(all(
+    target_arch = "x86_64",
+    target_feature = "avx2",
+    target_feature = "fma"
+)))]
+pub use portable::F64x4;
 
 impl F64x4 {
     /// The lanes summed in a fixed order, `(l0 + l1) + (l2 + l3)`.
@@ -320,6 +339,12 @@ mod tests {
             F64x4::select_less(a, five, b, a).to_array(),
             [2.0, 2.0, 9.0, 16.0]
         );
+        // equal lanes and NaN lanes are not "less": `otherwise`
+        let edge = F64x4::load(&[5.0, f64::NAN, 4.0, -0.0]);
+        assert_eq!(
+            F64x4::select_less(edge, F64x4::load(&[5.0, 1.0, f64::NAN, 0.0]), b, a).to_array(),
+            [1.0, 4.0, 9.0, 16.0]
+        );
         assert!(F64x4::any_less(a, F64x4::splat(1.5)));
         assert!(!F64x4::any_less(a, F64x4::splat(1.0)));
         assert!(!F64x4::any_less(F64x4::splat(f64::NAN), five));
@@ -334,5 +359,90 @@ mod tests {
             F64x4::zip_pairs(x, y).map(|p| p.map(f64::to_bits)),
             pairs.map(|p| p.map(f64::to_bits))
         );
+    }
+
+    #[test]
+    fn the_portable_lanes_give_the_same_bits() {
+        use crate::random::Rng;
+        type P = portable::F64x4;
+        let special = [
+            0.0,
+            -0.0,
+            1e-7,
+            -1e-7,
+            1.0,
+            -2.5,
+            5e-324,
+            1e308,
+            f64::INFINITY,
+            f64::NAN,
+        ];
+        let mut rng = Rng::new(3);
+        let mut draw = |k: usize| {
+            if k % 3 == 0 {
+                special[(rng.uniform() * special.len() as f64) as usize % special.len()]
+            } else {
+                (rng.uniform() - 0.5) * 10f64.powi((rng.uniform() * 20.0) as i32 - 10)
+            }
+        };
+        let same = |fast: [f64; 4], slow: [f64; 4]| {
+            (0..4).all(|l| {
+                fast[l].to_bits() == slow[l].to_bits() || fast[l].is_nan() && slow[l].is_nan()
+            })
+        };
+        for round in 0..3000 {
+            let [a, b, c, d]: [[f64; 4]; 4] =
+                std::array::from_fn(|_| std::array::from_fn(&mut draw));
+            let (fa, fb, fc, fd) = (
+                F64x4::load(&a),
+                F64x4::load(&b),
+                F64x4::load(&c),
+                F64x4::load(&d),
+            );
+            let (pa, pb, pc, pd) = (P::load(&a), P::load(&b), P::load(&c), P::load(&d));
+            let pairs: [(&str, [f64; 4], [f64; 4]); 9] = [
+                ("+", (fa + fb).to_array(), (pa + pb).to_array()),
+                ("-", (fa - fb).to_array(), (pa - pb).to_array()),
+                ("*", (fa * fb).to_array(), (pa * pb).to_array()),
+                ("/", (fa / fb).to_array(), (pa / pb).to_array()),
+                ("sqrt", fa.sqrt().to_array(), pa.sqrt().to_array()),
+                (
+                    "select_less",
+                    F64x4::select_less(fa, fb, fc, fd).to_array(),
+                    P::select_less(pa, pb, pc, pd).to_array(),
+                ),
+                (
+                    "zero_where_equal",
+                    fa.zero_where_equal(fb, fc).to_array(),
+                    pa.zero_where_equal(pb, pc).to_array(),
+                ),
+                (
+                    "zero_unless_less",
+                    fa.zero_unless_less(fb, fc).to_array(),
+                    pa.zero_unless_less(pb, pc).to_array(),
+                ),
+                (
+                    "round_ties_even",
+                    fa.round_ties_even().to_array(),
+                    pa.round_ties_even().to_array(),
+                ),
+            ];
+            for (name, fast, slow) in pairs {
+                assert!(
+                    same(fast, slow),
+                    "{name} round {round}: {a:?} {b:?}: {fast:?} against {slow:?}"
+                );
+            }
+            assert_eq!(F64x4::any_less(fa, fb), P::any_less(pa, pb), "{a:?} {b:?}");
+            let split = |v: [f64; 4]| [[v[0], v[1]], [v[2], v[3]], [c[0], c[1]], [c[2], c[3]]];
+            let (fx, fy) = F64x4::unzip_pairs(split(a));
+            let (px, py) = P::unzip_pairs(split(a));
+            assert!(same(fx.to_array(), px.to_array()) && same(fy.to_array(), py.to_array()));
+            let (fz, pz) = (F64x4::zip_pairs(fa, fb), P::zip_pairs(pa, pb));
+            assert!((0..4).all(|l| same(
+                [fz[l][0], fz[l][1], 0.0, 0.0],
+                [pz[l][0], pz[l][1], 0.0, 0.0]
+            )));
+        }
     }
 }

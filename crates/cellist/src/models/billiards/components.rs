@@ -60,9 +60,9 @@ const NONE: u32 = u32::MAX;
 
 impl Components {
     /// Splits the discs in a contact or on a wall into components. A component is
-    /// numbered by its smallest disc and its pairs and walls keep the order of
-    /// `contacts` and `walls` (lexicographic, ascending): the canonical order. Its
-    /// discs are stored in the order of `nearby` (all discs, neighbours close
+    /// numbered by its smallest disc; its walls keep the order of `walls`
+    /// (ascending) and its pairs run level by level, each level in the order of
+    /// `contacts` (lexicographic): see the module's text. Its discs are stored in the order of `nearby` (all discs, neighbours close
     /// together), so that the velocities one pair after another reads are close
     /// in memory; where a disc is stored does not change what is computed.
     pub(super) fn group(
@@ -383,20 +383,36 @@ mod tests {
     fn levels_share_no_disc_and_every_disc_meets_its_pairs_in_canonical_order() {
         let mut rng = Rng::new(5);
         let n = 2000;
-        let x: Vec<f64> = (0..n).map(|_| rng.uniform() * 60.0).collect();
-        let y: Vec<f64> = (0..n).map(|_| rng.uniform() * 60.0).collect();
+        let mut x: Vec<f64> = (0..n).map(|_| rng.uniform() * 60.0).collect();
+        let mut y: Vec<f64> = (0..n).map(|_| rng.uniform() * 60.0).collect();
+        // the last few far from everything
+        for k in n - 5..n {
+            (x[k], y[k]) = (500.0 + 10.0 * k as f64, 500.0);
+        }
         let mut contacts = Vec::new();
         let mut grid = ContactGrid::default();
         grid.find(&x, &y, 4.0, &Threads::single(), &mut contacts);
+        // some discs on a wall, some of them without a pair: components of walls only
+        let wall = Walls {
+            low_x: true,
+            ..Walls::default()
+        };
+        let walls: Vec<(u32, Walls)> = (0..n as u32)
+            .filter(|&k| k % 97 == 0 || k as usize >= n - 5)
+            .map(|k| (k, wall))
+            .collect();
         let mut components = Components::default();
-        components.group(n, &contacts, &[], grid.nearby_order());
+        components.group(n, &contacts, &walls, grid.nearby_order());
         let c = &components;
         assert_eq!(c.pairs.a.len(), contacts.len());
+        assert_eq!(c.walls.len(), walls.len());
+        let mut wall_only = 0;
         let components_count = c.member_start.len() - 1;
         let mut largest_run = 0;
         for comp in 0..components_count {
             let global = |local: u32| c.members[(c.member_start[comp] + local) as usize];
             let runs = &c.run_start[c.run_base[comp] as usize..=c.run_base[comp + 1] as usize];
+            wall_only += usize::from(runs.len() == 1);
             // the (a, b) of this component's pairs in the order they run
             let order: Vec<(u32, u32)> = (runs[0]..runs[runs.len() - 1])
                 .map(|i| (global(c.pairs.a[i as usize]), global(c.pairs.b[i as usize])))
@@ -428,5 +444,26 @@ mod tests {
             largest_run >= 8,
             "the test should have levels worth running in lanes"
         );
+        assert!(
+            wall_only > 0,
+            "the test should have components of walls only"
+        );
+        // the rows (global a, b, separation) are exactly the contacts
+        let mut rows: Vec<(u32, u32, [u64; 3])> = Vec::new();
+        for comp in 0..components_count {
+            let global = |local: u32| c.members[(c.member_start[comp] + local) as usize];
+            let runs = &c.run_start[c.run_base[comp] as usize..=c.run_base[comp + 1] as usize];
+            for i in runs[0] as usize..runs[runs.len() - 1] as usize {
+                let p = &c.pairs;
+                let sep = [p.dx[i], p.dy[i], p.q[i]].map(f64::to_bits);
+                rows.push((global(p.a[i]), global(p.b[i]), sep));
+            }
+        }
+        rows.sort_unstable();
+        let expected: Vec<(u32, u32, [u64; 3])> = contacts
+            .iter()
+            .map(|k| (k.a, k.b, [k.sep.dx, k.sep.dy, k.sep.q].map(f64::to_bits)))
+            .collect();
+        assert_eq!(rows, expected);
     }
 }

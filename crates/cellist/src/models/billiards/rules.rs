@@ -206,7 +206,7 @@ mod tests {
         let mut rng = crate::random::Rng::new(11);
         let mut value = |scale: f64| (rng.uniform() - 0.5) * scale;
         for round in 0..2000 {
-            let seps: [Separation; 4] = std::array::from_fn(|l| {
+            let mut seps: [Separation; 4] = std::array::from_fn(|l| {
                 if round % 7 == 0 && l == 1 {
                     // coincident centres
                     Separation::between([1.0, 1.0], [1.0, 1.0])
@@ -217,9 +217,13 @@ mod tests {
             let mut va: [[f64; 2]; 4] = std::array::from_fn(|_| [value(2.0), value(2.0)]);
             let mut vb: [[f64; 2]; 4] = std::array::from_fn(|_| [value(2.0), value(2.0)]);
             if round % 5 == 0 {
-                // signed zeros must survive where no collision happens
+                // dot = +-0: no collision, and the signed zeros must survive
                 va[2] = [-0.0, 0.0];
-                vb[3] = [0.0, -0.0];
+                vb[2] = [0.0, -0.0];
+                // dot = -1e-7 exactly: not moving closer, no collision
+                seps[3] = Separation::between([0.0, 0.0], [1.0, 0.0]);
+                va[3] = [APPROACH, 0.0];
+                vb[3] = [0.0, 0.0];
             }
             let (mut single_a, mut single_b) = (va, vb);
             let mut any = false;
