@@ -8,10 +8,10 @@
 //! Within a sweep only the order of the pairs that share a disc matters: each pair
 //! reads and writes the velocities of its two discs alone. The pairs are therefore
 //! run by *level* (a pair's level is one more than the highest level of the earlier
-//! pairs, in canonical order, that share a disc with it). Every
-//! disc meets its pairs in the canonical order, so the bits are those of the
-//! canonical loop, and the pairs of one level share no disc, so they run four at a
-//! time in SIMD lanes without waiting for each other.
+//! pairs, in canonical order, that share a disc with it). Every disc meets its
+//! pairs in the canonical order, so the bits are those of the canonical loop, and
+//! the pairs of one level share no disc, so they run four at a time in SIMD lanes
+//! without waiting for each other.
 
 use super::contacts::Contact;
 use super::rules::{collide_four, Separation, Walls};
@@ -62,9 +62,10 @@ impl Components {
     /// Splits the discs in a contact or on a wall into components. A component is
     /// numbered by its smallest disc; its walls keep the order of `walls`
     /// (ascending) and its pairs run level by level, each level in the order of
-    /// `contacts` (lexicographic): see the module's text. Its discs are stored in the order of `nearby` (all discs, neighbours close
-    /// together), so that the velocities one pair after another reads are close
-    /// in memory; where a disc is stored does not change what is computed.
+    /// `contacts` (lexicographic): see the module's text. Its discs are stored in
+    /// the order of `nearby` (all discs, neighbours close together), so that the
+    /// velocities one pair after another reads are close in memory; where a disc
+    /// is stored does not change what is computed.
     pub(super) fn group(
         &mut self,
         n: usize,
