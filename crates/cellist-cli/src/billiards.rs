@@ -6,187 +6,38 @@ use crate::cli::{
     BenchBilliardsArgs, BilliardsCheckArgs, BilliardsGenArgs, BilliardsRunArgs, StateFormatArg,
 };
 use crate::error::{threads, CliError, CliResult};
-use crate::progress::progress_bar;
 use cellist::models::billiards::{
-    check_step, separated_discs, uniform_discs, Billiards, DiscState, StepChecker, Table,
+    check_step, separated_discs, uniform_discs, BilliardsModel, DiscState, StepChecker, Table,
 };
+use cellist::models::Model;
 use cellist::Threads;
-use cellist_io::{
-    read_billiards_input, write_png, write_state, AtomicFile, BilliardsInput, DiscPainter,
-    GifAnimation, StateFormat, TrajectoryReader,
-};
-use std::io::{BufReader, IsTerminal, Write};
-use std::path::Path;
+use cellist_io::{read_billiards_input, AtomicFile, StateFormat, TrajectoryReader};
+use cellist_sim::billiards::{load, BilliardsRun};
+use std::io::{BufReader, Write};
 use std::time::Instant;
-
-/// Reads an input and sets up the table (warnings to standard error).
-fn load(path: &Path, max_sweeps: u64) -> CliResult<(BilliardsInput, Billiards)> {
-    let input = read_billiards_input(path)?;
-    for w in &input.warnings {
-        eprintln!("warning: {w}");
-    }
-    let table = Table {
-        side: input.side,
-        radius: input.radius,
-    };
-    let system = Billiards::new(table, input.x.clone(), input.y.clone(), input.v.clone())
-        .map_err(|e| CliError::Input(format!("{}: {e}", path.display())))?
-        .with_max_sweeps(max_sweeps);
-    Ok((input, system))
-}
-
-/// Runs step `step`, keeping the hardest step so far as `(step, sweeps)`.
-fn step_and_track(
-    system: &mut Billiards,
-    step: u64,
-    pool: &Threads,
-    hardest: &mut (u64, u64),
-) -> CliResult {
-    let stats = system
-        .step(step, pool)
-        .map_err(|e| CliError::Run(e.to_string()))?;
-    if stats.sweeps > hardest.1 {
-        *hardest = (step, stats.sweeps);
-    }
-    Ok(())
-}
 
 /// `cellist billiards run`.
 pub fn run(args: &BilliardsRunArgs) -> CliResult {
     let pool = threads(args.threads)?;
-    let (input, mut system) = load(&args.input, args.max_sweeps)?;
-    let steps = args.steps.unwrap_or(input.steps);
     let format = match args.format {
         StateFormatArg::Out => StateFormat::Fixed8,
         StateFormatArg::Bits => StateFormat::Bits,
     };
-    if args.frame_every == Some(0) {
-        return Err(CliError::Input("--frame-every must be at least 1".into()));
-    }
-    if !(16..=4096).contains(&args.picture_size) {
-        return Err(CliError::Input(format!(
-            "--picture-size must be between 16 and 4096 pixels, got {}",
-            args.picture_size
-        )));
-    }
-    let mut viz = args
-        .viz
-        .as_deref()
-        .map(|p| AtomicFile::create(p).map_err(CliError::output(p.display().to_string())))
-        .transpose()?;
-    let top_speed = system
-        .v
-        .iter()
-        .map(|v| (v[0] * v[0] + v[1] * v[1]).sqrt())
-        .fold(0.0, f64::max);
-    let table = *system.table();
-    let mut painter = DiscPainter::new(
-        args.picture_size,
-        table.side_f(),
-        table.radius_f(),
-        top_speed,
-    );
-    let frame_every = args.frame_every.unwrap_or(steps.div_ceil(200).max(1));
-    let mut gif = match &args.gif {
-        Some(p) => {
-            let mut gif = GifAnimation::create(p, painter.size(), &DiscPainter::palette())
-                .map_err(CliError::output(p.display().to_string()))?;
-            gif.add_frame(painter.render(&system.x, &system.y, &system.v), 8)
-                .map_err(CliError::output(p.display().to_string()))?;
-            Some(gif)
-        }
-        None => None,
+    let run = BilliardsRun {
+        input: &args.input,
+        steps: args.steps,
+        max_sweeps: args.max_sweeps,
+        format,
+        viz: args.viz.as_deref(),
+        gif: args.gif.as_deref(),
+        png: args.png.as_deref(),
+        output: args.output.as_deref(),
+        frame_every: args.frame_every,
+        picture_size: args.picture_size,
+        checkpoint: args.checkpoint.clone().zip(args.checkpoint_every),
+        restart: args.restart.as_deref(),
     };
-    let bar = std::io::stderr().is_terminal().then(|| progress_bar(steps));
-    let start = Instant::now();
-    let mut hardest = (0, 0);
-    for step in 1..=steps {
-        step_and_track(&mut system, step, &pool, &mut hardest)?;
-        if let (Some(file), Some(path)) = (viz.as_mut(), args.viz.as_deref()) {
-            write_state(
-                file.writer(),
-                format,
-                step,
-                &input.ids,
-                &system.x,
-                &system.y,
-                &system.v,
-            )
-            .map_err(CliError::output(path.display().to_string()))?;
-        }
-        if let (Some(gif), Some(path)) = (gif.as_mut(), args.gif.as_deref()) {
-            if step % frame_every == 0 || step == steps {
-                gif.add_frame(painter.render(&system.x, &system.y, &system.v), 8)
-                    .map_err(CliError::output(path.display().to_string()))?;
-            }
-        }
-        if let Some(bar) = &bar {
-            bar.inc(1);
-        }
-    }
-    let seconds = start.elapsed().as_secs_f64();
-    if let Some(bar) = bar {
-        bar.finish_and_clear();
-    }
-    if let (Some(file), Some(path)) = (viz, args.viz.as_deref()) {
-        file.commit()
-            .map_err(CliError::output(path.display().to_string()))?;
-    }
-    if let (Some(gif), Some(path)) = (gif, args.gif.as_deref()) {
-        gif.finish()
-            .map_err(CliError::output(path.display().to_string()))?;
-    }
-    if let Some(path) = &args.png {
-        let size = painter.size();
-        let pixels = painter.render(&system.x, &system.y, &system.v);
-        write_png(path, size, pixels, &DiscPainter::palette())
-            .map_err(CliError::output(path.display().to_string()))?;
-    }
-    write_final(args, format, steps, &input.ids, &system)?;
-    eprintln!(
-        "billiards: {} particles, {steps} steps in {seconds:.3} s ({:.1} steps/s) on {} thread(s); \
-         hardest step {} needed {} sweeps",
-        system.len(),
-        steps as f64 / seconds.max(1e-12),
-        pool.count(),
-        hardest.0,
-        hardest.1
-    );
-    Ok(())
-}
-
-fn write_final(
-    args: &BilliardsRunArgs,
-    format: StateFormat,
-    steps: u64,
-    ids: &[u32],
-    system: &Billiards,
-) -> CliResult {
-    match &args.output {
-        Some(path) => {
-            let mut file =
-                AtomicFile::create(path).map_err(CliError::output(path.display().to_string()))?;
-            write_state(
-                file.writer(),
-                format,
-                steps,
-                ids,
-                &system.x,
-                &system.y,
-                &system.v,
-            )
-            .and_then(|()| file.commit())
-            .map_err(CliError::output(path.display().to_string()))
-        }
-        None => {
-            let mut out = std::io::BufWriter::new(std::io::stdout().lock());
-            write_state(
-                &mut out, format, steps, ids, &system.x, &system.y, &system.v,
-            )
-            .and_then(|()| out.flush())
-            .map_err(CliError::output("the final state"))
-        }
-    }
+    Ok(cellist_sim::billiards::run(&run, &pool)?)
 }
 
 /// `cellist billiards check`: one verdict line on standard output.
@@ -301,12 +152,15 @@ pub fn bench(args: &BenchBilliardsArgs) -> CliResult {
     let mut samples = Vec::with_capacity(args.repeat);
     let mut hardest = (0, 0);
     for _ in 0..args.repeat {
-        let mut system = start_state.clone();
+        let mut model = BilliardsModel::new(start_state.clone(), input.ids.clone());
         let start = Instant::now();
         for step in 1..=steps {
-            step_and_track(&mut system, step, &pool, &mut hardest)?;
+            model
+                .step(step, false, &pool)
+                .map_err(|b| CliError::Run(b.to_string()))?;
         }
         samples.push(start.elapsed().as_secs_f64());
+        hardest = model.hardest;
     }
     let seconds = median(&mut samples);
     let per_second = steps as f64 / seconds.max(1e-12);

@@ -46,7 +46,16 @@ docs/models.md and examples/. Input paths in the scenario are relative to the \
 scenario file; output files go to the output folder (--out, default \
 out/<scenario name>/): thermo.csv, a plot (energy.png or error.png) and the dumps, \
 field files and pictures the scenario asks for. The thermo table is printed as the run \
-goes, with a progress bar on a terminal, and a breakdown of the loop time at the end.";
+goes, with a progress bar on a terminal, and a breakdown of the loop time at the end.
+
+Checkpoints: [output] checkpoint = { every = K, file = \"state.ckpt\" } writes the \
+complete state every K steps and at the last step (atomically; the previous one is \
+kept as state.ckpt.prev). --restart FILE continues a run from one, bit for bit.
+
+Exit status: 0 done, 2 bad input (scenario, files, checkpoint), 3 the run blew up \
+(a value not finite, a particle out of its box: the message names the step, the \
+particle and the quantity, and the last good state is written as a frame and a \
+checkpoint), 1 anything else.";
 
 const NEIGHBORS_HELP: &str = "\
 Print the neighbour list of a point file: every pair i < j (0-based, in input order) \
@@ -76,6 +85,12 @@ pub struct RunArgs {
     /// --set system.lattice.cells=[10,10,10] (repeatable).
     #[arg(long = "set", value_name = "KEY=VALUE")]
     pub set: Vec<String>,
+    /// Continue from a checkpoint (written by [output] checkpoint = { every = K,
+    /// file = "state.ckpt" }): the run goes on from the checkpoint's step and
+    /// continues the output files the first run had begun. The scenario's physics
+    /// keys must be the checkpoint's; [output] keys and run.steps may change.
+    #[arg(long, value_name = "FILE")]
+    pub restart: Option<PathBuf>,
 }
 
 /// Flags of `cellist neighbors`.
@@ -333,6 +348,19 @@ pub struct BilliardsRunArgs {
     /// Stop when one step needs more sweeps than this.
     #[arg(long, default_value_t = cellist::models::billiards::DEFAULT_MAX_SWEEPS)]
     pub max_sweeps: u64,
+    /// Write a checkpoint (the complete state) to this file every
+    /// --checkpoint-every steps and at the last step; the previous one is kept as
+    /// FILE.prev.
+    #[arg(long, requires = "checkpoint_every")]
+    pub checkpoint: Option<PathBuf>,
+    /// Steps between checkpoints.
+    #[arg(long, requires = "checkpoint")]
+    pub checkpoint_every: Option<u64>,
+    /// Continue from a checkpoint of this input: the run goes on from its step and
+    /// continues the --viz and --gif files the first run had begun, giving the
+    /// bytes of an uninterrupted run.
+    #[arg(long)]
+    pub restart: Option<PathBuf>,
 }
 
 /// The state formats of `cellist billiards run`.

@@ -11,7 +11,7 @@ pub enum CliError {
     Output(std::io::Error, String),
     /// A self-check of the tool failed: a bug, not the user's input (exit status 1).
     Internal(String),
-    /// A simulation stopped: it blew up or left its box (exit status 1).
+    /// A simulation stopped: it blew up or left its box (exit status 3).
     Run(String),
     /// A check found a fault: the verdict, printed as it is on standard output
     /// (exit status 1).
@@ -23,10 +23,8 @@ impl CliError {
     pub fn exit_code(&self) -> u8 {
         match self {
             CliError::Input(_) => 2,
-            CliError::Output(..)
-            | CliError::Internal(_)
-            | CliError::Run(_)
-            | CliError::Rejected(_) => 1,
+            CliError::Run(_) => 3,
+            CliError::Output(..) | CliError::Internal(_) | CliError::Rejected(_) => 1,
         }
     }
 
@@ -55,6 +53,18 @@ impl fmt::Display for CliError {
 impl From<cellist_io::InputError> for CliError {
     fn from(e: cellist_io::InputError) -> Self {
         CliError::Input(e.to_string())
+    }
+}
+
+impl From<cellist_sim::SimError> for CliError {
+    fn from(e: cellist_sim::SimError) -> Self {
+        use cellist_sim::SimError;
+        match e {
+            SimError::Input(m) => CliError::Input(m),
+            SimError::Output(e, what) => CliError::Output(e, what),
+            SimError::BlowUp(m) => CliError::Run(m),
+            SimError::Internal(m) => CliError::Internal(m),
+        }
     }
 }
 

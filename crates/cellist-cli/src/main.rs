@@ -5,12 +5,9 @@ mod billiards;
 mod cli;
 mod error;
 mod gravity;
-mod md;
 mod neighbors;
-mod progress;
 mod pse;
 mod run;
-mod scenario;
 
 use clap::Parser;
 use cli::{BenchCommand, BilliardsCommand, Cli, Command};

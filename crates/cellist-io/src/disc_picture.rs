@@ -2,7 +2,7 @@
 //! and a PNG of one frame. Indexed colour: white background, the box outline in
 //! grey, and a blue-to-red scale of 250 colours from speed 0 to the scale's top.
 
-use crate::output::AtomicFile;
+use crate::output::{AtomicFile, StreamFile};
 use std::io;
 use std::path::Path;
 
@@ -110,24 +110,71 @@ impl DiscPainter {
     }
 }
 
-/// A GIF animation written frame by frame; the file appears whole at `finish`.
+/// A GIF animation written frame by frame to its file as the run goes; a restart
+/// continues it ([`GifAnimation::resume`]).
 pub struct GifAnimation {
-    encoder: gif::Encoder<AtomicFile>,
+    encoder: gif::Encoder<GifSink>,
     size: u16,
+}
+
+/// The animation's file, which drops the first `skip` bytes written to it: a
+/// resumed animation's encoder writes the header again, and the file has it.
+struct GifSink {
+    file: StreamFile,
+    skip: usize,
+}
+
+impl io::Write for GifSink {
+    fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
+        let dropped = self.skip.min(buf.len());
+        self.skip -= dropped;
+        self.file.write_all(&buf[dropped..])?;
+        Ok(buf.len())
+    }
+
+    fn flush(&mut self) -> io::Result<()> {
+        self.file.flush()
+    }
 }
 
 impl GifAnimation {
     /// Starts an animation of `size` x `size` frames at `path` in `palette` (RGB
     /// triples), looping forever.
     pub fn create(path: &Path, size: u32, palette: &[u8]) -> io::Result<Self> {
+        Self::start(StreamFile::create(path)?, 0, size, palette)
+    }
+
+    /// Continues the animation at `path` from its first `length` bytes (the header
+    /// and the frames a checkpoint counted).
+    pub fn resume(path: &Path, length: u64, size: u32, palette: &[u8]) -> io::Result<Self> {
+        let header = Self::start_encoder(Vec::new(), size, palette)?
+            .get_ref()
+            .len();
+        if length < header as u64 {
+            return Err(io::Error::new(
+                io::ErrorKind::InvalidData,
+                format!("{} is shorter than a GIF header", path.display()),
+            ));
+        }
+        Self::start(StreamFile::resume(path, length)?, header, size, palette)
+    }
+
+    fn start_encoder<W: io::Write>(w: W, size: u32, palette: &[u8]) -> io::Result<gif::Encoder<W>> {
         let size = u16::try_from(size)
             .map_err(|_| io::Error::other("a GIF frame is at most 65535 pixels wide"))?;
-        let file = AtomicFile::create(path)?;
-        let mut encoder = gif::Encoder::new(file, size, size, palette).map_err(io::Error::other)?;
+        let mut encoder = gif::Encoder::new(w, size, size, palette).map_err(io::Error::other)?;
         encoder
             .set_repeat(gif::Repeat::Infinite)
             .map_err(io::Error::other)?;
-        Ok(GifAnimation { encoder, size })
+        Ok(encoder)
+    }
+
+    fn start(file: StreamFile, skip: usize, size: u32, palette: &[u8]) -> io::Result<Self> {
+        let encoder = Self::start_encoder(GifSink { file, skip }, size, palette)?;
+        Ok(GifAnimation {
+            encoder,
+            size: size as u16,
+        })
     }
 
     /// Appends a frame (palette indices, `size^2`) shown for `delay` hundredths of
@@ -138,10 +185,16 @@ impl GifAnimation {
         self.encoder.write_frame(&frame).map_err(io::Error::other)
     }
 
-    /// Ends the animation and puts the file in place.
+    /// Flushes the frames so far and returns the file's length (without the
+    /// trailer that [`GifAnimation::finish`] adds).
+    pub fn sync(&mut self) -> io::Result<u64> {
+        self.encoder.get_mut().file.sync()
+    }
+
+    /// Ends the animation (writes the trailer) and flushes the file.
     pub fn finish(self) -> io::Result<()> {
-        let file = self.encoder.into_inner().map_err(io::Error::other)?;
-        file.commit()
+        let mut sink = self.encoder.into_inner()?;
+        sink.file.sync().map(drop)
     }
 }
 

@@ -15,17 +15,19 @@ pub fn field_header(dimension: usize) -> String {
     names.join(",")
 }
 
-/// Writes the header and one line `x,y[,z],phi` per particle.
-pub fn write_field<const D: usize, W: Write>(
+/// Writes the header and one line `x,y[,z],phi` per particle: the first
+/// `dimension` components of each point.
+pub fn write_field<W: Write>(
     out: &mut W,
-    points: &[[f64; D]],
+    dimension: usize,
+    points: &[[f64; 3]],
     phi: &[f64],
 ) -> io::Result<()> {
-    writeln!(out, "{}", field_header(D))?;
+    writeln!(out, "{}", field_header(dimension))?;
     let mut line = String::new();
     for (x, value) in points.iter().zip(phi) {
         line.clear();
-        for c in x {
+        for c in &x[..dimension] {
             format_g17(*c, &mut line);
             line.push(',');
         }
@@ -102,7 +104,8 @@ mod tests {
         let points = vec![[0.1, 1.0 / 3.0], [0.7, 2e-300]];
         let phi = vec![-1.0 / 7.0, 0.0];
         let mut out = Vec::new();
-        write_field(&mut out, &points, &phi).unwrap();
+        let padded: Vec<[f64; 3]> = points.iter().map(|p| [p[0], p[1], 0.0]).collect();
+        write_field(&mut out, 2, &padded, &phi).unwrap();
         let text = String::from_utf8(out).unwrap();
         assert!(text.starts_with("x,y,phi\n"));
         let (p, f) = parse_field::<2>(Path::new("f.csv"), &text).unwrap();

@@ -1,11 +1,13 @@
 //! File formats for cellist: point files (plain text, extended XYZ), pair lists,
-//! LAMMPS data files and dumps, and output files that appear whole or not at all.
+//! LAMMPS data files and dumps, checkpoints, and output files that appear whole or
+//! not at all or grow as a run goes.
 #![warn(missing_docs)]
 // Loops over the three axes index several per-axis arrays at once.
 #![allow(clippy::needless_range_loop)]
 
 pub mod billiards;
 pub mod bodies;
+pub mod checkpoint;
 pub mod disc_picture;
 pub mod dump;
 pub mod error;
@@ -21,11 +23,12 @@ pub use billiards::{
     TrajectoryReader, TrajectoryStep,
 };
 pub use bodies::{parse_bodies, read_bodies, BodyFile};
+pub use checkpoint::{read_checkpoint, write_checkpoint, Checkpoint};
 pub use disc_picture::{write_png, DiscPainter, GifAnimation};
 pub use dump::{write_lammps_frame, write_xyz_frame, Frame, DUMP_COLUMNS, GRAVITY_DUMP_COLUMNS};
 pub use error::InputError;
 pub use field_csv::{field_header, parse_field, read_field, write_field};
 pub use field_picture::FieldPainter;
 pub use lammps_data::{read_data, DataAtom, DataFile};
-pub use output::{format_g17, write_pairs, AtomicFile};
+pub use output::{format_g17, write_pairs, AtomicFile, StreamFile};
 pub use points::{read_points, BoxInfo, PointFile, Points};

@@ -54,6 +54,81 @@ impl Drop for AtomicFile {
     }
 }
 
+/// A file written as a run goes (thermo rows, dump frames, animation frames),
+/// under its final name. [`StreamFile::sync`] flushes it and says how long it is,
+/// which a checkpoint records; a restart from that checkpoint continues the file
+/// from exactly that length ([`StreamFile::resume`]), so the restarted run writes
+/// the bytes the uninterrupted one would have.
+pub struct StreamFile {
+    path: PathBuf,
+    writer: BufWriter<File>,
+}
+
+impl StreamFile {
+    /// Starts `path` empty.
+    pub fn create(path: &Path) -> io::Result<Self> {
+        let file = File::create(path)?;
+        Ok(StreamFile {
+            path: path.to_path_buf(),
+            writer: BufWriter::with_capacity(1 << 20, file),
+        })
+    }
+
+    /// Continues `path` from its first `length` bytes, cutting what was written
+    /// after them. Fails with [`io::ErrorKind::InvalidData`] when the file is
+    /// shorter than `length` (it is not the file the checkpoint knew), and leaves
+    /// it untouched then.
+    pub fn resume(path: &Path, length: u64) -> io::Result<Self> {
+        use std::io::{Seek, SeekFrom};
+        let mut file = std::fs::OpenOptions::new()
+            .read(true)
+            .write(true)
+            .open(path)?;
+        let found = file.metadata()?.len();
+        if found < length {
+            return Err(io::Error::new(
+                io::ErrorKind::InvalidData,
+                format!(
+                    "{} has {found} bytes, fewer than the {length} it had at the checkpoint",
+                    path.display()
+                ),
+            ));
+        }
+        file.set_len(length)?;
+        file.seek(SeekFrom::End(0))?;
+        Ok(StreamFile {
+            path: path.to_path_buf(),
+            writer: BufWriter::with_capacity(1 << 20, file),
+        })
+    }
+
+    /// The path.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// The writer.
+    pub fn writer(&mut self) -> &mut BufWriter<File> {
+        &mut self.writer
+    }
+
+    /// Flushes to the operating system and returns the file's length.
+    pub fn sync(&mut self) -> io::Result<u64> {
+        self.writer.flush()?;
+        Ok(self.writer.get_ref().metadata()?.len())
+    }
+}
+
+impl Write for StreamFile {
+    fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
+        self.writer.write(buf)
+    }
+
+    fn flush(&mut self) -> io::Result<()> {
+        self.writer.flush()
+    }
+}
+
 /// Formats `x` as C's `printf("%.17g", x)`: 17 significant digits, trailing zeros
 /// removed, exponent form when the decimal exponent is below -4 or at least 17.
 pub fn format_g17(x: f64, out: &mut String) {

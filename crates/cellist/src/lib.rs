@@ -15,6 +15,7 @@ pub mod models;
 pub mod neighbors;
 pub mod random;
 pub mod simd;
+pub mod state;
 pub mod threads;
 
 pub use geometry::{Boundary, Domain, GeometryError};

@@ -3,4 +3,7 @@
 pub mod billiards;
 pub mod gravity;
 pub mod md;
+pub mod model;
 pub mod pse;
+
+pub use model::{check, Blowup, Checked, Field, Model, Particles};

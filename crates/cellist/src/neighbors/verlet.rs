@@ -131,6 +131,12 @@ impl<const D: usize> VerletList<D> {
         self.reference.extend_from_slice(cells.positions());
     }
 
+    /// The positions of the last build (slot order, wrapped): the reference of the
+    /// skin/2 test.
+    pub fn reference(&self) -> &[[f64; D]] {
+        &self.reference
+    }
+
     /// Half or full.
     pub fn kind(&self) -> StencilKind {
         self.kind

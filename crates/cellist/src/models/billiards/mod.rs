@@ -18,11 +18,13 @@ mod check;
 mod components;
 mod contacts;
 mod generate;
+mod model;
 mod rules;
 
 pub use check::{check_step, CheckFailure, DiscState, StepChecker};
 pub use contacts::{Contact, ContactGrid};
 pub use generate::{separated_discs, uniform_discs, Drawn};
+pub use model::BilliardsModel;
 pub use rules::{Separation, Table, Walls, APPROACH};
 
 use crate::threads::Threads;
@@ -60,10 +62,9 @@ impl fmt::Display for BilliardsError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             BilliardsError::Table(m) | BilliardsError::State(m) => f.write_str(m),
-            BilliardsError::Overflow { step, index } => write!(
-                f,
-                "step {step}: the position of particle {index} (vector position) overflowed"
-            ),
+            BilliardsError::Overflow { step, index } => {
+                write!(f, "step {step}: {}", overflow_what(*index))
+            }
             BilliardsError::NotConverged {
                 step,
                 sweeps,
@@ -71,14 +72,25 @@ impl fmt::Display for BilliardsError {
                 size,
             } => write!(
                 f,
-                "step {step}: the collisions did not settle within {sweeps} sweeps (a group of \
-                 {size} overlapping particles, the first at vector position {first})"
+                "step {step}: {}",
+                not_converged_what(*sweeps, *first, *size)
             ),
         }
     }
 }
 
 impl std::error::Error for BilliardsError {}
+
+fn overflow_what(index: usize) -> String {
+    format!("the position of particle {index} (vector position) overflowed")
+}
+
+fn not_converged_what(sweeps: u64, first: usize, size: usize) -> String {
+    format!(
+        "the collisions did not settle within {sweeps} sweeps (a group of {size} overlapping \
+         particles, the first at vector position {first})"
+    )
+}
 
 /// What one step did: candidates found and sweeps of the canonical loop.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]

@@ -5,8 +5,10 @@
 //! [`longrange`]: crate::longrange
 
 mod initial;
+mod model;
 
 pub use initial::{plummer, two_body_seed004, Bodies};
+pub use model::GravityModel;
 
 use crate::interactions::GravityLaw;
 use crate::longrange::{
@@ -224,6 +226,25 @@ impl GravitySystem {
     /// Potentials `phi_i` at the current positions.
     pub fn potentials(&self) -> &[f64] {
         &self.phi
+    }
+
+    /// Replaces the bodies and their accelerations and potentials by a saved state
+    /// of this system (the solvers keep nothing between evaluations that changes
+    /// their results, so the next step is the saved run's).
+    pub fn restore(
+        &mut self,
+        bodies: Bodies,
+        acc: Vec<[f64; 3]>,
+        phi: Vec<f64>,
+    ) -> Result<(), String> {
+        let n = self.len();
+        if bodies.len() != n || bodies.velocity.len() != n || acc.len() != n || phi.len() != n {
+            return Err(format!("the saved state does not hold {n} bodies"));
+        }
+        self.bodies = bodies;
+        self.acc = acc;
+        self.phi = phi;
+        Ok(())
     }
 
     /// The solver (for its statistics).

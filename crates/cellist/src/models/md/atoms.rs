@@ -42,17 +42,19 @@ impl<const D: usize> Atoms<D> {
         self.ids.is_empty()
     }
 
+    /// True when every array has one entry per atom.
+    pub fn is_consistent(&self) -> bool {
+        let n = self.len();
+        self.types.len() == n
+            && self.masses.len() == n
+            && self.positions.len() == n
+            && self.velocities.len() == n
+            && self.forces.len() == n
+    }
+
     /// Panics unless every array has one entry per atom (a programming error).
     pub(crate) fn assert_consistent(&self) {
-        let n = self.len();
-        assert!(
-            self.types.len() == n
-                && self.masses.len() == n
-                && self.positions.len() == n
-                && self.velocities.len() == n
-                && self.forces.len() == n,
-            "per-atom arrays of different lengths"
-        );
+        assert!(self.is_consistent(), "per-atom arrays of different lengths");
     }
 
     /// Reorders every array except the positions: `self[k] = old[order[k]]`, using

@@ -13,11 +13,13 @@
 mod atoms;
 mod integrate;
 mod lattice;
+mod model;
 mod velocity;
 
 pub use atoms::Atoms;
 pub use integrate::{Integrator, Langevin};
 pub use lattice::{lattice, LatticeKind};
+pub use model::MdModel;
 pub use velocity::{create_velocities, VelocityDistribution};
 
 use crate::geometry::{norm2, Domain, GeometryError};
@@ -278,6 +280,54 @@ impl<const D: usize> MdSystem<D> {
         self.list.rebuild(&self.cells, threads);
         self.layers = LayerPlan::new(&self.cells);
         self.rebuilds += 1;
+    }
+
+    /// The positions the Verlet list was built at (slot order, wrapped).
+    pub fn list_reference(&self) -> &[[f64; D]] {
+        self.list.reference()
+    }
+
+    /// Replaces the atoms by a saved set, in the slot order [`MdSystem::atoms`] had,
+    /// whose Verlet list was built at `reference` (what
+    /// [`MdSystem::list_reference`] returned). The list is built again from
+    /// `reference`: those positions are wrapped and in cell order, so the counting
+    /// sort leaves them in place and the list is the saved run's, entry for entry.
+    /// Forces are kept as given (they are those of the saved step).
+    pub fn restore(
+        &mut self,
+        atoms: Atoms<D>,
+        reference: &[[f64; D]],
+        rebuilds: u64,
+        threads: &Threads,
+    ) -> Result<(), String> {
+        let n = atoms.len();
+        if n != self.atoms.len() || reference.len() != n || !atoms.is_consistent() {
+            return Err(format!(
+                "the saved state has {n} atoms and {} reference positions; the scenario has {}",
+                reference.len(),
+                self.atoms.len()
+            ));
+        }
+        if reference.iter().flatten().any(|c| !c.is_finite()) {
+            return Err("a saved reference position is not finite".into());
+        }
+        self.cells.rebin(reference);
+        let in_place = self
+            .cells
+            .order()
+            .iter()
+            .enumerate()
+            .all(|(k, &o)| o as usize == k);
+        if !in_place || self.cells.positions() != reference {
+            return Err("the saved reference positions are not wrapped and in cell order".into());
+        }
+        self.atoms = atoms;
+        self.list.rebuild(&self.cells, threads);
+        self.layers = LayerPlan::new(&self.cells);
+        self.tallies = vec![PairTally::default(); self.layers.num_layers()];
+        self.totals = None;
+        self.rebuilds = rebuilds;
+        Ok(())
     }
 
     /// Puts the atoms in the cell list's slot order, positions wrapped.

@@ -11,10 +11,12 @@
 
 mod exact;
 mod kernel;
+mod model;
 mod pairs;
 
 pub use exact::InitialField;
 pub use kernel::{exp_nonpositive, PairWeight};
+pub use model::PseModel;
 
 use crate::geometry::{Domain, GeometryError};
 use crate::neighbors::CellList;
@@ -284,6 +286,34 @@ impl<const D: usize> PseSystem<D> {
             out[k as usize] = self.phi[slot];
         }
         out
+    }
+
+    /// The field in slot order (the system's own order, see [`PseSystem::order`]).
+    pub fn slot_phi(&self) -> &[f64] {
+        &self.phi
+    }
+
+    /// `order[slot]`: the input index of the particle in each slot.
+    pub fn order(&self) -> &[u32] {
+        &self.order
+    }
+
+    /// The positions in slot order.
+    pub fn slot_positions(&self) -> &[[f64; D]] {
+        &self.positions
+    }
+
+    /// Replaces the field by `phi` in slot order (a saved state of this system).
+    pub fn set_slot_phi(&mut self, phi: &[f64]) -> Result<(), String> {
+        if phi.len() != self.phi.len() {
+            return Err(format!(
+                "{} field values for {} particles",
+                phi.len(),
+                self.phi.len()
+            ));
+        }
+        self.phi.copy_from_slice(phi);
+        Ok(())
     }
 
     /// The positions (wrapped into the box) in input order.

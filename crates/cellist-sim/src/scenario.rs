@@ -1,7 +1,7 @@
 //! Scenario files (TOML): reading, `--set key=value` overrides, and the model they
 //! name. Each model deserialises its own keys, refusing unknown ones with the line.
 
-use crate::error::{CliError, CliResult};
+use crate::error::{SimError, SimResult};
 use std::path::{Path, PathBuf};
 
 /// The scenario that `cellist run` runs without a file: the LJ melt.
@@ -21,11 +21,11 @@ pub struct Scenario {
 
 impl Scenario {
     /// Reads `path` (or the built-in melt) and applies the overrides.
-    pub fn load(path: Option<&Path>, sets: &[String]) -> CliResult<Self> {
+    pub fn load(path: Option<&Path>, sets: &[String]) -> SimResult<Self> {
         let (text, origin, base_dir, name) = match path {
             Some(p) => {
                 let text = std::fs::read_to_string(p)
-                    .map_err(|e| CliError::Input(format!("{}: cannot read: {e}", p.display())))?;
+                    .map_err(|e| SimError::Input(format!("{}: cannot read: {e}", p.display())))?;
                 let name = p
                     .file_stem()
                     .map_or_else(|| "scenario".into(), |s| s.to_string_lossy().into_owned());
@@ -49,15 +49,15 @@ impl Scenario {
     }
 
     /// The `model` key.
-    pub fn model(&self) -> CliResult<String> {
+    pub fn model(&self) -> SimResult<String> {
         let table: toml::Table = toml::from_str(&self.text).map_err(|e| self.error(e))?;
         match table.get("model") {
             Some(toml::Value::String(m)) => Ok(m.clone()),
-            Some(other) => Err(CliError::Input(format!(
+            Some(other) => Err(SimError::Input(format!(
                 "{}: model must be a string such as \"md\", got {other}",
                 self.origin
             ))),
-            None => Err(CliError::Input(format!(
+            None => Err(SimError::Input(format!(
                 "{}: no `model` key; expected e.g. model = \"md\"",
                 self.origin
             ))),
@@ -65,13 +65,25 @@ impl Scenario {
     }
 
     /// Deserialises the model's keys.
-    pub fn parse<T: serde::de::DeserializeOwned>(&self) -> CliResult<T> {
+    pub fn parse<T: serde::de::DeserializeOwned>(&self) -> SimResult<T> {
         toml::from_str(&self.text).map_err(|e| self.error(e))
     }
 
     /// An input error about this scenario.
-    pub fn error(&self, e: impl std::fmt::Display) -> CliError {
-        CliError::Input(format!("{}: {e}", self.origin))
+    pub fn error(&self, e: impl std::fmt::Display) -> SimError {
+        SimError::Input(format!("{}: {e}", self.origin))
+    }
+
+    /// The physics keys: every key but those under `[output]` and `run.steps`, as
+    /// dotted names with their TOML values, sorted by name. A checkpoint records
+    /// them; a restart refuses a scenario whose physics keys differ.
+    pub fn physics_keys(&self) -> SimResult<Vec<(String, String)>> {
+        let table: toml::Table = toml::from_str(&self.text).map_err(|e| self.error(e))?;
+        let mut keys = Vec::new();
+        flatten("", &table, &mut keys);
+        keys.retain(|(k, _)| !(k.starts_with("output.") || k == "run.steps"));
+        keys.sort();
+        Ok(keys)
     }
 
     /// An input path relative to the scenario file.
@@ -80,17 +92,32 @@ impl Scenario {
     }
 }
 
+/// Appends `prefix.key = value` for every value under `table`, tables flattened.
+fn flatten(prefix: &str, table: &toml::Table, out: &mut Vec<(String, String)>) {
+    for (key, value) in table {
+        let name = if prefix.is_empty() {
+            key.clone()
+        } else {
+            format!("{prefix}.{key}")
+        };
+        match value {
+            toml::Value::Table(t) => flatten(&name, t, out),
+            other => out.push((name, other.to_string())),
+        }
+    }
+}
+
 /// Applies `key.path=value` overrides; the value is read as TOML (a number, a
 /// boolean, an array, an inline table, a quoted string) or else taken as a string.
-fn apply_sets(text: &str, origin: &str, sets: &[String]) -> CliResult<String> {
+fn apply_sets(text: &str, origin: &str, sets: &[String]) -> SimResult<String> {
     if sets.is_empty() {
         return Ok(text.to_string());
     }
     let mut doc: toml_edit::DocumentMut = text
         .parse()
-        .map_err(|e| CliError::Input(format!("{origin}: {e}")))?;
+        .map_err(|e| SimError::Input(format!("{origin}: {e}")))?;
     for set in sets {
-        let bad = |why: &str| CliError::Input(format!("--set {set}: {why}"));
+        let bad = |why: &str| SimError::Input(format!("--set {set}: {why}"));
         let (key, value) = set
             .split_once('=')
             .ok_or_else(|| bad("expected KEY=VALUE, e.g. run.steps=200"))?;
@@ -136,5 +163,29 @@ mod tests {
         assert_eq!(v["pair"]["style"].as_str(), Some("lj/cut"));
         assert!(apply_sets(text, "t", &["run.steps".into()]).is_err());
         assert!(apply_sets(text, "t", &["model.x=1".into()]).is_err());
+    }
+
+    #[test]
+    fn physics_keys_leave_out_the_outputs_and_the_step_count() {
+        let text = "model = \"md\"\n[run]\nsteps = 10\ndt = 0.005\n[system]\nlattice = { kind = \"fcc\", cells = [2, 2, 2] }\n[output]\nthermo_every = 5\n";
+        let scenario = Scenario {
+            text: text.into(),
+            origin: "t".into(),
+            base_dir: PathBuf::new(),
+            name: "t".into(),
+        };
+        let keys = scenario.physics_keys().unwrap();
+        let names: Vec<&str> = keys.iter().map(|(k, _)| k.as_str()).collect();
+        assert_eq!(
+            names,
+            [
+                "model",
+                "run.dt",
+                "system.lattice.cells",
+                "system.lattice.kind"
+            ]
+        );
+        assert_eq!(keys[1].1, "0.005");
+        assert_eq!(keys[2].1, "[2, 2, 2]");
     }
 }

@@ -1,0 +1,335 @@
+//! `cellist billiards run` on the driver: the collision benchmark's input, its
+//! trajectory file (`--viz`), its GIF animation, the final picture and state, and
+//! checkpoints that restart bit for bit.
+
+use crate::driver::{self, recorded, CheckpointKeys, Job, LastFrame};
+use crate::error::{SimError, SimResult};
+use crate::observers::{open_stream, Observer, Recorded};
+use cellist::models::billiards::{Billiards, BilliardsModel, Table};
+use cellist::models::Model;
+use cellist::Threads;
+use cellist_io::{
+    read_billiards_input, write_png, write_state, AtomicFile, BilliardsInput, DiscPainter,
+    GifAnimation, StateFormat, StreamFile, DUMP_COLUMNS,
+};
+use indicatif::ProgressBar;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+/// Reads an input and sets up the table (warnings to standard error).
+pub fn load(path: &Path, max_sweeps: u64) -> SimResult<(BilliardsInput, Billiards)> {
+    let input = read_billiards_input(path)?;
+    for w in &input.warnings {
+        eprintln!("warning: {w}");
+    }
+    let table = Table {
+        side: input.side,
+        radius: input.radius,
+    };
+    let system = Billiards::new(table, input.x.clone(), input.y.clone(), input.v.clone())
+        .map_err(|e| SimError::Input(format!("{}: {e}", path.display())))?
+        .with_max_sweeps(max_sweeps);
+    Ok((input, system))
+}
+
+/// What `cellist billiards run` asks for.
+pub struct BilliardsRun<'a> {
+    /// The `.in` file.
+    pub input: &'a Path,
+    /// Steps (default: the input's S).
+    pub steps: Option<u64>,
+    /// The bound on sweeps per step.
+    pub max_sweeps: u64,
+    /// The number format of state files.
+    pub format: StateFormat,
+    /// The trajectory file: every step's state.
+    pub viz: Option<&'a Path>,
+    /// A GIF animation.
+    pub gif: Option<&'a Path>,
+    /// A PNG of the final state.
+    pub png: Option<&'a Path>,
+    /// The final state (default: standard output).
+    pub output: Option<&'a Path>,
+    /// Steps between GIF frames (default: about 200 frames).
+    pub frame_every: Option<u64>,
+    /// Picture size in pixels.
+    pub picture_size: u32,
+    /// Checkpoints: the file and the steps between them.
+    pub checkpoint: Option<(PathBuf, u64)>,
+    /// A checkpoint to continue from.
+    pub restart: Option<&'a Path>,
+}
+
+/// The table's physics, which a restart must match: the disc count, the box, the
+/// radius and the initial state's bits.
+fn physics(input: &BilliardsInput) -> Vec<(String, String)> {
+    let mut hash: u64 = 0xcbf2_9ce4_8422_2325;
+    let bits = input
+        .x
+        .iter()
+        .chain(&input.y)
+        .chain(input.v.iter().flatten())
+        .map(|v| v.to_bits());
+    for b in input.ids.iter().map(|&i| i as u64).chain(bits) {
+        for byte in b.to_le_bytes() {
+            hash ^= byte as u64;
+            hash = hash.wrapping_mul(0x0100_0000_01b3);
+        }
+    }
+    vec![
+        ("input.discs".into(), input.ids.len().to_string()),
+        ("input.initial_state_fnv1a".into(), format!("{hash:016x}")),
+        ("input.radius".into(), input.radius.to_string()),
+        ("input.side".into(), input.side.to_string()),
+    ]
+}
+
+/// Every step's state in the benchmark's format (`--viz`).
+struct States {
+    name: String,
+    file: StreamFile,
+    format: StateFormat,
+}
+
+impl Observer<BilliardsModel> for States {
+    fn due(&self, step: u64, _last: u64) -> bool {
+        step > 0
+    }
+
+    fn observe(
+        &mut self,
+        model: &BilliardsModel,
+        step: u64,
+        _last: u64,
+        _bar: &ProgressBar,
+    ) -> SimResult {
+        let s = &model.system;
+        write_state(
+            self.file.writer(),
+            self.format,
+            step,
+            &model.ids,
+            &s.x,
+            &s.y,
+            &s.v,
+        )
+        .map_err(SimError::output(self.name.clone()))
+    }
+
+    fn sync(&mut self) -> SimResult<Vec<(String, u64)>> {
+        let length = self
+            .file
+            .sync()
+            .map_err(SimError::output(self.name.clone()))?;
+        Ok(vec![(self.name.clone(), length)])
+    }
+
+    fn finish(&mut self) -> SimResult {
+        self.file
+            .sync()
+            .map(drop)
+            .map_err(SimError::output(self.name.clone()))
+    }
+}
+
+/// Frames of the discs coloured by speed (`--gif`).
+struct Animation {
+    name: String,
+    every: u64,
+    painter: DiscPainter,
+    gif: Option<GifAnimation>,
+}
+
+impl Observer<BilliardsModel> for Animation {
+    fn due(&self, step: u64, last: u64) -> bool {
+        step == 0 || step % self.every == 0 || step == last
+    }
+
+    fn observe(
+        &mut self,
+        model: &BilliardsModel,
+        _step: u64,
+        _last: u64,
+        _bar: &ProgressBar,
+    ) -> SimResult {
+        let s = &model.system;
+        let pixels = self.painter.render(&s.x, &s.y, &s.v);
+        self.gif
+            .as_mut()
+            .expect("an open animation")
+            .add_frame(pixels, 8)
+            .map_err(SimError::output(self.name.clone()))
+    }
+
+    fn sync(&mut self) -> SimResult<Vec<(String, u64)>> {
+        let gif = self.gif.as_mut().expect("an open animation");
+        let length = gif.sync().map_err(SimError::output(self.name.clone()))?;
+        Ok(vec![(self.name.clone(), length)])
+    }
+
+    fn finish(&mut self) -> SimResult {
+        match self.gif.take() {
+            Some(gif) => gif.finish().map_err(SimError::output(self.name.clone())),
+            None => Ok(()),
+        }
+    }
+}
+
+fn painter(model: &BilliardsModel, size: u32) -> DiscPainter {
+    let s = &model.system;
+    let top_speed =
+        s.v.iter()
+            .map(|v| (v[0] * v[0] + v[1] * v[1]).sqrt())
+            .fold(0.0, f64::max);
+    let table = *s.table();
+    DiscPainter::new(size, table.side_f(), table.radius_f(), top_speed)
+}
+
+fn observers(
+    run: &BilliardsRun,
+    initial: &BilliardsModel,
+    steps: u64,
+    recorded: Recorded,
+) -> SimResult<Vec<Box<dyn Observer<BilliardsModel>>>> {
+    let here = Path::new("");
+    let mut list: Vec<Box<dyn Observer<BilliardsModel>>> = Vec::new();
+    if let Some(path) = run.viz {
+        let name = path.to_string_lossy().into_owned();
+        let (file, _) = open_stream(here, &name, recorded)?;
+        list.push(Box::new(States {
+            name,
+            file,
+            format: run.format,
+        }));
+    }
+    if let Some(path) = run.gif {
+        let name = path.to_string_lossy().into_owned();
+        // the colour scale is the initial state's, also after a restart
+        let painter = painter(initial, run.picture_size);
+        let what = || SimError::output(name.clone());
+        let palette = DiscPainter::palette();
+        let gif = match recorded.iter().find(|(n, _)| *n == name) {
+            Some((_, length)) if path.exists() => {
+                GifAnimation::resume(path, *length, painter.size(), &palette).map_err(
+                    |e| match e.kind() {
+                        std::io::ErrorKind::InvalidData => SimError::Input(e.to_string()),
+                        _ => what()(e),
+                    },
+                )?
+            }
+            _ => GifAnimation::create(path, painter.size(), &palette).map_err(what())?,
+        };
+        list.push(Box::new(Animation {
+            name,
+            every: run.frame_every.unwrap_or(steps.div_ceil(200).max(1)),
+            painter,
+            gif: Some(gif),
+        }));
+    }
+    Ok(list)
+}
+
+/// Runs the benchmark: steps with the observers, then the final picture and state.
+pub fn run(run: &BilliardsRun, threads: &Threads) -> SimResult {
+    if run.frame_every == Some(0) {
+        return Err(SimError::Input("--frame-every must be at least 1".into()));
+    }
+    if run
+        .checkpoint
+        .as_ref()
+        .is_some_and(|(_, every)| *every == 0)
+    {
+        return Err(SimError::Input(
+            "--checkpoint-every must be at least 1".into(),
+        ));
+    }
+    if !(16..=4096).contains(&run.picture_size) {
+        return Err(SimError::Input(format!(
+            "--picture-size must be between 16 and 4096 pixels, got {}",
+            run.picture_size
+        )));
+    }
+    let (input, system) = load(run.input, run.max_sweeps)?;
+    let steps = run.steps.unwrap_or(input.steps);
+    let initial = BilliardsModel::new(system.clone(), input.ids.clone());
+    let mut job = Job {
+        model: BilliardsModel::new(system, input.ids.clone()),
+        steps,
+        dir: PathBuf::new(),
+        checkpoint: run.checkpoint.as_ref().map(|(file, every)| CheckpointKeys {
+            every: *every,
+            file: file.clone(),
+        }),
+        physics: physics(&input),
+        last_frame: LastFrame::Dump {
+            file: "last.lammpstrj",
+            columns: DUMP_COLUMNS[..8].iter().map(|c| c.to_string()).collect(),
+        },
+        timings: false,
+    };
+    let checkpoint = run
+        .restart
+        .map(|path| {
+            driver::restore(
+                &mut job.model,
+                path,
+                &job.physics,
+                steps,
+                Path::new(""),
+                threads,
+            )
+        })
+        .transpose()?;
+    let first = checkpoint.as_ref().map_or(0, |c| c.step);
+    if let Some(path) = run.restart {
+        eprintln!("restart: from step {first} of {}", path.display());
+    }
+    let list = observers(run, &initial, steps, recorded(checkpoint.as_ref()))?;
+    let report = job.run(first, list, threads)?;
+    let model = report.model;
+    if let Some(path) = run.png {
+        let mut painter = painter(&initial, run.picture_size);
+        let s = &model.system;
+        let size = painter.size();
+        let pixels = painter.render(&s.x, &s.y, &s.v);
+        write_png(path, size, pixels, &DiscPainter::palette())
+            .map_err(SimError::output(path.display().to_string()))?;
+    }
+    write_final(run, steps, &model)?;
+    eprintln!(
+        "{}",
+        model.speed(
+            report.loop_time.as_secs_f64(),
+            steps - first,
+            threads.count()
+        )
+    );
+    Ok(())
+}
+
+fn write_final(run: &BilliardsRun, steps: u64, model: &BilliardsModel) -> SimResult {
+    let s = &model.system;
+    match run.output {
+        Some(path) => {
+            let mut file =
+                AtomicFile::create(path).map_err(SimError::output(path.display().to_string()))?;
+            write_state(
+                file.writer(),
+                run.format,
+                steps,
+                &model.ids,
+                &s.x,
+                &s.y,
+                &s.v,
+            )
+            .and_then(|()| file.commit())
+            .map_err(SimError::output(path.display().to_string()))
+        }
+        None => {
+            let mut out = std::io::BufWriter::new(std::io::stdout().lock());
+            write_state(&mut out, run.format, steps, &model.ids, &s.x, &s.y, &s.v)
+                .and_then(|()| out.flush())
+                .map_err(SimError::output("the final state"))
+        }
+    }
+}

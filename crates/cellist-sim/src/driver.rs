@@ -1,0 +1,381 @@
+//! The one run loop of every model: restart from a checkpoint, step, check, run
+//! the observers whose trigger fires, write checkpoints, stop on a blow-up with
+//! the last good state, and report the time per stage.
+//!
+//! ```text
+//! setup:   model built from its scenario; with --restart, its state replaced by
+//!          the checkpoint's (model, physics keys and output files checked first)
+//!          -> observers created (growing files continued from the recorded lengths)
+//!          -> observe(step 0) on a new run
+//! loop:    model.step(s)                  # the model's own stages, timed by it
+//!          check(model)                   # finite values, walls, particle count
+//!          observers whose trigger fires  # thermo, dumps, fields, pictures
+//!          if an observer or a checkpoint fired: keep the state as the last good one
+//!          if s is a checkpoint step: write the checkpoint (atomically)
+//! finish:  observers finish (plots, animations), timers report
+//! blow-up: the last good state restored, its frame and checkpoint written, exit 3
+//! ```
+
+use crate::error::{SimError, SimResult};
+use crate::observers::{frame, write_field_csv, Observer, Recorded};
+use crate::progress::progress_bar;
+use cellist::models::{check, Blowup, Model};
+use cellist::state::State;
+use cellist::Threads;
+use cellist_io::checkpoint::{read_checkpoint, write_checkpoint, Checkpoint};
+use cellist_io::{write_lammps_frame, AtomicFile};
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+/// `[output] checkpoint = { every = K, file = "state.ckpt" }`.
+#[derive(Clone, Debug, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CheckpointKeys {
+    /// Steps between checkpoints (the last step is always one).
+    pub every: u64,
+    /// File name in the output folder.
+    #[serde(default = "default_checkpoint_file")]
+    pub file: PathBuf,
+}
+
+fn default_checkpoint_file() -> PathBuf {
+    "state.ckpt".into()
+}
+
+impl CheckpointKeys {
+    /// Refuses `every = 0`.
+    pub fn check(&self, key: &str) -> Result<(), String> {
+        if self.every == 0 {
+            Err(format!("{key}.every must be >= 1"))
+        } else {
+            Ok(())
+        }
+    }
+}
+
+/// Where a blow-up writes the last good state's particles.
+#[derive(Clone, Debug)]
+pub enum LastFrame {
+    /// A LAMMPS dump frame of these columns.
+    Dump {
+        /// File name in the output folder.
+        file: &'static str,
+        /// Columns.
+        columns: Vec<String>,
+    },
+    /// A field CSV.
+    Field {
+        /// File name in the output folder.
+        file: &'static str,
+    },
+}
+
+/// A run ready to go: the model (at its first step), how far to run, and what to
+/// write.
+pub struct Job<M: Model> {
+    /// The model, as built from its scenario or input.
+    pub model: M,
+    /// The last step.
+    pub steps: u64,
+    /// The output folder.
+    pub dir: PathBuf,
+    /// Checkpoints, if asked for.
+    pub checkpoint: Option<CheckpointKeys>,
+    /// The physics a checkpoint records and a restart must match.
+    pub physics: Vec<(String, String)>,
+    /// Where a blow-up writes its last good frame.
+    pub last_frame: LastFrame,
+    /// Print the loop's speed and time per stage at the end (on standard output).
+    pub timings: bool,
+}
+
+/// What a finished run reports.
+pub struct Report<M> {
+    /// The model in its final state.
+    pub model: M,
+    /// The first step of this run (0, or the checkpoint's step).
+    pub first: u64,
+    /// Wall time of the loop.
+    pub loop_time: Duration,
+}
+
+/// The state at the last step that passed the checks and was observed: what a
+/// blow-up restores and writes.
+struct Snapshot {
+    step: u64,
+    state: State,
+    outputs: Vec<(String, u64)>,
+}
+
+/// Reads `path` and checks it against `model` and `physics`: the same model, the
+/// same physics keys (the first difference named), a step within `steps`, and a
+/// state `model` can take. Nothing is written. On success the model holds the
+/// checkpoint's state.
+pub fn restore<M: Model>(
+    model: &mut M,
+    path: &Path,
+    physics: &[(String, String)],
+    steps: u64,
+    dir: &Path,
+    threads: &Threads,
+) -> SimResult<Checkpoint> {
+    let c = read_checkpoint(path)?;
+    let at = path.display();
+    if c.model != model.name() {
+        return Err(SimError::Input(format!(
+            "{at}: a checkpoint of model '{}'; this run is model '{}'",
+            c.model,
+            model.name()
+        )));
+    }
+    if let Some(m) = physics_difference(&c.physics, physics) {
+        return Err(SimError::Input(format!(
+            "{at}: {m}; a restart continues the same physics (only [output] keys and run.steps may change)"
+        )));
+    }
+    if c.step > steps {
+        return Err(SimError::Input(format!(
+            "{at}: the checkpoint is at step {}, beyond the run's last step {steps}; raise the step count",
+            c.step
+        )));
+    }
+    model
+        .restore(&c.state, threads)
+        .map_err(|e| SimError::Input(format!("{at}: the state does not fit the scenario: {e}")))?;
+    for (name, length) in &c.outputs {
+        let file = dir.join(name);
+        if let Ok(meta) = std::fs::metadata(&file) {
+            if meta.len() < *length {
+                return Err(SimError::Input(format!(
+                    "{at}: {} has {} bytes, fewer than the {length} it had at step {}; \
+                     restore it, or restart with --out into a new folder",
+                    file.display(),
+                    meta.len(),
+                    c.step
+                )));
+            }
+        }
+    }
+    Ok(c)
+}
+
+/// The first key whose value differs between a checkpoint's physics and a
+/// scenario's, as a sentence.
+fn physics_difference(saved: &[(String, String)], now: &[(String, String)]) -> Option<String> {
+    let mut keys: Vec<&str> = saved.iter().chain(now).map(|(k, _)| k.as_str()).collect();
+    keys.sort_unstable();
+    keys.dedup();
+    let get = |list: &[(String, String)], k: &str| {
+        list.iter()
+            .find(|(key, _)| key == k)
+            .map(|(_, v)| v.clone())
+    };
+    keys.into_iter()
+        .find_map(|k| match (get(saved, k), get(now, k)) {
+            (Some(a), Some(b)) if a != b => Some(format!(
+                "the physics key `{k}` is {b} in the scenario but was {a} in the checkpoint's run"
+            )),
+            (Some(a), None) => Some(format!(
+            "the physics key `{k}` was {a} in the checkpoint's run and is not set in the scenario"
+        )),
+            (None, Some(b)) => Some(format!(
+            "the physics key `{k}` = {b} is set in the scenario but was not in the checkpoint's run"
+        )),
+            _ => None,
+        })
+}
+
+impl<M: Model> Job<M> {
+    /// Runs from `first` (0, or the restored checkpoint's step) to the last step
+    /// with `observers`.
+    pub fn run(
+        mut self,
+        first: u64,
+        mut observers: Vec<Box<dyn Observer<M>>>,
+        threads: &Threads,
+    ) -> SimResult<Report<M>> {
+        let last = self.steps;
+        let count = self.model.len();
+        let bar = progress_bar(last - first);
+        let mut output = Duration::ZERO;
+        if first == 0 {
+            for o in observers.iter_mut().filter(|o| o.due(0, last)) {
+                o.observe(&self.model, 0, last, &bar)?;
+            }
+        }
+        let mut good = self.snapshot(first, &mut observers)?;
+        let loop_start = Instant::now();
+        for step in first + 1..=last {
+            let observe = observers.iter().any(|o| o.needs_observables(step, last));
+            let stepped = self
+                .model
+                .step(step, observe, threads)
+                .and_then(|()| check(&self.model, step, count));
+            if let Err(blowup) = stepped {
+                bar.abandon();
+                return Err(self.blow_up(blowup, good, &mut observers, threads));
+            }
+            let t = Instant::now();
+            let mut fired = false;
+            for o in observers.iter_mut().filter(|o| o.due(step, last)) {
+                o.observe(&self.model, step, last, &bar)?;
+                fired = true;
+            }
+            let checkpoint = self
+                .checkpoint
+                .as_ref()
+                .is_some_and(|c| step % c.every == 0 || step == last);
+            if fired || checkpoint {
+                good = self.snapshot(step, &mut observers)?;
+            }
+            if checkpoint {
+                let file = self
+                    .checkpoint
+                    .as_ref()
+                    .expect("checkpoint keys")
+                    .file
+                    .clone();
+                self.write_checkpoint(&file, &good)?;
+            }
+            output += t.elapsed();
+            bar.inc(1);
+        }
+        bar.finish_and_clear();
+        let loop_time = loop_start.elapsed();
+        for o in &mut observers {
+            o.finish()?;
+        }
+        if self.timings && last > first {
+            print_timings(&self.model, last - first, loop_time, output, threads);
+        }
+        Ok(Report {
+            model: self.model,
+            first,
+            loop_time,
+        })
+    }
+
+    fn snapshot(&self, step: u64, observers: &mut [Box<dyn Observer<M>>]) -> SimResult<Snapshot> {
+        let mut outputs = Vec::new();
+        for o in observers.iter_mut() {
+            outputs.extend(o.sync()?);
+        }
+        let mut state = State::default();
+        self.model.save(&mut state);
+        Ok(Snapshot {
+            step,
+            state,
+            outputs,
+        })
+    }
+
+    fn write_checkpoint(&self, file: &Path, good: &Snapshot) -> SimResult {
+        let path = self.dir.join(file);
+        let c = Checkpoint {
+            model: self.model.name().to_string(),
+            step: good.step,
+            physics: self.physics.clone(),
+            outputs: good.outputs.clone(),
+            state: good.state.clone(),
+        };
+        write_checkpoint(&path, &c).map_err(SimError::output(path.display().to_string()))
+    }
+
+    /// Restores the last good state, writes its frame and checkpoint, completes the
+    /// observers' files, and returns the error that names the step, the particle
+    /// and where the last good state is.
+    fn blow_up(
+        &mut self,
+        blowup: Blowup,
+        good: Snapshot,
+        observers: &mut [Box<dyn Observer<M>>],
+        threads: &Threads,
+    ) -> SimError {
+        for o in observers.iter_mut() {
+            if let Err(e) = o.finish() {
+                eprintln!("warning: {e}");
+            }
+        }
+        let mut written = Vec::new();
+        match self.model.restore(&good.state, threads) {
+            Ok(()) => {
+                match self.write_last_frame(good.step) {
+                    Ok(path) => written.push(path),
+                    Err(e) => eprintln!("warning: {e}"),
+                }
+                let file = self
+                    .checkpoint
+                    .as_ref()
+                    .map_or_else(|| PathBuf::from("last.ckpt"), |c| c.file.clone());
+                match self.write_checkpoint(&file, &good) {
+                    Ok(()) => written.push(self.dir.join(file).display().to_string()),
+                    Err(e) => eprintln!("warning: {e}"),
+                }
+            }
+            Err(e) => eprintln!("warning: the last good state could not be restored: {e}"),
+        }
+        let place = if written.is_empty() {
+            "could not be written".to_string()
+        } else {
+            format!("is in {}", written.join(" and "))
+        };
+        SimError::BlowUp(format!(
+            "{blowup}; the last good state (step {}) {place}",
+            good.step
+        ))
+    }
+
+    /// Writes the model's particles (or field) at `step` to its last-frame file.
+    fn write_last_frame(&self, step: u64) -> SimResult<String> {
+        match &self.last_frame {
+            LastFrame::Dump { file, columns } => {
+                let path = self.dir.join(file);
+                let what = path.display().to_string();
+                let particles = self.model.particles(step, false).ok_or_else(|| {
+                    SimError::Internal(format!("model {} has no particles", self.model.name()))
+                })?;
+                let mut out = AtomicFile::create(&path).map_err(SimError::output(what.clone()))?;
+                write_lammps_frame(out.writer(), &frame(&particles, step), columns)
+                    .and_then(|()| out.commit())
+                    .map_err(SimError::output(what.clone()))?;
+                Ok(what)
+            }
+            LastFrame::Field { file } => {
+                let path = self.dir.join(file);
+                let field = self.model.field().ok_or_else(|| {
+                    SimError::Internal(format!("model {} has no field", self.model.name()))
+                })?;
+                write_field_csv(&path, &field)?;
+                Ok(path.display().to_string())
+            }
+        }
+    }
+}
+
+/// The outputs a restart continues, or none for a new run.
+pub fn recorded(checkpoint: Option<&Checkpoint>) -> Recorded<'_> {
+    checkpoint.map_or(&[], |c| &c.outputs)
+}
+
+/// The loop's speed and its time per stage: the model's stages, the output, and
+/// the rest.
+fn print_timings<M: Model>(
+    model: &M,
+    steps: u64,
+    loop_time: Duration,
+    output: Duration,
+    threads: &Threads,
+) {
+    let total = loop_time.as_secs_f64();
+    println!("\n{}", model.speed(total, steps, threads.count()));
+    let mut stages = model.stage_times();
+    stages.push(("Output", output));
+    let known: Duration = stages.iter().map(|(_, d)| *d).sum();
+    stages.push(("Other", loop_time.saturating_sub(known)));
+    println!("{:<10} | {:>10} | {:>6}", "Section", "time (s)", "%total");
+    for (name, d) in stages {
+        let s = d.as_secs_f64();
+        let pct = if total > 0.0 { 100.0 * s / total } else { 0.0 };
+        println!("{name:<10} | {s:>10.4} | {pct:>6.2}");
+    }
+}

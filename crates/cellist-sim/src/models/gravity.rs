@@ -1,0 +1,488 @@
+//! `model = "gravity"`: the scenario keys of self-gravitating bodies, the initial
+//! bodies (Plummer sphere, seed 004's two bodies, a body file), the solver, and
+//! the outputs (thermo with energies and momenta, LAMMPS dumps with accelerations
+//! and potentials, the energy-error plot).
+
+use crate::driver::{CheckpointKeys, Job, LastFrame};
+use crate::error::{SimError, SimResult};
+use crate::observers::{DumpFormat, DumpPlan, OutputPlan, PlotSpec, TableStyle};
+use crate::scenario::Scenario;
+use cellist::interactions::GravityLaw;
+use cellist::longrange::p3m::SPLIT_CELLS;
+use cellist::longrange::{MeshBoundary, MeshParams, TreeParams};
+use cellist::models::gravity::{
+    plummer, two_body_seed004, Bodies, GravityError, GravityModel, GravitySystem, Integrator,
+    SolverChoice,
+};
+use cellist::Threads;
+use cellist_io::{read_bodies, GRAVITY_DUMP_COLUMNS};
+use serde::Deserialize;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// The most bodies a generated sphere or a benchmark may have (about 1 GB of
+/// bodies and solver buffers).
+pub const MAX_BODIES: usize = 10_000_000;
+
+/// The keys of a gravity scenario.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct GravityScenario {
+    model: String,
+    #[serde(default = "three")]
+    dimension: u64,
+    system: SystemKeys,
+    run: RunKeys,
+    #[serde(default)]
+    output: OutputKeys,
+}
+
+fn three() -> u64 {
+    3
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SystemKeys {
+    initial: InitialKeys,
+    #[serde(rename = "G", default = "one")]
+    g: f64,
+    #[serde(default)]
+    softening: f64,
+    #[serde(default)]
+    repulsion_radius: f64,
+    #[serde(default = "direct")]
+    solver: SolverKeys,
+}
+
+fn one() -> f64 {
+    1.0
+}
+
+fn direct() -> SolverKeys {
+    SolverKeys::Name("direct".into())
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct InitialKeys {
+    kind: Option<String>,
+    n: Option<i64>,
+    seed: Option<u64>,
+    file: Option<PathBuf>,
+}
+
+/// `solver = "direct"` or `solver = { kind = ..., ... }`.
+#[derive(Deserialize)]
+#[serde(untagged)]
+enum SolverKeys {
+    Name(String),
+    Table(SolverTable),
+}
+
+#[derive(Deserialize, Clone, Default)]
+#[serde(deny_unknown_fields)]
+struct SolverTable {
+    kind: String,
+    theta: Option<f64>,
+    quadrupole: Option<bool>,
+    leaf_size: Option<i64>,
+    group_size: Option<i64>,
+    grid: Option<i64>,
+    split: Option<f64>,
+    boundary: Option<String>,
+    #[serde(rename = "box")]
+    side: Option<f64>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RunKeys {
+    steps: u64,
+    dt: f64,
+    #[serde(default = "leapfrog")]
+    integrator: String,
+}
+
+fn leapfrog() -> String {
+    "leapfrog".into()
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields, default)]
+struct OutputKeys {
+    thermo_every: u64,
+    dump: Option<DumpKeys>,
+    checkpoint: Option<CheckpointKeys>,
+}
+
+impl Default for OutputKeys {
+    fn default() -> Self {
+        OutputKeys {
+            thermo_every: 10,
+            dump: None,
+            checkpoint: None,
+        }
+    }
+}
+
+#[derive(Deserialize, Clone)]
+#[serde(deny_unknown_fields)]
+struct DumpKeys {
+    every: u64,
+    #[serde(default = "dump_file")]
+    file: PathBuf,
+    #[serde(default = "dump_columns")]
+    columns: Vec<String>,
+}
+
+fn dump_file() -> PathBuf {
+    "bodies.dump".into()
+}
+
+fn dump_columns() -> Vec<String> {
+    GRAVITY_DUMP_COLUMNS.iter().map(|c| c.to_string()).collect()
+}
+
+/// Everything a run needs, checked.
+struct Setup {
+    law: GravityLaw,
+    bodies: Bodies,
+    initial: String,
+    choice: SolverChoice,
+    solver_name: String,
+    integrator: Integrator,
+    integrator_name: String,
+    dt: f64,
+    steps: u64,
+    thermo_every: u64,
+    dump: Option<DumpKeys>,
+    checkpoint: Option<CheckpointKeys>,
+}
+
+/// Runs a gravity scenario, from the checkpoint `restart` if given.
+pub fn run(
+    scenario: &Scenario,
+    out_dir: &Path,
+    restart: Option<&Path>,
+    threads: &Threads,
+) -> SimResult {
+    let keys: GravityScenario = scenario.parse()?;
+    debug_assert_eq!(keys.model, "gravity");
+    if !(keys.dimension == 2 || keys.dimension == 3) {
+        return Err(scenario.error(format!("dimension must be 2 or 3, got {}", keys.dimension)));
+    }
+    let setup = build(scenario, &keys, threads)?;
+    if keys.dimension == 2 {
+        let b = &setup.bodies;
+        if let Some(i) = (0..b.len()).find(|&i| b.position[i][2] != 0.0 || b.velocity[i][2] != 0.0)
+        {
+            return Err(scenario.error(format!(
+                "dimension = 2 needs z = 0 and vz = 0 for every body (the plane z = 0 of the \
+                 3D model); body {i} has z = {}, vz = {}",
+                b.position[i][2], b.velocity[i][2]
+            )));
+        }
+    }
+    run_setup(scenario, setup, out_dir, restart, threads)
+}
+
+/// The solver of `keys` and its name for messages.
+fn solver_choice(keys: &SolverKeys) -> Result<(SolverChoice, String), String> {
+    let table = match keys {
+        SolverKeys::Name(name) => SolverTable {
+            kind: name.clone(),
+            ..SolverTable::default()
+        },
+        SolverKeys::Table(t) => t.clone(),
+    };
+    const TREE: &[&str] = &["barnes-hut"];
+    const MESH: &[&str] = &["pm", "p3m"];
+    for (key, set, kinds) in [
+        ("theta", table.theta.is_some(), TREE),
+        ("quadrupole", table.quadrupole.is_some(), TREE),
+        ("leaf_size", table.leaf_size.is_some(), TREE),
+        ("group_size", table.group_size.is_some(), TREE),
+        ("grid", table.grid.is_some(), MESH),
+        ("boundary", table.boundary.is_some(), MESH),
+        ("box", table.side.is_some(), MESH),
+        ("split", table.split.is_some(), &["p3m"]),
+    ] {
+        if set && !kinds.contains(&table.kind.as_str()) {
+            return Err(format!(
+                "system.solver.{key} applies to kind = {} only",
+                kinds
+                    .iter()
+                    .map(|k| format!("\"{k}\""))
+                    .collect::<Vec<_>>()
+                    .join(" or ")
+            ));
+        }
+    }
+    match table.kind.as_str() {
+        "direct" => Ok((SolverChoice::Direct, "direct (all pairs)".into())),
+        "barnes-hut" => {
+            let d = TreeParams::default();
+            let size = |key: &str, v: Option<i64>, default: usize| {
+                v.map_or(Ok(default), |v| {
+                    usize::try_from(v).map_err(|_| format!("system.solver.{key} must be in 1..=256, got {v}"))
+                })
+            };
+            let params = TreeParams {
+                theta: table.theta.unwrap_or(d.theta),
+                quadrupole: table.quadrupole.unwrap_or(d.quadrupole),
+                leaf_size: size("leaf_size", table.leaf_size, d.leaf_size)?,
+                group_size: size("group_size", table.group_size, d.group_size)?,
+            };
+            params.check().map_err(|e| format!("system.solver: {e}"))?;
+            Ok((SolverChoice::BarnesHut(params), tree_name(&params)))
+        }
+        "pm" | "p3m" => {
+            let grid = table.grid.unwrap_or(64);
+            let grid = usize::try_from(grid)
+                .map_err(|_| format!("system.solver.grid must be a power of two >= 8, got {grid}"))?;
+            let boundary = mesh_boundary(table.boundary.as_deref(), table.side)?;
+            let mesh = MeshParams { grid, boundary };
+            if table.kind == "pm" {
+                Ok((SolverChoice::Pm(mesh), mesh_name("pm", &mesh, None)))
+            } else {
+                let split_cells = table.split.unwrap_or(SPLIT_CELLS);
+                Ok((SolverChoice::P3m { mesh, split_cells }, mesh_name("p3m", &mesh, Some(split_cells))))
+            }
+        }
+        other => Err(format!(
+            "system.solver kind '{other}' is unknown; expected \"direct\", \"barnes-hut\", \"pm\" or \"p3m\""
+        )),
+    }
+}
+
+/// `boundary = "isolated"` (default) or `"periodic"` with `box = L`: the periodic
+/// cube of side `L` centred on the origin.
+fn mesh_boundary(boundary: Option<&str>, side: Option<f64>) -> Result<MeshBoundary, String> {
+    match (boundary.unwrap_or("isolated"), side) {
+        ("isolated", None) => Ok(MeshBoundary::Isolated),
+        ("isolated", Some(_)) => {
+            Err("system.solver.box applies to boundary = \"periodic\" only".into())
+        }
+        ("periodic", Some(l)) if l.is_finite() && l > 0.0 => Ok(MeshBoundary::Periodic {
+            origin: [-0.5 * l; 3],
+            length: l,
+        }),
+        ("periodic", Some(l)) => Err(format!("system.solver.box must be > 0, got {l}")),
+        ("periodic", None) => Err(
+            "system.solver.boundary = \"periodic\" needs box = L (the cube [-L/2, L/2)^3)".into(),
+        ),
+        (other, _) => Err(format!(
+            "system.solver.boundary '{other}' is unknown; expected \"isolated\" or \"periodic\""
+        )),
+    }
+}
+
+fn tree_name(p: &TreeParams) -> String {
+    format!(
+        "barnes-hut (theta {}, {}, leaves of {}, groups of {})",
+        p.theta,
+        if p.quadrupole {
+            "quadrupoles"
+        } else {
+            "monopoles"
+        },
+        p.leaf_size,
+        p.group_size
+    )
+}
+
+fn mesh_name(kind: &str, mesh: &MeshParams, split: Option<f64>) -> String {
+    let boundary = match mesh.boundary {
+        MeshBoundary::Isolated => "isolated".to_string(),
+        MeshBoundary::Periodic { length, .. } => format!("periodic box {length}"),
+    };
+    let split = split.map_or(String::new(), |s| format!(", split {s} cells"));
+    format!("{kind} (grid {}^3, {boundary}{split})", mesh.grid)
+}
+
+/// The initial bodies of `keys` and a description.
+fn initial_bodies(
+    scenario: &Scenario,
+    keys: &InitialKeys,
+    law: &GravityLaw,
+    threads: &Threads,
+) -> SimResult<(Bodies, String)> {
+    let err = |m: String| scenario.error(m);
+    match (&keys.kind, &keys.file) {
+        (Some(_), Some(_)) => Err(err("system.initial has both kind and file; give one".into())),
+        (None, None) => Err(err(
+            "system.initial needs kind = \"plummer\" (with n, seed), kind = \"two-body-seed004\", or file = \"bodies.txt\"".into(),
+        )),
+        (None, Some(file)) => {
+            if keys.n.is_some() || keys.seed.is_some() {
+                return Err(err("system.initial.n and .seed apply to kind = \"plummer\" only".into()));
+            }
+            let path = scenario.input_path(file);
+            let read = read_bodies(&path).map_err(|e| SimError::Input(e.to_string()))?;
+            if read.extra_columns {
+                eprintln!("warning: {}: columns after the 7th (m x y z vx vy vz) are ignored", path.display());
+            }
+            let text = format!("{} bodies from {}", read.mass.len(), path.display());
+            Ok((Bodies { mass: read.mass, position: read.position, velocity: read.velocity }, text))
+        }
+        (Some(kind), None) => match kind.as_str() {
+            "plummer" => {
+                let n = keys.n.ok_or_else(|| err("system.initial.n is required for a Plummer sphere".into()))?;
+                if !(2..=MAX_BODIES as i64).contains(&n) {
+                    return Err(err(format!("system.initial.n must be in 2..={MAX_BODIES}, got {n}")));
+                }
+                let seed = keys.seed.unwrap_or(1);
+                let bodies = plummer(n as usize, seed, law, threads);
+                Ok((bodies, format!("Plummer sphere of {n} bodies (seed {seed}, G = M = a = 1, virial 2T = |W|)")))
+            }
+            "two-body-seed004" => {
+                if keys.n.is_some() || keys.seed.is_some() {
+                    return Err(err("system.initial.n and .seed apply to kind = \"plummer\" only".into()));
+                }
+                Ok((two_body_seed004(), "seed 004's two bodies (m = 50 at (0,0,0) and (0,30,0), v = (1,0,0))".into()))
+            }
+            other => Err(err(format!(
+                "system.initial.kind '{other}' is unknown; expected \"plummer\" or \"two-body-seed004\" (or file = ...)"
+            ))),
+        },
+    }
+}
+
+/// Checks the scenario and builds the bodies.
+fn build(scenario: &Scenario, keys: &GravityScenario, threads: &Threads) -> SimResult<Setup> {
+    let err = |m: String| scenario.error(m);
+    let s = &keys.system;
+    if !(s.softening.is_finite() && s.softening >= 0.0) {
+        return Err(err(format!(
+            "system.softening must be >= 0, got {}",
+            s.softening
+        )));
+    }
+    let law = GravityLaw::new(s.g, s.softening, s.repulsion_radius)
+        .map_err(|e| err(format!("system: {e}")))?;
+    let (choice, solver_name) = solver_choice(&s.solver).map_err(err)?;
+    let (bodies, initial) = initial_bodies(scenario, &s.initial, &law, threads)?;
+    let integrator = Integrator::from_name(&keys.run.integrator).ok_or_else(|| {
+        err(format!(
+            "run.integrator '{}' is unknown; expected one of: {}",
+            keys.run.integrator,
+            Integrator::ALL.map(|(n, _)| n).join(", ")
+        ))
+    })?;
+    if !(keys.run.dt.is_finite() && keys.run.dt > 0.0) {
+        return Err(err(format!("run.dt must be > 0, got {}", keys.run.dt)));
+    }
+    if let Some(c) = &keys.output.checkpoint {
+        c.check("output.checkpoint").map_err(err)?;
+    }
+    if let Some(d) = &keys.output.dump {
+        if d.every == 0 {
+            return Err(err("output.dump.every must be >= 1".into()));
+        }
+        if d.columns.is_empty() {
+            return Err(err("output.dump.columns is empty".into()));
+        }
+        if let Some(c) = d
+            .columns
+            .iter()
+            .find(|c| !GRAVITY_DUMP_COLUMNS.contains(&c.as_str()))
+        {
+            return Err(err(format!(
+                "output.dump.columns: '{c}' is unknown; expected some of {}",
+                GRAVITY_DUMP_COLUMNS.join(" ")
+            )));
+        }
+    }
+    Ok(Setup {
+        law,
+        bodies,
+        initial,
+        choice,
+        solver_name,
+        integrator,
+        integrator_name: keys.run.integrator.clone(),
+        dt: keys.run.dt,
+        steps: keys.run.steps,
+        thermo_every: keys.output.thermo_every,
+        dump: keys.output.dump.clone(),
+        checkpoint: keys.output.checkpoint.clone(),
+    })
+}
+
+fn run_setup(
+    scenario: &Scenario,
+    setup: Setup,
+    out_dir: &Path,
+    restart: Option<&Path>,
+    threads: &Threads,
+) -> SimResult {
+    let started = Instant::now();
+    let system = GravitySystem::new(setup.law, setup.bodies.clone(), &setup.choice, threads)
+        .map_err(|e| match e {
+            GravityError::NotFinite { .. } => {
+                scenario.error(format!("step 0 (the first forces): {e}"))
+            }
+            GravityError::Parameter(_) => scenario.error(e),
+        })?;
+    println!(
+        "gravity: {}; G {}, softening {}{}; solver {}",
+        setup.initial,
+        setup.law.g(),
+        setup.law.softening(),
+        if setup.law.has_repulsion() {
+            format!(", repulsion radius {}", setup.law.repulsion_radius())
+        } else {
+            String::new()
+        },
+        setup.solver_name
+    );
+    println!(
+        "run: {} steps of dt {} with {}, {} thread(s); results in {}",
+        setup.steps,
+        setup.dt,
+        setup.integrator_name,
+        threads.count(),
+        out_dir.display()
+    );
+    let plan = OutputPlan {
+        thermo_every: setup.thermo_every,
+        table: TableStyle {
+            width: 18,
+            precision: 10,
+            exponent: true,
+            shown: 5,
+        },
+        plot: Some(PlotSpec {
+            file: "energy.png",
+            title: "Relative energy error",
+            x_label: "time",
+            y_label: "|E - E0| / |E0|",
+            series: vec![("relative energy error", "rel_energy_error", true)],
+        }),
+        dumps: setup
+            .dump
+            .iter()
+            .map(|d| DumpPlan {
+                every: d.every,
+                file: d.file.clone(),
+                columns: d.columns.clone(),
+                format: DumpFormat::Lammps,
+            })
+            .collect(),
+        field: None,
+    };
+    let job = Job {
+        model: GravityModel::new(system, setup.integrator, setup.dt),
+        steps: setup.steps,
+        dir: out_dir.to_path_buf(),
+        checkpoint: setup.checkpoint.clone(),
+        physics: scenario.physics_keys()?,
+        timings: true,
+        last_frame: LastFrame::Dump {
+            file: "last.dump",
+            columns: dump_columns(),
+        },
+    };
+    crate::execute(job, &plan, restart, threads, started)
+}

@@ -1,0 +1,636 @@
+//! Observers: what the driver does after a step when their trigger fires. Each is
+//! written once and works for every model that declares what it needs: thermo
+//! rows (and the plot drawn from them), LAMMPS and extended XYZ dumps, field files
+//! and pictures. Files that grow as the run goes are [`StreamFile`]s, so that a
+//! restart continues them from the lengths its checkpoint recorded.
+
+use crate::error::{SimError, SimResult};
+use crate::progress::print_above;
+use cellist::models::{Field, Model, Particles};
+use cellist_io::plot::{line_chart, Series};
+use cellist_io::{
+    format_g17, write_field, write_lammps_frame, write_png, write_xyz_frame, AtomicFile,
+    FieldPainter, Frame, GifAnimation, StreamFile,
+};
+use indicatif::ProgressBar;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+/// Something done after the steps its trigger picks.
+pub trait Observer<M: Model> {
+    /// True when `step` (of a run ending at `last`) is one of its steps.
+    fn due(&self, step: u64, last: u64) -> bool;
+
+    /// True when the step must compute what [`Model::thermo`] and per-particle
+    /// energies need.
+    fn needs_observables(&self, _step: u64, _last: u64) -> bool {
+        false
+    }
+
+    /// Writes what it writes for the state after `step`.
+    fn observe(&mut self, model: &M, step: u64, last: u64, bar: &ProgressBar) -> SimResult;
+
+    /// Flushes its growing files and returns their names (relative to the output
+    /// folder) and lengths, for a checkpoint.
+    fn sync(&mut self) -> SimResult<Vec<(String, u64)>> {
+        Ok(Vec::new())
+    }
+
+    /// Completes its files at the end of the run (or after a blow-up).
+    fn finish(&mut self) -> SimResult {
+        Ok(())
+    }
+}
+
+/// The output files a checkpoint recorded, `(name, length)`; empty for a new run.
+pub type Recorded<'a> = &'a [(String, u64)];
+
+/// Opens `dir/name` for writing: continued from its recorded length when the
+/// checkpoint recorded it and it exists, else new. Returns the file and whether it
+/// was continued.
+pub fn open_stream(dir: &Path, name: &str, recorded: Recorded) -> SimResult<(StreamFile, bool)> {
+    let path = dir.join(name);
+    let what = path.display().to_string();
+    match recorded.iter().find(|(n, _)| n == name) {
+        Some((_, length)) if path.exists() => StreamFile::resume(&path, *length)
+            .map(|f| (f, true))
+            .map_err(|e| match e.kind() {
+                std::io::ErrorKind::InvalidData => SimError::Input(e.to_string()),
+                _ => SimError::Output(e, what),
+            }),
+        _ => StreamFile::create(&path)
+            .map(|f| (f, false))
+            .map_err(SimError::output(what)),
+    }
+}
+
+fn sync_one(file: &mut StreamFile, name: &str) -> SimResult<(String, u64)> {
+    let length = file
+        .sync()
+        .map_err(SimError::output(file.path().display().to_string()))?;
+    Ok((name.to_string(), length))
+}
+
+/// How the thermo table prints: columns of `width` characters, numbers with
+/// `precision` digits in fixed or exponent form, the first `shown` value columns.
+#[derive(Clone, Copy, Debug)]
+pub struct TableStyle {
+    /// Characters per column.
+    pub width: usize,
+    /// Digits after the point.
+    pub precision: usize,
+    /// Exponent form (`1.5e-3`) rather than fixed.
+    pub exponent: bool,
+    /// Value columns shown on the terminal (the CSV has all).
+    pub shown: usize,
+}
+
+/// A line chart of thermo columns against time, drawn at the end of the run.
+#[derive(Clone, Debug)]
+pub struct PlotSpec {
+    /// File name in the output folder.
+    pub file: &'static str,
+    /// Title.
+    pub title: &'static str,
+    /// Label of the time axis.
+    pub x_label: &'static str,
+    /// Label of the value axis.
+    pub y_label: &'static str,
+    /// `(legend, thermo column, plot |value|)` per curve.
+    pub series: Vec<(&'static str, &'static str, bool)>,
+}
+
+/// The thermo rows: `thermo.csv` (`step` and the model's columns at `%.17g`), the
+/// table on the terminal, and the plot at the end.
+pub struct Thermo {
+    every: u64,
+    columns: Vec<&'static str>,
+    style: TableStyle,
+    file: StreamFile,
+    dt: f64,
+    rows: Vec<(u64, Vec<f64>)>,
+    plot: Option<PlotSpec>,
+    dir: PathBuf,
+}
+
+const THERMO_FILE: &str = "thermo.csv";
+
+impl Thermo {
+    /// Thermo every `every` steps (and at the first and last) of `model`, the
+    /// rows of a continued file read back for the plot.
+    pub fn new<M: Model>(
+        model: &M,
+        every: u64,
+        style: TableStyle,
+        plot: Option<PlotSpec>,
+        dir: &Path,
+        recorded: Recorded,
+    ) -> SimResult<Self> {
+        let mut columns = vec!["step"];
+        columns.extend_from_slice(model.thermo_columns());
+        let (mut file, continued) = open_stream(dir, THERMO_FILE, recorded)?;
+        let rows = if continued {
+            read_rows(&dir.join(THERMO_FILE), columns.len())?
+        } else {
+            writeln!(file.writer(), "{}", columns.join(","))
+                .map_err(SimError::output(THERMO_FILE))?;
+            Vec::new()
+        };
+        let header: String = columns[..=style.shown]
+            .iter()
+            .map(|c| format!("{c:>w$}", w = style.width))
+            .collect();
+        println!("{header}");
+        Ok(Thermo {
+            every,
+            columns,
+            style,
+            file,
+            dt: model.dt(),
+            rows,
+            plot,
+            dir: dir.to_path_buf(),
+        })
+    }
+
+    fn draw_plot(&self, plot: &PlotSpec) -> SimResult {
+        let curves: Vec<Vec<(f64, f64)>> = plot
+            .series
+            .iter()
+            .map(|&(_, column, abs)| {
+                let c = self
+                    .columns
+                    .iter()
+                    .position(|n| *n == column)
+                    .expect("a thermo column")
+                    - 1;
+                self.rows
+                    .iter()
+                    .map(|(step, v)| (*step as f64 * self.dt, if abs { v[c].abs() } else { v[c] }))
+                    .collect()
+            })
+            .collect();
+        let series: Vec<Series> = plot
+            .series
+            .iter()
+            .zip(&curves)
+            .map(|(&(label, _, _), points)| Series { label, points })
+            .collect();
+        let path = self.dir.join(plot.file);
+        line_chart(&path, plot.title, plot.x_label, plot.y_label, &series)
+            .map_err(|e| SimError::Output(std::io::Error::other(e), path.display().to_string()))
+    }
+}
+
+/// The rows of a thermo CSV (after its header).
+fn read_rows(path: &Path, columns: usize) -> SimResult<Vec<(u64, Vec<f64>)>> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| SimError::Input(format!("{}: cannot read: {e}", path.display())))?;
+    let bad = |line: usize| {
+        SimError::Input(format!(
+            "{}:{line}: not a thermo row of {columns} numbers; the file does not continue the checkpoint's run",
+            path.display()
+        ))
+    };
+    let mut rows = Vec::new();
+    for (k, line) in text.lines().enumerate().skip(1) {
+        let mut fields = line.split(',');
+        let step = fields
+            .next()
+            .and_then(|s| s.parse::<u64>().ok())
+            .ok_or_else(|| bad(k + 1))?;
+        let values: Vec<f64> = fields
+            .map(|f| f.parse::<f64>())
+            .collect::<Result<_, _>>()
+            .map_err(|_| bad(k + 1))?;
+        if values.len() + 1 != columns {
+            return Err(bad(k + 1));
+        }
+        rows.push((step, values));
+    }
+    Ok(rows)
+}
+
+impl<M: Model> Observer<M> for Thermo {
+    fn due(&self, step: u64, last: u64) -> bool {
+        step == 0 || step == last || (self.every > 0 && step % self.every == 0)
+    }
+
+    fn needs_observables(&self, step: u64, last: u64) -> bool {
+        <Self as Observer<M>>::due(self, step, last)
+    }
+
+    fn observe(&mut self, model: &M, step: u64, _last: u64, bar: &ProgressBar) -> SimResult {
+        let values = model.thermo(step);
+        let mut line = step.to_string();
+        for &v in &values {
+            line.push(',');
+            format_g17(v, &mut line);
+        }
+        writeln!(self.file.writer(), "{line}").map_err(SimError::output(THERMO_FILE))?;
+        let TableStyle {
+            width: w,
+            precision: p,
+            exponent,
+            shown,
+        } = self.style;
+        let table = format!("{step:>w$}")
+            + &values[..shown]
+                .iter()
+                .map(|v| {
+                    if exponent {
+                        format!("{v:>w$.p$e}")
+                    } else {
+                        format!("{v:>w$.p$}")
+                    }
+                })
+                .collect::<String>();
+        print_above(bar, &table);
+        self.rows.push((step, values));
+        Ok(())
+    }
+
+    fn sync(&mut self) -> SimResult<Vec<(String, u64)>> {
+        Ok(vec![sync_one(&mut self.file, THERMO_FILE)?])
+    }
+
+    fn finish(&mut self) -> SimResult {
+        self.file.sync().map_err(SimError::output(THERMO_FILE))?;
+        match &self.plot {
+            Some(plot) if self.rows.len() >= 2 => self.draw_plot(plot),
+            _ => Ok(()),
+        }
+    }
+}
+
+/// The text formats of particle frames.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DumpFormat {
+    /// LAMMPS `dump custom` text.
+    Lammps,
+    /// Extended XYZ.
+    Xyz,
+}
+
+/// A trajectory file: a frame every `every` steps.
+pub struct Dump {
+    every: u64,
+    name: String,
+    file: StreamFile,
+    columns: Vec<String>,
+    format: DumpFormat,
+}
+
+impl Dump {
+    /// Frames of `columns` (LAMMPS) every `every` steps to `dir/name`.
+    pub fn new(
+        every: u64,
+        name: &Path,
+        columns: Vec<String>,
+        format: DumpFormat,
+        dir: &Path,
+        recorded: Recorded,
+    ) -> SimResult<Self> {
+        let name = name.to_string_lossy().into_owned();
+        let (file, _) = open_stream(dir, &name, recorded)?;
+        Ok(Dump {
+            every,
+            name,
+            file,
+            columns,
+            format,
+        })
+    }
+
+    fn energies(&self) -> bool {
+        self.format == DumpFormat::Lammps && self.columns.iter().any(|c| c == "pe")
+    }
+}
+
+/// A dump frame borrowing `p`'s columns.
+pub fn frame(p: &Particles, step: u64) -> Frame<'_> {
+    Frame {
+        step,
+        lo: p.lo,
+        hi: p.hi,
+        periodic: p.periodic,
+        ids: &p.ids,
+        types: &p.types,
+        positions: &p.positions,
+        velocities: &p.velocities,
+        forces: &p.forces,
+        energies: p.energies.as_deref(),
+        masses: p.masses.as_deref(),
+        accelerations: p.accelerations.as_deref(),
+        potentials: p.potentials.as_deref(),
+    }
+}
+
+impl<M: Model> Observer<M> for Dump {
+    fn due(&self, step: u64, _last: u64) -> bool {
+        step % self.every == 0
+    }
+
+    fn needs_observables(&self, step: u64, last: u64) -> bool {
+        self.energies() && <Self as Observer<M>>::due(self, step, last)
+    }
+
+    fn observe(&mut self, model: &M, step: u64, _last: u64, _bar: &ProgressBar) -> SimResult {
+        let Some(particles) = model.particles(step, self.energies()) else {
+            return Err(SimError::Internal(format!(
+                "model {} has no particle columns to dump",
+                model.name()
+            )));
+        };
+        let frame = frame(&particles, step);
+        let w = self.file.writer();
+        match self.format {
+            DumpFormat::Lammps => write_lammps_frame(w, &frame, &self.columns),
+            DumpFormat::Xyz => write_xyz_frame(w, &frame, step as f64 * model.dt()),
+        }
+        .map_err(SimError::output(self.name.clone()))
+    }
+
+    fn sync(&mut self) -> SimResult<Vec<(String, u64)>> {
+        Ok(vec![sync_one(&mut self.file, &self.name)?])
+    }
+
+    fn finish(&mut self) -> SimResult {
+        self.file
+            .sync()
+            .map(drop)
+            .map_err(SimError::output(self.name.clone()))
+    }
+}
+
+/// Snapshots every `every` steps (and at step 0 and the last step) to `file`.
+#[derive(Clone, Debug)]
+pub struct Every {
+    /// The period in steps.
+    pub every: u64,
+    /// The file name (a pattern for per-step files, see [`snapshot_path`]).
+    pub file: PathBuf,
+}
+
+impl Every {
+    fn due(&self, step: u64, last: u64) -> bool {
+        step == 0 || step == last || step % self.every == 0
+    }
+}
+
+fn due(every: &Option<Every>, step: u64, last: u64) -> bool {
+    every.as_ref().is_some_and(|e| e.due(step, last))
+}
+
+/// `file` for the snapshot of `step`: a `*` in the name becomes the step, otherwise
+/// `_<step>` goes before the extension; the step is zero-padded to the width of the
+/// last step, so that the files sort in time order.
+pub fn snapshot_path(dir: &Path, file: &Path, step: u64, last: u64) -> PathBuf {
+    let width = last.to_string().len();
+    let stamp = format!("{step:0width$}");
+    let name = file.to_string_lossy();
+    let named = if name.contains('*') {
+        name.replace('*', &stamp)
+    } else {
+        match (file.file_stem(), file.extension()) {
+            (Some(stem), Some(ext)) => {
+                let parent = file.parent().unwrap_or(Path::new(""));
+                parent
+                    .join(format!(
+                        "{}_{stamp}.{}",
+                        stem.to_string_lossy(),
+                        ext.to_string_lossy()
+                    ))
+                    .to_string_lossy()
+                    .into_owned()
+            }
+            _ => format!("{name}_{stamp}"),
+        }
+    };
+    dir.join(named)
+}
+
+/// Writes a field CSV whole or not at all.
+pub fn write_field_csv(path: &Path, field: &Field) -> SimResult {
+    let what = || path.display().to_string();
+    let mut file = AtomicFile::create(path).map_err(SimError::output(what()))?;
+    write_field(
+        file.writer(),
+        field.dimension,
+        &field.positions,
+        &field.values,
+    )
+    .map_err(SimError::output(what()))?;
+    file.commit().map_err(SimError::output(what()))
+}
+
+/// The particles to draw: all of a 2D field; in 3D the layer nearest the middle of
+/// the box along z (within half a spacing of it).
+fn slice(field: &Field) -> impl Iterator<Item = ([f64; 2], f64)> + '_ {
+    let three = field.dimension == 3;
+    let middle = 0.5 * field.side;
+    let plane = if three {
+        field
+            .positions
+            .iter()
+            .map(|x| x[2])
+            .min_by(|a, b| (a - middle).abs().total_cmp(&(b - middle).abs()))
+            .unwrap_or(middle)
+    } else {
+        0.0
+    };
+    field
+        .positions
+        .iter()
+        .zip(&field.values)
+        .filter(move |(x, _)| !three || (x[2] - plane).abs() < 0.5 * field.spacing)
+        .map(|(x, &v)| ([x[0], x[1]], v))
+}
+
+/// Field snapshots: CSV files, PNG pictures and a GIF animation.
+pub struct FieldFiles {
+    dir: PathBuf,
+    csv: Option<Every>,
+    png: Option<Every>,
+    gif: Option<(Every, GifAnimation)>,
+    painter: FieldPainter,
+}
+
+impl FieldFiles {
+    /// Snapshots of `model`'s field on `size`-pixel pictures.
+    pub fn new<M: Model>(
+        model: &M,
+        csv: Option<Every>,
+        png: Option<Every>,
+        gif: Option<Every>,
+        size: u32,
+        dir: &Path,
+        recorded: Recorded,
+    ) -> SimResult<Self> {
+        let field = model
+            .field()
+            .ok_or_else(|| SimError::Internal(format!("model {} has no field", model.name())))?;
+        let painter = FieldPainter::new(size, field.side, field.spacing, field.scale);
+        let gif = match gif {
+            Some(g) => {
+                let path = dir.join(&g.file);
+                let name = g.file.to_string_lossy().into_owned();
+                let palette = FieldPainter::palette();
+                let what = path.display().to_string();
+                let animation = match recorded.iter().find(|(n, _)| *n == name) {
+                    Some((_, length)) if path.exists() => {
+                        GifAnimation::resume(&path, *length, painter.size(), &palette).map_err(
+                            |e| match e.kind() {
+                                std::io::ErrorKind::InvalidData => SimError::Input(e.to_string()),
+                                _ => SimError::Output(e, what.clone()),
+                            },
+                        )?
+                    }
+                    _ => GifAnimation::create(&path, painter.size(), &palette)
+                        .map_err(SimError::output(what))?,
+                };
+                Some((g, animation))
+            }
+            None => None,
+        };
+        Ok(FieldFiles {
+            dir: dir.to_path_buf(),
+            csv,
+            png,
+            gif,
+            painter,
+        })
+    }
+}
+
+impl<M: Model> Observer<M> for FieldFiles {
+    fn due(&self, step: u64, last: u64) -> bool {
+        due(&self.csv, step, last)
+            || due(&self.png, step, last)
+            || self.gif.as_ref().is_some_and(|(g, _)| g.due(step, last))
+    }
+
+    fn observe(&mut self, model: &M, step: u64, last: u64, _bar: &ProgressBar) -> SimResult {
+        let field = model.field().expect("a model with a field");
+        if let Some(c) = self.csv.as_ref().filter(|c| c.due(step, last)) {
+            write_field_csv(&snapshot_path(&self.dir, &c.file, step, last), &field)?;
+        }
+        let gif_due = self.gif.as_ref().is_some_and(|(g, _)| g.due(step, last));
+        if due(&self.png, step, last) || gif_due {
+            let size = self.painter.size();
+            let pixels = self.painter.render(slice(&field));
+            if let Some(p) = self.png.as_ref().filter(|p| p.due(step, last)) {
+                let path = snapshot_path(&self.dir, &p.file, step, last);
+                write_png(&path, size, pixels, &FieldPainter::palette())
+                    .map_err(SimError::output(path.display().to_string()))?;
+            }
+            if let Some((_, gif)) = self.gif.as_mut().filter(|_| gif_due) {
+                gif.add_frame(pixels, 8)
+                    .map_err(SimError::output("the GIF animation"))?;
+            }
+        }
+        Ok(())
+    }
+
+    fn sync(&mut self) -> SimResult<Vec<(String, u64)>> {
+        match self.gif.as_mut() {
+            Some((g, gif)) => {
+                let length = gif.sync().map_err(SimError::output("the GIF animation"))?;
+                Ok(vec![(g.file.to_string_lossy().into_owned(), length)])
+            }
+            None => Ok(Vec::new()),
+        }
+    }
+
+    fn finish(&mut self) -> SimResult {
+        match self.gif.take() {
+            Some((g, gif)) => gif.finish().map_err(SimError::output(
+                self.dir.join(g.file).display().to_string(),
+            )),
+            None => Ok(()),
+        }
+    }
+}
+
+/// A dump the scenario asks for.
+#[derive(Clone, Debug)]
+pub struct DumpPlan {
+    /// Steps between frames.
+    pub every: u64,
+    /// File name in the output folder.
+    pub file: PathBuf,
+    /// Columns (LAMMPS dumps).
+    pub columns: Vec<String>,
+    /// The format.
+    pub format: DumpFormat,
+}
+
+/// Field snapshots the scenario asks for.
+#[derive(Clone, Debug)]
+pub struct FieldPlan {
+    /// CSV files.
+    pub csv: Option<Every>,
+    /// PNG pictures.
+    pub png: Option<Every>,
+    /// The GIF animation.
+    pub gif: Option<Every>,
+    /// Picture size in pixels.
+    pub size: u32,
+}
+
+/// The outputs of a scenario run: thermo, dumps and field snapshots.
+#[derive(Clone, Debug)]
+pub struct OutputPlan {
+    /// Steps between thermo rows (0: the first and last step only).
+    pub thermo_every: u64,
+    /// The terminal table's format.
+    pub table: TableStyle,
+    /// The plot of thermo columns.
+    pub plot: Option<PlotSpec>,
+    /// Dumps.
+    pub dumps: Vec<DumpPlan>,
+    /// Field snapshots.
+    pub field: Option<FieldPlan>,
+}
+
+impl OutputPlan {
+    /// The observers of this plan for `model`, writing to `dir` (continuing the
+    /// `recorded` files of a restart).
+    pub fn observers<M: Model + 'static>(
+        &self,
+        model: &M,
+        dir: &Path,
+        recorded: Recorded,
+    ) -> SimResult<Vec<Box<dyn Observer<M>>>> {
+        let mut observers: Vec<Box<dyn Observer<M>>> = vec![Box::new(Thermo::new(
+            model,
+            self.thermo_every,
+            self.table,
+            self.plot.clone(),
+            dir,
+            recorded,
+        )?)];
+        for d in &self.dumps {
+            observers.push(Box::new(Dump::new(
+                d.every,
+                &d.file,
+                d.columns.clone(),
+                d.format,
+                dir,
+                recorded,
+            )?));
+        }
+        if let Some(f) = &self.field {
+            observers.push(Box::new(FieldFiles::new(
+                model,
+                f.csv.clone(),
+                f.png.clone(),
+                f.gif.clone(),
+                f.size,
+                dir,
+                recorded,
+            )?));
+        }
+        Ok(observers)
+    }
+}

@@ -1,0 +1,177 @@
+//! The collision benchmark behind the driver's [`Model`] interface.
+
+use super::{not_converged_what, overflow_what, Billiards, BilliardsError};
+use crate::models::{Blowup, Checked, Model, Particles};
+use crate::state::{State, StateError};
+use crate::threads::Threads;
+use std::time::{Duration, Instant};
+
+/// A [`Billiards`] table with the input's particle ids, and the hardest step so
+/// far (the one that needed the most sweeps).
+pub struct BilliardsModel {
+    /// The discs.
+    pub system: Billiards,
+    /// The ids of the input's lines, in vector order.
+    pub ids: Vec<u32>,
+    /// `(step, sweeps)` of the hardest step so far.
+    pub hardest: (u64, u64),
+    step_time: Duration,
+}
+
+impl BilliardsModel {
+    /// The model of `system` whose discs carry `ids`.
+    pub fn new(system: Billiards, ids: Vec<u32>) -> Self {
+        BilliardsModel {
+            system,
+            ids,
+            hardest: (0, 0),
+            step_time: Duration::ZERO,
+        }
+    }
+}
+
+impl Model for BilliardsModel {
+    fn name(&self) -> &'static str {
+        "billiards"
+    }
+
+    fn particle_word(&self) -> &'static str {
+        "particle"
+    }
+
+    fn len(&self) -> usize {
+        self.system.len()
+    }
+
+    /// One step moves every disc by its velocity: time is counted in steps.
+    fn dt(&self) -> f64 {
+        1.0
+    }
+
+    fn step(&mut self, step: u64, _observe: bool, threads: &Threads) -> Result<(), Blowup> {
+        let t = Instant::now();
+        let result = self.system.step(step, threads);
+        self.step_time += t.elapsed();
+        let stats = result.map_err(|e| {
+            let what = match e {
+                BilliardsError::Overflow { index, .. } => overflow_what(index),
+                BilliardsError::NotConverged {
+                    sweeps,
+                    first,
+                    size,
+                    ..
+                } => not_converged_what(sweeps, first, size),
+                other => other.to_string(),
+            };
+            Blowup {
+                step,
+                what,
+                value: None,
+                remedy: self.remedy().into(),
+            }
+        })?;
+        if stats.sweeps > self.hardest.1 {
+            self.hardest = (step, stats.sweeps);
+        }
+        Ok(())
+    }
+
+    fn thermo_columns(&self) -> &'static [&'static str] {
+        &["energy"]
+    }
+
+    /// The benchmark's energy `sum (vx^2 + vy^2)`.
+    fn thermo(&self, _step: u64) -> Vec<f64> {
+        vec![self.system.energy()]
+    }
+
+    fn checked(&self) -> Vec<Checked<'_>> {
+        let s = &self.system;
+        vec![
+            Checked {
+                quantity: "x",
+                values: &s.x,
+                per_particle: 1,
+            },
+            Checked {
+                quantity: "y",
+                values: &s.y,
+                per_particle: 1,
+            },
+            Checked {
+                quantity: "velocity",
+                values: s.v.as_flattened(),
+                per_particle: 2,
+            },
+        ]
+    }
+
+    fn id_of(&self, index: usize) -> u64 {
+        self.ids[index] as u64
+    }
+
+    fn remedy(&self) -> &'static str {
+        "the input's speeds or overlaps are beyond what the benchmark's rules settle: \
+         check the input, or raise --max-sweeps"
+    }
+
+    /// In vector order, the box `[0, L]^2` (walls, not periodic), z = 0.
+    fn particles(&self, _step: u64, _energies: bool) -> Option<Particles> {
+        let s = &self.system;
+        Some(Particles {
+            lo: [0.0, 0.0, -0.5],
+            hi: [s.table().side_f(), s.table().side_f(), 0.5],
+            periodic: [false; 3],
+            ids: self.ids.iter().map(|&i| i as u64).collect(),
+            types: vec![1; s.len()],
+            positions: s.x.iter().zip(&s.y).map(|(&x, &y)| [x, y, 0.0]).collect(),
+            velocities: s.v.iter().map(|v| [v[0], v[1], 0.0]).collect(),
+            ..Particles::default()
+        })
+    }
+
+    fn stage_times(&self) -> Vec<(&'static str, Duration)> {
+        vec![("Step", self.step_time)]
+    }
+
+    fn speed(&self, loop_seconds: f64, steps: u64, threads: usize) -> String {
+        format!(
+            "billiards: {} particles, {steps} steps in {loop_seconds:.3} s ({:.1} steps/s) on {threads} \
+             thread(s); hardest step {} needed {} sweeps",
+            self.len(),
+            steps as f64 / loop_seconds.max(1e-12),
+            self.hardest.0,
+            self.hardest.1
+        )
+    }
+
+    fn save(&self, state: &mut State) {
+        let s = &self.system;
+        state.put_u64s("ids", self.ids.iter().map(|&i| i as u64));
+        state.put_f64s("x", s.x.iter().copied());
+        state.put_f64s("y", s.y.iter().copied());
+        state.put_vectors("v", &s.v);
+        state.put_u64s("hardest", [self.hardest.0, self.hardest.1]);
+    }
+
+    fn restore(&mut self, state: &State, _threads: &Threads) -> Result<(), StateError> {
+        let n = self.len();
+        let ids = state.u64s_of("ids", n)?;
+        if ids.iter().zip(&self.ids).any(|(&a, &b)| a != b as u64) {
+            return Err(StateError(
+                "the particle ids differ from the input's".into(),
+            ));
+        }
+        let hardest = state.u64s_of("hardest", 2)?;
+        let (x, y, v) = (
+            state.f64s_of("x", n)?,
+            state.f64s_of("y", n)?,
+            state.vectors("v", n)?,
+        );
+        self.system.x = x;
+        self.system.y = y;
+        self.system.v = v;
+        self.hardest = (hardest[0], hardest[1]);
+        Ok(())
+    }
+}

@@ -1,0 +1,227 @@
+//! Molecular dynamics behind the driver's [`Model`] interface.
+
+use super::{Atoms, Integrator, MdError, MdSystem, StageTimes};
+use crate::models::{Blowup, Checked, Model, Particles};
+use crate::state::{State, StateError};
+use crate::threads::Threads;
+use std::time::Duration;
+
+/// An [`MdSystem`] with its integrator and time step: what `cellist run` drives.
+pub struct MdModel<const D: usize> {
+    /// The atoms, potential and neighbour list.
+    pub system: MdSystem<D>,
+    /// How the atoms move.
+    pub integrator: Integrator,
+    /// The time step.
+    pub dt: f64,
+    /// The z bounds written in dumps of 2D systems.
+    pub z_bounds: (f64, f64),
+    times: StageTimes,
+}
+
+impl<const D: usize> MdModel<D> {
+    /// The model of `system` advanced by `integrator` with steps of `dt`.
+    pub fn new(system: MdSystem<D>, integrator: Integrator, dt: f64, z_bounds: (f64, f64)) -> Self {
+        MdModel {
+            system,
+            integrator,
+            dt,
+            z_bounds,
+            times: StageTimes::default(),
+        }
+    }
+}
+
+const REMEDY: &str =
+    "the forces grew without bound: try a smaller run.dt, or check the initial state for atoms too close together";
+
+fn pad<const D: usize>(v: [f64; D]) -> [f64; 3] {
+    std::array::from_fn(|a| if a < D { v[a] } else { 0.0 })
+}
+
+impl<const D: usize> Model for MdModel<D> {
+    fn name(&self) -> &'static str {
+        "md"
+    }
+
+    fn particle_word(&self) -> &'static str {
+        "atom"
+    }
+
+    fn len(&self) -> usize {
+        self.system.atoms().len()
+    }
+
+    fn dt(&self) -> f64 {
+        self.dt
+    }
+
+    fn step(&mut self, step: u64, observe: bool, threads: &Threads) -> Result<(), Blowup> {
+        self.system
+            .step(
+                &self.integrator,
+                self.dt,
+                step,
+                observe,
+                threads,
+                &mut self.times,
+            )
+            .map_err(|e| {
+                let (what, value) = match &e {
+                    MdError::LeftBox {
+                        id,
+                        axis,
+                        coordinate,
+                        ..
+                    } => (
+                        format!(
+                            "atom {id} left the box through the non-periodic {} boundary",
+                            ["x", "y", "z"][*axis]
+                        ),
+                        Some((["x", "y", "z"][*axis].to_string(), *coordinate)),
+                    ),
+                    MdError::NotFinite { id, .. } => {
+                        (format!("atom {id} has a non-finite position"), None)
+                    }
+                    other => (other.to_string(), None),
+                };
+                Blowup {
+                    step,
+                    what,
+                    value,
+                    remedy: REMEDY.into(),
+                }
+            })
+    }
+
+    fn thermo_columns(&self) -> &'static [&'static str] {
+        &["temp", "pe", "ke", "etotal", "press"]
+    }
+
+    fn thermo(&self, _step: u64) -> Vec<f64> {
+        let th = self.system.thermo();
+        vec![th.temp, th.pe, th.ke, th.etotal, th.press]
+    }
+
+    fn checked(&self) -> Vec<Checked<'_>> {
+        let atoms = self.system.atoms();
+        [
+            ("position", &atoms.positions),
+            ("velocity", &atoms.velocities),
+            ("force", &atoms.forces),
+        ]
+        .map(|(quantity, v)| Checked {
+            quantity,
+            values: v.as_flattened(),
+            per_particle: D,
+        })
+        .into()
+    }
+
+    fn id_of(&self, index: usize) -> u64 {
+        self.system.atoms().ids[index]
+    }
+
+    fn walls(&self) -> Vec<(usize, f64, f64)> {
+        let dom = self.system.domain();
+        (0..D)
+            .filter(|&a| !dom.is_periodic(a))
+            .map(|a| (a, dom.lo[a], dom.lo[a] + dom.length[a]))
+            .collect()
+    }
+
+    fn remedy(&self) -> &'static str {
+        REMEDY
+    }
+
+    /// Sorted by id, positions wrapped into the box.
+    fn particles(&self, step: u64, energies: bool) -> Option<Particles> {
+        let _ = step;
+        let system = &self.system;
+        let atoms = system.atoms();
+        let slots = atoms.slots_by_id();
+        let energies = energies.then(|| {
+            let pe = system.per_atom_energy();
+            slots.iter().map(|&k| pe[k]).collect()
+        });
+        let dom = system.domain();
+        let mut lo = [0.0, 0.0, self.z_bounds.0];
+        let mut hi = [0.0, 0.0, self.z_bounds.1];
+        let mut periodic = [true; 3];
+        for a in 0..D {
+            lo[a] = dom.lo[a];
+            hi[a] = dom.lo[a] + dom.length[a];
+            periodic[a] = dom.is_periodic(a);
+        }
+        Some(Particles {
+            lo,
+            hi,
+            periodic,
+            ids: slots.iter().map(|&k| atoms.ids[k]).collect(),
+            types: slots.iter().map(|&k| atoms.types[k]).collect(),
+            positions: slots
+                .iter()
+                .map(|&k| pad(dom.wrap(atoms.positions[k])))
+                .collect(),
+            velocities: slots.iter().map(|&k| pad(atoms.velocities[k])).collect(),
+            forces: slots.iter().map(|&k| pad(atoms.forces[k])).collect(),
+            energies,
+            masses: None,
+            accelerations: None,
+            potentials: None,
+        })
+    }
+
+    fn stage_times(&self) -> Vec<(&'static str, Duration)> {
+        vec![
+            ("Neighbor", self.times.neighbor),
+            ("Force", self.times.force),
+            ("Integrate", self.times.integrate),
+        ]
+    }
+
+    fn speed(&self, loop_seconds: f64, steps: u64, threads: usize) -> String {
+        let n = self.len();
+        let per = loop_seconds * 1e6 / (n as f64 * steps.max(1) as f64);
+        format!(
+            "Loop time of {loop_seconds:.4} s on {threads} thread(s) for {steps} steps with {n} atoms: \
+             {per:.4} us/atom-step, {} neighbour-list rebuilds",
+            self.system.rebuilds()
+        )
+    }
+
+    fn save(&self, state: &mut State) {
+        let atoms = self.system.atoms();
+        state.put_u64s("ids", atoms.ids.iter().copied());
+        state.put_u64s("types", atoms.types.iter().map(|&t| t as u64));
+        state.put_f64s("masses", atoms.masses.iter().copied());
+        state.put_vectors("positions", &atoms.positions);
+        state.put_vectors("velocities", &atoms.velocities);
+        state.put_vectors("forces", &atoms.forces);
+        state.put_vectors("list_reference", self.system.list_reference());
+        state.put_u64s("rebuilds", [self.system.rebuilds()]);
+    }
+
+    fn restore(&mut self, state: &State, threads: &Threads) -> Result<(), StateError> {
+        let n = self.len();
+        let types = state.u64s_of("types", n)?;
+        let types = types
+            .iter()
+            .map(|&t| {
+                u32::try_from(t).map_err(|_| StateError(format!("atom type {t} is out of range")))
+            })
+            .collect::<Result<Vec<u32>, StateError>>()?;
+        let atoms = Atoms {
+            ids: state.u64s_of("ids", n)?,
+            types,
+            masses: state.f64s_of("masses", n)?,
+            positions: state.vectors("positions", n)?,
+            velocities: state.vectors("velocities", n)?,
+            forces: state.vectors("forces", n)?,
+        };
+        let reference = state.vectors("list_reference", n)?;
+        self.system
+            .restore(atoms, &reference, state.u64("rebuilds")?, threads)
+            .map_err(StateError)
+    }
+}
