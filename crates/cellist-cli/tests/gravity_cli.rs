@@ -300,7 +300,7 @@ fn a_state_that_overflows_stops_the_run_naming_the_step_and_body() {
         bodies.display()
     );
     let (out, run) = run_scenario(dir.path(), "nan", &scenario, &[]);
-    assert_eq!(run.status.code(), Some(1), "{}", text(&run.stderr));
+    assert_eq!(run.status.code(), Some(3), "{}", text(&run.stderr));
     let err = text(&run.stderr);
     assert!(err.contains("step 1: the state of body "), "{err}");
     assert!(out.join("last.dump").is_file());

@@ -556,11 +556,17 @@ fn a_blow_up_names_the_step_and_the_atom_and_keeps_the_last_state() {
         [run]\nsteps = 100\ndt = 0.05\n[output]\ndump = { every = 1000, file = \"d.lammpstrj\" }\n";
     let dir = tempfile::tempdir().unwrap();
     let (code, err) = failure(dir.path(), scenario, Some(&data), &[]);
-    assert_eq!(code, 1, "{err}");
+    assert_eq!(code, 3, "{err}");
     assert!(
         err.contains("step 1: atom 1 left the box through the non-periodic z boundary"),
         "{err}"
     );
+    // the dump keeps its regular frames; the last good state (step 0) is a frame
+    // and a checkpoint of its own
     let frames = read_dump(&dir.path().join("out/d.lammpstrj"));
-    assert_eq!(frames.iter().map(|f| f.step).collect::<Vec<_>>(), [0, 1]);
+    assert_eq!(frames.iter().map(|f| f.step).collect::<Vec<_>>(), [0]);
+    let last = read_dump(&dir.path().join("out/last.lammpstrj"));
+    assert_eq!(last.iter().map(|f| f.step).collect::<Vec<_>>(), [0]);
+    assert!(err.contains("the last good state (step 0) is in"), "{err}");
+    assert!(dir.path().join("out/last.ckpt").is_file());
 }

@@ -166,7 +166,7 @@ fn an_unstable_run_needs_the_override_and_stops_at_the_step_that_blows_up() {
             "run.steps=2000",
         ],
     );
-    assert_eq!(o.status.code(), Some(1));
+    assert_eq!(o.status.code(), Some(3));
     let err = text(&o.stderr);
     assert!(
         err.contains("warning: run.dt = 0.01 exceeds the stability limit"),

@@ -285,7 +285,7 @@ pub fn run(run: &BilliardsRun, threads: &Threads) -> SimResult {
         eprintln!("restart: from step {first} of {}", path.display());
     }
     let list = observers(run, &initial, steps, recorded(checkpoint.as_ref()))?;
-    let report = job.run(first, list, threads)?;
+    let report = job.run(checkpoint.as_ref(), list, threads)?;
     let model = report.model;
     if let Some(path) = run.png {
         let mut painter = painter(&initial, run.picture_size);

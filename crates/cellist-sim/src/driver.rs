@@ -186,19 +186,21 @@ fn physics_difference(saved: &[(String, String)], now: &[(String, String)]) -> O
 }
 
 impl<M: Model> Job<M> {
-    /// Runs from `first` (0, or the restored checkpoint's step) to the last step
-    /// with `observers`.
+    /// Runs to the last step with `observers`, from step 0 or from the step of
+    /// `restored`, the checkpoint the model's state came from (whose step's
+    /// outputs are already written).
     pub fn run(
         mut self,
-        first: u64,
+        restored: Option<&Checkpoint>,
         mut observers: Vec<Box<dyn Observer<M>>>,
         threads: &Threads,
     ) -> SimResult<Report<M>> {
+        let first = restored.map_or(0, |c| c.step);
         let last = self.steps;
         let count = self.model.len();
         let bar = progress_bar(last - first);
         let mut output = Duration::ZERO;
-        if first == 0 {
+        if restored.is_none() {
             for o in observers.iter_mut().filter(|o| o.due(0, last)) {
                 o.observe(&self.model, 0, last, &bar)?;
             }

@@ -87,7 +87,7 @@ pub(crate) fn execute<M: Model + 'static>(
         println!("restart: from step {first} of {}", path.display());
     }
     let observers = plan.observers(&job.model, &dir, recorded(checkpoint.as_ref()))?;
-    job.run(first, observers, threads)?;
+    job.run(checkpoint.as_ref(), observers, threads)?;
     println!(
         "total wall time {:.2} s; results in {}",
         started.elapsed().as_secs_f64(),
