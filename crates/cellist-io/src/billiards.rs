@@ -29,18 +29,23 @@ pub struct BilliardsInput {
 }
 
 /// C++ `stoi` of a header line: leading whitespace, an optional sign, digits; the
-/// rest of the line is ignored. `None` without digits or outside `int`.
-fn stoi(line: &str) -> Option<i64> {
+/// rest of the line is ignored. `None` without digits; `Some(Err(number))`, the
+/// number as written, when it does not fit in an `int`.
+fn stoi(line: &str) -> Option<Result<i64, &str>> {
     let t = line.trim_start();
     let sign_len = usize::from(t.starts_with(['+', '-']));
     let digits = t[sign_len..].bytes().take_while(u8::is_ascii_digit).count();
     if digits == 0 {
         return None;
     }
-    t[..sign_len + digits]
-        .parse::<i64>()
-        .ok()
-        .filter(|v| i32::try_from(*v).is_ok())
+    let number = &t[..sign_len + digits];
+    Some(
+        number
+            .parse::<i64>()
+            .ok()
+            .filter(|v| i32::try_from(*v).is_ok())
+            .ok_or(number),
+    )
 }
 
 /// Reads an input file. Errors name the line: a missing line, a header that is not
@@ -78,13 +83,30 @@ pub fn parse_billiards_input(path: &Path, text: &str) -> Result<BilliardsInput, 
         let line = lines
             .next()
             .ok_or_else(|| InputError::at(path, k + 1, format!("missing; expected {what}")))?;
-        let value = stoi(line).ok_or_else(|| {
-            InputError::at(
-                path,
-                k + 1,
-                format!("'{}': expected {what}, an integer", line.trim()),
-            )
-        })?;
+        let value = match stoi(line) {
+            Some(Ok(value)) => value,
+            None => {
+                return Err(InputError::at(
+                    path,
+                    k + 1,
+                    format!("'{}': expected {what}, an integer", line.trim()),
+                ))
+            }
+            Some(Err(number)) if number.starts_with('-') => {
+                return Err(InputError::at(
+                    path,
+                    k + 1,
+                    format!("{what} is {number}; it must be at least {least}"),
+                ))
+            }
+            Some(Err(number)) => {
+                return Err(InputError::at(
+                    path,
+                    k + 1,
+                    format!("{what} is {number}; it must be at most 2147483647 (a C++ int)"),
+                ))
+            }
+        };
         if value < *least {
             return Err(InputError::at(
                 path,
@@ -96,14 +118,16 @@ pub fn parse_billiards_input(path: &Path, text: &str) -> Result<BilliardsInput, 
     }
     let [n, side, radius, steps] = header;
     let n = n as usize;
+    // N is not trusted for a reservation beyond the lines the file has
+    let capacity = n.min(lines.len());
     let mut input = BilliardsInput {
         side,
         radius,
         steps: steps as u64,
-        ids: Vec::with_capacity(n.min(1 << 24)),
-        x: Vec::with_capacity(n.min(1 << 24)),
-        y: Vec::with_capacity(n.min(1 << 24)),
-        v: Vec::with_capacity(n.min(1 << 24)),
+        ids: Vec::with_capacity(capacity),
+        x: Vec::with_capacity(capacity),
+        y: Vec::with_capacity(capacity),
+        v: Vec::with_capacity(capacity),
         warnings: Vec::new(),
     };
     for k in 0..n {
@@ -138,13 +162,18 @@ pub fn parse_billiards_input(path: &Path, text: &str) -> Result<BilliardsInput, 
                 format!("id '{}': expected an integer", fields[0]),
             )
         })?;
-        let slot = usize::try_from(id).ok().filter(|&s| s < n).ok_or_else(|| {
-            InputError::at(
-                path,
-                number,
-                format!("id {id} is outside 0..{n}: ids must be a permutation of 0..N-1"),
-            )
-        })?;
+        let slot = id
+            .ok()
+            .and_then(|id| usize::try_from(id).ok())
+            .filter(|&s| s < n)
+            .ok_or_else(|| {
+                let id = id.map_or_else(str::to_string, |id| id.to_string());
+                InputError::at(
+                    path,
+                    number,
+                    format!("id {id} is outside 0..{n}: ids must be a permutation of 0..N-1"),
+                )
+            })?;
         const NAMES: [&str; 4] = ["x", "y", "vx", "vy"];
         let mut values = [0.0; 4];
         for (a, value) in values.iter_mut().enumerate() {
@@ -422,7 +451,15 @@ mod tests {
             ),
             (
                 "1\n99999999999\n1\n1\n",
-                "t.in:2: '99999999999': expected the side L",
+                "t.in:2: the side L of the box is 99999999999; it must be at most 2147483647 (a C++ int)",
+            ),
+            (
+                "-99999999999\n10\n1\n1\n",
+                "t.in:1: the number of particles N is -99999999999; it must be at least 0",
+            ),
+            (
+                "1\n10\n1\n1\n4000000000 1 1 0 0\n",
+                "t.in:5: id 4000000000 is outside 0..1",
             ),
         ];
         for (text, expected) in cases {

@@ -265,6 +265,13 @@ pub fn write_checkpoint(path: &Path, c: &Checkpoint) -> io::Result<()> {
         _ => PathBuf::from("."),
     };
     let mut temp = tempfile::NamedTempFile::new_in(&dir)?;
+    // a temporary file is private (0600); a checkpoint is an ordinary output
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        temp.as_file()
+            .set_permissions(std::fs::Permissions::from_mode(0o644))?;
+    }
     temp.write_all(&encode(c))?;
     temp.as_file().sync_all()?;
     if path.exists() {
@@ -306,6 +313,36 @@ mod tests {
             bad[k] ^= 0x10;
             assert!(decode(Path::new("c"), &bad).is_err(), "flip at {k}");
             assert!(decode(Path::new("c"), &bytes[..k]).is_err(), "cut at {k}");
+        }
+    }
+
+    proptest::proptest! {
+        /// Random bytes, and a valid checkpoint cut, flipped or with bytes
+        /// inserted: an error or (unchanged bytes only) the same checkpoint, never
+        /// a panic, and no allocation beyond the file's size (counts are checked
+        /// against the bytes left before anything is reserved).
+        #[test]
+        fn decoding_never_panics(
+            noise in proptest::collection::vec(proptest::num::u8::ANY, 0..300),
+            at in 0usize..10_000,
+            byte in proptest::num::u8::ANY,
+            cut in 0usize..10_000,
+        ) {
+            let path = Path::new("c");
+            let _ = decode(path, &noise);
+            let mut with_magic = MAGIC.to_vec();
+            with_magic.extend_from_slice(&noise);
+            let _ = decode(path, &with_magic);
+            let good = encode(&sample());
+            let k = at % good.len();
+            let mut changed = good.clone();
+            changed[k] = byte;
+            let decoded = decode(path, &changed);
+            proptest::prop_assert!(decoded.is_err() || changed == good);
+            let mut inserted = good.clone();
+            inserted.insert(k, byte);
+            proptest::prop_assert!(decode(path, &inserted).is_err());
+            proptest::prop_assert!(decode(path, &good[..cut % good.len()]).is_err());
         }
     }
 

@@ -42,16 +42,24 @@ pub struct DataFile {
 pub fn read_data(path: &Path) -> Result<DataFile, InputError> {
     let bytes =
         std::fs::read(path).map_err(|e| InputError::file(path, format!("cannot read: {e}")))?;
+    decode_data(path, &bytes)
+}
+
+/// Parses the bytes of a data file: gzip-compressed when `path` ends in `.gz`,
+/// otherwise UTF-8 text (`path` only names it in errors and tells the two apart).
+pub fn decode_data(path: &Path, bytes: &[u8]) -> Result<DataFile, InputError> {
+    let decompressed;
     let text = if path.extension().is_some_and(|e| e == "gz") {
         let mut text = String::new();
-        flate2::read::MultiGzDecoder::new(&bytes[..])
+        flate2::read::MultiGzDecoder::new(bytes)
             .read_to_string(&mut text)
             .map_err(|e| InputError::file(path, format!("cannot decompress: {e}")))?;
-        text
+        decompressed = text;
+        decompressed.as_str()
     } else {
-        String::from_utf8(bytes).map_err(|_| InputError::file(path, "not UTF-8 text"))?
+        std::str::from_utf8(bytes).map_err(|_| InputError::file(path, "not UTF-8 text"))?
     };
-    parse_data(path, &text)
+    parse_data(path, text)
 }
 
 /// Sections with a fixed number of lines that cellist reads past (pair
@@ -116,6 +124,16 @@ pub fn parse_data(path: &Path, text: &str) -> Result<DataFile, InputError> {
                         format!("{axis_hi} {hi} must be above {axis_lo} {lo}"),
                     ));
                 }
+                if !(hi - lo).is_finite() {
+                    return Err(InputError::at(
+                        path,
+                        no,
+                        format!(
+                            "{axis_hi} - {axis_lo} is {}; expected a finite box length",
+                            hi - lo
+                        ),
+                    ));
+                }
                 bounds[axis] = Some((lo, hi));
             }
             [_, _, _, "xy", "xz", "yz"] => {
@@ -169,9 +187,10 @@ pub fn parse_data(path: &Path, text: &str) -> Result<DataFile, InputError> {
 
     let mut masses: Option<Vec<f64>> = None;
     let mut atoms: Option<Vec<DataAtom>> = None;
-    // the section's line and its (id, velocity) entries
-    type VelocityLines = (usize, Vec<(u64, [f64; 3])>);
-    let mut velocities: Option<VelocityLines> = None;
+    // the line of each atom, for messages about ids
+    let mut atom_lines: Vec<usize> = Vec::new();
+    // the (line, id, velocity) entries of the Velocities section
+    let mut velocities: Option<Vec<(usize, u64, [f64; 3])>> = None;
     let mut section = Some(first_section);
     while let Some((no, header)) = section.take() {
         let (name, hint) = match header.split_once('#') {
@@ -182,12 +201,22 @@ pub fn parse_data(path: &Path, text: &str) -> Result<DataFile, InputError> {
             "Masses" => {
                 let entries = lines.entries(atom_types as usize, "Masses")?;
                 let mut m = vec![f64::NAN; atom_types as usize];
+                // the line that gave each type its mass (0: none yet)
+                let mut given = vec![0; atom_types as usize];
                 for (no, line) in entries {
                     let f = fields(path, no, line, 2, 2, "type mass")?;
                     let t = parse_type(path, no, f[0], atom_types)?;
                     let mass = parse_finite(path, no, f[1], || "the mass".into())?;
                     if mass <= 0.0 {
                         return Err(InputError::at(path, no, format!("mass {mass} must be > 0")));
+                    }
+                    let first = std::mem::replace(&mut given[t as usize - 1], no);
+                    if first != 0 {
+                        return Err(InputError::at(
+                            path,
+                            no,
+                            format!("atom type {t} was already given a mass on line {first}; expected one line per type"),
+                        ));
                     }
                     m[t as usize - 1] = mass;
                 }
@@ -234,6 +263,18 @@ pub fn parse_data(path: &Path, text: &str) -> Result<DataFile, InputError> {
                                 )
                             })?;
                             position[a] += image as f64 * (hi[a] - lo[a]);
+                            if !position[a].is_finite() {
+                                return Err(InputError::at(
+                                    path,
+                                    no,
+                                    format!(
+                                        "image flag {} {image} puts the atom at {} = {}; expected a finite position",
+                                        ["ix", "iy", "iz"][a],
+                                        ["x", "y", "z"][a],
+                                        position[a]
+                                    ),
+                                ));
+                            }
                         }
                     }
                     list.push(DataAtom {
@@ -242,6 +283,7 @@ pub fn parse_data(path: &Path, text: &str) -> Result<DataFile, InputError> {
                         position,
                         velocity: [0.0; 3],
                     });
+                    atom_lines.push(no);
                 }
                 atoms = Some(list);
             }
@@ -256,9 +298,9 @@ pub fn parse_data(path: &Path, text: &str) -> Result<DataFile, InputError> {
                         v[a] =
                             parse_finite(path, no, f[1 + a], || ["vx", "vy", "vz"][a].to_string())?;
                     }
-                    list.push((id, v));
+                    list.push((no, id, v));
                 }
-                velocities = Some((no, list));
+                velocities = Some(list);
             }
             s if SKIPPED_SECTIONS.contains(&s) => {
                 let count = if s == "PairIJ Coeffs" {
@@ -294,25 +336,31 @@ pub fn parse_data(path: &Path, text: &str) -> Result<DataFile, InputError> {
     let mut atoms = atoms.ok_or_else(|| InputError::file(path, "no Atoms section"))?;
     let mut index: HashMap<u64, usize> = HashMap::with_capacity(atoms.len());
     for (k, a) in atoms.iter().enumerate() {
-        if index.insert(a.id, k).is_some() {
-            return Err(InputError::file(
+        if let Some(first) = index.insert(a.id, k) {
+            return Err(InputError::at(
                 path,
-                format!("atom id {} appears twice in the Atoms section", a.id),
+                atom_lines[k],
+                format!(
+                    "atom id {} appears twice in the Atoms section (first on line {})",
+                    a.id, atom_lines[first]
+                ),
             ));
         }
     }
     let has_velocities = velocities.is_some();
-    if let Some((no, list)) = velocities {
-        let mut seen = vec![false; atoms.len()];
-        for (id, v) in list {
+    if let Some(list) = velocities {
+        // the line that gave each atom its velocity (0: none yet)
+        let mut seen = vec![0; atoms.len()];
+        for (no, id, v) in list {
             let k = *index.get(&id).ok_or_else(|| {
                 InputError::at(path, no, format!("the Velocities section names atom id {id}, which is not in the Atoms section"))
             })?;
-            if std::mem::replace(&mut seen[k], true) {
+            let first = std::mem::replace(&mut seen[k], no);
+            if first != 0 {
                 return Err(InputError::at(
                     path,
                     no,
-                    format!("atom id {id} appears twice in the Velocities section"),
+                    format!("atom id {id} appears twice in the Velocities section (first on line {first})"),
                 ));
             }
             atoms[k].velocity = v;
@@ -481,8 +529,12 @@ mod tests {
             (GOOD.replace("0 bonds", "5 bonds"), "t.data:5: '5 bonds' is not supported: atom style atomic has no molecular topology"),
             (GOOD.replace("Atoms # atomic", "Atoms # full"), "t.data:15: atom style 'full' is not supported; expected 'atomic' (id type x y z)"),
             (GOOD.replace("2 1 5 6 0\n", ""), "t.data:20: section Atoms has 2 lines; the header says 3"),
-            (GOOD.replace("2 0 0 0", "9 0 0 0"), "t.data:21: the Velocities section names atom id 9, which is not in the Atoms section"),
-            (GOOD.replace("3 1 1.0", "1 1 1.0"), "t.data: atom id 1 appears twice in the Atoms section"),
+            (GOOD.replace("2 0 0 0", "9 0 0 0"), "t.data:24: the Velocities section names atom id 9, which is not in the Atoms section"),
+            (GOOD.replace("2 0 0 0", "1 0 0 0"), "t.data:24: atom id 1 appears twice in the Velocities section (first on line 23)"),
+            (GOOD.replace("3 1 1.0", "1 1 1.0"), "t.data:18: atom id 1 appears twice in the Atoms section (first on line 17)"),
+            (GOOD.replace("1 atom types", "2 atom types").replace("1 2.5\n", "1 2.5\n1 3\n"), "t.data:14: atom type 1 was already given a mass on line 13; expected one line per type"),
+            (GOOD.replace("0 10 xlo", "-1e308 1e308 xlo"), "t.data:7: xhi - xlo is inf; expected a finite box length"),
+            (GOOD.replace("1 1 3.0 4.0 0.0 1 0 0", "1 1 3.0 4.0 0.0 0 9223372036854775807 0").replace("0 10 ylo", "0 1e300 ylo"), "t.data:18: image flag iy 9223372036854775807 puts the atom at y = inf; expected a finite position"),
             (GOOD.replace("1 2.5", "1 -2.5"), "t.data:13: mass -2.5 must be > 0"),
             (GOOD.replace("Velocities", "Bonds"), "t.data:21: unknown or unsupported section 'Bonds'; expected Masses, Atoms, Velocities"),
         ];

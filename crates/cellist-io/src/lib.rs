@@ -29,6 +29,6 @@ pub use dump::{write_lammps_frame, write_xyz_frame, Frame, DUMP_COLUMNS, GRAVITY
 pub use error::InputError;
 pub use field_csv::{field_header, parse_field, read_field, write_field};
 pub use field_picture::FieldPainter;
-pub use lammps_data::{read_data, DataAtom, DataFile};
+pub use lammps_data::{decode_data, parse_data, read_data, DataAtom, DataFile};
 pub use output::{format_g17, write_pairs, AtomicFile, StreamFile};
 pub use points::{read_points, BoxInfo, PointFile, Points};

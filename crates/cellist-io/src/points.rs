@@ -261,13 +261,24 @@ fn position_column(
         if name.eq_ignore_ascii_case("pos") {
             return Ok(column);
         }
-        column += count.parse::<usize>().map_err(|_| {
+        let count = count.parse::<usize>().map_err(|_| {
             InputError::at(
                 path,
                 line,
                 format!("Properties: count '{count}' of '{name}' is not a whole number"),
             )
         })?;
+        // the caller adds 3 for the pos columns
+        column = column
+            .checked_add(count)
+            .filter(|c| c.checked_add(3).is_some())
+            .ok_or_else(|| {
+                InputError::at(
+                    path,
+                    line,
+                    format!("Properties: count {count} of '{name}' is too large"),
+                )
+            })?;
     }
     Err(InputError::at(path, line, "Properties has no 'pos' column"))
 }

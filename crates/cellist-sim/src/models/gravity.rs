@@ -73,11 +73,34 @@ struct InitialKeys {
 }
 
 /// `solver = "direct"` or `solver = { kind = ..., ... }`.
-#[derive(Deserialize)]
-#[serde(untagged)]
 enum SolverKeys {
     Name(String),
     Table(SolverTable),
+}
+
+/// By the value's type, so that a table's own error (such as an unknown key) is
+/// reported, not serde's "did not match any variant of untagged enum".
+impl<'de> Deserialize<'de> for SolverKeys {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct Keys;
+        impl<'de> serde::de::Visitor<'de> for Keys {
+            type Value = SolverKeys;
+            fn expecting(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                f.write_str("a solver name such as \"direct\" or a table { kind = ..., ... }")
+            }
+            fn visit_str<E: serde::de::Error>(self, name: &str) -> Result<SolverKeys, E> {
+                Ok(SolverKeys::Name(name.to_string()))
+            }
+            fn visit_map<A: serde::de::MapAccess<'de>>(
+                self,
+                map: A,
+            ) -> Result<SolverKeys, A::Error> {
+                SolverTable::deserialize(serde::de::value::MapAccessDeserializer::new(map))
+                    .map(SolverKeys::Table)
+            }
+        }
+        d.deserialize_any(Keys)
+    }
 }
 
 #[derive(Deserialize, Clone, Default)]
