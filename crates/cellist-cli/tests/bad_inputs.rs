@@ -7,6 +7,8 @@
 //! `{out}` (a fresh temporary folder) are substituted in `cmd` and `expected`.
 //! All differing cases are reported at once. See `tests/bad-inputs/README.md`.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -24,21 +26,10 @@ fn cases() -> Vec<PathBuf> {
 
 /// Every file under `dir` with its size, relative to `dir`, sorted.
 fn listing(dir: &Path) -> Vec<(PathBuf, u64)> {
-    let mut out = Vec::new();
-    let mut stack = vec![dir.to_path_buf()];
-    while let Some(d) = stack.pop() {
-        for entry in std::fs::read_dir(&d).unwrap() {
-            let path = entry.unwrap().path();
-            if path.is_dir() {
-                stack.push(path);
-            } else {
-                let size = std::fs::metadata(&path).unwrap().len();
-                out.push((path.strip_prefix(dir).unwrap().to_path_buf(), size));
-            }
-        }
-    }
-    out.sort();
-    out
+    common::files(dir)
+        .into_iter()
+        .map(|(name, bytes)| (name, bytes.len() as u64))
+        .collect()
 }
 
 /// Indents every line of `text` for the report, showing where it ends.

@@ -6,8 +6,7 @@
 
 mod common;
 
-use common::{cellist, run_scenario};
-use std::collections::BTreeMap;
+use common::{cellist, files, run_scenario};
 use std::path::{Path, PathBuf};
 use std::process::Output;
 
@@ -22,24 +21,6 @@ fn ok(run: &Output) {
         run.status.code(),
         text(&run.stderr)
     );
-}
-
-/// Every file below `dir` (relative name -> bytes).
-fn files(dir: &Path) -> BTreeMap<PathBuf, Vec<u8>> {
-    let mut out = BTreeMap::new();
-    let mut stack = vec![dir.to_path_buf()];
-    while let Some(d) = stack.pop() {
-        for entry in std::fs::read_dir(&d).unwrap() {
-            let path = entry.unwrap().path();
-            if path.is_dir() {
-                stack.push(path);
-            } else {
-                let name = path.strip_prefix(dir).unwrap().to_path_buf();
-                out.insert(name, std::fs::read(&path).unwrap());
-            }
-        }
-    }
-    out
 }
 
 /// The two folders hold the same files with the same bytes.

@@ -135,8 +135,7 @@ impl<const D: usize> Model for MdModel<D> {
     }
 
     /// Sorted by id, positions wrapped into the box.
-    fn particles(&self, step: u64, energies: bool) -> Option<Particles> {
-        let _ = step;
+    fn particles(&self, _step: u64, energies: bool) -> Option<Particles> {
         let system = &self.system;
         let atoms = system.atoms();
         let slots = atoms.slots_by_id();
