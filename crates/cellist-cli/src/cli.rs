@@ -142,6 +142,53 @@ pub enum BenchCommand {
     /// per pair for direct) and, for the approximate solvers, the RMS relative force
     /// error against the direct sum.
     Gravity(BenchGravityArgs),
+    /// 2D vortex particles (two Gaussian vortices on a lattice over [-1, 1]^2,
+    /// sigma = 1.5 h): time per velocity evaluation and, for the tree and the mesh,
+    /// the RMS relative velocity error against the direct sum (on a subset of
+    /// target particles when N is large).
+    Vortex(BenchVortexArgs),
+}
+
+/// The velocity solver of `cellist bench vortex`.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum VortexSolverArg {
+    /// All pairs, exact.
+    Direct,
+    /// The Barnes-Hut tree with the 2D vortex kernel.
+    BarnesHut,
+    /// Vortex-in-cell: M4' onto a mesh, FFT Poisson solve, M4' back.
+    Mesh,
+}
+
+/// Flags of `cellist bench vortex`.
+#[derive(Args, Debug)]
+pub struct BenchVortexArgs {
+    /// The solver.
+    #[arg(long, value_enum)]
+    pub solver: VortexSolverArg,
+    /// Particles (rounded to a square lattice, n^2).
+    #[arg(long)]
+    pub n: usize,
+    /// Opening angle (barnes-hut), in (0, 1.2].
+    #[arg(long, default_value_t = 0.4)]
+    pub theta: f64,
+    /// Mesh nodes per axis (mesh): a power of two; default: the smallest at least
+    /// as fine as the particle lattice.
+    #[arg(long)]
+    pub grid: Option<usize>,
+    /// Worker threads.
+    #[arg(long, default_value_t = 1)]
+    pub threads: usize,
+    /// Timed velocity evaluations; the median is reported.
+    #[arg(long, default_value_t = 3)]
+    pub repeat: usize,
+    /// Target particles the error is measured on (evenly spread; all if N is
+    /// smaller).
+    #[arg(long, default_value_t = 2000)]
+    pub sample: usize,
+    /// Print one JSON object instead of text.
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// The solver of `cellist bench gravity`.

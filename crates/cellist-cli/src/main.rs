@@ -8,6 +8,7 @@ mod gravity;
 mod neighbors;
 mod pse;
 mod run;
+mod vortex;
 
 use clap::Parser;
 use cli::{BenchCommand, BilliardsCommand, Cli, Command};
@@ -30,6 +31,7 @@ fn main() -> ExitCode {
             BenchCommand::Billiards(args) => billiards::bench(&args),
             BenchCommand::Pse(args) => pse::bench(&args),
             BenchCommand::Gravity(args) => gravity::bench(&args),
+            BenchCommand::Vortex(args) => vortex::bench(&args),
         },
     };
     match result {

@@ -23,15 +23,32 @@ pub fn write_field<W: Write>(
     points: &[[f64; 3]],
     phi: &[f64],
 ) -> io::Result<()> {
-    writeln!(out, "{}", field_header(dimension))?;
+    write_field_columns(out, dimension, points, &[("phi", phi)])
+}
+
+/// Writes the header `x,y[,z],name1,name2,...` and one line per particle: the
+/// first `dimension` components of each point, then its value in every column.
+pub fn write_field_columns<W: Write>(
+    out: &mut W,
+    dimension: usize,
+    points: &[[f64; 3]],
+    columns: &[(&str, &[f64])],
+) -> io::Result<()> {
+    let mut names: Vec<&str> = AXES[..dimension].to_vec();
+    names.extend(columns.iter().map(|c| c.0));
+    writeln!(out, "{}", names.join(","))?;
     let mut line = String::new();
-    for (x, value) in points.iter().zip(phi) {
+    for (k, x) in points.iter().enumerate() {
         line.clear();
         for c in &x[..dimension] {
             format_g17(*c, &mut line);
             line.push(',');
         }
-        format_g17(*value, &mut line);
+        for (_, values) in columns {
+            format_g17(values[k], &mut line);
+            line.push(',');
+        }
+        line.pop();
         line.push('\n');
         out.write_all(line.as_bytes())?;
     }
@@ -42,9 +59,18 @@ pub fn write_field<W: Write>(
 /// line, then `D + 1` numbers per line separated by commas or blanks; blank lines
 /// and lines starting with `#` are skipped.
 pub fn read_field<const D: usize>(path: &Path) -> Result<(Vec<[f64; D]>, Vec<f64>), InputError> {
+    read_field_of::<D>(path, "phi")
+}
+
+/// [`read_field`] for a value column called `name` (`x,y,gamma` for vortex
+/// particles): the header, if any, must name it, and errors do.
+pub fn read_field_of<const D: usize>(
+    path: &Path,
+    name: &str,
+) -> Result<(Vec<[f64; D]>, Vec<f64>), InputError> {
     let text = std::fs::read_to_string(path)
         .map_err(|e| InputError::file(path, format!("cannot read: {e}")))?;
-    parse_field(path, &text)
+    parse_field_of(path, &text, name)
 }
 
 /// [`read_field`] on text already read; `path` names it in errors.
@@ -52,8 +78,17 @@ pub fn parse_field<const D: usize>(
     path: &Path,
     text: &str,
 ) -> Result<(Vec<[f64; D]>, Vec<f64>), InputError> {
+    parse_field_of(path, text, "phi")
+}
+
+/// [`read_field_of`] on text already read.
+pub fn parse_field_of<const D: usize>(
+    path: &Path,
+    text: &str,
+    name: &str,
+) -> Result<(Vec<[f64; D]>, Vec<f64>), InputError> {
     let (mut points, mut phi) = (Vec::new(), Vec::new());
-    let expected = field_header(D);
+    let expected = format!("{},{name}", AXES[..D].join(","));
     let mut first = true;
     for (index, tokens) in data_lines(text) {
         let header = first && tokens.first().is_some_and(|t| t.parse::<f64>().is_err());
@@ -89,7 +124,7 @@ pub fn parse_field<const D: usize>(
     if points.is_empty() {
         return Err(InputError::file(
             path,
-            "no particles; expected lines x,y[,z],phi",
+            format!("no particles; expected lines x,y[,z],{name}"),
         ));
     }
     Ok((points, phi))

@@ -8,22 +8,46 @@ const BACKGROUND: u8 = 0;
 const FIRST_LEVEL: u8 = 1;
 const LEVELS: usize = 255;
 
-/// Paints the box `[0, side)^2` on `size` x `size` pixels.
+/// Paints a square view of a particle field on `size` x `size` pixels: either the
+/// periodic box `[0, side)^2` ([`FieldPainter::new`], squares wrap across the edges)
+/// or any square `[lo, lo + side)^2` ([`FieldPainter::with_view`], squares are clipped
+/// at the edges).
 #[derive(Clone, Debug)]
 pub struct FieldPainter {
     size: u32,
+    lo: [f64; 2],
     side: f64,
     spacing: f64,
     scale: f64,
+    periodic: bool,
     pixels: Vec<u8>,
 }
 
 impl FieldPainter {
-    /// A painter for particles `spacing` apart whose colours saturate at
-    /// `|value| = scale`.
+    /// A painter of the periodic box `[0, side)^2` for particles `spacing` apart
+    /// whose colours saturate at `|value| = scale`.
     pub fn new(size: u32, side: f64, spacing: f64, scale: f64) -> Self {
+        Self::painter(size, [0.0, 0.0], side, spacing, scale, true)
+    }
+
+    /// A painter of the square `[lo, lo + side)^2`, not periodic: a particle's square
+    /// is clipped at the edges of the view, and particles outside it (or at
+    /// non-finite positions) paint nothing.
+    pub fn with_view(size: u32, lo: [f64; 2], side: f64, spacing: f64, scale: f64) -> Self {
+        Self::painter(size, lo, side, spacing, scale, false)
+    }
+
+    fn painter(
+        size: u32,
+        lo: [f64; 2],
+        side: f64,
+        spacing: f64,
+        scale: f64,
+        periodic: bool,
+    ) -> Self {
         FieldPainter {
             size: size.max(16),
+            lo,
             side,
             spacing,
             scale: if scale > 0.0 && scale.is_finite() {
@@ -31,6 +55,7 @@ impl FieldPainter {
             } else {
                 1.0
             },
+            periodic,
             pixels: Vec::new(),
         }
     }
@@ -56,28 +81,48 @@ impl FieldPainter {
         self.size
     }
 
+    /// The colour scale: values at or beyond `±scale` get the end colours.
+    pub fn scale(&self) -> f64 {
+        self.scale
+    }
+
+    /// The palette index (into [`FieldPainter::palette`]) of `value`; NaN is white.
+    pub fn colour_index(&self, value: f64) -> u8 {
+        let t = if value.is_nan() {
+            0.0
+        } else {
+            (value / self.scale).clamp(-1.0, 1.0)
+        };
+        let level = ((t + 1.0) * 0.5 * (LEVELS - 1) as f64).round() as u8;
+        FIRST_LEVEL + level
+    }
+
     /// Renders `(position, value)` pairs; returns the palette indices row by row
-    /// from the top (y up). Squares wrap across the periodic edges.
+    /// from the top (y up). Pixels no particle covers are the background (index 0).
     pub fn render(&mut self, particles: impl Iterator<Item = ([f64; 2], f64)>) -> &[u8] {
         let size = self.size as usize;
         self.pixels.clear();
         self.pixels.resize(size * size, BACKGROUND);
         let per_unit = size as f64 / self.side;
         let half = 0.5 * self.spacing * per_unit;
-        for (x, value) in particles {
-            let t = if value.is_nan() {
-                0.0
-            } else {
-                (value / self.scale).clamp(-1.0, 1.0)
-            };
-            let level = ((t + 1.0) * 0.5 * (LEVELS - 1) as f64).round() as u8;
-            let colour = FIRST_LEVEL + level;
-            let (cx, cy) = (x[0] * per_unit, x[1] * per_unit);
-            let span = |c: f64| {
-                let lo = (c - half).round() as i64;
-                let hi = ((c + half).round() as i64).max(lo + 1);
+        let span = |c: f64| {
+            let lo = (c - half).round() as i64;
+            let hi = ((c + half).round() as i64).max(lo + 1);
+            if self.periodic {
                 lo..hi
-            };
+            } else {
+                lo.max(0)..hi.min(size as i64)
+            }
+        };
+        for (x, value) in particles {
+            if !self.periodic && !x.iter().all(|c| c.is_finite()) {
+                continue;
+            }
+            let colour = self.colour_index(value);
+            let (cx, cy) = (
+                (x[0] - self.lo[0]) * per_unit,
+                (x[1] - self.lo[1]) * per_unit,
+            );
             for py in span(cy) {
                 let row = py.rem_euclid(size as i64) as usize;
                 for px in span(cx) {
@@ -113,5 +158,103 @@ mod tests {
         assert_eq!(palette.len(), 256 * 3);
         // zero is white
         assert_eq!(&palette[3 * (1 + 127)..3 * (1 + 127) + 3], &[255, 255, 255]);
+    }
+
+    #[test]
+    fn a_view_is_offset_and_clipped_not_wrapped() {
+        // the view [10, 14) x [20, 24) on 40 pixels: 10 pixels per unit
+        let mut painter = FieldPainter::with_view(40, [10.0, 20.0], 4.0, 1.0, 1.0);
+        let particles = [
+            ([10.2, 20.2], 1.0),     // bottom left corner, clipped at two edges
+            ([13.9, 23.9], -1.0),    // top right corner
+            ([12.0, 22.0], 0.0),     // the middle
+            ([30.0, 30.0], 1.0),     // outside: nothing
+            ([f64::NAN, 21.0], 1.0), // nowhere: nothing
+        ];
+        let pixels = painter.render(particles.into_iter()).to_vec();
+        let at =
+            |column: usize, row_from_bottom: usize| pixels[(39 - row_from_bottom) * 40 + column];
+        let (red, blue, white) = (FIRST_LEVEL + 254, FIRST_LEVEL, FIRST_LEVEL + 127);
+        // the first square covers x in [9.7, 10.7) -> columns 0..7, same rows
+        assert_eq!(at(0, 0), red);
+        assert_eq!(at(6, 6), red);
+        assert_eq!(at(7, 0), BACKGROUND);
+        assert_eq!(at(0, 7), BACKGROUND);
+        // the second covers [13.4, 14.4) -> columns 34..40
+        assert_eq!(at(39, 39), blue);
+        assert_eq!(at(34, 34), blue);
+        assert_eq!(at(33, 39), BACKGROUND);
+        assert_eq!(at(15, 15), white);
+        assert_eq!(at(25, 25), BACKGROUND);
+        let painted = pixels.iter().filter(|&&p| p != BACKGROUND).count();
+        assert_eq!(painted, 7 * 7 + 6 * 6 + 10 * 10);
+        // the same particles in a periodic box wrap instead
+        let mut periodic = FieldPainter::new(40, 4.0, 1.0, 1.0);
+        let shifted = particles[..3]
+            .iter()
+            .map(|&(x, v)| ([x[0] - 10.0, x[1] - 20.0], v));
+        let wrapped = periodic.render(shifted);
+        let at =
+            |column: usize, row_from_bottom: usize| wrapped[(39 - row_from_bottom) * 40 + column];
+        assert_eq!(at(38, 5), red); // wrapped in x
+        assert_eq!(at(5, 38), red); // wrapped in y
+        assert_eq!(at(1, 1), blue); // wrapped in both, painted last
+        assert_eq!(painter.colour_index(0.5), FIRST_LEVEL + 191);
+        assert_eq!(painter.scale(), 1.0);
+    }
+
+    /// Pseudo-random particles straddling every periodic edge (and outside the box),
+    /// with a spacing that is not a whole number of pixels and a NaN value.
+    fn periodic_case() -> Vec<([f64; 2], f64)> {
+        let mut state = 0x2545_f491_4f6c_dd1d_u64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let mut particles: Vec<([f64; 2], f64)> = (0..60)
+            .map(|_| {
+                let x = [3.4 * next() - 0.2, 3.4 * next() - 0.2];
+                (x, 4.0 * next() - 2.0)
+            })
+            .collect();
+        particles.push(([0.01, 2.99], f64::NAN));
+        particles.push(([2.995, 0.003], 1e9));
+        particles.push(([-0.05, 1.5], -1e9));
+        particles
+    }
+
+    fn fnv1a(bytes: &[u8]) -> u64 {
+        bytes.iter().fold(0xcbf2_9ce4_8422_2325_u64, |h, &b| {
+            (h ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3)
+        })
+    }
+
+    #[test]
+    fn new_paints_the_periodic_box_exactly_as_before() {
+        // Pixels recorded from the implementation before views were added.
+        let mut painter = FieldPainter::new(37, 3.0, 0.23, 1.5);
+        let pixels = painter.render(periodic_case().into_iter()).to_vec();
+        assert_eq!(pixels.len(), 37 * 37);
+        let background = pixels.iter().filter(|&&p| p == BACKGROUND).count();
+        let sum: u64 = pixels.iter().map(|&p| p as u64).sum();
+        assert_eq!(
+            (fnv1a(&pixels), background, sum),
+            (0x40c7_3622_6b5f_3102, 967, 52969)
+        );
+        // a size below the minimum, a box of side 1 and a spacing of ~5 pixels
+        let mut small = FieldPainter::new(10, 1.0, 0.3, 0.7);
+        assert_eq!(small.size(), 16);
+        let scaled = periodic_case()
+            .into_iter()
+            .map(|(x, v)| ([x[0] / 3.0, x[1] / 3.0], v));
+        let pixels = small.render(scaled).to_vec();
+        let background = pixels.iter().filter(|&&p| p == BACKGROUND).count();
+        let sum: u64 = pixels.iter().map(|&p| p as u64).sum();
+        assert_eq!(
+            (fnv1a(&pixels), background, sum),
+            (0xb9aa_6e64_678e_89cd, 2, 43178)
+        );
     }
 }

@@ -11,6 +11,7 @@ pub mod checkpoint;
 pub mod disc_picture;
 pub mod dump;
 pub mod error;
+pub mod field_chart;
 pub mod field_csv;
 pub mod field_picture;
 pub mod lammps_data;
@@ -27,7 +28,10 @@ pub use checkpoint::{read_checkpoint, write_checkpoint, Checkpoint};
 pub use disc_picture::{write_png, DiscPainter, GifAnimation};
 pub use dump::{write_lammps_frame, write_xyz_frame, Frame, DUMP_COLUMNS, GRAVITY_DUMP_COLUMNS};
 pub use error::InputError;
-pub use field_csv::{field_header, parse_field, read_field, write_field};
+pub use field_chart::{field_chart, FieldChart};
+pub use field_csv::{
+    field_header, parse_field, read_field, read_field_of, write_field, write_field_columns,
+};
 pub use field_picture::FieldPainter;
 pub use lammps_data::{decode_data, parse_data, read_data, DataAtom, DataFile};
 pub use output::{format_g17, write_pairs, AtomicFile, StreamFile};

@@ -7,7 +7,11 @@ use std::sync::Once;
 static FONT: &[u8] = include_bytes!("../assets/DejaVuSans.ttf");
 static REGISTER: Once = Once::new();
 
-fn register_font() {
+/// The family name the bundled DejaVu Sans is registered under.
+pub(crate) const FAMILY: &str = "sans-serif";
+
+/// Registers the bundled font once (every chart calls this first).
+pub(crate) fn register_font() {
     REGISTER.call_once(|| {
         // The font is compiled in and known to parse; a failure here would be a bug.
         plotters::style::register_font("sans-serif", FontStyle::Normal, FONT)

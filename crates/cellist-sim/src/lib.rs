@@ -26,7 +26,7 @@ use std::time::Instant;
 /// The models `cellist run` runs, for messages.
 const MODELS: &str =
     "md (Lennard-Jones molecular dynamics), pse (diffusion by particle strength exchange), \
-     gravity (self-gravitating bodies)";
+     gravity (self-gravitating bodies), vortex (2D viscous vortex particles)";
 
 /// What `cellist run` asks for.
 pub struct RunRequest<'a> {
@@ -53,6 +53,7 @@ pub fn run(request: &RunRequest, threads: &Threads) -> SimResult {
         "md" => models::md::run(&scenario, &out_dir, restart, threads),
         "pse" => models::pse::run(&scenario, &out_dir, restart, threads),
         "gravity" => models::gravity::run(&scenario, &out_dir, restart, threads),
+        "vortex" => models::vortex::run(&scenario, &out_dir, restart, threads),
         other => Err(scenario.error(format!(
             "model '{other}' is unknown; this build runs: {MODELS}"
         ))),

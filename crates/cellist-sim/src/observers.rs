@@ -9,8 +9,8 @@ use crate::progress::print_above;
 use cellist::models::{Field, Model, Particles};
 use cellist_io::plot::{line_chart, Series};
 use cellist_io::{
-    format_g17, write_field, write_lammps_frame, write_png, write_xyz_frame, AtomicFile,
-    FieldPainter, Frame, GifAnimation, StreamFile,
+    field_chart, format_g17, write_field_columns, write_lammps_frame, write_png, write_xyz_frame,
+    AtomicFile, FieldChart, FieldPainter, Frame, GifAnimation, StreamFile,
 };
 use indicatif::ProgressBar;
 use std::io::Write;
@@ -414,13 +414,10 @@ pub fn snapshot_path(dir: &Path, file: &Path, step: u64, last: u64) -> PathBuf {
 pub fn write_field_csv(path: &Path, field: &Field) -> SimResult {
     let what = || path.display().to_string();
     let mut file = AtomicFile::create(path).map_err(SimError::output(what()))?;
-    write_field(
-        file.writer(),
-        field.dimension,
-        &field.positions,
-        &field.values,
-    )
-    .map_err(SimError::output(what()))?;
+    let mut columns: Vec<(&str, &[f64])> = vec![(field.value_name, &field.values)];
+    columns.extend(field.extra.iter().map(|(name, v)| (*name, &v[..])));
+    write_field_columns(file.writer(), field.dimension, &field.positions, &columns)
+        .map_err(SimError::output(what()))?;
     file.commit().map_err(SimError::output(what()))
 }
 
@@ -447,6 +444,16 @@ fn slice(field: &Field) -> impl Iterator<Item = ([f64; 2], f64)> + '_ {
         .map(|(x, &v)| ([x[0], x[1]], v))
 }
 
+/// What the annotated field pictures say: the quantity in the title (followed by
+/// the time) and the colour bar's label.
+#[derive(Clone, Copy, Debug)]
+pub struct ChartLabels {
+    /// The title's quantity ("vorticity").
+    pub title: &'static str,
+    /// The colour bar's label ("ω = Γ/h²").
+    pub value: &'static str,
+}
+
 /// Field snapshots: CSV files, PNG pictures and a GIF animation.
 pub struct FieldFiles {
     dir: PathBuf,
@@ -454,23 +461,41 @@ pub struct FieldFiles {
     png: Option<Every>,
     gif: Option<(Every, GifAnimation)>,
     painter: FieldPainter,
+    /// PNGs as charts with axes, time and colour bar (otherwise bare frames).
+    chart: Option<(ChartLabels, FieldChart)>,
 }
 
 impl FieldFiles {
-    /// Snapshots of `model`'s field on `size`-pixel pictures.
+    /// Snapshots of `model`'s field as `plan` asks for them.
     pub fn new<M: Model>(
         model: &M,
-        csv: Option<Every>,
-        png: Option<Every>,
-        gif: Option<Every>,
-        size: u32,
+        plan: &FieldPlan,
         dir: &Path,
         recorded: Recorded,
     ) -> SimResult<Self> {
+        let FieldPlan {
+            csv,
+            png,
+            gif,
+            size,
+            chart,
+        } = plan.clone();
         let field = model
             .field()
             .ok_or_else(|| SimError::Internal(format!("model {} has no field", model.name())))?;
-        let painter = FieldPainter::new(size, field.side, field.spacing, field.scale);
+        let (side, spacing, scale) = (field.side, field.spacing, field.scale);
+        let lo = [field.origin[0], field.origin[1]];
+        let painter = if field.periodic {
+            FieldPainter::new(size, side, spacing, scale)
+        } else {
+            FieldPainter::with_view(size, lo, side, spacing, scale)
+        };
+        let chart = chart.map(|labels| {
+            let mut c = FieldChart::new(lo, side, spacing, painter.scale());
+            c.width = c.width.max(size);
+            c.value_label = labels.value.to_string();
+            (labels, c)
+        });
         let gif = match gif {
             Some(g) => {
                 let path = dir.join(&g.file);
@@ -499,6 +524,7 @@ impl FieldFiles {
             png,
             gif,
             painter,
+            chart,
         })
     }
 }
@@ -516,10 +542,20 @@ impl<M: Model> Observer<M> for FieldFiles {
             write_field_csv(&snapshot_path(&self.dir, &c.file, step, last), &field)?;
         }
         let gif_due = self.gif.as_ref().is_some_and(|(g, _)| g.due(step, last));
-        if due(&self.png, step, last) || gif_due {
+        if let (Some(p), Some((labels, chart))) = (
+            self.png.as_ref().filter(|p| p.due(step, last)),
+            self.chart.as_mut(),
+        ) {
+            let path = snapshot_path(&self.dir, &p.file, step, last);
+            chart.title = format!("{} at t = {:.4}", labels.title, step as f64 * model.dt());
+            field_chart(&path, chart, slice(&field))
+                .map_err(SimError::output(path.display().to_string()))?;
+        }
+        let bare_png = self.chart.is_none() && due(&self.png, step, last);
+        if bare_png || gif_due {
             let size = self.painter.size();
             let pixels = self.painter.render(slice(&field));
-            if let Some(p) = self.png.as_ref().filter(|p| p.due(step, last)) {
+            if let Some(p) = self.png.as_ref().filter(|p| bare_png && p.due(step, last)) {
                 let path = snapshot_path(&self.dir, &p.file, step, last);
                 write_png(&path, size, pixels, &FieldPainter::palette())
                     .map_err(SimError::output(path.display().to_string()))?;
@@ -576,6 +612,8 @@ pub struct FieldPlan {
     pub gif: Option<Every>,
     /// Picture size in pixels.
     pub size: u32,
+    /// PNGs as annotated charts with these labels (`None`: bare frames).
+    pub chart: Option<ChartLabels>,
 }
 
 /// The outputs of a scenario run: thermo, dumps and field snapshots.
@@ -621,15 +659,7 @@ impl OutputPlan {
             )?));
         }
         if let Some(f) = &self.field {
-            observers.push(Box::new(FieldFiles::new(
-                model,
-                f.csv.clone(),
-                f.png.clone(),
-                f.gif.clone(),
-                f.size,
-                dir,
-                recorded,
-            )?));
+            observers.push(Box::new(FieldFiles::new(model, f, dir, recorded)?));
         }
         Ok(observers)
     }

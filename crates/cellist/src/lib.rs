@@ -9,6 +9,7 @@
 
 pub mod geometry;
 pub mod interactions;
+pub mod interpolation;
 pub mod longrange;
 pub mod memory;
 pub mod models;

@@ -4,3 +4,4 @@
 pub mod gravity;
 pub mod md;
 pub mod pse;
+pub mod vortex;

@@ -442,6 +442,7 @@ fn run_in<const D: usize>(
             png: setup.png.clone(),
             gif: setup.gif.clone(),
             size: setup.picture_size,
+            chart: None,
         }),
     };
     let job = Job {

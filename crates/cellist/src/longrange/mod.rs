@@ -6,15 +6,17 @@
 //! Every solver is deterministic: each particle's sum runs in an order fixed by
 //! the data, so 1 and N threads give the same bits.
 
+pub mod biot_savart;
 pub mod direct;
 pub mod mesh;
 pub mod p3m;
 pub mod tree;
 
+pub use biot_savart::{BlobKernel, DirectBiotSavart};
 pub use direct::DirectSum;
-pub use mesh::{MeshBoundary, MeshParams, ParticleMesh};
+pub use mesh::{MeshBoundary, MeshParams, ParticleMesh, VicBoundary, VicParams, VortexInCell};
 pub use p3m::P3m;
-pub use tree::{BarnesHut, TreeParams};
+pub use tree::{BarnesHut, TreeParams, VortexTree};
 
 use crate::interactions::GravityLaw;
 

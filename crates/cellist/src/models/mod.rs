@@ -5,5 +5,6 @@ pub mod gravity;
 pub mod md;
 pub mod model;
 pub mod pse;
+pub mod vortex;
 
 pub use model::{check, Blowup, Checked, Field, Model, Particles};

@@ -88,7 +88,15 @@ pub struct Field {
     pub positions: Vec<[f64; 3]>,
     /// The values, in input order.
     pub values: Vec<f64>,
-    /// Side of the (cubic) box the particles fill.
+    /// The values' column name in field files ("phi").
+    pub value_name: &'static str,
+    /// Further per-particle columns for field files, after the values.
+    pub extra: Vec<(&'static str, Vec<f64>)>,
+    /// The lower corner of the (cubic) box the pictures show.
+    pub origin: [f64; 3],
+    /// Whether that box is periodic (pictures wrap across its edges).
+    pub periodic: bool,
+    /// Side of the (cubic) box the pictures show.
     pub side: f64,
     /// The particle spacing.
     pub spacing: f64,
@@ -111,6 +119,12 @@ pub trait Model {
     /// True without particles.
     fn is_empty(&self) -> bool {
         self.len() == 0
+    }
+
+    /// Whether the particle count may change from step to step (a vortex run that
+    /// remeshes); for other models a changed count is a blow-up.
+    fn count_may_change(&self) -> bool {
+        false
     }
 
     /// The time step; the time of step `s` is `s * dt`.
@@ -166,7 +180,8 @@ pub trait Model {
 }
 
 /// The first non-finite value of `model`'s checked arrays, or a position outside its
-/// walls, or a particle count other than `count`, as the blow-up of `step`.
+/// walls, or a particle count other than `count` (unless the model's count may
+/// change), as the blow-up of `step`.
 pub fn check(model: &dyn Model, step: u64, count: usize) -> Result<(), Blowup> {
     let blowup = |what: String, value: Option<(String, f64)>, remedy: &str| Blowup {
         step,
@@ -174,7 +189,7 @@ pub fn check(model: &dyn Model, step: u64, count: usize) -> Result<(), Blowup> {
         value,
         remedy: remedy.to_string(),
     };
-    if model.len() != count {
+    if !model.count_may_change() && model.len() != count {
         return Err(blowup(
             format!(
                 "the number of {}s changed from {count} to {}",

@@ -1,21 +1,26 @@
-//! The 3-d real discrete Fourier transform of an `M^3` mesh, stored as the
-//! half spectrum `F(q0, q1, q2)` for `q2 <= M/2` at `(q0 M + q1) H + q2`,
-//! `H = M/2 + 1`:
+//! Real discrete Fourier transforms of square meshes of side `M`: the 3-d one of
+//! an `M^3` mesh ([`Fft3`]), stored as the half spectrum `F(q0, q1, q2)` for
+//! `q2 <= M/2` at `(q0 M + q1) H + q2`, `H = M/2 + 1`,
 //!
 //! `F(q) = sum_x f(x) exp(-2 pi i q.x / M)` (forward, [`Fft3::forward`]) and
-//! `f(x) = sum_q F(q) exp(+2 pi i q.x / M)` (inverse, unnormalised, [`Fft3::inverse`]).
+//! `f(x) = sum_q F(q) exp(+2 pi i q.x / M)` (inverse, unnormalised, [`Fft3::inverse`]),
 //!
-//! Both are pruned to a corner `[0, m)^3` of the mesh: the forward transform takes
+//! and the 2-d one of an `M^2` mesh ([`Fft2`]), the same with `F(q0, q1)` for
+//! `q1 <= M/2` at `q0 H + q1`.
+//!
+//! Both are pruned to a corner `[0, m)^d` of the mesh: the forward transform takes
 //! a mesh that is zero outside it, the inverse writes only that corner (`m = M`
-//! for periodic meshes, `m = M/2` for zero-padded isolated ones). Each 1-d line is
-//! transformed on its own, so lines run in parallel and the bits do not depend on
-//! the thread count.
+//! for periodic meshes, `m = M/2` for zero-padded isolated ones). Both are built
+//! from the same 1-d plans ([`Plans`]) and line passes (a row's real transform,
+//! [`strided`] lines of the complex one). Each 1-d line is transformed on its own,
+//! so lines run in parallel and the bits do not depend on the thread count.
 
 use crate::threads::DisjointSlice;
 use rayon::prelude::*;
 use realfft::{ComplexToReal, RealFftPlanner, RealToComplex};
 use rustfft::num_complex::Complex;
 use rustfft::{Fft, FftPlanner};
+use std::ops::Range;
 use std::sync::Arc;
 
 /// Lines gathered per strided pass: 4 complex numbers fill a 64-byte cache line.
@@ -28,19 +33,18 @@ struct Slot {
     scratch: Vec<Complex<f64>>,
 }
 
-/// Plans and per-task buffers for transforms of one mesh size `M`.
-pub(crate) struct Fft3 {
+/// The 1-d plans of lines of length `M` (even).
+struct Plans {
     m: usize,
     r2c: Arc<dyn RealToComplex<f64>>,
     c2r: Arc<dyn ComplexToReal<f64>>,
     forward: Arc<dyn Fft<f64>>,
     inverse: Arc<dyn Fft<f64>>,
-    slots: Vec<Slot>,
+    scratch: usize,
 }
 
-impl Fft3 {
-    /// Plans for an `M^3` mesh (`M` even).
-    pub(crate) fn new(m: usize) -> Self {
+impl Plans {
+    fn new(m: usize) -> Self {
         let mut real = RealFftPlanner::<f64>::new();
         let mut complex = FftPlanner::<f64>::new();
         let (r2c, c2r) = (real.plan_fft_forward(m), real.plan_fft_inverse(m));
@@ -54,31 +58,81 @@ impl Fft3 {
         .into_iter()
         .max()
         .unwrap_or(0);
-        let slots = (0..m)
-            .map(|_| Slot {
-                real: vec![0.0; m],
-                lines: vec![Complex::default(); BATCH * m],
-                scratch: vec![Complex::default(); scratch],
-            })
-            .collect();
-        Fft3 {
+        Plans {
             m,
             r2c,
             c2r,
             forward,
             inverse,
-            slots,
+            scratch,
         }
+    }
+
+    /// Fresh buffers for one task.
+    fn slot(&self) -> Slot {
+        Slot {
+            real: vec![0.0; self.m],
+            lines: vec![Complex::default(); BATCH * self.m],
+            scratch: vec![Complex::default(); self.scratch],
+        }
+    }
+
+    /// `out` (`M/2 + 1`) = the r2c transform of the row whose first `corner`
+    /// points `fill` writes and whose others are zero.
+    #[inline]
+    fn row_forward(
+        &self,
+        corner: usize,
+        slot: &mut Slot,
+        out: &mut [Complex<f64>],
+        fill: impl FnOnce(&mut [f64]),
+    ) {
+        slot.real[corner..].fill(0.0);
+        fill(&mut slot.real[..corner]);
+        self.r2c
+            .process_with_scratch(&mut slot.real, out, &mut slot.scratch)
+            .expect("r2c buffers have the planned lengths");
+    }
+
+    /// The first `row.len()` points of the c2r transform of `line` (`M/2 + 1`,
+    /// used as scratch).
+    #[inline]
+    fn row_inverse(&self, slot: &mut Slot, line: &mut [Complex<f64>], row: &mut [f64]) {
+        // The imaginary parts of q = 0 and M/2 vanish for a real f; round-off is
+        // dropped so that the real transform accepts them.
+        let h = line.len();
+        line[0].im = 0.0;
+        line[h - 1].im = 0.0;
+        self.c2r
+            .process_with_scratch(line, &mut slot.real, &mut slot.scratch)
+            .expect("c2r buffers have the planned lengths");
+        row.copy_from_slice(&slot.real[..row.len()]);
+    }
+}
+
+/// Plans and per-task buffers for transforms of one mesh size `M`.
+pub(crate) struct Fft3 {
+    plans: Plans,
+    slots: Vec<Slot>,
+}
+
+impl Fft3 {
+    /// Plans for an `M^3` mesh (`M` even).
+    pub(crate) fn new(m: usize) -> Self {
+        let plans = Plans::new(m);
+        let slots = (0..m).map(|_| plans.slot()).collect();
+        Fft3 { plans, slots }
     }
 
     /// The mesh side `M`.
     pub(crate) fn size(&self) -> usize {
-        self.m
+        self.plans.m
     }
 
     /// Complex numbers in the half spectrum, `M^2 (M/2 + 1)`.
     pub(crate) fn spectrum_len(&self) -> usize {
-        self.m * self.m * (self.m / 2 + 1)
+        let m = self.plans.m;
+        m * m * (m / 2 + 1)
     }
 
     /// `spec = F` of the mesh that is `row(i, j)` on the first `m` points of row
@@ -90,8 +144,8 @@ impl Fft3 {
         spec: &mut [Complex<f64>],
         row: impl Fn(usize, usize, &mut [f64]) + Sync,
     ) {
-        let (m, h) = (self.m, self.m / 2 + 1);
-        let (r2c, fft) = (&self.r2c, &self.forward);
+        let plans = &self.plans;
+        let (m, h) = (plans.m, plans.m / 2 + 1);
         spec.par_chunks_mut(m * h)
             .zip(self.slots.par_iter_mut())
             .enumerate()
@@ -102,15 +156,12 @@ impl Fft3 {
                 }
                 for (j, out) in plane.chunks_mut(h).enumerate() {
                     if j < corner {
-                        slot.real[corner..].fill(0.0);
-                        row(i, j, &mut slot.real[..corner]);
-                        r2c.process_with_scratch(&mut slot.real, out, &mut slot.scratch)
-                            .expect("r2c buffers have the planned lengths");
+                        plans.row_forward(corner, slot, out, |r| row(i, j, r));
                     } else {
                         out.fill(Complex::default());
                     }
                 }
-                columns(plane, h, m, fft.as_ref(), slot);
+                columns(plane, h, plans.forward.as_ref(), slot);
             });
         self.axis0(spec, false);
     }
@@ -118,77 +169,168 @@ impl Fft3 {
     /// Writes `f(x)` for `x in [0, m)^3` to `out` (`m^3`, row-major) from
     /// `spec = F`, which is used as scratch.
     pub(crate) fn inverse(&mut self, corner: usize, spec: &mut [Complex<f64>], out: &mut [f64]) {
-        let (m, h) = (self.m, self.m / 2 + 1);
+        let (m, h) = (self.plans.m, self.plans.m / 2 + 1);
         self.axis0(spec, true);
-        let (c2r, fft) = (&self.c2r, &self.inverse);
+        let plans = &self.plans;
         spec.par_chunks_mut(m * h)
             .zip(out.par_chunks_mut(corner * corner))
             .zip(self.slots.par_iter_mut())
             .for_each(|((plane, rows), slot)| {
-                columns(plane, h, m, fft.as_ref(), slot);
+                columns(plane, h, plans.inverse.as_ref(), slot);
                 for (line, row) in plane.chunks_mut(h).zip(rows.chunks_mut(corner)) {
-                    // The imaginary parts of q2 = 0 and M/2 vanish for a real f;
-                    // round-off is dropped so that the real transform accepts them.
-                    line[0].im = 0.0;
-                    line[h - 1].im = 0.0;
-                    c2r.process_with_scratch(line, &mut slot.real, &mut slot.scratch)
-                        .expect("c2r buffers have the planned lengths");
-                    row.copy_from_slice(&slot.real[..corner]);
+                    plans.row_inverse(slot, line, row);
                 }
             });
     }
 
     /// The c2c transform along axis 0 (stride `M H`), one task per `q1`.
     fn axis0(&mut self, spec: &mut [Complex<f64>], inverse: bool) {
-        let (m, h) = (self.m, self.m / 2 + 1);
+        let (m, h) = (self.plans.m, self.plans.m / 2 + 1);
         let fft = if inverse {
-            &self.inverse
+            &self.plans.inverse
         } else {
-            &self.forward
+            &self.plans.forward
         };
         let shared = DisjointSlice::new(spec);
         self.slots
             .par_iter_mut()
             .enumerate()
             .for_each(|(q1, slot)| {
-                // Task q1 owns the elements (q0 M + q1) H + q2.
-                let at = |q0: usize, q2: usize| (q0 * m + q1) * h + q2;
-                for first in (0..h).step_by(BATCH) {
-                    let batch = BATCH.min(h - first);
-                    let lines = &mut slot.lines[..batch * m];
-                    for q0 in 0..m {
-                        for b in 0..batch {
-                            // SAFETY: only task q1 reaches this element.
-                            lines[b * m + q0] = unsafe { *shared.get(at(q0, first + b)) };
-                        }
-                    }
-                    fft.process_with_scratch(lines, &mut slot.scratch);
-                    for q0 in 0..m {
-                        for b in 0..batch {
-                            // SAFETY: as above.
-                            unsafe { *shared.get(at(q0, first + b)) = lines[b * m + q0] };
-                        }
-                    }
-                }
+                // SAFETY: task q1 alone reaches the elements (q0 M + q1) H + q2.
+                unsafe { strided(&shared, q1 * h, m * h, 0..h, fft.as_ref(), slot) };
             });
     }
 }
 
-/// Transforms the `H` columns of one plane (`data[c + q1 H]`, `q1 < M`),
-/// gathered [`BATCH`] at a time.
-fn columns(data: &mut [Complex<f64>], h: usize, m: usize, fft: &dyn Fft<f64>, slot: &mut Slot) {
-    for first in (0..h).step_by(BATCH) {
-        let batch = BATCH.min(h - first);
+/// Tasks of a 2-d transform: a fixed number (set by `M` alone, not by the thread
+/// count), each with its own buffers.
+fn tasks2(m: usize) -> usize {
+    (m / 32).clamp(1, 64)
+}
+
+/// Plans and per-task buffers for transforms of one `M^2` mesh size.
+pub(crate) struct Fft2 {
+    plans: Plans,
+    slots: Vec<Slot>,
+}
+
+impl Fft2 {
+    /// Plans for an `M^2` mesh (`M` even).
+    pub(crate) fn new(m: usize) -> Self {
+        let plans = Plans::new(m);
+        let slots = (0..tasks2(m)).map(|_| plans.slot()).collect();
+        Fft2 { plans, slots }
+    }
+
+    /// The mesh side `M`.
+    pub(crate) fn size(&self) -> usize {
+        self.plans.m
+    }
+
+    /// Complex numbers in the half spectrum, `M (M/2 + 1)`.
+    pub(crate) fn spectrum_len(&self) -> usize {
+        self.plans.m * (self.plans.m / 2 + 1)
+    }
+
+    /// `spec = F` of the mesh that is `row(i)` on the first `corner` points of row
+    /// `i < corner` and zero elsewhere; `row` fills a slice of length `corner`.
+    pub(crate) fn forward(
+        &mut self,
+        corner: usize,
+        spec: &mut [Complex<f64>],
+        row: impl Fn(usize, &mut [f64]) + Sync,
+    ) {
+        let plans = &self.plans;
+        let (m, h) = (plans.m, plans.m / 2 + 1);
+        let band = m.div_ceil(self.slots.len());
+        spec.par_chunks_mut(band * h)
+            .zip(self.slots.par_iter_mut())
+            .enumerate()
+            .for_each(|(b, (rows, slot))| {
+                for (k, out) in rows.chunks_mut(h).enumerate() {
+                    let i = b * band + k;
+                    if i < corner {
+                        plans.row_forward(corner, slot, out, |r| row(i, r));
+                    } else {
+                        out.fill(Complex::default());
+                    }
+                }
+            });
+        self.axis0(spec, false);
+    }
+
+    /// Writes `f(x)` for `x in [0, corner)^2` to `out` (`corner^2`, row-major)
+    /// from `spec = F`, which is used as scratch.
+    pub(crate) fn inverse(&mut self, corner: usize, spec: &mut [Complex<f64>], out: &mut [f64]) {
+        self.axis0(spec, true);
+        let plans = &self.plans;
+        let h = plans.m / 2 + 1;
+        let band = plans.m.div_ceil(self.slots.len());
+        spec[..corner * h]
+            .par_chunks_mut(band * h)
+            .zip(out.par_chunks_mut(band * corner))
+            .zip(self.slots.par_iter_mut())
+            .for_each(|((lines, rows), slot)| {
+                for (line, row) in lines.chunks_mut(h).zip(rows.chunks_mut(corner)) {
+                    plans.row_inverse(slot, line, row);
+                }
+            });
+    }
+
+    /// The c2c transform along axis 0 (the `H` columns, stride `H`), each task
+    /// taking a fixed range of whole batches of columns.
+    fn axis0(&mut self, spec: &mut [Complex<f64>], inverse: bool) {
+        let h = self.plans.m / 2 + 1;
+        let fft = if inverse {
+            &self.plans.inverse
+        } else {
+            &self.plans.forward
+        };
+        let per_task = h.div_ceil(self.slots.len()).next_multiple_of(BATCH);
+        let shared = DisjointSlice::new(spec);
+        self.slots.par_iter_mut().enumerate().for_each(|(t, slot)| {
+            let cols = (t * per_task).min(h)..((t + 1) * per_task).min(h);
+            // SAFETY: the tasks' column ranges are disjoint.
+            unsafe { strided(&shared, 0, h, cols, fft.as_ref(), slot) };
+        });
+    }
+}
+
+/// Transforms the `H` columns of one plane (`data[c + q1 H]`, `q1 < M`).
+fn columns(data: &mut [Complex<f64>], h: usize, fft: &dyn Fft<f64>, slot: &mut Slot) {
+    let shared = DisjointSlice::new(data);
+    // SAFETY: the plane is borrowed mutably for the call.
+    unsafe { strided(&shared, 0, h, 0..h, fft, slot) };
+}
+
+/// Transforms with `fft` (length `M`) the lines `data[base + c + k stride]`,
+/// `k < M`, of the columns `c in cols`, gathered [`BATCH`] at a time.
+///
+/// # Safety
+/// No other task may access these elements during the call.
+unsafe fn strided(
+    data: &DisjointSlice<Complex<f64>>,
+    base: usize,
+    stride: usize,
+    cols: Range<usize>,
+    fft: &dyn Fft<f64>,
+    slot: &mut Slot,
+) {
+    let m = fft.len();
+    for first in cols.clone().step_by(BATCH) {
+        let batch = BATCH.min(cols.end - first);
         let lines = &mut slot.lines[..batch * m];
         for k in 0..m {
             for b in 0..batch {
-                lines[b * m + k] = data[first + b + k * h];
+                // SAFETY: the caller's promise.
+                lines[b * m + k] = unsafe { *data.get(base + first + b + k * stride) };
             }
         }
         fft.process_with_scratch(lines, &mut slot.scratch);
         for k in 0..m {
             for b in 0..batch {
-                data[first + b + k * h] = lines[b * m + k];
+                // SAFETY: as above.
+                unsafe { *data.get(base + first + b + k * stride) = lines[b * m + k] };
             }
         }
     }

@@ -24,6 +24,9 @@ mod fft;
 pub(crate) mod green;
 #[cfg(test)]
 pub(crate) mod testkit;
+pub mod vic;
+
+pub use vic::{VicBoundary, VicParams, VortexInCell, MAX_VIC_GRID, MIN_VIC_GRID};
 
 use super::{FieldOut, Sources};
 use crate::interactions::GravityLaw;

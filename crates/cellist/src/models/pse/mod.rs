@@ -441,6 +441,40 @@ impl<const D: usize> PseSystem<D> {
     }
 }
 
+/// The PSE rate of particles that move (the vortex model's diffusion): `out_i =
+/// sum_j w(r_ij^2) (phi_j - phi_i)` over the pairs within `cutoff` in `domain`
+/// (open, or periodic by the minimum image), with the same pair sums as
+/// [`PseSystem`]'s cell-list method. The cell list and its half Verlet list are
+/// built for these positions on every call. `positions`, `phi` and `out` are in
+/// the caller's order; each particle's sum runs in an order fixed by the data.
+pub fn moving_rate<const D: usize>(
+    domain: &Domain<D>,
+    weight: &PairWeight,
+    cutoff: f64,
+    positions: &[[f64; D]],
+    phi: &[f64],
+    out: &mut [f64],
+    threads: &Threads,
+) -> Result<(), GeometryError> {
+    let cells = CellList::build(domain, cutoff, positions)?;
+    let mut pairs = ListPairs::new(&cells, cutoff, threads);
+    let mut slot_phi = Vec::with_capacity(phi.len());
+    cells.permute(phi, &mut slot_phi);
+    let mut slot_out = vec![0.0; phi.len()];
+    pairs.sum(
+        weight,
+        Summed::Rate,
+        cells.positions(),
+        &slot_phi,
+        &mut slot_out,
+        threads,
+    );
+    for (slot, &k) in cells.order().iter().enumerate() {
+        out[k as usize] = slot_out[slot];
+    }
+    Ok(())
+}
+
 impl<const D: usize> Pairs<D> {
     fn sum(
         &mut self,
@@ -463,7 +497,12 @@ const AXPY_CHUNK: usize = 8192;
 
 /// `out = base + sum_s c_s k_s` element by element, the terms summed in the given
 /// order first (`base` defaults to `out` itself: `out += ...`).
-fn combine(out: &mut [f64], base: Option<&[f64]>, terms: &[(f64, &[f64])], threads: &Threads) {
+pub(crate) fn combine(
+    out: &mut [f64],
+    base: Option<&[f64]>,
+    terms: &[(f64, &[f64])],
+    threads: &Threads,
+) {
     threads.install(|| {
         out.par_chunks_mut(AXPY_CHUNK)
             .enumerate()

@@ -1,0 +1,564 @@
+//! `model = "vortex"` (the viscous vortex particle method in 2D): the scenario
+//! keys, the seeded particles, and the outputs (thermo with the invariants and
+//! the errors against Lamb-Oseen, field CSV snapshots `x,y,omega,gamma,u,v`,
+//! vorticity pictures with axes and a colour bar, a GIF animation).
+
+use crate::driver::{CheckpointKeys, Job, LastFrame};
+use crate::error::SimResult;
+use crate::observers::{ChartLabels, Every, FieldPlan, OutputPlan, PlotSpec, TableStyle};
+use crate::scenario::Scenario;
+use cellist::longrange::{BlobKernel, TreeParams, VicBoundary, VicParams, VortexInCell};
+use cellist::models::pse::Integrator;
+use cellist::models::vortex::{
+    seed, Extras, InitialVorticity, VelocitySolver, VortexModel, VortexParams, VortexSystem,
+};
+use cellist::Threads;
+use cellist_io::read_field_of;
+use serde::Deserialize;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// The keys of a vortex scenario.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct VortexScenario {
+    model: String,
+    #[serde(default = "two")]
+    dimension: u64,
+    system: SystemKeys,
+    run: RunKeys,
+    #[serde(default)]
+    output: OutputKeys,
+}
+
+fn two() -> u64 {
+    2
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SystemKeys {
+    initial: InitialKeys,
+    #[serde(default)]
+    nu: f64,
+    #[serde(default = "one_and_a_half")]
+    sigma_over_h: f64,
+    #[serde(default = "gaussian")]
+    kernel: String,
+    #[serde(default)]
+    velocity: VelocityKeys,
+    #[serde(default)]
+    remesh_every: u64,
+    #[serde(default = "threshold")]
+    remesh_threshold: f64,
+    #[serde(default = "four")]
+    pse_cutoff_factor: f64,
+}
+
+fn one_and_a_half() -> f64 {
+    1.5
+}
+
+fn gaussian() -> String {
+    "gaussian".into()
+}
+
+fn threshold() -> f64 {
+    1e-12
+}
+
+fn four() -> f64 {
+    4.0
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct InitialKeys {
+    kind: String,
+    spacing: f64,
+    extent: Option<f64>,
+    center: Option<Vec<f64>>,
+    circulation: Option<f64>,
+    t0: Option<f64>,
+    core: Option<f64>,
+    separation: Option<f64>,
+    peak: Option<f64>,
+    radius: Option<f64>,
+    aspect: Option<f64>,
+    file: Option<PathBuf>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct VelocityKeys {
+    kind: String,
+    theta: Option<f64>,
+    leaf_size: Option<usize>,
+    group_size: Option<usize>,
+    grid: Option<usize>,
+}
+
+impl Default for VelocityKeys {
+    fn default() -> Self {
+        VelocityKeys {
+            kind: "barnes-hut".into(),
+            theta: None,
+            leaf_size: None,
+            group_size: None,
+            grid: None,
+        }
+    }
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RunKeys {
+    steps: u64,
+    dt: f64,
+    #[serde(default = "rk4")]
+    integrator: String,
+}
+
+fn rk4() -> String {
+    "rk4".into()
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields, default)]
+struct OutputKeys {
+    thermo_every: u64,
+    field: Option<SnapshotKeys>,
+    png: Option<SnapshotKeys>,
+    gif: Option<SnapshotKeys>,
+    picture_size: u32,
+    checkpoint: Option<CheckpointKeys>,
+}
+
+impl Default for OutputKeys {
+    fn default() -> Self {
+        OutputKeys {
+            thermo_every: 10,
+            field: None,
+            png: None,
+            gif: None,
+            picture_size: 512,
+            checkpoint: None,
+        }
+    }
+}
+
+#[derive(Deserialize, Clone)]
+#[serde(deny_unknown_fields)]
+struct SnapshotKeys {
+    every: u64,
+    file: Option<PathBuf>,
+}
+
+/// The particles, their lattice and how they are described.
+struct Seeded {
+    positions: Vec<[f64; 2]>,
+    gamma: Vec<f64>,
+    center: [f64; 2],
+    /// The square the pictures show: lower corner and side.
+    view: ([f64; 2], f64),
+    extras: Extras,
+    what: String,
+}
+
+/// The keys an initial condition of `kind` takes besides kind, spacing, extent and
+/// center.
+fn allowed(kind: &str) -> Option<&'static [&'static str]> {
+    Some(match kind {
+        "lamb-oseen" => &["circulation", "t0"],
+        "gaussian" => &["circulation", "core"],
+        "pair" => &["circulation", "separation", "core"],
+        "ellipse" => &["peak", "radius", "aspect"],
+        "file" => &["file"],
+        _ => return None,
+    })
+}
+
+/// Seeds the particles of `system.initial`.
+fn seed_particles(scenario: &Scenario, sys: &SystemKeys) -> SimResult<Seeded> {
+    let err = |m: String| scenario.error(m);
+    let i = &sys.initial;
+    let Some(keys) = allowed(&i.kind) else {
+        return Err(err(format!(
+            "system.initial.kind '{}' is unknown; expected \"lamb-oseen\", \"gaussian\", \"pair\", \"ellipse\" or \"file\"",
+            i.kind
+        )));
+    };
+    let given = [
+        ("circulation", i.circulation.is_some()),
+        ("t0", i.t0.is_some()),
+        ("core", i.core.is_some()),
+        ("separation", i.separation.is_some()),
+        ("peak", i.peak.is_some()),
+        ("radius", i.radius.is_some()),
+        ("aspect", i.aspect.is_some()),
+        ("file", i.file.is_some()),
+    ];
+    if let Some((name, _)) = given.iter().find(|(n, g)| *g && !keys.contains(n)) {
+        return Err(err(format!(
+            "system.initial: a {} takes {}, spacing, extent and center, not {name}",
+            i.kind,
+            keys.join(", ")
+        )));
+    }
+    let positive = |name: &str, v: Option<f64>, default: Option<f64>| -> SimResult<f64> {
+        match v.or(default) {
+            Some(v) if v.is_finite() && v > 0.0 => Ok(v),
+            Some(v) => Err(err(format!("system.initial.{name} must be > 0, got {v}"))),
+            None => Err(err(format!(
+                "system.initial.{name} is missing (a {} needs {})",
+                i.kind,
+                keys.join(", ")
+            ))),
+        }
+    };
+    let h = positive("spacing", Some(i.spacing), None)?;
+    let center: [f64; 2] = match &i.center {
+        None => [0.0, 0.0],
+        Some(c) => match c.as_slice() {
+            [x, y] if x.is_finite() && y.is_finite() => [*x, *y],
+            _ => {
+                return Err(err(format!(
+                    "system.initial.center must be two finite numbers [x, y], got {c:?}"
+                )))
+            }
+        },
+    };
+    let circulation = || -> SimResult<f64> {
+        match i.circulation.unwrap_or(1.0) {
+            g if g.is_finite() && g != 0.0 => Ok(g),
+            g => Err(err(format!(
+                "system.initial.circulation must be finite and nonzero, got {g}"
+            ))),
+        }
+    };
+    let field = match i.kind.as_str() {
+        "lamb-oseen" => {
+            if sys.nu <= 0.0 {
+                return Err(err(format!(
+                    "system.initial: a lamb-oseen vortex needs nu > 0 (its core is sqrt(4 nu t0)), got nu = {}; use kind = \"gaussian\" for an inviscid run",
+                    sys.nu
+                )));
+            }
+            Some(InitialVorticity::LambOseen {
+                circulation: circulation()?,
+                t0: positive("t0", i.t0, Some(1.0))?,
+                nu: sys.nu,
+            })
+        }
+        "gaussian" => Some(InitialVorticity::Gaussian {
+            circulation: circulation()?,
+            core: positive("core", i.core, None)?,
+        }),
+        "pair" => Some(InitialVorticity::Pair {
+            circulation: circulation()?,
+            separation: positive("separation", i.separation, None)?,
+            core: positive("core", i.core, None)?,
+        }),
+        "ellipse" => {
+            let aspect = positive("aspect", i.aspect, Some(2.0))?;
+            if aspect < 1.0 {
+                return Err(err(format!(
+                    "system.initial.aspect must be >= 1, got {aspect}"
+                )));
+            }
+            Some(InitialVorticity::Ellipse {
+                peak: positive("peak", i.peak, Some(20.0))?,
+                radius: positive("radius", i.radius, Some(0.8))?,
+                aspect,
+            })
+        }
+        _ => None,
+    };
+    let (positions, gamma, view, what) = match &field {
+        Some(f) => {
+            let extent = positive("extent", i.extent, None)?;
+            if extent / h > 20_000.0 {
+                return Err(err(format!(
+                    "system.initial: extent / spacing = {} seeds too many particles",
+                    extent / h
+                )));
+            }
+            let (positions, gamma) = seed(f, center, h, extent);
+            let margin = extent + 2.0 * h;
+            (
+                positions,
+                gamma,
+                ([center[0] - margin, center[1] - margin], 2.0 * margin),
+                format!(
+                    "{} vortex seeded on a {}-wide lattice of spacing {h}",
+                    i.kind,
+                    2.0 * extent
+                ),
+            )
+        }
+        None => {
+            let file = i.file.as_ref().ok_or_else(|| {
+                err("system.initial.file is missing (a file initial condition needs file = \"particles.txt\" with lines x y gamma)".into())
+            })?;
+            if i.extent.is_some() {
+                return Err(err(
+                    "system.initial: a file initial condition takes its extent from the file; remove extent".into(),
+                ));
+            }
+            let (points, gamma) = read_field_of::<2>(&scenario.input_path(file), "gamma")?;
+            let points: Vec<[f64; 2]> = points
+                .iter()
+                .map(|p| [p[0] + center[0], p[1] + center[1]])
+                .collect();
+            let (lo, hi) = cellist::geometry::bounding_box(&points);
+            let side = (hi[0] - lo[0]).max(hi[1] - lo[1]) + 4.0 * h;
+            let mid = [0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1])];
+            (
+                points,
+                gamma,
+                ([mid[0] - 0.5 * side, mid[1] - 0.5 * side], side),
+                format!("particles from {}", file.display()),
+            )
+        }
+    };
+    let extras = match field {
+        Some(InitialVorticity::LambOseen {
+            circulation, t0, ..
+        }) => Extras::LambOseen {
+            circulation,
+            t0,
+            center,
+        },
+        Some(InitialVorticity::Ellipse { .. }) => Extras::Ellipse,
+        Some(InitialVorticity::Pair { .. }) => Extras::Pair,
+        _ => Extras::None,
+    };
+    Ok(Seeded {
+        positions,
+        gamma,
+        center,
+        view,
+        extras,
+        what,
+    })
+}
+
+/// The velocity solver of `system.velocity`.
+fn solver(scenario: &Scenario, v: &VelocityKeys) -> SimResult<VelocitySolver> {
+    let err = |m: String| scenario.error(m);
+    let only = |ok: &[&str]| -> SimResult<()> {
+        let given = [
+            ("theta", v.theta.is_some()),
+            ("leaf_size", v.leaf_size.is_some()),
+            ("group_size", v.group_size.is_some()),
+            ("grid", v.grid.is_some()),
+        ];
+        match given.iter().find(|(n, g)| *g && !ok.contains(n)) {
+            Some((name, _)) => Err(err(format!(
+                "system.velocity: the {} solver does not take {name}",
+                v.kind
+            ))),
+            None => Ok(()),
+        }
+    };
+    let check = |r: Result<(), String>| r.map_err(|m| err(format!("system.velocity: {m}")));
+    match v.kind.as_str() {
+        "direct" => {
+            only(&[])?;
+            Ok(VelocitySolver::Direct)
+        }
+        "barnes-hut" => {
+            only(&["theta", "leaf_size", "group_size"])?;
+            let d = TreeParams::default();
+            let params = TreeParams {
+                theta: v.theta.unwrap_or(0.4),
+                quadrupole: true,
+                leaf_size: v.leaf_size.unwrap_or(d.leaf_size),
+                group_size: v.group_size.unwrap_or(d.group_size),
+            };
+            check(params.check())?;
+            Ok(VelocitySolver::BarnesHut(params))
+        }
+        "mesh" => {
+            only(&["grid"])?;
+            let params = VicParams {
+                grid: v.grid.unwrap_or(256),
+                boundary: VicBoundary::Unbounded,
+            };
+            check(VortexInCell::new(params, BlobKernel::new(1.0)).map(|_| ()))?;
+            Ok(VelocitySolver::Mesh(params))
+        }
+        other => Err(err(format!(
+            "system.velocity.kind '{other}' is unknown; expected \"direct\", \"barnes-hut\" or \"mesh\""
+        ))),
+    }
+}
+
+/// Runs a vortex scenario, from the checkpoint `restart` if given.
+pub fn run(
+    scenario: &Scenario,
+    out_dir: &Path,
+    restart: Option<&Path>,
+    threads: &Threads,
+) -> SimResult {
+    let keys: VortexScenario = scenario.parse()?;
+    debug_assert_eq!(keys.model, "vortex");
+    let err = |m: String| scenario.error(m);
+    if keys.dimension != 2 {
+        return Err(err(format!(
+            "dimension must be 2 for the vortex model, got {}",
+            keys.dimension
+        )));
+    }
+    let started = Instant::now();
+    let sys = &keys.system;
+    if !(sys.nu.is_finite() && sys.nu >= 0.0) {
+        return Err(err(format!("system.nu must be >= 0, got {}", sys.nu)));
+    }
+    if !(sys.sigma_over_h.is_finite() && sys.sigma_over_h > 0.0) {
+        return Err(err(format!(
+            "system.sigma_over_h must be > 0, got {}",
+            sys.sigma_over_h
+        )));
+    }
+    if sys.kernel != "gaussian" {
+        return Err(err(format!(
+            "system.kernel '{}' is unknown; expected \"gaussian\" (Gaussian blobs of core sigma and the Gaussian PSE kernel)",
+            sys.kernel
+        )));
+    }
+    let seeded = seed_particles(scenario, sys)?;
+    let velocity = solver(scenario, &sys.velocity)?;
+    let run = &keys.run;
+    if !(run.dt.is_finite() && run.dt > 0.0) {
+        return Err(err(format!("run.dt must be > 0, got {}", run.dt)));
+    }
+    let integrator = Integrator::from_name(&run.integrator).ok_or_else(|| {
+        let names: Vec<&str> = Integrator::ALL.iter().map(|(n, _)| *n).collect();
+        err(format!(
+            "run.integrator '{}' is unknown; expected one of {}",
+            run.integrator,
+            names.join(", ")
+        ))
+    })?;
+    let h = sys.initial.spacing;
+    let params = VortexParams {
+        nu: sys.nu,
+        spacing: h,
+        sigma: sys.sigma_over_h * h,
+        origin: seeded.center,
+        pse_cutoff_factor: sys.pse_cutoff_factor,
+        remesh_every: sys.remesh_every,
+        remesh_threshold: sys.remesh_threshold,
+        solver: velocity,
+    };
+    params.check().map_err(|m| err(format!("system: {m}")))?;
+    let out = &keys.output;
+    let steps = run.steps;
+    if let Some(c) = &out.checkpoint {
+        c.check("output.checkpoint").map_err(err)?;
+    }
+    if !(16..=4096).contains(&out.picture_size) {
+        return Err(err(format!(
+            "output.picture_size must be between 16 and 4096 pixels, got {}",
+            out.picture_size
+        )));
+    }
+    let snapshot = |keys: &Option<SnapshotKeys>, name: &str, default: Option<u64>| match keys {
+        Some(s) => (s.every > 0).then(|| Every {
+            every: s.every,
+            file: s.file.clone().unwrap_or_else(|| name.into()),
+        }),
+        None => default.map(|every| Every {
+            every,
+            file: name.into(),
+        }),
+    };
+    let field = snapshot(&out.field, "vorticity.csv", None);
+    let png = snapshot(&out.png, "vorticity.png", Some(steps.max(1)));
+    let gif = snapshot(&out.gif, "vorticity.gif", Some(steps.div_ceil(60).max(1)));
+    let n = seeded.positions.len();
+    let system = VortexSystem::new(params, seeded.positions, seeded.gamma, threads)
+        .map_err(|e| err(format!("system: {e}")))?;
+    let solver_name = match velocity {
+        VelocitySolver::Direct => "direct (all pairs)".to_string(),
+        VelocitySolver::BarnesHut(p) => format!("barnes-hut (theta {})", p.theta),
+        VelocitySolver::Mesh(p) => format!("mesh (vortex-in-cell, grid {}^2, unbounded)", p.grid),
+    };
+    println!(
+        "vortex: {n} particles, {}; nu {}, sigma {} ({} h), velocity by {solver_name}, remesh every {}",
+        seeded.what,
+        sys.nu,
+        params.sigma,
+        sys.sigma_over_h,
+        match sys.remesh_every {
+            0 => "never".to_string(),
+            k => format!("{k} steps"),
+        }
+    );
+    println!(
+        "run: {steps} steps of dt {} with {}, {} thread(s); results in {}",
+        run.dt,
+        run.integrator,
+        threads.count(),
+        out_dir.display()
+    );
+    let plot = match seeded.extras {
+        Extras::LambOseen { .. } => Some(PlotSpec {
+            file: "error.png",
+            title: "Vorticity error against Lamb-Oseen",
+            x_label: "time",
+            y_label: "L2 error of omega",
+            series: vec![("L2 error", "omega_l2_error", false)],
+        }),
+        _ => Some(PlotSpec {
+            file: "invariants.png",
+            title: "Circulation and enstrophy",
+            x_label: "time",
+            y_label: "value",
+            series: vec![
+                ("circulation", "circulation", false),
+                ("enstrophy", "enstrophy", false),
+            ],
+        }),
+    };
+    let plan = OutputPlan {
+        thermo_every: out.thermo_every,
+        table: TableStyle {
+            width: 15,
+            precision: 7,
+            exponent: true,
+            shown: 7,
+        },
+        plot,
+        dumps: Vec::new(),
+        field: Some(FieldPlan {
+            csv: field,
+            png,
+            gif,
+            size: out.picture_size,
+            chart: Some(ChartLabels {
+                title: "vorticity",
+                value: "ω = Γ/h²",
+            }),
+        }),
+    };
+    let model = VortexModel::new(
+        system,
+        integrator,
+        run.dt,
+        seeded.extras,
+        seeded.view,
+        threads,
+    );
+    let job = Job {
+        model,
+        steps,
+        dir: out_dir.to_path_buf(),
+        checkpoint: out.checkpoint.clone(),
+        physics: scenario.physics_keys()?,
+        timings: true,
+        last_frame: LastFrame::Field { file: "last.csv" },
+    };
+    crate::execute(job, &plan, restart, threads, started)
+}
