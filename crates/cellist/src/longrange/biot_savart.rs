@@ -13,6 +13,7 @@
 //! every particle's sum in an order fixed by the data.
 
 use crate::models::pse::exp_nonpositive;
+use crate::simd::F64x4;
 use crate::threads::{tournament, DisjointSlice, Threads};
 use rayon::prelude::*;
 use std::f64::consts::PI;
@@ -99,8 +100,8 @@ pub fn velocity_at(
 /// 8 bytes) take 24 KiB, within the level-1 cache.
 const BLOCK: usize = 256;
 
-/// Partners computed together in straight-line code (two AVX2 vectors).
-const LANES: usize = 8;
+/// Partners computed together: one AVX2 vector.
+const LANES: usize = 4;
 
 /// All pairs of particles, each once: blocks of [`BLOCK`] particles meet in the
 /// rounds of a round-robin tournament, the block pairs of a round in parallel.
@@ -215,9 +216,16 @@ impl DirectBiotSavart {
     }
 }
 
+/// Beyond this `x = r^2 / (2 sigma^2)`, `exp(-x) < 5e-18` and `1 - exp(-x)` rounds
+/// to exactly 1: the far-field factor `1 / (2 pi r^2)` has the same bits as
+/// [`BlobKernel::factor`], without the exponential.
+const FAR: f64 = 40.0;
+
 /// Particle `i` against the consecutive `partners`, whose sums are `partner_sums`
 /// (same length): adds `Gamma_i K_sigma(x_j - x_i)` to each partner and returns
-/// `sum_j Gamma_j K_sigma(x_i - x_j)`, lane sums added in lane order at the end.
+/// `sum_j Gamma_j K_sigma(x_i - x_j)`. Four partners per AVX2 register; a group
+/// of four with no pair inside `FAR` skips the exponential; lane sums are added
+/// in lane order at the end, the last partial group after them.
 #[inline(always)]
 fn row(
     kernel: &BlobKernel,
@@ -229,36 +237,42 @@ fn row(
 ) -> [f64; 2] {
     let (xi, yi, gi) = (x[0][i], x[1][i], gamma[i]);
     let [pu, pv] = partner_sums;
-    let mut acc = [[0.0; LANES]; 2];
+    let (sx, sy, sg) = (F64x4::splat(xi), F64x4::splat(yi), F64x4::splat(gi));
+    let far = F64x4::splat(FAR / kernel.inv_two_sigma2);
+    let inv_two_pi = F64x4::splat(1.0 / (2.0 * PI));
+    let one = F64x4::splat(1.0);
+    let mut acc = [F64x4::splat(0.0); 2];
     let start = partners.start;
-    let mut j0 = start;
-    while j0 < partners.end {
-        let len = LANES.min(partners.end - j0);
-        let mut dx = [0.0; LANES];
-        let mut dy = [0.0; LANES];
-        let mut gj = [0.0; LANES];
-        for k in 0..len {
-            dx[k] = xi - x[0][j0 + k];
-            dy[k] = yi - x[1][j0 + k];
-            gj[k] = gamma[j0 + k];
-        }
-        let mut q = [0.0; LANES];
-        for k in 0..LANES {
-            q[k] = kernel.factor(dx[k] * dx[k] + dy[k] * dy[k]);
-        }
-        for k in 0..LANES {
-            // padded lanes have gj = 0 and contribute exact zeros
-            acc[0][k] += -q[k] * gj[k] * dy[k];
-            acc[1][k] += q[k] * gj[k] * dx[k];
-        }
-        for k in 0..len {
-            let at = j0 + k - start;
-            pu[at] += q[k] * gi * dy[k];
-            pv[at] -= q[k] * gi * dx[k];
-        }
-        j0 += LANES;
+    let whole = partners.len() / LANES * LANES;
+    for at in (0..whole).step_by(LANES) {
+        let j = start + at;
+        let dx = sx - F64x4::load(&x[0][j..]);
+        let dy = sy - F64x4::load(&x[1][j..]);
+        let gj = F64x4::load(&gamma[j..]);
+        let r2 = dx * dx + dy * dy;
+        let q = if F64x4::any_less(r2, far) {
+            let r2 = r2.to_array();
+            F64x4::load(&r2.map(|r2| kernel.factor(r2)))
+        } else {
+            inv_two_pi * (one / r2)
+        };
+        acc[0] = acc[0] - q * gj * dy;
+        acc[1] = acc[1] + q * gj * dx;
+        let (qgy, qgx) = (q * sg * dy, q * sg * dx);
+        (F64x4::load(&pu[at..]) + qgy).store(&mut pu[at..]);
+        (F64x4::load(&pv[at..]) - qgx).store(&mut pv[at..]);
     }
-    [acc[0].iter().sum(), acc[1].iter().sum()]
+    let mut sums = [acc[0].sum(), acc[1].sum()];
+    for at in whole..partners.len() {
+        let j = start + at;
+        let (dx, dy) = (xi - x[0][j], yi - x[1][j]);
+        let q = kernel.factor(dx * dx + dy * dy);
+        sums[0] -= q * gamma[j] * dy;
+        sums[1] += q * gamma[j] * dx;
+        pu[at] += q * gi * dy;
+        pv[at] -= q * gi * dx;
+    }
+    sums
 }
 
 #[cfg(test)]

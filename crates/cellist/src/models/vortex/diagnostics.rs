@@ -21,12 +21,17 @@ use crate::threads::Threads;
 use rayon::prelude::*;
 use std::f64::consts::PI;
 
+/// Beyond this `x`, `E1(x) < exp(-x) / x < 1e-19` is left out (and the
+/// enstrophy's `exp(-x)` with it).
+const FAR: f64 = 40.0;
+
 /// Euler's constant.
 const EULER_GAMMA: f64 = 0.577_215_664_901_532_9;
 
 /// `ln(r^2) + E1(r^2 / (4 sigma^2))` with `x = r^2 / (4 sigma^2)`, given `ln(4 sigma^2)`:
 /// the series `ln(4 sigma^2) - gamma + sum_k (-1)^(k+1) x^k / (k k!)` for `x <= 1`
-/// (finite at `r = 0`), the continued fraction of `E1` above.
+/// (finite at `r = 0`), the continued fraction of `E1` above, and `ln(r^2)`
+/// alone beyond `x = 40`.
 pub fn log_plus_e1(x: f64, ln_four_sigma2: f64) -> f64 {
     if x <= 1.0 {
         let mut term = 1.0;
@@ -42,7 +47,7 @@ pub fn log_plus_e1(x: f64, ln_four_sigma2: f64) -> f64 {
         ln_four_sigma2 - EULER_GAMMA + sum
     } else {
         let log = x.ln() + ln_four_sigma2;
-        if x > 700.0 {
+        if x > FAR {
             return log;
         }
         // E1(x) = exp(-x) / (x + 1 / (1 + 1 / (x + 2 / (1 + 2 / (x + ...))))), by
@@ -146,7 +151,9 @@ pub fn energy_and_enstrophy(
                     let x = (d[0] * d[0] + d[1] * d[1]) * inv;
                     let gg = gi * gamma[j];
                     e += gg * log_plus_e1(x, ln4s2);
-                    z += gg * (-x).exp();
+                    if x <= FAR {
+                        z += gg * (-x).exp();
+                    }
                 }
                 (e, z)
             })
