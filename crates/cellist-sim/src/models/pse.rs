@@ -4,6 +4,7 @@
 
 use crate::driver::{CheckpointKeys, Job, LastFrame};
 use crate::error::SimResult;
+use crate::models::field_output::FieldOutputKeys;
 use crate::observers::{Every, FieldPlan, OutputPlan, PlotSpec, TableStyle};
 use crate::scenario::Scenario;
 use cellist::models::pse::{
@@ -25,7 +26,7 @@ struct PseScenario {
     system: SystemKeys,
     run: RunKeys,
     #[serde(default)]
-    output: OutputKeys,
+    output: FieldOutputKeys,
 }
 
 fn two() -> u64 {
@@ -97,37 +98,6 @@ struct RunKeys {
 
 fn rk4() -> String {
     "rk4".into()
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields, default)]
-struct OutputKeys {
-    thermo_every: u64,
-    field: Option<SnapshotKeys>,
-    png: Option<SnapshotKeys>,
-    gif: Option<SnapshotKeys>,
-    picture_size: u32,
-    checkpoint: Option<CheckpointKeys>,
-}
-
-impl Default for OutputKeys {
-    fn default() -> Self {
-        OutputKeys {
-            thermo_every: 10,
-            field: None,
-            png: None,
-            gif: None,
-            picture_size: 512,
-            checkpoint: None,
-        }
-    }
-}
-
-#[derive(Deserialize, Clone)]
-#[serde(deny_unknown_fields)]
-struct SnapshotKeys {
-    every: u64,
-    file: Option<PathBuf>,
 }
 
 /// Everything a run needs, checked.
@@ -269,30 +239,8 @@ fn build<const D: usize>(scenario: &Scenario, keys: &PseScenario) -> SimResult<S
     })?;
     let out = &keys.output;
     let steps = run.steps;
-    // every = 0 turns a snapshot off; a missing key takes the default
-    let snapshot = |keys: &Option<SnapshotKeys>, name: &str, default: Option<u64>| match keys {
-        Some(s) => (s.every > 0).then(|| Every {
-            every: s.every,
-            file: s.file.clone().unwrap_or_else(|| name.into()),
-        }),
-        None => default.map(|every| Every {
-            every,
-            file: name.into(),
-        }),
-    };
-    let field = snapshot(&out.field, "field.csv", None);
-    // pictures of the first and last steps, and an animation of about 60 frames
-    let png = snapshot(&out.png, "field.png", Some(steps.max(1)));
-    let gif = snapshot(&out.gif, "field.gif", Some(steps.div_ceil(60).max(1)));
-    if let Some(c) = &out.checkpoint {
-        c.check("output.checkpoint").map_err(err)?;
-    }
-    if !(16..=4096).contains(&out.picture_size) {
-        return Err(err(format!(
-            "output.picture_size must be between 16 and 4096 pixels, got {}",
-            out.picture_size
-        )));
-    }
+    let snapshots = out.snapshots(steps, ["field.csv", "field.png", "field.gif"]);
+    out.check().map_err(err)?;
     let spacing = sys.side / (points.len() as f64).powf(1.0 / D as f64);
     Ok(Setup {
         domain,
@@ -311,9 +259,9 @@ fn build<const D: usize>(scenario: &Scenario, keys: &PseScenario) -> SimResult<S
         steps,
         allow_unstable: run.allow_unstable,
         thermo_every: out.thermo_every,
-        field,
-        png,
-        gif,
+        field: snapshots.csv,
+        png: snapshots.png,
+        gif: snapshots.gif,
         picture_size: out.picture_size,
         checkpoint: out.checkpoint.clone(),
     })

@@ -3,9 +3,10 @@
 //! the errors against Lamb-Oseen, field CSV snapshots `x,y,omega,gamma,u,v`,
 //! vorticity pictures with axes and a colour bar, a GIF animation).
 
-use crate::driver::{CheckpointKeys, Job, LastFrame};
+use crate::driver::{Job, LastFrame};
 use crate::error::SimResult;
-use crate::observers::{ChartLabels, Every, FieldPlan, OutputPlan, PlotSpec, TableStyle};
+use crate::models::field_output::FieldOutputKeys;
+use crate::observers::{ChartLabels, FieldPlan, OutputPlan, PlotSpec, TableStyle};
 use crate::scenario::Scenario;
 use cellist::longrange::{BlobKernel, TreeParams, VicBoundary, VicParams, VortexInCell};
 use cellist::models::pse::Integrator;
@@ -28,7 +29,7 @@ struct VortexScenario {
     system: SystemKeys,
     run: RunKeys,
     #[serde(default)]
-    output: OutputKeys,
+    output: FieldOutputKeys,
 }
 
 fn two() -> u64 {
@@ -121,37 +122,6 @@ struct RunKeys {
 
 fn rk4() -> String {
     "rk4".into()
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields, default)]
-struct OutputKeys {
-    thermo_every: u64,
-    field: Option<SnapshotKeys>,
-    png: Option<SnapshotKeys>,
-    gif: Option<SnapshotKeys>,
-    picture_size: u32,
-    checkpoint: Option<CheckpointKeys>,
-}
-
-impl Default for OutputKeys {
-    fn default() -> Self {
-        OutputKeys {
-            thermo_every: 10,
-            field: None,
-            png: None,
-            gif: None,
-            picture_size: 512,
-            checkpoint: None,
-        }
-    }
-}
-
-#[derive(Deserialize, Clone)]
-#[serde(deny_unknown_fields)]
-struct SnapshotKeys {
-    every: u64,
-    file: Option<PathBuf>,
 }
 
 /// The particles, their lattice and how they are described.
@@ -455,28 +425,8 @@ pub fn run(
     params.check().map_err(|m| err(format!("system: {m}")))?;
     let out = &keys.output;
     let steps = run.steps;
-    if let Some(c) = &out.checkpoint {
-        c.check("output.checkpoint").map_err(err)?;
-    }
-    if !(16..=4096).contains(&out.picture_size) {
-        return Err(err(format!(
-            "output.picture_size must be between 16 and 4096 pixels, got {}",
-            out.picture_size
-        )));
-    }
-    let snapshot = |keys: &Option<SnapshotKeys>, name: &str, default: Option<u64>| match keys {
-        Some(s) => (s.every > 0).then(|| Every {
-            every: s.every,
-            file: s.file.clone().unwrap_or_else(|| name.into()),
-        }),
-        None => default.map(|every| Every {
-            every,
-            file: name.into(),
-        }),
-    };
-    let field = snapshot(&out.field, "vorticity.csv", None);
-    let png = snapshot(&out.png, "vorticity.png", Some(steps.max(1)));
-    let gif = snapshot(&out.gif, "vorticity.gif", Some(steps.div_ceil(60).max(1)));
+    out.check().map_err(err)?;
+    let snapshots = out.snapshots(steps, ["vorticity.csv", "vorticity.png", "vorticity.gif"]);
     let n = seeded.positions.len();
     let system = VortexSystem::new(params, seeded.positions, seeded.gamma, threads)
         .map_err(|e| err(format!("system: {e}")))?;
@@ -533,9 +483,9 @@ pub fn run(
         plot,
         dumps: Vec::new(),
         field: Some(FieldPlan {
-            csv: field,
-            png,
-            gif,
+            csv: snapshots.csv,
+            png: snapshots.png,
+            gif: snapshots.gif,
             size: out.picture_size,
             chart: Some(ChartLabels {
                 title: "vorticity",

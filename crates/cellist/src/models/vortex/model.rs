@@ -8,18 +8,23 @@ use crate::threads::Threads;
 use std::f64::consts::PI;
 use std::time::Duration;
 
-/// The thermo columns every vortex run has.
-const BASE: [&str; 7] = [
-    "time",
-    "circulation",
-    "impulse_x",
-    "impulse_y",
-    "angular_impulse",
-    "energy",
-    "enstrophy",
-];
+/// The thermo columns of every vortex run followed by `extra`.
+macro_rules! columns {
+    ($($extra:literal),*) => {
+        &[
+            "time",
+            "circulation",
+            "impulse_x",
+            "impulse_y",
+            "angular_impulse",
+            "energy",
+            "enstrophy",
+            $($extra),*
+        ]
+    };
+}
 
-/// The columns after [`BASE`] that an initial condition adds.
+/// The thermo columns after the invariants that an initial condition adds.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Extras {
     /// None.
@@ -48,39 +53,10 @@ pub enum Extras {
 impl Extras {
     fn columns(&self) -> &'static [&'static str] {
         match self {
-            Extras::None => &BASE,
-            Extras::LambOseen { .. } => &[
-                "time",
-                "circulation",
-                "impulse_x",
-                "impulse_y",
-                "angular_impulse",
-                "energy",
-                "enstrophy",
-                "omega_l2_error",
-                "omega_max_error",
-            ],
-            Extras::Ellipse => &[
-                "time",
-                "circulation",
-                "impulse_x",
-                "impulse_y",
-                "angular_impulse",
-                "energy",
-                "enstrophy",
-                "aspect_ratio",
-                "effective_viscosity",
-            ],
-            Extras::Pair => &[
-                "time",
-                "circulation",
-                "impulse_x",
-                "impulse_y",
-                "angular_impulse",
-                "energy",
-                "enstrophy",
-                "axis_angle",
-            ],
+            Extras::None => columns!(),
+            Extras::LambOseen { .. } => columns!("omega_l2_error", "omega_max_error"),
+            Extras::Ellipse => columns!("aspect_ratio", "effective_viscosity"),
+            Extras::Pair => columns!("axis_angle"),
         }
     }
 }

@@ -1,0 +1,95 @@
+//! The `[output]` keys of the models whose particles carry a field (`pse`,
+//! `vortex`): thermo, field CSV snapshots, PNG pictures, the GIF animation, the
+//! picture size and checkpoints, with the defaults both share.
+
+use crate::driver::CheckpointKeys;
+use crate::observers::Every;
+use serde::Deserialize;
+use std::path::PathBuf;
+
+/// `[output]` of a field model.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct FieldOutputKeys {
+    /// Steps between thermo rows (default 10).
+    pub thermo_every: u64,
+    /// Field CSV snapshots (default none).
+    pub field: Option<SnapshotKeys>,
+    /// PNG pictures (default the first and last step).
+    pub png: Option<SnapshotKeys>,
+    /// The GIF animation (default about 60 frames).
+    pub gif: Option<SnapshotKeys>,
+    /// Picture side in pixels, 16 to 4096 (default 512).
+    pub picture_size: u32,
+    /// Checkpoints.
+    pub checkpoint: Option<CheckpointKeys>,
+}
+
+impl Default for FieldOutputKeys {
+    fn default() -> Self {
+        FieldOutputKeys {
+            thermo_every: 10,
+            field: None,
+            png: None,
+            gif: None,
+            picture_size: 512,
+            checkpoint: None,
+        }
+    }
+}
+
+/// `{ every = K, file = "name" }`: every K steps (0: off) to `file`.
+#[derive(Deserialize, Clone)]
+#[serde(deny_unknown_fields)]
+pub struct SnapshotKeys {
+    every: u64,
+    file: Option<PathBuf>,
+}
+
+/// The snapshots of a run: field CSV files, PNG pictures and the GIF animation.
+pub struct Snapshots {
+    /// Field CSV files.
+    pub csv: Option<Every>,
+    /// PNG pictures.
+    pub png: Option<Every>,
+    /// The animation.
+    pub gif: Option<Every>,
+}
+
+impl FieldOutputKeys {
+    /// Checks the checkpoint keys and the picture size.
+    pub fn check(&self) -> Result<(), String> {
+        if let Some(c) = &self.checkpoint {
+            c.check("output.checkpoint")?;
+        }
+        if !(16..=4096).contains(&self.picture_size) {
+            return Err(format!(
+                "output.picture_size must be between 16 and 4096 pixels, got {}",
+                self.picture_size
+            ));
+        }
+        Ok(())
+    }
+
+    /// The snapshots of a run of `steps` steps, files named `csv`, `png` and `gif`
+    /// unless the keys name them: no field files unless asked for, pictures of
+    /// the first and last steps, an animation of about 60 frames.
+    pub fn snapshots(&self, steps: u64, [csv, png, gif]: [&str; 3]) -> Snapshots {
+        // every = 0 turns a snapshot off; a missing key takes the default
+        let snapshot = |keys: &Option<SnapshotKeys>, name: &str, default: Option<u64>| match keys {
+            Some(s) => (s.every > 0).then(|| Every {
+                every: s.every,
+                file: s.file.clone().unwrap_or_else(|| name.into()),
+            }),
+            None => default.map(|every| Every {
+                every,
+                file: name.into(),
+            }),
+        };
+        Snapshots {
+            csv: snapshot(&self.field, csv, None),
+            png: snapshot(&self.png, png, Some(steps.max(1))),
+            gif: snapshot(&self.gif, gif, Some(steps.div_ceil(60).max(1))),
+        }
+    }
+}
