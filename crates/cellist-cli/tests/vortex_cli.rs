@@ -333,3 +333,25 @@ fn bench_vortex_reports_time_and_error() {
         }
     }
 }
+
+#[test]
+fn a_non_finite_state_stops_the_run_with_status_3_and_its_last_good_state() {
+    let dir = tempfile::tempdir().unwrap();
+    // circulations near the largest float: the first step overflows
+    std::fs::write(
+        dir.path().join("huge.txt"),
+        "x y gamma\n0 0 1e308\n0.1 0 1e308\n0 0.1 1e308\n",
+    )
+    .unwrap();
+    let scenario = "model = \"vortex\"\n[system]\n\
+        initial = { kind = \"file\", file = \"huge.txt\", spacing = 0.1 }\n\
+        velocity = { kind = \"direct\" }\n[run]\nsteps = 5\ndt = 10.0\n[output]\npicture_size = 32\n";
+    let (out, o) = run(dir.path(), "huge", scenario, &[]);
+    assert_eq!(o.status.code(), Some(3), "{}", text(&o.stderr));
+    let message = text(&o.stderr);
+    assert!(
+        message.contains("step 1: ") && message.contains("particle 0"),
+        "{message}"
+    );
+    assert!(out.join("last.csv").is_file() && out.join("last.ckpt").is_file());
+}

@@ -118,6 +118,8 @@ struct RunKeys {
     dt: f64,
     #[serde(default = "rk4")]
     integrator: String,
+    #[serde(default)]
+    allow_unstable: bool,
 }
 
 fn rk4() -> String {
@@ -412,10 +414,26 @@ pub fn run(
         ))
     })?;
     let h = sys.initial.spacing;
+    // PSE's operator has eigenvalues in [-2 S, 0] with row sums S about
+    // 4 nu / eps^2 (the kernel integrates to 4), eps = sigma
+    let sigma = sys.sigma_over_h * h;
+    let limit = integrator.real_stability_bound() * sigma * sigma / (8.0 * sys.nu);
+    if sys.nu > 0.0 && run.dt > limit {
+        let message = format!(
+            "run.dt = {} exceeds the diffusion stability limit {limit:.4e} of {} (dt <= R sigma^2 / (8 nu) with sigma = {sigma})",
+            run.dt, run.integrator
+        );
+        if !run.allow_unstable {
+            return Err(err(format!(
+                "{message}; use a smaller dt, or set run.allow_unstable = true to run anyway"
+            )));
+        }
+        eprintln!("warning: {message}; running anyway (run.allow_unstable = true)");
+    }
     let params = VortexParams {
         nu: sys.nu,
         spacing: h,
-        sigma: sys.sigma_over_h * h,
+        sigma,
         origin: seeded.center,
         pse_cutoff_factor: sys.pse_cutoff_factor,
         remesh_every: sys.remesh_every,
@@ -436,14 +454,14 @@ pub fn run(
         VelocitySolver::Mesh(p) => format!("mesh (vortex-in-cell, grid {}^2, unbounded)", p.grid),
     };
     println!(
-        "vortex: {n} particles, {}; nu {}, sigma {} ({} h), velocity by {solver_name}, remesh every {}",
+        "vortex: {n} particles, {}; nu {}, sigma {} ({} h), velocity by {solver_name}, remeshing {}",
         seeded.what,
         sys.nu,
         params.sigma,
         sys.sigma_over_h,
         match sys.remesh_every {
             0 => "never".to_string(),
-            k => format!("{k} steps"),
+            k => format!("every {k} steps"),
         }
     );
     println!(
@@ -475,7 +493,7 @@ pub fn run(
     let plan = OutputPlan {
         thermo_every: out.thermo_every,
         table: TableStyle {
-            width: 15,
+            width: 16,
             precision: 7,
             exponent: true,
             shown: 7,

@@ -396,7 +396,7 @@ impl VortexSystem {
                 (0..g.len()).find(|&i| !(g[i].is_finite() && x[i].iter().all(|c| c.is_finite())))
             {
                 return Err(VortexError::Step(format!(
-                    "an intermediate stage of particle {i} is not finite (x = {:?}, gamma = {})",
+                    "an intermediate stage of particle {i} is not finite (x = {:?}, gamma = {:?})",
                     x[i], g[i]
                 )));
             }
