@@ -5,6 +5,7 @@ use crate::bench::median;
 use crate::cli::{BenchVortexArgs, VortexSolverArg};
 use crate::error::{threads, CliError, CliResult};
 use cellist::longrange::biot_savart::velocity_at;
+use cellist::longrange::mesh::MAX_VIC_GRID;
 use cellist::longrange::{BlobKernel, TreeParams, VicBoundary, VicParams};
 use cellist::models::vortex::{seed, InitialVorticity, VelocityEngine, VelocitySolver};
 use std::time::Instant;
@@ -52,7 +53,9 @@ pub fn bench(args: &BenchVortexArgs) -> CliResult {
         }
         VortexSolverArg::Mesh => {
             // the particle lattice has 2 m + 1 nodes a side; the mesh adds a margin
-            let grid = args.grid.unwrap_or_else(|| (2 * m + 8).next_power_of_two());
+            let grid = args
+                .grid
+                .unwrap_or_else(|| (2 * m + 8).next_power_of_two().min(MAX_VIC_GRID));
             let params = VicParams {
                 grid,
                 boundary: VicBoundary::Unbounded,

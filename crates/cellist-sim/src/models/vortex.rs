@@ -8,7 +8,7 @@ use crate::error::SimResult;
 use crate::models::field_output::FieldOutputKeys;
 use crate::observers::{ChartLabels, FieldPlan, OutputPlan, PlotSpec, TableStyle};
 use crate::scenario::Scenario;
-use cellist::longrange::{BlobKernel, TreeParams, VicBoundary, VicParams, VortexInCell};
+use cellist::longrange::{TreeParams, VicBoundary, VicParams};
 use cellist::models::pse::Integrator;
 use cellist::models::vortex::{
     seed, Extras, InitialVorticity, VelocitySolver, VortexModel, VortexParams, VortexSystem,
@@ -125,6 +125,10 @@ struct RunKeys {
 fn rk4() -> String {
     "rk4".into()
 }
+
+/// The most particles an initial condition may seed (about 2.4 GB of state and
+/// buffers).
+const MAX_SEEDED: f64 = 5e7;
 
 /// The particles, their lattice and how they are described.
 struct Seeded {
@@ -249,10 +253,11 @@ fn seed_particles(scenario: &Scenario, sys: &SystemKeys) -> SimResult<Seeded> {
     let (positions, gamma, view, what) = match &field {
         Some(f) => {
             let extent = positive("extent", i.extent, None)?;
-            if extent / h > 20_000.0 {
+            let side = 2.0 * (extent / h).floor() + 1.0;
+            if side * side > MAX_SEEDED {
                 return Err(err(format!(
-                    "system.initial: extent / spacing = {} seeds too many particles",
-                    extent / h
+                    "system.initial: extent {extent} at spacing {h} seeds {:.3e} particles, more than {MAX_SEEDED:.0e}; use a smaller extent or a larger spacing",
+                    side * side
                 )));
             }
             let (positions, gamma) = seed(f, center, h, extent);
@@ -357,7 +362,7 @@ fn solver(scenario: &Scenario, v: &VelocityKeys) -> SimResult<VelocitySolver> {
                 grid: v.grid.unwrap_or(256),
                 boundary: VicBoundary::Unbounded,
             };
-            check(VortexInCell::new(params, BlobKernel::new(1.0)).map(|_| ()))?;
+            check(params.check())?;
             Ok(VelocitySolver::Mesh(params))
         }
         other => Err(err(format!(
@@ -398,6 +403,12 @@ pub fn run(
             "system.kernel '{}' is unknown; expected \"gaussian\" (Gaussian blobs of core sigma and the Gaussian PSE kernel)",
             sys.kernel
         )));
+    }
+    if sys.sigma_over_h < 1.0 {
+        eprintln!(
+            "warning: system.sigma_over_h = {} < 1: the blobs hardly overlap, so the velocity and the PSE diffusion lose accuracy (1.5 to 2 is usual)",
+            sys.sigma_over_h
+        );
     }
     let seeded = seed_particles(scenario, sys)?;
     let velocity = solver(scenario, &sys.velocity)?;

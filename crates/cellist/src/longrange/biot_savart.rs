@@ -239,7 +239,7 @@ fn row(
     let [pu, pv] = partner_sums;
     let (sx, sy, sg) = (F64x4::splat(xi), F64x4::splat(yi), F64x4::splat(gi));
     let far = F64x4::splat(FAR / kernel.inv_two_sigma2);
-    let inv_two_pi = F64x4::splat(1.0 / (2.0 * PI));
+    let two_pi = F64x4::splat(2.0 * PI);
     let one = F64x4::splat(1.0);
     let mut acc = [F64x4::splat(0.0); 2];
     let start = partners.start;
@@ -254,7 +254,7 @@ fn row(
             let r2 = r2.to_array();
             F64x4::load(&r2.map(|r2| kernel.factor(r2)))
         } else {
-            inv_two_pi * (one / r2)
+            one / (two_pi * r2)
         };
         acc[0] = acc[0] - q * gj * dy;
         acc[1] = acc[1] + q * gj * dx;

@@ -110,7 +110,7 @@ pub struct VicParams {
 
 impl VicParams {
     /// Checks the grid and the periodic box.
-    fn check(&self) -> Result<(), String> {
+    pub fn check(&self) -> Result<(), String> {
         if !(self.grid.is_power_of_two() && (MIN_VIC_GRID..=MAX_VIC_GRID).contains(&self.grid)) {
             return Err(format!(
                 "grid must be a power of two in {MIN_VIC_GRID}..={MAX_VIC_GRID}, got {}",

@@ -110,8 +110,11 @@ impl Moments {
 
     /// The aspect ratio `sqrt(l_max / l_min)` of the second-moment tensor and the
     /// angle of its major axis from x, in `(-pi/2, pi/2]`.
+    /// The tensor is taken with the sign of the circulation, so that a negative
+    /// vortex has the same axes as its positive mirror.
     pub fn ellipse(&self) -> (f64, f64) {
-        let [a, b, c] = self.second;
+        let sign = self.circulation.signum();
+        let [a, b, c] = self.second.map(|m| sign * m);
         let mean = 0.5 * (a + c);
         let spread = (0.25 * (a - c) * (a - c) + b * b).sqrt();
         let (major, minor) = (mean + spread, mean - spread);

@@ -28,15 +28,19 @@ pub struct Remeshed {
 /// `origin` and keeps the nodes above `threshold` (relative to the largest).
 /// The sums run particle by particle in input order, so the result does not
 /// depend on anything but the data.
+///
+/// Refuses (naming the lattice's size) particles spread over more than
+/// `64 N + 10^6` nodes: a particle thrown far away by too large a step, which a
+/// dense lattice could not hold.
 pub fn remesh(
     positions: &[[f64; 2]],
     gamma: &[f64],
     origin: [f64; 2],
     h: f64,
     threshold: f64,
-) -> Remeshed {
+) -> Result<Remeshed, String> {
     if positions.is_empty() {
-        return Remeshed::default();
+        return Ok(Remeshed::default());
     }
     let stencils: Vec<[(i64, [f64; 4]); 2]> = positions
         .iter()
@@ -49,8 +53,15 @@ pub fn remesh(
         .collect();
     let lo = [0, 1].map(|a| stencils.iter().map(|s| s[a].0).min().unwrap_or(0));
     let hi = [0, 1].map(|a| stencils.iter().map(|s| s[a].0 + 3).max().unwrap_or(0));
-    let width = (hi[0] - lo[0] + 1) as usize;
-    let height = (hi[1] - lo[1] + 1) as usize;
+    let (width, height) = ((hi[0] - lo[0] + 1) as u64, (hi[1] - lo[1] + 1) as u64);
+    let most = 64 * positions.len() as u64 + 1_000_000;
+    if width.saturating_mul(height) > most {
+        return Err(format!(
+            "remeshing: the {} particles spread over {width} x {height} lattice nodes (at most {most}): a particle was thrown far from the others",
+            positions.len()
+        ));
+    }
+    let (width, height) = (width as usize, height as usize);
     let mut nodes = vec![0.0; width * height];
     for (s, &g) in stencils.iter().zip(gamma) {
         let [(kx, wx), (ky, wy)] = *s;
@@ -75,7 +86,7 @@ pub fn remesh(
             out.dropped += g;
         }
     }
-    out
+    Ok(out)
 }
 
 #[cfg(test)]
@@ -101,7 +112,7 @@ mod tests {
             m
         };
         let before = moments(&x, &g);
-        let after = remesh(&x, &g, [0.013, -0.02], 0.05, 0.0);
+        let after = remesh(&x, &g, [0.013, -0.02], 0.05, 0.0).unwrap();
         assert_eq!(after.dropped, 0.0);
         let now = moments(&after.positions, &after.gamma);
         for k in 0..4 {
@@ -117,7 +128,9 @@ mod tests {
         let h = 0.125;
         let x = vec![[0.0, 0.0], [0.125, 0.0], [0.375, 0.25]];
         let g = vec![1.0, 1e-14, -0.5];
-        let r = remesh(&x, &g, [0.0, 0.0], h, 1e-12);
+        let r = remesh(&x, &g, [0.0, 0.0], h, 1e-12).unwrap();
+        let far = remesh(&[[0.0, 0.0], [1e9, 0.0]], &[1.0, 1.0], [0.0, 0.0], h, 0.0);
+        assert!(far.unwrap_err().contains("thrown far"));
         assert_eq!(r.positions, vec![[0.0, 0.0], [0.375, 0.25]]);
         assert_eq!(r.gamma, vec![1.0, -0.5]);
         assert_eq!(r.dropped, 1e-14);
