@@ -41,7 +41,8 @@ Run a scenario file (TOML). Without one, run the built-in Lennard-Jones melt \
 
 The scenario names its model (model = \"md\": Lennard-Jones molecular dynamics; \
 model = \"pse\": diffusion by particle strength exchange; model = \"gravity\": \
-self-gravitating bodies, direct, Barnes-Hut, PM or P3M) and its keys; see \
+self-gravitating bodies, direct, Barnes-Hut, PM or P3M; model = \"vortex\": the 2D \
+viscous vortex particle method, direct, Barnes-Hut or vortex-in-cell) and its keys; see \
 docs/models.md and examples/. Input paths in the scenario are relative to the \
 scenario file; output files go to the output folder (--out, default \
 out/<scenario name>/): thermo.csv, a plot (energy.png or error.png) and the dumps, \
