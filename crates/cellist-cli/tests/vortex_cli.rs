@@ -355,3 +355,56 @@ fn a_non_finite_state_stops_the_run_with_status_3_and_its_last_good_state() {
     );
     assert!(out.join("last.csv").is_file() && out.join("last.ckpt").is_file());
 }
+
+#[test]
+fn a_periodic_taylor_green_field_decays_at_2_nu_k2_on_the_periodic_mesh() {
+    // w = sin(k x) sin(k y), k = 2 pi: a steady Euler flow in the unit periodic box
+    // whose vorticity decays as exp(-2 nu k^2 t)
+    let dir = tempfile::tempdir().unwrap();
+    let (n, k) = (32, 2.0 * PI);
+    let h = 1.0 / n as f64;
+    let mut lines = String::from("x y gamma\n");
+    for j in 0..n {
+        for i in 0..n {
+            let (x, y) = (-0.5 + i as f64 * h, -0.5 + j as f64 * h);
+            lines += &format!("{x} {y} {}\n", (k * x).sin() * (k * y).sin() * h * h);
+        }
+    }
+    std::fs::write(dir.path().join("tg.txt"), lines).unwrap();
+    let scenario = format!(
+        "model = \"vortex\"\n[system]\ninitial = {{ kind = \"file\", file = \"tg.txt\", spacing = {h} }}\n\
+         nu = 0.01\nvelocity = {{ kind = \"mesh\", grid = 32, boundary = \"periodic\", box = 1.0 }}\nremesh_every = 5\n\
+         [run]\nsteps = 10\ndt = 0.01\n[output]\nthermo_every = 5\nfield = {{ every = 10, file = \"w.csv\" }}\npicture_size = 32\n"
+    );
+    let mut outs = Vec::new();
+    for threads in ["1", "2"] {
+        outs.push(ok_run(
+            dir.path(),
+            &format!("tg{threads}"),
+            &scenario,
+            &["--threads", threads],
+        ));
+    }
+    for file in ["thermo.csv", "w_10.csv"] {
+        let (a, b) = (
+            std::fs::read(outs[0].join(file)).unwrap(),
+            std::fs::read(outs[1].join(file)).unwrap(),
+        );
+        assert!(a == b, "{file} differs between 1 and 2 threads");
+    }
+    let (_, f) = columns(&outs[0].join("w_10.csv"));
+    let decay = (-2.0 * 0.01 * k * k * 0.1f64).exp();
+    let mut worst = 0.0f64;
+    for (i, w) in f["omega"].iter().enumerate() {
+        let (x, y) = (f["x"][i], f["y"][i]);
+        assert!(
+            (-0.5..0.5).contains(&x) && (-0.5..0.5).contains(&y),
+            "{x} {y}"
+        );
+        worst = worst.max((w - (k * x).sin() * (k * y).sin() * decay).abs());
+    }
+    assert!(
+        worst < 5e-3,
+        "largest vorticity error {worst} (amplitude {decay})"
+    );
+}

@@ -97,6 +97,9 @@ struct VelocityKeys {
     leaf_size: Option<usize>,
     group_size: Option<usize>,
     grid: Option<usize>,
+    boundary: Option<String>,
+    #[serde(rename = "box")]
+    side: Option<f64>,
 }
 
 impl Default for VelocityKeys {
@@ -107,6 +110,8 @@ impl Default for VelocityKeys {
             leaf_size: None,
             group_size: None,
             grid: None,
+            boundary: None,
+            side: None,
         }
     }
 }
@@ -321,7 +326,7 @@ fn seed_particles(scenario: &Scenario, sys: &SystemKeys) -> SimResult<Seeded> {
 }
 
 /// The velocity solver of `system.velocity`.
-fn solver(scenario: &Scenario, v: &VelocityKeys) -> SimResult<VelocitySolver> {
+fn solver(scenario: &Scenario, v: &VelocityKeys, center: [f64; 2]) -> SimResult<VelocitySolver> {
     let err = |m: String| scenario.error(m);
     let only = |ok: &[&str]| -> SimResult<()> {
         let given = [
@@ -329,6 +334,8 @@ fn solver(scenario: &Scenario, v: &VelocityKeys) -> SimResult<VelocitySolver> {
             ("leaf_size", v.leaf_size.is_some()),
             ("group_size", v.group_size.is_some()),
             ("grid", v.grid.is_some()),
+            ("boundary", v.boundary.is_some()),
+            ("box", v.side.is_some()),
         ];
         match given.iter().find(|(n, g)| *g && !ok.contains(n)) {
             Some((name, _)) => Err(err(format!(
@@ -357,10 +364,39 @@ fn solver(scenario: &Scenario, v: &VelocityKeys) -> SimResult<VelocitySolver> {
             Ok(VelocitySolver::BarnesHut(params))
         }
         "mesh" => {
-            only(&["grid"])?;
+            only(&["grid", "boundary", "box"])?;
+            let boundary = match (v.boundary.as_deref().unwrap_or("unbounded"), v.side) {
+                ("unbounded", None) => VicBoundary::Unbounded,
+                ("unbounded", Some(_)) => {
+                    return Err(err(
+                        "system.velocity: box is for boundary = \"periodic\"".into(),
+                    ))
+                }
+                ("periodic", Some(side)) if side.is_finite() && side > 0.0 => {
+                    VicBoundary::Periodic {
+                        origin: [center[0] - 0.5 * side, center[1] - 0.5 * side],
+                        length: side,
+                    }
+                }
+                ("periodic", Some(side)) => {
+                    return Err(err(format!(
+                        "system.velocity.box must be > 0, got {side}"
+                    )))
+                }
+                ("periodic", None) => {
+                    return Err(err(
+                        "system.velocity.box is missing: a periodic mesh needs the side of its box (centred on system.initial.center)".into(),
+                    ))
+                }
+                (other, _) => {
+                    return Err(err(format!(
+                        "system.velocity.boundary '{other}' is unknown; expected \"unbounded\" or \"periodic\""
+                    )))
+                }
+            };
             let params = VicParams {
                 grid: v.grid.unwrap_or(256),
-                boundary: VicBoundary::Unbounded,
+                boundary,
             };
             check(params.check())?;
             Ok(VelocitySolver::Mesh(params))
@@ -411,7 +447,7 @@ pub fn run(
         );
     }
     let seeded = seed_particles(scenario, sys)?;
-    let velocity = solver(scenario, &sys.velocity)?;
+    let velocity = solver(scenario, &sys.velocity, seeded.center)?;
     let run = &keys.run;
     if !(run.dt.is_finite() && run.dt > 0.0) {
         return Err(err(format!("run.dt must be > 0, got {}", run.dt)));
@@ -452,6 +488,23 @@ pub fn run(
         solver: velocity,
     };
     params.check().map_err(|m| err(format!("system: {m}")))?;
+    let mut view = seeded.view;
+    if let Some((lo, side)) = params.periodic_box() {
+        let outside = seeded.positions.iter().position(|x| {
+            (0..2).any(|a| !(lo[a] - 1e-9 * side..lo[a] + side * (1.0 - 1e-9)).contains(&x[a]))
+        });
+        if let Some(k) = outside {
+            return Err(err(format!(
+                "system.initial: particle {k} at {:?} lies outside the periodic box [{}, {}) x [{}, {}): make extent smaller than box / 2",
+                seeded.positions[k],
+                lo[0],
+                lo[0] + side,
+                lo[1],
+                lo[1] + side
+            )));
+        }
+        view = (lo, side);
+    }
     let out = &keys.output;
     let steps = run.steps;
     out.check().map_err(err)?;
@@ -462,7 +515,17 @@ pub fn run(
     let solver_name = match velocity {
         VelocitySolver::Direct => "direct (all pairs)".to_string(),
         VelocitySolver::BarnesHut(p) => format!("barnes-hut (theta {})", p.theta),
-        VelocitySolver::Mesh(p) => format!("mesh (vortex-in-cell, grid {}^2, unbounded)", p.grid),
+        VelocitySolver::Mesh(p) => match p.boundary {
+            VicBoundary::Unbounded => {
+                format!("mesh (vortex-in-cell, grid {}^2, unbounded)", p.grid)
+            }
+            VicBoundary::Periodic { length, .. } => {
+                format!(
+                    "mesh (vortex-in-cell, grid {}^2, periodic box of side {length})",
+                    p.grid
+                )
+            }
+        },
     };
     println!(
         "vortex: {n} particles, {}; nu {}, sigma {} ({} h), velocity by {solver_name}, remeshing {}",
@@ -522,14 +585,7 @@ pub fn run(
             }),
         }),
     };
-    let model = VortexModel::new(
-        system,
-        integrator,
-        run.dt,
-        seeded.extras,
-        seeded.view,
-        threads,
-    );
+    let model = VortexModel::new(system, integrator, run.dt, seeded.extras, view, threads);
     let job = Job {
         model,
         steps,

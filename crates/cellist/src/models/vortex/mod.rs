@@ -28,11 +28,12 @@ mod remesh;
 pub use diagnostics::{energy_and_enstrophy, log_plus_e1, Moments};
 pub use initial::{lamb_oseen_speed, lamb_oseen_vorticity, seed, InitialVorticity, ELLIPSE_Q};
 pub use model::{Extras, VortexModel};
-pub use remesh::{remesh, Remeshed};
+pub use remesh::{remesh, Lattice, Remeshed};
 
 use super::pse::{combine, moving_rate, Integrator, PairWeight};
 use crate::geometry::Domain;
-use crate::longrange::mesh::{VicParams, VortexInCell};
+use crate::geometry::{wrap_coordinate, Boundary};
+use crate::longrange::mesh::{VicBoundary, VicParams, VortexInCell};
 use crate::longrange::tree::{TreeParams, VortexTree};
 use crate::longrange::{BlobKernel, DirectBiotSavart};
 use crate::threads::Threads;
@@ -74,6 +75,34 @@ pub struct VortexParams {
 }
 
 impl VortexParams {
+    /// The periodic box `(lower corner, side)` of a periodic mesh solver; `None`
+    /// for the open plane.
+    pub fn periodic_box(&self) -> Option<([f64; 2], f64)> {
+        match self.solver {
+            VelocitySolver::Mesh(VicParams {
+                boundary: VicBoundary::Periodic { origin, length },
+                ..
+            }) => Some((origin, length)),
+            _ => None,
+        }
+    }
+
+    /// The remeshing lattice `origin + h (k, l)`, folded into the periodic box if
+    /// there is one, keeping the nodes within the PSE cutoff of the kept ones.
+    fn lattice(&self) -> Lattice {
+        let reach = if self.nu > 0.0 {
+            (self.pse_cutoff_factor * self.sigma / self.spacing).ceil() as usize
+        } else {
+            0
+        };
+        Lattice {
+            origin: self.origin,
+            spacing: self.spacing,
+            periodic: self.periodic_box(),
+            reach,
+        }
+    }
+
     /// Checks every range, naming the parameter.
     pub fn check(&self) -> Result<(), String> {
         let positive = |name: &str, v: f64| {
@@ -111,6 +140,22 @@ impl VortexParams {
                 "the lattice origin must be finite, got {:?}",
                 self.origin
             ));
+        }
+        if let Some((_, length)) = self.periodic_box() {
+            let cells = length / self.spacing;
+            if (cells - cells.round()).abs() > 1e-9 * cells || cells.round() < 4.0 {
+                return Err(format!(
+                    "the periodic box side {length} must be a whole number (at least 4) of spacings {}, got {cells}",
+                    self.spacing
+                ));
+            }
+            if self.pse_cutoff_factor * self.sigma > 0.5 * length {
+                return Err(format!(
+                    "the PSE cutoff {} sigma = {} must be at most half the periodic box side {length}",
+                    self.pse_cutoff_factor,
+                    self.pse_cutoff_factor * self.sigma
+                ));
+            }
         }
         Ok(())
     }
@@ -458,13 +503,17 @@ impl VortexSystem {
         if let Some(index) = first_non_finite(&self.positions, &self.gamma) {
             return Err(VortexError::NotFinite { index });
         }
+        if let Some((lo, length)) = self.params.periodic_box() {
+            for x in &mut self.positions {
+                *x = [0, 1].map(|a| wrap_coordinate(x[a], lo[a], length));
+            }
+        }
         if self.params.remesh_every > 0 && step % self.params.remesh_every == 0 {
             let t = Instant::now();
             let r = remesh(
                 &self.positions,
                 &self.gamma,
-                self.params.origin,
-                self.params.spacing,
+                &self.params.lattice(),
                 self.params.remesh_threshold,
             )
             .map_err(VortexError::Step)?;
@@ -508,7 +557,8 @@ fn advance<const N: usize>(
 }
 
 /// The rate of `(positions, gamma)`: the solver's velocities and, with `nu > 0`,
-/// the PSE circulation rates over an open domain around the particles.
+/// the PSE circulation rates over an open domain around the particles (or the
+/// periodic box).
 #[allow(clippy::too_many_arguments)]
 fn evaluate(
     solver: &mut VelocityEngine,
@@ -526,8 +576,16 @@ fn evaluate(
     times.velocity += t2 - t;
     if params.nu > 0.0 {
         let cutoff = params.pse_cutoff_factor * params.sigma;
+        let domain = match params.periodic_box() {
+            Some((lo, length)) => Domain {
+                lo,
+                length: [length; 2],
+                boundary: [Boundary::Periodic; 2],
+            },
+            None => Domain::open_around(positions),
+        };
         moving_rate(
-            &Domain::open_around(positions),
+            &domain,
             weight,
             cutoff,
             positions,
