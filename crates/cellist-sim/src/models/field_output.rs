@@ -1,11 +1,50 @@
-//! The `[output]` keys of the models whose particles carry a field (`pse`,
-//! `vortex`): thermo, field CSV snapshots, PNG pictures, the GIF animation, the
-//! picture size and checkpoints, with the defaults both share.
+//! The keys the models whose particles carry a field (`pse`, `vortex`) share:
+//! `[run]` (steps, dt, a Runge-Kutta integrator) and `[output]` (thermo, field
+//! CSV snapshots, PNG pictures, the GIF animation, the picture size and
+//! checkpoints), with their defaults and checks.
 
 use crate::driver::CheckpointKeys;
 use crate::observers::Every;
+use cellist::models::pse::Integrator;
 use serde::Deserialize;
 use std::path::PathBuf;
+
+/// `[run]` of a field model.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RunKeys {
+    /// Steps to run.
+    pub steps: u64,
+    /// The time step.
+    pub dt: f64,
+    /// `euler`, `rk2` or `rk4` (default).
+    #[serde(default = "rk4")]
+    pub integrator: String,
+    /// Run even above the integrator's stability limit.
+    #[serde(default)]
+    pub allow_unstable: bool,
+}
+
+fn rk4() -> String {
+    "rk4".into()
+}
+
+impl RunKeys {
+    /// Checks `dt > 0` and returns the integrator the keys name.
+    pub fn integrator(&self) -> Result<Integrator, String> {
+        if !(self.dt.is_finite() && self.dt > 0.0) {
+            return Err(format!("run.dt must be > 0, got {}", self.dt));
+        }
+        Integrator::from_name(&self.integrator).ok_or_else(|| {
+            let names: Vec<&str> = Integrator::ALL.iter().map(|(n, _)| *n).collect();
+            format!(
+                "run.integrator '{}' is unknown; expected one of {}",
+                self.integrator,
+                names.join(", ")
+            )
+        })
+    }
+}
 
 /// `[output]` of a field model.
 #[derive(Deserialize)]

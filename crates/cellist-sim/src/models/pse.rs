@@ -4,7 +4,7 @@
 
 use crate::driver::{CheckpointKeys, Job, LastFrame};
 use crate::error::SimResult;
-use crate::models::field_output::FieldOutputKeys;
+use crate::models::field_output::{FieldOutputKeys, RunKeys};
 use crate::observers::{Every, FieldPlan, OutputPlan, PlotSpec, TableStyle};
 use crate::scenario::Scenario;
 use cellist::models::pse::{
@@ -83,21 +83,6 @@ struct InitialKeys {
     k: Option<Vec<i64>>,
     center: Option<Vec<f64>>,
     width: Option<f64>,
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct RunKeys {
-    steps: u64,
-    dt: f64,
-    #[serde(default = "rk4")]
-    integrator: String,
-    #[serde(default)]
-    allow_unstable: bool,
-}
-
-fn rk4() -> String {
-    "rk4".into()
 }
 
 /// Everything a run needs, checked.
@@ -226,17 +211,7 @@ fn build<const D: usize>(scenario: &Scenario, keys: &PseScenario) -> SimResult<S
         }
     };
     let run = &keys.run;
-    if !(run.dt.is_finite() && run.dt > 0.0) {
-        return Err(err(format!("run.dt must be > 0, got {}", run.dt)));
-    }
-    let integrator = Integrator::from_name(&run.integrator).ok_or_else(|| {
-        let names: Vec<&str> = Integrator::ALL.iter().map(|(n, _)| *n).collect();
-        err(format!(
-            "run.integrator '{}' is unknown; expected one of {}",
-            run.integrator,
-            names.join(", ")
-        ))
-    })?;
+    let integrator = run.integrator().map_err(err)?;
     let out = &keys.output;
     let steps = run.steps;
     let snapshots = out.snapshots(steps, ["field.csv", "field.png", "field.gif"]);

@@ -5,11 +5,10 @@
 
 use crate::driver::{Job, LastFrame};
 use crate::error::SimResult;
-use crate::models::field_output::FieldOutputKeys;
+use crate::models::field_output::{FieldOutputKeys, RunKeys};
 use crate::observers::{ChartLabels, FieldPlan, OutputPlan, PlotSpec, TableStyle};
 use crate::scenario::Scenario;
 use cellist::longrange::{TreeParams, VicBoundary, VicParams};
-use cellist::models::pse::Integrator;
 use cellist::models::vortex::{
     seed, Extras, InitialVorticity, VelocitySolver, VortexModel, VortexParams, VortexSystem,
 };
@@ -114,21 +113,6 @@ impl Default for VelocityKeys {
             side: None,
         }
     }
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct RunKeys {
-    steps: u64,
-    dt: f64,
-    #[serde(default = "rk4")]
-    integrator: String,
-    #[serde(default)]
-    allow_unstable: bool,
-}
-
-fn rk4() -> String {
-    "rk4".into()
 }
 
 /// The most particles an initial condition may seed (about 2.4 GB of state and
@@ -449,17 +433,7 @@ pub fn run(
     let seeded = seed_particles(scenario, sys)?;
     let velocity = solver(scenario, &sys.velocity, seeded.center)?;
     let run = &keys.run;
-    if !(run.dt.is_finite() && run.dt > 0.0) {
-        return Err(err(format!("run.dt must be > 0, got {}", run.dt)));
-    }
-    let integrator = Integrator::from_name(&run.integrator).ok_or_else(|| {
-        let names: Vec<&str> = Integrator::ALL.iter().map(|(n, _)| *n).collect();
-        err(format!(
-            "run.integrator '{}' is unknown; expected one of {}",
-            run.integrator,
-            names.join(", ")
-        ))
-    })?;
+    let integrator = run.integrator().map_err(err)?;
     let h = sys.initial.spacing;
     // PSE's operator has eigenvalues in [-2 S, 0] with row sums S about
     // 4 nu / eps^2 (the kernel integrates to 4), eps = sigma
