@@ -62,6 +62,25 @@ impl DiscPainter {
         self.size
     }
 
+    /// The top of the colour scale.
+    pub fn top_speed(&self) -> f64 {
+        self.top_speed
+    }
+
+    /// The square a picture shows, `(lower corner, side)`: the box `[0, side]^2`
+    /// with a margin of 5% of its side around it.
+    pub fn view(&self) -> ([f64; 2], f64) {
+        let margin = 0.05 * self.side;
+        ([-margin, -margin], self.side + 2.0 * margin)
+    }
+
+    /// The palette index of a disc moving at `speed`: 250 levels from 0 to the top
+    /// speed (faster discs get the top colour).
+    pub fn speed_index(&self, speed: f64) -> u8 {
+        let level = ((speed / self.top_speed).min(1.0) * (SPEEDS - 1) as f64) as usize;
+        FIRST_SPEED + level as u8
+    }
+
     /// Renders one frame; returns its palette indices, row by row from the top.
     pub fn render(&mut self, x: &[f64], y: &[f64], v: &[[f64; 2]]) -> &[u8] {
         let size = self.size as usize;
@@ -82,9 +101,7 @@ impl DiscPainter {
         }
         let r_px = (self.radius * scale).max(0.5);
         for k in 0..x.len() {
-            let speed = (v[k][0] * v[k][0] + v[k][1] * v[k][1]).sqrt();
-            let level = ((speed / self.top_speed).min(1.0) * (SPEEDS - 1) as f64) as usize;
-            let colour = FIRST_SPEED + level as u8;
+            let colour = self.speed_index((v[k][0] * v[k][0] + v[k][1] * v[k][1]).sqrt());
             let (cx, cy) = (to_px(x[k]), to_px(y[k]));
             let span = |c: f64| {
                 (

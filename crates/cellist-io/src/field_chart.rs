@@ -121,29 +121,38 @@ impl FieldChart {
         let (_, n) = self.plot_area();
         let mut painter = FieldPainter::with_view(n, self.lo, self.side, self.spacing, self.scale);
         let palette = FieldPainter::palette();
-        let rgb_of = |index: u8| {
-            let k = 3 * index as usize;
-            [palette[k], palette[k + 1], palette[k + 2]]
-        };
-        let field: Vec<u8> = painter
-            .render(points.into_iter())
-            .iter()
-            .flat_map(|&index| rgb_of(index))
-            .collect();
+        let field = palette_rgb(painter.render(points.into_iter()), &palette);
+        let scale = painter.scale();
+        self.render_painted(field, (-scale, scale), |value| {
+            palette_rgb(&[painter.colour_index(value)], &palette)
+                .try_into()
+                .expect("three bytes")
+        })
+    }
+
+    /// The chart around a picture painted elsewhere: `field` holds the RGB pixels
+    /// of the plot area (its side from [`FieldChart::plot_area`], rows from the
+    /// top), and the colour bar runs from `range.0` (bottom) to `range.1` (top)
+    /// in the colours `colour(value)`. Returns the picture's RGB pixels.
+    pub fn render_painted(
+        &self,
+        field: Vec<u8>,
+        range: (f64, f64),
+        colour: impl Fn(f64) -> [u8; 3],
+    ) -> io::Result<Vec<u8>> {
         let (_, bar_width, bar_height) = self.colour_bar_area();
         let mut bar = Vec::with_capacity((3 * bar_width * bar_height) as usize);
         for row in 0..bar_height {
-            let t = 1.0 - 2.0 * (row as f64 + 0.5) / bar_height as f64;
-            let colour = rgb_of(painter.colour_index(t * painter.scale()));
+            let t = 1.0 - (row as f64 + 0.5) / bar_height as f64;
+            let rgb = colour(range.0 + t * (range.1 - range.0));
             for _ in 0..bar_width {
-                bar.extend_from_slice(&colour);
+                bar.extend_from_slice(&rgb);
             }
         }
-
         crate::plot::register_font();
         let (width, height) = (self.picture_width(), self.height());
         let mut pixels = vec![255u8; (3 * width * height) as usize];
-        self.draw(&mut pixels, field, bar, painter.scale())
+        self.draw(&mut pixels, field, bar, range)
             .map_err(|e| io::Error::other(format!("field chart: {e}")))?;
         Ok(pixels)
     }
@@ -155,7 +164,7 @@ impl FieldChart {
         pixels: &mut [u8],
         field: Vec<u8>,
         bar: Vec<u8>,
-        scale: f64,
+        (low, high): (f64, f64),
     ) -> Result<(), Box<dyn std::error::Error>> {
         let (width, height) = (self.picture_width(), self.height());
         let ([x0, y0], n) = self.plot_area();
@@ -230,15 +239,14 @@ impl FieldChart {
         )?;
         root.draw(&frame([x0, y0], n, n))?;
 
-        // The colour bar: ticks at -scale, -scale/2, 0, scale/2 and scale, labels
-        // left-aligned just right of them, the value label (reading upwards) right of
-        // the widest tick label.
+        // The colour bar: five ticks from low to high, labels left-aligned just right
+        // of them, the value label (reading upwards) right of the widest tick label.
         let bar_right = (bar_x + bar_width) as i32;
         let mut widest = 0;
-        for k in -2..=2 {
-            let t = 0.5 * k as f64;
-            let text = tick_text(t * scale);
-            let row = bar_y as i32 + ((1.0 - t) * 0.5 * (bar_height - 1) as f64).round() as i32;
+        for k in 0..=4 {
+            let f = 0.25 * k as f64;
+            let text = tick_text(low + f * (high - low));
+            let row = bar_y as i32 + ((1.0 - f) * (bar_height - 1) as f64).round() as i32;
             root.draw(&PathElement::new(
                 vec![(bar_right, row), (bar_right + 5, row)],
                 BLACK.stroke_width(1),
@@ -319,14 +327,27 @@ pub fn field_chart(
     chart: &FieldChart,
     points: impl IntoIterator<Item = ([f64; 2], f64)>,
 ) -> io::Result<()> {
-    let pixels = chart.render(points)?;
+    write_chart(path, chart, &chart.render(points)?)
+}
+
+/// `indices` into `palette` (RGB triples) as RGB pixels.
+pub fn palette_rgb(indices: &[u8], palette: &[u8]) -> Vec<u8> {
+    indices
+        .iter()
+        .flat_map(|&i| palette[3 * i as usize..3 * i as usize + 3].iter().copied())
+        .collect()
+}
+
+/// Writes the RGB `pixels` of `chart` (from [`FieldChart::render`] or
+/// [`FieldChart::render_painted`]) to `path` as a PNG, whole or not at all.
+pub fn write_chart(path: &Path, chart: &FieldChart, pixels: &[u8]) -> io::Result<()> {
     let mut file = AtomicFile::create(path)?;
     {
         let mut encoder = png::Encoder::new(file.writer(), chart.picture_width(), chart.height());
         encoder.set_color(png::ColorType::Rgb);
         encoder.set_depth(png::BitDepth::Eight);
         let mut writer = encoder.write_header().map_err(io::Error::other)?;
-        writer.write_image_data(&pixels).map_err(io::Error::other)?;
+        writer.write_image_data(pixels).map_err(io::Error::other)?;
         writer.finish().map_err(io::Error::other)?;
     }
     file.commit()

@@ -28,7 +28,7 @@ pub use checkpoint::{read_checkpoint, write_checkpoint, Checkpoint};
 pub use disc_picture::{write_png, DiscPainter, GifAnimation};
 pub use dump::{write_lammps_frame, write_xyz_frame, Frame, DUMP_COLUMNS, GRAVITY_DUMP_COLUMNS};
 pub use error::InputError;
-pub use field_chart::{field_chart, FieldChart};
+pub use field_chart::{field_chart, palette_rgb, write_chart, FieldChart};
 pub use field_csv::{
     field_header, parse_field, read_field, read_field_of, write_field, write_field_columns,
 };

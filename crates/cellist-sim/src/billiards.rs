@@ -9,8 +9,8 @@ use cellist::models::billiards::{Billiards, BilliardsModel, Table};
 use cellist::models::Model;
 use cellist::Threads;
 use cellist_io::{
-    read_billiards_input, write_png, write_state, AtomicFile, BilliardsInput, DiscPainter,
-    GifAnimation, StateFormat, StreamFile, DUMP_COLUMNS,
+    palette_rgb, read_billiards_input, write_chart, write_state, AtomicFile, BilliardsInput,
+    DiscPainter, FieldChart, GifAnimation, StateFormat, StreamFile, DUMP_COLUMNS,
 };
 use indicatif::ProgressBar;
 use std::io::Write;
@@ -185,6 +185,33 @@ fn painter(model: &BilliardsModel, size: u32) -> DiscPainter {
     DiscPainter::new(size, table.side_f(), table.radius_f(), top_speed)
 }
 
+/// The discs at the end of the run as a chart: the box with axes, the step in
+/// the title and the speed colour bar (the animation's colours and scale).
+fn final_picture(
+    path: &Path,
+    initial: &BilliardsModel,
+    model: &BilliardsModel,
+    steps: u64,
+    size: u32,
+) -> std::io::Result<()> {
+    let (lo, side) = painter(initial, size).view();
+    let mut chart = FieldChart::new(lo, side, 0.0, 1.0);
+    chart.width = chart.width.max(size);
+    chart.title = format!("discs after step {steps}");
+    chart.value_label = "speed |v|".into();
+    let (_, n) = chart.plot_area();
+    let mut painter = painter(initial, n);
+    let palette = DiscPainter::palette();
+    let s = &model.system;
+    let field = palette_rgb(painter.render(&s.x, &s.y, &s.v), &palette);
+    let pixels = chart.render_painted(field, (0.0, painter.top_speed()), |speed| {
+        palette_rgb(&[painter.speed_index(speed)], &palette)
+            .try_into()
+            .expect("three bytes")
+    })?;
+    write_chart(path, &chart, &pixels)
+}
+
 fn observers(
     run: &BilliardsRun,
     initial: &BilliardsModel,
@@ -288,11 +315,7 @@ pub fn run(run: &BilliardsRun, threads: &Threads) -> SimResult {
     let report = job.run(checkpoint.as_ref(), list, threads)?;
     let model = report.model;
     if let Some(path) = run.png {
-        let mut painter = painter(&initial, run.picture_size);
-        let s = &model.system;
-        let size = painter.size();
-        let pixels = painter.render(&s.x, &s.y, &s.v);
-        write_png(path, size, pixels, &DiscPainter::palette())
+        final_picture(path, &initial, &model, steps, run.picture_size)
             .map_err(SimError::output(path.display().to_string()))?;
     }
     write_final(run, steps, &model)?;
