@@ -96,6 +96,18 @@ pub fn velocity_at(
     })
 }
 
+/// Panics unless there is one circulation and one velocity per position: the
+/// contract of every vortex solver's `compute`.
+pub(crate) fn assert_lengths(positions: &[[f64; 2]], gamma: &[f64], velocity: &[[f64; 2]]) {
+    assert!(
+        positions.len() == gamma.len() && gamma.len() == velocity.len(),
+        "{} positions, {} circulations, {} velocities",
+        positions.len(),
+        gamma.len(),
+        velocity.len()
+    );
+}
+
 /// Particles per block: two blocks' positions, circulations and sums (6 arrays of
 /// 8 bytes) take 24 KiB, within the level-1 cache.
 const BLOCK: usize = 256;
@@ -118,20 +130,16 @@ pub struct DirectBiotSavart {
 impl DirectBiotSavart {
     /// The solver for `n` particles with blobs of `kernel`.
     pub fn new(kernel: BlobKernel, n: usize) -> Self {
-        DirectBiotSavart {
+        let mut solver = DirectBiotSavart {
             kernel,
             n: 0,
             rounds: Vec::new(),
             x: [Vec::new(), Vec::new()],
             gamma: Vec::new(),
             sums: [Vec::new(), Vec::new()],
-        }
-        .resized(n)
-    }
-
-    fn resized(mut self, n: usize) -> Self {
-        self.resize(n);
-        self
+        };
+        solver.resize(n);
+        solver
     }
 
     /// Makes the solver fit `n` particles (after a remeshing changed their count).
@@ -160,7 +168,7 @@ impl DirectBiotSavart {
         velocity: &mut [[f64; 2]],
         threads: &Threads,
     ) {
-        assert!(positions.len() == gamma.len() && gamma.len() == velocity.len());
+        assert_lengths(positions, gamma, velocity);
         self.resize(positions.len());
         for (i, p) in positions.iter().enumerate() {
             self.x[0][i] = p[0];

@@ -25,6 +25,18 @@ pub struct Blowup {
     pub remedy: String,
 }
 
+impl Blowup {
+    /// The blow-up of `step` described by `what`, with no single value to blame.
+    pub fn new(step: u64, what: impl Into<String>, remedy: &str) -> Self {
+        Blowup {
+            step,
+            what: what.into(),
+            value: None,
+            remedy: remedy.into(),
+        }
+    }
+}
+
 impl fmt::Display for Blowup {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(f, "step {}: {}", self.step, self.what)?;

@@ -331,13 +331,7 @@ impl VortexInCell {
         velocity: &mut [[f64; 2]],
         threads: &Threads,
     ) {
-        assert!(
-            positions.len() == gamma.len() && gamma.len() == velocity.len(),
-            "{} positions, {} circulations, {} velocities",
-            positions.len(),
-            gamma.len(),
-            velocity.len()
-        );
+        crate::longrange::biot_savart::assert_lengths(positions, gamma, velocity);
         assert!(
             positions.len() <= u32::MAX as usize,
             "at most 2^32 - 1 particles"

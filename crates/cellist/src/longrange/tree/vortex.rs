@@ -98,13 +98,7 @@ impl VortexTree {
         velocity: &mut [[f64; 2]],
         threads: &Threads,
     ) {
-        assert!(
-            positions.len() == gamma.len() && gamma.len() == velocity.len(),
-            "{} positions, {} circulations, {} velocities",
-            positions.len(),
-            gamma.len(),
-            velocity.len()
-        );
+        crate::longrange::biot_savart::assert_lengths(positions, gamma, velocity);
         self.lifted.clear();
         self.lifted
             .extend(positions.iter().map(|p| [p[0], p[1], 0.0]));

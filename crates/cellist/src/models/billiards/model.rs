@@ -63,12 +63,7 @@ impl Model for BilliardsModel {
                 } => not_converged_what(sweeps, first, size),
                 other => other.to_string(),
             };
-            Blowup {
-                step,
-                what,
-                value: None,
-                remedy: self.remedy().into(),
-            }
+            Blowup::new(step, what, self.remedy())
         })?;
         if stats.sweeps > self.hardest.1 {
             self.hardest = (step, stats.sweeps);

@@ -66,12 +66,7 @@ impl<const D: usize> Model for PseModel<D> {
         let t = Instant::now();
         let result = self.system.step(self.integrator, self.dt, threads);
         self.step_time += t.elapsed();
-        result.map_err(|e| Blowup {
-            step,
-            what: e.to_string(),
-            value: None,
-            remedy: self.remedy().into(),
-        })
+        result.map_err(|e| Blowup::new(step, e.to_string(), self.remedy()))
     }
 
     fn thermo_columns(&self) -> &'static [&'static str] {

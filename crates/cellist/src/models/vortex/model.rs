@@ -202,14 +202,12 @@ impl Model for VortexModel {
             Err(VortexError::NotFinite { .. }) => return Ok(()),
             result => result,
         }
-        .map_err(|e| Blowup {
-            step,
-            what: e.to_string(),
-            value: None,
-            remedy: match e {
-                VortexError::Parameter(_) => "this is a bug in the model".into(),
-                _ => self.remedy().into(),
-            },
+        .map_err(|e| {
+            let remedy = match e {
+                VortexError::Parameter(_) => "this is a bug in the model",
+                _ => self.remedy(),
+            };
+            Blowup::new(step, e.to_string(), remedy)
         })?;
         if observe {
             self.observe(step, threads);
