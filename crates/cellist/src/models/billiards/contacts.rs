@@ -1,9 +1,10 @@
 //! Candidate search for the collision benchmark: every pair `a < b` (vector
 //! positions) with `q = (dx dx) + (dy dy) <= limit`, in lexicographic order, found on
-//! a grid of squares (seed 001's binning). The grid only proposes candidates; the
-//! exact predicate decides, so the result equals the literal all-pairs loop
-//! (SPEC.md section 4, E1). Discs may be anywhere, also far outside the box: the
-//! grid spans their bounding box.
+//! a grid of cells (seed 001's binning): squares, or bricks in rows shifted by half
+//! a cell ([`CellShape`]). The grid only proposes candidates; the exact predicate
+//! decides, so the result equals the literal all-pairs loop (SPEC.md section 4,
+//! E1) for either layout. Discs may be anywhere, also far outside the box: the grid
+//! spans their bounding box.
 
 use super::rules::Separation;
 use crate::threads::Threads;
@@ -20,15 +21,44 @@ pub struct Contact {
     pub sep: Separation,
 }
 
-/// A grid of squares over the discs' bounding box, with the discs sorted by square
-/// (counting sort), and its buffers kept between searches.
+/// How [`ContactGrid`] lays out its cells. Either way a cell is at least as tall
+/// and as wide as the interaction reach `sqrt(limit)` (a little more, so that
+/// rounding never moves a pair at exactly the reach two cells apart), and the
+/// pairs found are the same, in the same order, with the same bits: only the
+/// candidates proposed, hence the time, differ.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum CellShape {
+    /// Squares of side `s >= sqrt(limit)` in aligned rows: each square has 8
+    /// neighbours, and the half stencil (the square to the right and the three
+    /// above) holds 4 of them. A disc is tested against half of its own square and
+    /// 4 squares, about `4.5 s^2` of area.
+    #[default]
+    Square,
+    /// Seed 001's "squares in a hexagon manner": rows of height `h >= sqrt(limit)`
+    /// in which every other row is shifted by half a cell (a brick wall), so that
+    /// each cell touches 6 others (2 in its row, 2 above, 2 below: the neighbours
+    /// of a hexagonal lattice) and the half stencil (the cell to the right and the
+    /// two above) holds 3. For the 6 to hold every pair within reach, a cell is
+    /// `w = 2h` wide: a disc reaches `sqrt(limit) <= w / 2` sideways, which stays
+    /// within the two cells of the next row that overlap its own (with square
+    /// bricks of side `sqrt(limit)`, a disc near a corner would reach a third
+    /// cell of the next row). A disc is tested against half of its own cell and 3
+    /// cells, about `7 h^2` of area.
+    Hex,
+}
+
+/// A grid of cells ([`CellShape`]) over the discs' bounding box, with the discs
+/// sorted by cell (counting sort), and its buffers kept between searches.
 #[derive(Clone, Debug, Default)]
 pub struct ContactGrid {
+    shape: CellShape,
     region: Option<([f64; 2], [f64; 2])>,
     origin: [f64; 2],
-    side: f64,
+    /// Width and height of a cell.
+    size: [f64; 2],
+    /// Columns and rows; cell `row * columns + column`.
     dims: [usize; 2],
-    square_of: Vec<u32>,
+    cell_of: Vec<u32>,
     start: Vec<u32>,
     cursor: Vec<u32>,
     sorted: Vec<u32>,
@@ -37,6 +67,10 @@ pub struct ContactGrid {
     rows: Vec<Vec<Contact>>,
     offsets: Vec<u32>,
 }
+
+/// What a [`CellShape::Hex`] row adds to `x / w` before rounding down: odd rows
+/// start half a cell to the left.
+const HEX_SHIFT: [f64; 2] = [0.0, 0.5];
 
 impl ContactGrid {
     /// Replaces `out` by all pairs `a < b` with `q <= limit`, sorted by `(a, b)`.
@@ -59,21 +93,19 @@ impl ContactGrid {
         if n < 2 {
             return;
         }
-        // search square by square (neighbouring discs are close in memory), each
+        // search cell by cell (neighbouring discs are close in memory), each
         // disc's pairs together and sorted by b
         let ranges = Threads::chunks(self.dims[0] * self.dims[1]);
         let mut rows = std::mem::take(&mut self.rows);
         rows.resize_with(ranges.len(), Vec::new);
         let grid = &*self;
         threads.install(|| {
-            ranges
-                .zip(rows.par_iter_mut())
-                .for_each(|(squares, found)| {
-                    found.clear();
-                    for square in squares {
-                        grid.contacts_in(square, limit, found);
-                    }
-                });
+            ranges.zip(rows.par_iter_mut()).for_each(|(cells, found)| {
+                found.clear();
+                for cell in cells {
+                    grid.contacts_in(cell, limit, found);
+                }
+            });
         });
         // then place the pairs row by row in the order of a, each row sorted by b
         self.offsets.clear();
@@ -105,23 +137,35 @@ impl ContactGrid {
         self.rows = rows;
     }
 
-    /// Limits the squares to the region `[lo, hi]` (they span the discs' bounding
-    /// box otherwise); discs outside it go to its border squares. The pairs found
+    /// Lays the cells out as `shape` (squares by default). The pairs found are the
+    /// same; only the time changes.
+    pub fn with_cells(mut self, shape: CellShape) -> Self {
+        self.shape = shape;
+        self
+    }
+
+    /// The layout of the cells.
+    pub fn cells(&self) -> CellShape {
+        self.shape
+    }
+
+    /// Limits the cells to the region `[lo, hi]` (they span the discs' bounding
+    /// box otherwise); discs outside it go to its border cells. The pairs found
     /// are the same; only the time changes.
     pub fn with_region(mut self, lo: [f64; 2], hi: [f64; 2]) -> Self {
         self.region = Some((lo, hi));
         self
     }
 
-    /// All discs, square by square (neighbours close together), as of the last
+    /// All discs, cell by cell (neighbours close together), as of the last
     /// [`ContactGrid::find`].
     pub fn nearby_order(&self) -> &[u32] {
         &self.sorted
     }
 
-    /// Sizes the squares (side just above `sqrt(limit)`, so that a pair within the
-    /// limit is never two squares apart, and no more squares than about 4 per disc)
-    /// and sorts the discs by square.
+    /// Sizes the cells (rows just taller than `sqrt(limit)`, so that a pair within
+    /// the limit is never two rows apart, squares as wide, bricks twice as wide;
+    /// no more rows or columns than about `2 sqrt(n)`) and sorts the discs by cell.
     fn bin(&mut self, x: &[f64], y: &[f64], limit: f64) {
         let n = x.len();
         let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
@@ -130,9 +174,9 @@ impl ContactGrid {
             hi = [hi[0].max(px), hi[1].max(py)];
         }
         if let Some((region_lo, region_hi)) = self.region {
-            // discs beyond the region share its border squares: clamping keeps
-            // neighbours in neighbouring squares, and a few outliers cannot
-            // stretch the squares over everything else
+            // discs beyond the region share its border cells: clamping keeps
+            // neighbours in neighbouring cells, and a few outliers cannot
+            // stretch the cells over everything else
             for a in 0..2 {
                 lo[a] = lo[a].max(region_lo[a]).min(region_hi[a]);
                 hi[a] = hi[a].min(region_hi[a]).max(lo[a]);
@@ -143,32 +187,55 @@ impl ContactGrid {
         let side = (limit.sqrt() * (1.0 + 1e-6))
             .max(extent / max_per_axis)
             .max(f64::MIN_POSITIVE);
-        let dims = [0, 1].map(|a| (((hi[a] - lo[a]) / side) as usize + 1).max(1));
+        let (size, dims) = match self.shape {
+            CellShape::Square => (
+                [side, side],
+                [0, 1].map(|a| ((hi[a] - lo[a]) / side) as usize + 1),
+            ),
+            CellShape::Hex => {
+                // odd rows reach half a brick further right
+                let width = 2.0 * side;
+                (
+                    [width, side],
+                    [
+                        ((hi[0] - lo[0]) / width + 0.5) as usize + 1,
+                        ((hi[1] - lo[1]) / side) as usize + 1,
+                    ],
+                )
+            }
+        };
         self.origin = lo;
-        self.side = side;
+        self.size = size;
         self.dims = dims;
-        let mut square_of = std::mem::take(&mut self.square_of);
-        square_of.clear();
-        square_of.extend(
-            x.iter()
-                .zip(y)
-                .map(|(&px, &py)| self.square_at(px, py) as u32),
-        );
-        self.square_of = square_of;
-        let squares = dims[0] * dims[1];
+        let mut cell_of = std::mem::take(&mut self.cell_of);
+        cell_of.clear();
+        match self.shape {
+            CellShape::Square => cell_of.extend(
+                x.iter()
+                    .zip(y)
+                    .map(|(&px, &py)| self.cell_at::<false>(px, py) as u32),
+            ),
+            CellShape::Hex => cell_of.extend(
+                x.iter()
+                    .zip(y)
+                    .map(|(&px, &py)| self.cell_at::<true>(px, py) as u32),
+            ),
+        }
+        self.cell_of = cell_of;
+        let cells = dims[0] * dims[1];
         self.start.clear();
-        self.start.resize(squares + 1, 0);
-        for &s in &self.square_of {
+        self.start.resize(cells + 1, 0);
+        for &s in &self.cell_of {
             self.start[s as usize + 1] += 1;
         }
-        for s in 0..squares {
+        for s in 0..cells {
             self.start[s + 1] += self.start[s];
         }
         self.sorted.clear();
         self.sorted.resize(n, 0);
         self.cursor.clear();
-        self.cursor.extend_from_slice(&self.start[..squares]);
-        for (k, &s) in self.square_of.iter().enumerate() {
+        self.cursor.extend_from_slice(&self.start[..cells]);
+        for (k, &s) in self.cell_of.iter().enumerate() {
             self.sorted[self.cursor[s as usize] as usize] = k as u32;
             self.cursor[s as usize] += 1;
         }
@@ -180,29 +247,44 @@ impl ContactGrid {
             .extend(self.sorted.iter().map(|&k| y[k as usize]));
     }
 
-    fn square_at(&self, x: f64, y: f64) -> usize {
-        let cx = (((x - self.origin[0]) / self.side) as usize).min(self.dims[0] - 1);
-        let cy = (((y - self.origin[1]) / self.side) as usize).min(self.dims[1] - 1);
-        cy * self.dims[0] + cx
+    /// The cell of a point: row `floor((y - y0) / h)`, column `floor((x - x0) / w)`,
+    /// plus a half in odd rows of bricks (`HEX`), both clamped to the grid (`as`
+    /// saturates below 0). Each is a nondecreasing function of the coordinate, so
+    /// clamping never moves two points further apart than neighbouring cells.
+    #[inline]
+    fn cell_at<const HEX: bool>(&self, x: f64, y: f64) -> usize {
+        let [columns, rows] = self.dims;
+        let row = (((y - self.origin[1]) / self.size[1]) as usize).min(rows - 1);
+        let mut u = (x - self.origin[0]) / self.size[0];
+        if HEX {
+            u += HEX_SHIFT[row & 1];
+        }
+        row * columns + (u as usize).min(columns - 1)
     }
 
-    /// Appends the pairs within the limit that the discs of `square` form with the
-    /// discs after them in the square, in the square to the right and in the three
-    /// squares above (half of the 3 x 3 block: every pair of neighbouring squares
-    /// is seen once), as `(min, max)` with the separation of `max` from `min`. The
-    /// rest of the square and the one to its right are consecutive in square
-    /// order, and so are the three above: two runs per disc.
-    fn contacts_in(&self, square: usize, limit: f64, found: &mut Vec<Contact>) {
-        let members = self.start[square] as usize..self.start[square + 1] as usize;
+    /// Appends the pairs within the limit that the discs of `cell` form with the
+    /// discs after them in the cell, in the cell to the right and in the cells
+    /// above it (squares: the three above, half of the 3 x 3 block; bricks: the
+    /// two that overlap it, columns `c, c + 1` above an even row and `c - 1, c`
+    /// above an odd one), so that every pair of neighbouring cells is seen once,
+    /// as `(min, max)` with the separation of `max` from `min`. The rest of the
+    /// cell and the one to its right are consecutive in cell order, and so are the
+    /// cells above: two runs per disc.
+    fn contacts_in(&self, cell: usize, limit: f64, found: &mut Vec<Contact>) {
+        let members = self.start[cell] as usize..self.start[cell + 1] as usize;
         if members.is_empty() {
             return;
         }
         let [columns, rows] = self.dims;
-        let (cx, cy) = (square % columns, square / columns);
-        let right_end = self.start[square + 1 + usize::from(cx + 1 < columns)] as usize;
+        let (cx, cy) = (cell % columns, cell / columns);
+        let right_end = self.start[cell + 1 + usize::from(cx + 1 < columns)] as usize;
         let above = if cy + 1 < rows {
             let row = (cy + 1) * columns;
-            let (x0, x1) = (cx.saturating_sub(1), (cx + 1).min(columns - 1));
+            let (x0, x1) = match self.shape {
+                CellShape::Square => (cx.saturating_sub(1), (cx + 1).min(columns - 1)),
+                CellShape::Hex if cy % 2 == 0 => (cx, (cx + 1).min(columns - 1)),
+                CellShape::Hex => (cx.saturating_sub(1), cx),
+            };
             self.start[row + x0] as usize..self.start[row + x1 + 1] as usize
         } else {
             0..0
@@ -239,6 +321,9 @@ impl ContactGrid {
 mod tests {
     use super::*;
     use crate::random::Rng;
+    use proptest::prelude::*;
+
+    const SHAPES: [CellShape; 2] = [CellShape::Square, CellShape::Hex];
 
     fn brute(x: &[f64], y: &[f64], limit: f64) -> Vec<Contact> {
         let mut out = Vec::new();
@@ -257,10 +342,17 @@ mod tests {
         out
     }
 
+    /// The contacts as bit patterns, so that `-0.0` and `+0.0` differ.
+    fn bits(contacts: &[Contact]) -> Vec<(u32, u32, [u64; 3])> {
+        contacts
+            .iter()
+            .map(|c| (c.a, c.b, [c.sep.dx, c.sep.dy, c.sep.q].map(f64::to_bits)))
+            .collect()
+    }
+
     #[test]
     fn the_grid_finds_exactly_the_brute_force_pairs() {
         let mut rng = Rng::new(7);
-        let mut grid = ContactGrid::default();
         for (n, spread, limit) in [
             (300usize, 40.0f64, 4.0f64),
             (500, 20.0, 9.0),
@@ -273,14 +365,166 @@ mod tests {
             x[0] = -5e5;
             x[1] = x[2] + f64::sqrt(limit);
             let expected = brute(&x, &y, limit);
-            let mut clamped =
-                ContactGrid::default().with_region([0.0, 0.0], [spread / 2.0, spread / 2.0]);
+            for shape in SHAPES {
+                let mut grid = ContactGrid::default().with_cells(shape);
+                let mut clamped = ContactGrid::default()
+                    .with_cells(shape)
+                    .with_region([0.0, 0.0], [spread / 2.0, spread / 2.0]);
+                for threads in [Threads::single(), Threads::new(2).unwrap()] {
+                    let mut found = Vec::new();
+                    grid.find(&x, &y, limit, &threads, &mut found);
+                    assert_eq!(found, expected, "n {n}, {shape:?}");
+                    clamped.find(&x, &y, limit, &threads, &mut found);
+                    assert_eq!(
+                        found, expected,
+                        "n {n}, {shape:?}, cells over half the spread"
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn bricks_give_the_same_bits_with_1_and_2_threads() {
+        // dense enough for components of many discs, with a few outliers
+        let mut rng = Rng::new(11);
+        let (n, side, limit) = (20_000usize, 400.0, 16.0);
+        let mut x: Vec<f64> = (0..n).map(|_| rng.uniform() * side).collect();
+        let mut y: Vec<f64> = (0..n).map(|_| rng.uniform() * side).collect();
+        for k in 0..20 {
+            x[k * 97] = -1e7 * (k as f64 + 1.0);
+            y[k * 89] = 3e9;
+        }
+        let region = ([-side, -side], [2.0 * side, 2.0 * side]);
+        let mut found = [Vec::new(), Vec::new(), Vec::new()];
+        let runs = [
+            (CellShape::Square, Threads::single()),
+            (CellShape::Hex, Threads::single()),
+            (CellShape::Hex, Threads::new(2).unwrap()),
+        ];
+        for ((shape, threads), out) in runs.iter().zip(&mut found) {
+            let mut grid = ContactGrid::default()
+                .with_cells(*shape)
+                .with_region(region.0, region.1);
+            // twice: the buffers kept from one search must not leak into the next
+            grid.find(&y, &x, limit, threads, out);
+            grid.find(&x, &y, limit, threads, out);
+            assert_eq!(grid.cells(), *shape);
+        }
+        assert!(found[0].len() > 1000, "{} pairs", found[0].len());
+        assert_eq!(bits(&found[1]), bits(&found[0]), "hex, 1 thread");
+        assert_eq!(bits(&found[2]), bits(&found[0]), "hex, 2 threads");
+    }
+
+    /// Random discs, then edits: coincident points, points at exactly the cutoff
+    /// from another (along an axis or along a 3-4-5 diagonal, exact in binary),
+    /// points just beyond it, and points far outside the box.
+    fn discs() -> impl Strategy<Value = (Vec<f64>, Vec<f64>, f64, f64)> {
+        (
+            1u32..4,
+            prop_oneof![Just(2.0f64), Just(20.0), Just(300.0)],
+            prop::collection::vec((0.0f64..1.0, 0.0f64..1.0), 0..160),
+            prop::collection::vec(
+                (
+                    0u8..4,
+                    any::<prop::sample::Index>(),
+                    any::<prop::sample::Index>(),
+                    0usize..12,
+                ),
+                0..40,
+            ),
+        )
+            .prop_map(|(k, spread, points, edits)| {
+                let k = k as f64;
+                let reach = 5.0 * k;
+                let limit = reach * reach;
+                let spread = spread * reach;
+                // positions on a 1/64 lattice: sums of the offsets below are exact
+                let snap = |v: f64| (v * spread * 64.0).floor() / 64.0;
+                let mut x: Vec<f64> = points.iter().map(|p| snap(p.0)).collect();
+                let mut y: Vec<f64> = points.iter().map(|p| snap(p.1)).collect();
+                let offsets = [
+                    (reach, 0.0),
+                    (-reach, 0.0),
+                    (0.0, reach),
+                    (0.0, -reach),
+                    (3.0 * k, 4.0 * k),
+                    (-3.0 * k, 4.0 * k),
+                    (3.0 * k, -4.0 * k),
+                    (-3.0 * k, -4.0 * k),
+                    (4.0 * k, 3.0 * k),
+                    (-4.0 * k, 3.0 * k),
+                    (4.0 * k, -3.0 * k),
+                    (-4.0 * k, -3.0 * k),
+                ];
+                let far = [-1e300, -3e12, -7.5e5, 5e6, 2e15, 1e300];
+                if !x.is_empty() {
+                    for (kind, i, j, m) in edits {
+                        let (i, j) = (i.index(x.len()), j.index(x.len()));
+                        match kind {
+                            0 => (x[i], y[i]) = (x[j], y[j]),
+                            1 => (x[i], y[i]) = (x[j] + offsets[m].0, y[j] + offsets[m].1),
+                            2 => (x[i], y[i]) = (x[j] + reach.next_up(), y[j]),
+                            _ => {
+                                x[i] = far[m % far.len()];
+                                y[i] = if m % 3 == 0 {
+                                    far[(m + 1) % far.len()]
+                                } else {
+                                    y[i]
+                                };
+                            }
+                        }
+                    }
+                }
+                (x, y, limit, spread)
+            })
+    }
+
+    #[test]
+    fn the_random_discs_hold_every_hard_case() {
+        // the strategy does make pairs at exactly the cutoff, coincident pairs and
+        // discs far outside, so the property below sees them
+        let mut runner = proptest::test_runner::TestRunner::deterministic();
+        let (mut exact, mut coincident, mut far) = (0, 0, 0);
+        for _ in 0..40 {
+            let (x, y, limit, spread) =
+                proptest::strategy::ValueTree::current(&discs().new_tree(&mut runner).unwrap());
+            for c in brute(&x, &y, limit) {
+                exact += usize::from(c.sep.q == limit && c.sep.dx != 0.0 && c.sep.dy != 0.0);
+                coincident += usize::from(c.sep.q == 0.0);
+            }
+            far += x.iter().filter(|v| v.abs() > 100.0 * spread).count();
+        }
+        assert!(
+            exact > 0 && coincident > 0 && far > 0,
+            "{exact} {coincident} {far}"
+        );
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(160))]
+
+        /// Bricks and squares, over the discs' bounding box or clamped to a region
+        /// around the box, with 1 and 2 threads: all the pairs of the all-pairs
+        /// loop, in its order, with its bits.
+        #[test]
+        fn hex_and_square_cells_find_the_brute_force_pairs((x, y, limit, spread) in discs()) {
+            let expected = bits(&brute(&x, &y, limit));
             for threads in [Threads::single(), Threads::new(2).unwrap()] {
-                let mut found = Vec::new();
-                grid.find(&x, &y, limit, &threads, &mut found);
-                assert_eq!(found, expected, "n {n}");
-                clamped.find(&x, &y, limit, &threads, &mut found);
-                assert_eq!(found, expected, "n {n}, squares over half the spread");
+                for shape in SHAPES {
+                    for region in [None, Some(([-spread, -spread], [2.0 * spread, 2.0 * spread]))] {
+                        let mut grid = ContactGrid::default().with_cells(shape);
+                        if let Some((lo, hi)) = region {
+                            grid = grid.with_region(lo, hi);
+                        }
+                        let mut found = vec![Contact::default(); 3];
+                        grid.find(&x, &y, limit, &threads, &mut found);
+                        prop_assert_eq!(
+                            bits(&found), expected.clone(),
+                            "{:?}, region {:?}, {} threads", shape, region, threads.count()
+                        );
+                    }
+                }
             }
         }
     }

@@ -22,7 +22,7 @@ mod model;
 mod rules;
 
 pub use check::{check_step, CheckFailure, DiscState, StepChecker};
-pub use contacts::{Contact, ContactGrid};
+pub use contacts::{CellShape, Contact, ContactGrid};
 pub use generate::{separated_discs, uniform_discs, Drawn};
 pub use model::BilliardsModel;
 pub use rules::{Separation, Table, Walls, APPROACH};
@@ -172,6 +172,19 @@ impl Billiards {
     pub fn with_max_sweeps(mut self, sweeps: u64) -> Self {
         self.max_sweeps = sweeps.max(1);
         self
+    }
+
+    /// Lays out the cells of the contact search as `shape` ([`CellShape::Square`]
+    /// by default, or seed 001's hexagonal bricks). Every step gives the same bits
+    /// either way; only the time changes.
+    pub fn with_cells(mut self, shape: CellShape) -> Self {
+        self.grid = std::mem::take(&mut self.grid).with_cells(shape);
+        self
+    }
+
+    /// The layout of the cells of the contact search.
+    pub fn cells(&self) -> CellShape {
+        self.grid.cells()
     }
 
     /// The box and radius.
