@@ -23,6 +23,10 @@ pub struct DiscPainter {
 }
 
 impl DiscPainter {
+    /// The colours of [`DiscPainter::palette`] in use (background, outline and
+    /// the speeds); the rest pads it to 256.
+    pub const COLOURS: usize = FIRST_SPEED as usize + SPEEDS;
+
     /// A painter whose colour scale ends at `top_speed` (faster discs are drawn in
     /// the top colour).
     pub fn new(size: u32, side: f64, radius: f64, top_speed: f64) -> Self {
@@ -77,8 +81,16 @@ impl DiscPainter {
     /// The palette index of a disc moving at `speed`: 250 levels from 0 to the top
     /// speed (faster discs get the top colour).
     pub fn speed_index(&self, speed: f64) -> u8 {
-        let level = ((speed / self.top_speed).min(1.0) * (SPEEDS - 1) as f64) as usize;
-        FIRST_SPEED + level as u8
+        Self::speed_colour(speed, self.top_speed)
+    }
+
+    /// The palette index of `speed` on a scale from 0 to `top_speed` (250 levels;
+    /// faster, and NaN, get the top colour): the colours of every picture coloured
+    /// by speed.
+    pub fn speed_colour(speed: f64, top_speed: f64) -> u8 {
+        let t = (speed / top_speed).min(1.0);
+        let t = if t.is_nan() { 1.0 } else { t.max(0.0) };
+        FIRST_SPEED + (t * (SPEEDS - 1) as f64) as u8
     }
 
     /// Renders one frame; returns its palette indices, row by row from the top.
@@ -131,7 +143,8 @@ impl DiscPainter {
 /// continues it ([`GifAnimation::resume`]).
 pub struct GifAnimation {
     encoder: gif::Encoder<GifSink>,
-    size: u16,
+    width: u16,
+    height: u16,
 }
 
 /// The animation's file, which drops the first `skip` bytes written to it: a
@@ -155,16 +168,23 @@ impl io::Write for GifSink {
 }
 
 impl GifAnimation {
-    /// Starts an animation of `size` x `size` frames at `path` in `palette` (RGB
+    /// Starts an animation of `width` x `height` frames at `path` in `palette` (RGB
     /// triples), looping forever.
-    pub fn create(path: &Path, size: u32, palette: &[u8]) -> io::Result<Self> {
-        Self::start(StreamFile::create(path)?, 0, size, palette)
+    pub fn create(path: &Path, width: u32, height: u32, palette: &[u8]) -> io::Result<Self> {
+        Self::start(StreamFile::create(path)?, 0, [width, height], palette)
     }
 
     /// Continues the animation at `path` from its first `length` bytes (the header
-    /// and the frames a checkpoint counted).
-    pub fn resume(path: &Path, length: u64, size: u32, palette: &[u8]) -> io::Result<Self> {
-        let header = Self::start_encoder(Vec::new(), size, palette)?
+    /// and the frames a checkpoint counted); the frame size and palette must be
+    /// those it was created with.
+    pub fn resume(
+        path: &Path,
+        length: u64,
+        width: u32,
+        height: u32,
+        palette: &[u8],
+    ) -> io::Result<Self> {
+        let header = Self::start_encoder(Vec::new(), [width, height], palette)?
             .get_ref()
             .len();
         if length < header as u64 {
@@ -173,31 +193,60 @@ impl GifAnimation {
                 format!("{} is shorter than a GIF header", path.display()),
             ));
         }
-        Self::start(StreamFile::resume(path, length)?, header, size, palette)
+        Self::start(
+            StreamFile::resume(path, length)?,
+            header,
+            [width, height],
+            palette,
+        )
     }
 
-    fn start_encoder<W: io::Write>(w: W, size: u32, palette: &[u8]) -> io::Result<gif::Encoder<W>> {
-        let size = u16::try_from(size)
-            .map_err(|_| io::Error::other("a GIF frame is at most 65535 pixels wide"))?;
-        let mut encoder = gif::Encoder::new(w, size, size, palette).map_err(io::Error::other)?;
+    fn start_encoder<W: io::Write>(
+        w: W,
+        size: [u32; 2],
+        palette: &[u8],
+    ) -> io::Result<gif::Encoder<W>> {
+        let [width, height] = size.map(|s| {
+            u16::try_from(s)
+                .map_err(|_| io::Error::other("a GIF frame is at most 65535 pixels wide and high"))
+        });
+        let mut encoder =
+            gif::Encoder::new(w, width?, height?, palette).map_err(io::Error::other)?;
         encoder
             .set_repeat(gif::Repeat::Infinite)
             .map_err(io::Error::other)?;
         Ok(encoder)
     }
 
-    fn start(file: StreamFile, skip: usize, size: u32, palette: &[u8]) -> io::Result<Self> {
+    fn start(file: StreamFile, skip: usize, size: [u32; 2], palette: &[u8]) -> io::Result<Self> {
         let encoder = Self::start_encoder(GifSink { file, skip }, size, palette)?;
         Ok(GifAnimation {
             encoder,
-            size: size as u16,
+            width: size[0] as u16,
+            height: size[1] as u16,
         })
     }
 
-    /// Appends a frame (palette indices, `size^2`) shown for `delay` hundredths of
-    /// a second.
+    /// The frame size in pixels, `[width, height]`.
+    pub fn frame_size(&self) -> [u32; 2] {
+        [self.width as u32, self.height as u32]
+    }
+
+    /// Appends a frame (palette indices, `width * height`, rows from the top)
+    /// shown for `delay` hundredths of a second.
     pub fn add_frame(&mut self, pixels: &[u8], delay: u16) -> io::Result<()> {
-        let mut frame = gif::Frame::from_indexed_pixels(self.size, self.size, pixels, None);
+        if pixels.len() != self.width as usize * self.height as usize {
+            return Err(io::Error::new(
+                io::ErrorKind::InvalidInput,
+                format!(
+                    "a GIF frame of {} pixels, expected {} x {}",
+                    pixels.len(),
+                    self.width,
+                    self.height
+                ),
+            ));
+        }
+        let mut frame = gif::Frame::from_indexed_pixels(self.width, self.height, pixels, None);
         frame.delay = delay;
         self.encoder.write_frame(&frame).map_err(io::Error::other)
     }
@@ -257,7 +306,7 @@ mod tests {
 
         let dir = tempfile::tempdir().unwrap();
         let gif_path = dir.path().join("a.gif");
-        let mut gif = GifAnimation::create(&gif_path, 100, &DiscPainter::palette()).unwrap();
+        let mut gif = GifAnimation::create(&gif_path, 100, 100, &DiscPainter::palette()).unwrap();
         gif.add_frame(&pixels, 5).unwrap();
         gif.add_frame(&far, 5).unwrap();
         gif.finish().unwrap();

@@ -57,12 +57,18 @@ pub struct FieldChart {
     /// The unit of length of the axes, e.g. `"σ"` (axis titles `x (σ)`, `y (σ)`);
     /// empty for plain `x` and `y`.
     pub unit: String,
+    /// The names of the horizontal and vertical axes (`"x"`, `"y"`).
+    pub axes: [String; 2],
+    /// The view is a periodic box: particle squares that cross an edge of the
+    /// view wrap to the other side ([`FieldChart::render`]; otherwise they are
+    /// clipped).
+    pub periodic: bool,
 }
 
 impl FieldChart {
     /// A 640-pixel-wide chart of the view `[lo, lo + side)^2` for particles `spacing`
     /// apart with colours saturating at `|value| = scale`, with an empty title, the
-    /// value label `"value"` and no unit.
+    /// value label `"value"`, no unit, axes `x` and `y`, not periodic.
     pub fn new(lo: [f64; 2], side: f64, spacing: f64, scale: f64) -> Self {
         FieldChart {
             width: 640,
@@ -73,6 +79,8 @@ impl FieldChart {
             title: String::new(),
             value_label: "value".into(),
             unit: String::new(),
+            axes: ["x".into(), "y".into()],
+            periodic: false,
         }
     }
 
@@ -119,9 +127,19 @@ impl FieldChart {
             return invalid("field chart: the particle spacing must be finite and not negative");
         }
         let (_, n) = self.plot_area();
-        let mut painter = FieldPainter::with_view(n, self.lo, self.side, self.spacing, self.scale);
         let palette = FieldPainter::palette();
-        let field = palette_rgb(painter.render(points.into_iter()), &palette);
+        let (mut painter, lo) = if self.periodic {
+            // the periodic painter's box is [0, side)^2
+            let painter = FieldPainter::new(n, self.side, self.spacing, self.scale);
+            (painter, self.lo)
+        } else {
+            let painter = FieldPainter::with_view(n, self.lo, self.side, self.spacing, self.scale);
+            (painter, [0.0; 2])
+        };
+        let shifted = points
+            .into_iter()
+            .map(|([x, y], v)| ([x - lo[0], y - lo[1]], v));
+        let field = palette_rgb(painter.render(shifted), &palette);
         let scale = painter.scale();
         self.render_painted(field, (-scale, scale), |value| {
             palette_rgb(&[painter.colour_index(value)], &palette)
@@ -214,7 +232,7 @@ impl FieldChart {
             .y_label_formatter(&|v| tick_text(*v))
             .label_style(tick_style.clone())
             .axis_desc_style(axis_style.clone())
-            .x_desc(axis_title("x"))
+            .x_desc(axis_title(&self.axes[0]))
             .draw()?;
         // The y axis title, reading upwards, just left of the widest tick label (the
         // ticks are those plotters chose above).
@@ -222,7 +240,7 @@ impl FieldChart {
         for v in RangedCoordf64::from(ly..ly + self.side).key_points(7usize) {
             widest = widest.max(root.estimate_text_size(&tick_text(v), &tick_style)?.0);
         }
-        let y_title = axis_title("y");
+        let y_title = axis_title(&self.axes[1]);
         let (_, title_height) = root.estimate_text_size(&y_title, &axis_style)?;
         let title_x = (x0 as i32 - 10 - widest as i32 - 10 - title_height as i32 / 2)
             .max(title_height as i32 / 2 + 2);
@@ -356,23 +374,7 @@ pub fn write_chart(path: &Path, chart: &FieldChart, pixels: &[u8]) -> io::Result
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// Decodes a PNG into (width, height, RGB pixels).
-    fn decode(path: &Path) -> (u32, u32, Vec<u8>) {
-        let decoder = png::Decoder::new(std::fs::File::open(path).unwrap());
-        let mut reader = decoder.read_info().unwrap();
-        let mut buf = vec![0; reader.output_buffer_size()];
-        let info = reader.next_frame(&mut buf).unwrap();
-        assert_eq!(info.color_type, png::ColorType::Rgb);
-        assert_eq!(info.bit_depth, png::BitDepth::Eight);
-        buf.truncate(info.buffer_size());
-        (info.width, info.height, buf)
-    }
-
-    fn pixel(rgb: &[u8], width: u32, [x, y]: [u32; 2]) -> [u8; 3] {
-        let k = 3 * (y * width + x) as usize;
-        [rgb[k], rgb[k + 1], rgb[k + 2]]
-    }
+    use crate::test_png::{dark_pixels, decode, pixel};
 
     fn palette_colour(index: u8) -> [u8; 3] {
         let p = FieldPainter::palette();
@@ -437,11 +439,7 @@ mod tests {
             [255, 255, 255]
         );
         // there is text: dark pixels in the title band and left of the plot area
-        let dark = |xs: std::ops::Range<u32>, ys: std::ops::Range<u32>| {
-            ys.flat_map(|y| xs.clone().map(move |x| [x, y]))
-                .filter(|&p| pixel(&rgb, width, p).iter().all(|&c| c < 100))
-                .count()
-        };
+        let dark = |xs, ys| dark_pixels(&rgb, width, xs, ys);
         assert!(dark(x0..x0 + n, 0..y0 - 2) > 50);
         assert!(dark(0..x0 - 2, y0..y0 + n) > 50);
         assert!(dark(x0..x0 + n, y0 + n + 2..height) > 50);

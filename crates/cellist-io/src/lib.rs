@@ -7,6 +7,8 @@
 
 pub mod billiards;
 pub mod bodies;
+pub mod body_picture;
+pub mod chart_gif;
 pub mod checkpoint;
 pub mod disc_picture;
 pub mod dump;
@@ -18,12 +20,16 @@ pub mod lammps_data;
 pub mod output;
 pub mod plot;
 pub mod points;
+#[cfg(test)]
+mod test_png;
 
 pub use billiards::{
     parse_billiards_input, read_billiards_input, write_state, BilliardsInput, StateFormat,
     TrajectoryReader, TrajectoryStep,
 };
 pub use bodies::{parse_bodies, read_bodies, BodyFile};
+pub use body_picture::{body_chart, BodyChart, Plane};
+pub use chart_gif::ChartPalette;
 pub use checkpoint::{read_checkpoint, write_checkpoint, Checkpoint};
 pub use disc_picture::{write_png, DiscPainter, GifAnimation};
 pub use dump::{write_lammps_frame, write_xyz_frame, Frame, DUMP_COLUMNS, GRAVITY_DUMP_COLUMNS};
