@@ -3,11 +3,13 @@
 
 use crate::bench::median;
 use crate::cli::{
-    BenchBilliardsArgs, BilliardsCheckArgs, BilliardsGenArgs, BilliardsRunArgs, StateFormatArg,
+    BenchBilliardsArgs, BilliardsCheckArgs, BilliardsGenArgs, BilliardsRunArgs, BilliardsSweepArgs,
+    StateFormatArg,
 };
 use crate::error::{threads, CliError, CliResult};
 use cellist::models::billiards::{
-    check_step, separated_discs, uniform_discs, BilliardsModel, DiscState, StepChecker, Table,
+    check_step, separated_discs, uniform_discs, BilliardsModel, CellShape, DiscState, StepChecker,
+    Table,
 };
 use cellist::models::Model;
 use cellist::Threads;
@@ -15,6 +17,38 @@ use cellist_io::{read_billiards_input, AtomicFile, StateFormat, TrajectoryReader
 use cellist_sim::billiards::{load, BilliardsRun};
 use std::io::{BufReader, Write};
 use std::time::Instant;
+
+/// The `--cells` of `cellist billiards run` and `cellist bench billiards`: the
+/// layout of the contact search's cells ([`CellShape`]).
+#[derive(clap::ValueEnum, Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum CellsArg {
+    /// Squares of side just above the contact distance 2R; 4 neighbour squares
+    /// searched per square.
+    #[default]
+    Square,
+    /// Seed 001's hexagon arrangement: rows just over 2R high, every other row
+    /// shifted by half a cell, cells twice as wide as high (so that 6 neighbours
+    /// hold every contact); 3 neighbour cells searched per cell.
+    Hex,
+}
+
+impl CellsArg {
+    /// The engine's layout.
+    pub fn shape(self) -> CellShape {
+        match self {
+            CellsArg::Square => CellShape::Square,
+            CellsArg::Hex => CellShape::Hex,
+        }
+    }
+
+    /// The name on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            CellsArg::Square => "square",
+            CellsArg::Hex => "hex",
+        }
+    }
+}
 
 /// `cellist billiards run`.
 pub fn run(args: &BilliardsRunArgs) -> CliResult {
@@ -27,6 +61,7 @@ pub fn run(args: &BilliardsRunArgs) -> CliResult {
         input: &args.input,
         steps: args.steps,
         max_sweeps: args.max_sweeps,
+        cells: args.cells.shape(),
         format,
         viz: args.viz.as_deref(),
         gif: args.gif.as_deref(),
@@ -147,7 +182,11 @@ pub fn bench(args: &BenchBilliardsArgs) -> CliResult {
         return Err(CliError::Input("--repeat must be at least 1".into()));
     }
     let pool: Threads = threads(Some(args.threads))?;
-    let (input, start_state) = load(&args.input, cellist::models::billiards::DEFAULT_MAX_SWEEPS)?;
+    let (input, start_state) = load(
+        &args.input,
+        cellist::models::billiards::DEFAULT_MAX_SWEEPS,
+        args.cells.shape(),
+    )?;
     let steps = args.steps.unwrap_or(input.steps);
     let mut samples = Vec::with_capacity(args.repeat);
     let mut hardest = (0, 0);
@@ -170,18 +209,41 @@ pub fn bench(args: &BenchBilliardsArgs) -> CliResult {
             "input": args.input.display().to_string(), "particles": n, "steps": steps,
             "threads": args.threads, "seconds": seconds, "steps_per_second": per_second,
             "max_sweeps": hardest.1, "hardest_step": hardest.0, "repeat": args.repeat,
+            "cells": args.cells.name(),
         });
         println!("{obj}");
     } else {
         println!(
-            "billiards: {} ({n} particles, {steps} steps), {} thread(s): {seconds:.4} s (median of {}), \
-             {per_second:.1} steps/s; hardest step {} needed {} sweeps",
+            "billiards: {} ({n} particles, {steps} steps), {} thread(s), {} cells: {seconds:.4} s \
+             (median of {}), {per_second:.1} steps/s; hardest step {} needed {} sweeps",
             args.input.display(),
             args.threads,
+            args.cells.name(),
             args.repeat,
             hardest.0,
             hardest.1
         );
     }
+    Ok(())
+}
+
+/// `cellist billiards sweep`: hands the flags to the simulation layer's study.
+pub fn sweep(args: &BilliardsSweepArgs) -> CliResult {
+    use cellist_sim::study::billiards_sweep::{sweep, BilliardsSweepRequest};
+    let cells: Vec<CellShape> = args.cells.iter().map(|c| c.shape()).collect();
+    sweep(&BilliardsSweepRequest {
+        n: &args.n,
+        l: &args.l,
+        r: &args.r,
+        steps: &args.steps,
+        cells: &cells,
+        threads: args.threads.clone(),
+        vmin: args.vmin,
+        vmax: args.vmax,
+        seed: args.seed,
+        overlaps: args.overlaps,
+        repeat: args.repeat,
+        out: args.out.clone(),
+    })?;
     Ok(())
 }

@@ -27,6 +27,18 @@ pub enum Command {
         #[command(subcommand)]
         which: BilliardsCommand,
     },
+    /// Run a scenario for every combination of key values (and thread counts) and
+    /// tabulate, write and plot the chosen metrics.
+    #[command(long_about = SWEEP_HELP)]
+    Sweep(SweepArgs),
+    /// The observed order of the time integrator: runs at dt, dt/2, ..., dt/2^K to
+    /// the same end time.
+    #[command(long_about = CONVERGENCE_HELP)]
+    Convergence(ConvergenceArgs),
+    /// Strong scaling over thread counts: speed-up, efficiency and the serial
+    /// fraction fitted by Amdahl's law, overall and per stage.
+    #[command(long_about = SCALING_HELP)]
+    Scaling(ScalingArgs),
     /// Measure speed on standard workloads.
     Bench {
         /// The workload.
@@ -57,6 +69,62 @@ Exit status: 0 done, 2 bad input (scenario, files, checkpoint), 3 the run blew u
 (a value not finite, a particle out of its box: the message names the step, the \
 particle and the quantity, and the last good state is written as a frame and a \
 checkpoint), 1 anything else.";
+
+const SWEEP_HELP: &str = "\
+Run a scenario for every combination of the values given with --set KEY=V1,V2,... \
+(any scenario key; several --set multiply; keys joined by + move together, each value \
+a list: --set system.lattice.n+system.epsilon=[16,0.0625],[32,0.03125]) and of the \
+--threads list, in-process, and \
+measure each run: wall time of the loop (`time`) or of a stage (`time.Force`, the stages \
+of the run's timing table), a thermo column at the last step (`etotal`), its largest \
+drift from step 0 (`etotal.drift`), or the error against the model's exact solution \
+(`error`: pse with an initial sine or gaussian, vortex lamb-oseen). Every combination is \
+built first (with zero steps), so an unknown key, a value of the wrong type or a metric \
+the model does not produce stops the sweep before anything runs (exit status 2).
+
+With --repeat K every combination runs K times, the combinations alternating, and the \
+times are medians. Output (--out, default out/<scenario>-sweep/): the table on the \
+terminal, sweep.csv (one row per combination), sweep.png (the first metric against the \
+first swept key, one line per combination of the others; sweep-<metric>.png for the \
+others) and each run's own outputs in runs/001/, runs/002/, ... in the CSV's row order.
+
+Example: cellist sweep examples/pse-sine.toml --set system.lattice.n=32,64,128 \
+--set system.method=direct,cell-list --metric time --metric error";
+
+const CONVERGENCE_HELP: &str = "\
+Measure the order of the time integration (seed 004's method): run the scenario with \
+time steps dt, dt/2, ..., dt/2^K to the same end time (--end-time, or run.steps of the \
+scenario times --dt), take the successive differences d_k = |u(dt/2^k) - u(dt/2^(k+1))| \
+of the observable and report the order log2(d_k / d_(k+1)). The space discretisation \
+stays fixed, so this is the time-step error alone.
+
+Observables: any thermo column at the end (e.g. etotal, ke), or `position`, `velocity` \
+(the largest per-particle distance between the runs' final states, particles matched by \
+id, minimum image on periodic axes) or `field` (the largest per-particle difference of \
+a PSE or vortex field). With --exact (observable `field`, models with an exact \
+solution: pse with an initial sine or gaussian, vortex lamb-oseen) the errors against \
+the exact solution give a second order, which levels off where the spatial error takes \
+over.
+
+Output (--out, default out/<scenario>-convergence/): the table, convergence.csv, \
+convergence.png (log-log, with reference slopes 1, 2 and 4) and the runs in runs/.
+
+Example: cellist convergence examples/gravity-two-body.toml --dt 0.004 --halvings 3 \
+--observable velocity";
+
+const SCALING_HELP: &str = "\
+Strong scaling: run the scenario (or a collision-benchmark input, .in, start to end) \
+with each thread count of --threads, --repeat times \
+(the thread counts alternating), and report the median and spread of the loop time, the \
+speed-up T(p0)/T(p) against the smallest count p0, the efficiency, and the serial \
+fraction f fitted by Amdahl's law T(p) = T1 (f + (1 - f)/p) (least squares on the \
+medians) with its limit 1/f; the same per stage of the run's timing table, so that the \
+stage that stops scaling shows. Thread counts above the machine's cores are allowed and \
+flagged as oversubscribed.
+
+Output (--out, default out/<scenario>-scaling/): the tables, scaling.csv (one row per \
+section and thread count) and scaling.png (measured speed-up, the fitted Amdahl curve \
+and ideal scaling).";
 
 const NEIGHBORS_HELP: &str = "\
 Print the neighbour list of a point file: every pair i < j (0-based, in input order) \
@@ -92,6 +160,78 @@ pub struct RunArgs {
     /// keys must be the checkpoint's; [output] keys and run.steps may change.
     #[arg(long, value_name = "FILE")]
     pub restart: Option<PathBuf>,
+}
+
+/// Flags of `cellist sweep`.
+#[derive(Args, Debug)]
+pub struct SweepArgs {
+    /// Scenario file (TOML).
+    pub scenario: PathBuf,
+    /// A key and its values, e.g. --set run.dt=0.01,0.005 or
+    /// --set system.lattice.cells=[8,8,8],[16,16,16] (repeatable: every combination
+    /// runs).
+    #[arg(long = "set", value_name = "KEY=V1,V2,...")]
+    pub set: Vec<String>,
+    /// Thread counts to sweep, e.g. 1,2 (default: every core, not swept).
+    #[arg(long, value_delimiter = ',', num_args = 1..)]
+    pub threads: Option<Vec<usize>>,
+    /// What to measure (repeatable): time, time.<Stage>, a thermo column,
+    /// <column>.drift, error. Default: time.
+    #[arg(long = "metric", value_name = "NAME")]
+    pub metric: Vec<String>,
+    /// Runs per combination; times are their median.
+    #[arg(long, default_value_t = 1)]
+    pub repeat: usize,
+    /// Output folder (default: out/<scenario name>-sweep/).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+}
+
+/// Flags of `cellist convergence`.
+#[derive(Args, Debug)]
+pub struct ConvergenceArgs {
+    /// Scenario file (TOML).
+    pub scenario: PathBuf,
+    /// The largest time step.
+    #[arg(long, allow_negative_numbers = true)]
+    pub dt: f64,
+    /// Times the step is halved: runs at dt, dt/2, ..., dt/2^K.
+    #[arg(long)]
+    pub halvings: u32,
+    /// What is compared: a thermo column at the end, position, velocity or field.
+    #[arg(long)]
+    pub observable: String,
+    /// Also report the errors against the model's exact solution and their order.
+    #[arg(long)]
+    pub exact: bool,
+    /// End time of every run (default: the scenario's run.steps times --dt).
+    #[arg(long, allow_negative_numbers = true)]
+    pub end_time: Option<f64>,
+    /// Override a scenario key for every run (repeatable), e.g. --set run.integrator=rk2.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
+    /// Output folder (default: out/<scenario name>-convergence/).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+}
+
+/// Flags of `cellist scaling`.
+#[derive(Args, Debug)]
+pub struct ScalingArgs {
+    /// Scenario file (TOML), or a collision-benchmark input (.in).
+    pub scenario: PathBuf,
+    /// Thread counts, e.g. 1,2,4 (at least two different ones).
+    #[arg(long, value_delimiter = ',', num_args = 1.., required = true)]
+    pub threads: Vec<usize>,
+    /// Runs per thread count (alternating); the median is reported.
+    #[arg(long, default_value_t = 3)]
+    pub repeat: usize,
+    /// Override a scenario key for every run (repeatable), e.g. --set run.steps=200.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
+    /// Output folder (default: out/<scenario name>-scaling/).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
 }
 
 /// Flags of `cellist neighbors`.
@@ -304,6 +444,11 @@ pub struct BenchBilliardsArgs {
     /// Timed repetitions (each from the input state); the median is reported.
     #[arg(long, default_value_t = 5)]
     pub repeat: usize,
+    /// Cells of the contact search: `square`, or `hex` (seed 001's experiment:
+    /// rows of cells shifted by half a cell, 3 neighbour cells to search instead of
+    /// 4). The output bits are the same either way; only the time differs.
+    #[arg(long, value_enum, default_value_t = crate::billiards::CellsArg::Square)]
+    pub cells: crate::billiards::CellsArg,
     /// Print one JSON object instead of text.
     #[arg(long)]
     pub json: bool,
@@ -321,6 +466,10 @@ pub enum BilliardsCommand {
     /// Write a random input file.
     #[command(long_about = BILLIARDS_GEN_HELP)]
     Gen(BilliardsGenArgs),
+    /// Time the collision steps on generated inputs for every combination of N, L,
+    /// r, S, cell layout and thread count (seed 001's studies).
+    #[command(long_about = BILLIARDS_SWEEP_HELP)]
+    Sweep(BilliardsSweepArgs),
 }
 
 const BILLIARDS_RUN_HELP: &str = "\
@@ -361,6 +510,76 @@ uniform in [0, L) as in the course's generator, which made its large inputs: \
 overlaps are then normal. Values are written with enough digits to read back \
 exactly.";
 
+const BILLIARDS_SWEEP_HELP: &str = "\
+Time the collision benchmark on generated inputs, for every combination of the \
+values of --n (particles N), --l (box side L), --r (radius r), --steps (S), --cells \
+and --threads: seed 001's studies of its collision code against N, L, r, S and \
+threads. Each of these flags takes one value (fixed) or a comma list (swept), \
+e.g. --n 12500,25000,50000 --l 20000 --r 30 --steps 100 --threads 1,2.
+
+Each input is drawn in memory as `cellist billiards gen N L R S VMIN VMAX --seed \
+SEED [--overlaps]` would write it (velocity components uniform in [--vmin, \
+--vmax]; the same seed for every combination): with --overlaps, positions uniform \
+in [0, L) as the course's generator makes its inputs; without it, discs that \
+overlap nothing, which this placement can only do up to density pi/4 (a denser \
+combination is refused, naming it, before anything is timed). Every combination \
+is drawn and checked first; then the loop of S steps (not the drawing) is timed \
+--repeat times, the combinations taking turns (round-robin), and the median is \
+reported. One line is printed per timed run; thread counts above the machine's \
+cores are flagged as oversubscribed.
+
+Metrics per combination: time (the median loop time, s), steps_per_s, \
+ns_per_disc_step (time / (N S)), max_sweeps (the sweeps of the hardest step, the \
+same for any thread count and layout). As `cellist sweep`: the table is printed \
+(the keys that take one value on a `fixed:` line above it) and written as \
+sweep.csv (the keys N, L, r, S, cells, threads, then the metrics), sweep.png (time \
+against the first key that takes several values, one line per combination of the \
+other swept keys; log axes when the values span decades) and sweep-<metric>.png, \
+in --out (default out/billiards-sweep/).";
+
+/// Flags of `cellist billiards sweep`.
+#[derive(Args, Debug)]
+#[command(allow_negative_numbers = true)]
+pub struct BilliardsSweepArgs {
+    /// Particle counts N, e.g. 12500,25000,50000.
+    #[arg(long, value_delimiter = ',', num_args = 1.., required = true)]
+    pub n: Vec<usize>,
+    /// Box sides L (integers), e.g. 20000.
+    #[arg(long, value_delimiter = ',', num_args = 1.., required = true)]
+    pub l: Vec<i64>,
+    /// Disc radii r (integers), e.g. 30.
+    #[arg(long, value_delimiter = ',', num_args = 1.., required = true)]
+    pub r: Vec<i64>,
+    /// Steps S of the timed loop, e.g. 100.
+    #[arg(long, value_delimiter = ',', num_args = 1.., required = true)]
+    pub steps: Vec<u64>,
+    /// Smallest velocity component of the generated inputs.
+    #[arg(long, default_value_t = 2.0)]
+    pub vmin: f64,
+    /// Largest velocity component of the generated inputs.
+    #[arg(long, default_value_t = 5.0)]
+    pub vmax: f64,
+    /// Thread counts, e.g. 1,2 (default: every core).
+    #[arg(long, value_delimiter = ',', num_args = 1..)]
+    pub threads: Option<Vec<usize>>,
+    /// Cells of the contact search: square, hex, or square,hex (both timed).
+    #[arg(long, value_enum, value_delimiter = ',', num_args = 1.., default_value = "square")]
+    pub cells: Vec<crate::billiards::CellsArg>,
+    /// Seed of the random numbers (the same for every combination).
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Uniform positions in [0, L) as the course's generator (discs may overlap);
+    /// without it, discs that overlap nothing (density at most pi/4).
+    #[arg(long)]
+    pub overlaps: bool,
+    /// Timed runs per combination (round-robin); the median is reported.
+    #[arg(long, default_value_t = 3)]
+    pub repeat: usize,
+    /// Output folder (default: out/billiards-sweep/).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+}
+
 /// Flags of `cellist billiards run`.
 #[derive(Args, Debug)]
 pub struct BilliardsRunArgs {
@@ -396,6 +615,11 @@ pub struct BilliardsRunArgs {
     /// Stop when one step needs more sweeps than this.
     #[arg(long, default_value_t = cellist::models::billiards::DEFAULT_MAX_SWEEPS)]
     pub max_sweeps: u64,
+    /// Cells of the contact search: `square`, or `hex` (seed 001's experiment:
+    /// rows of cells shifted by half a cell, 3 neighbour cells to search instead of
+    /// 4). The output bits are the same either way; only the time differs.
+    #[arg(long, value_enum, default_value_t = crate::billiards::CellsArg::Square)]
+    pub cells: crate::billiards::CellsArg,
     /// Write a checkpoint (the complete state) to this file every
     /// --checkpoint-every steps and at the last step; the previous one is kept as
     /// FILE.prev.

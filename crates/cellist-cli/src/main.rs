@@ -8,6 +8,7 @@ mod gravity;
 mod neighbors;
 mod pse;
 mod run;
+mod study;
 mod vortex;
 
 use clap::Parser;
@@ -20,10 +21,14 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Run(args) => run::run(&args),
         Command::Neighbors(args) => neighbors::run(&args),
+        Command::Sweep(args) => study::sweep(&args),
+        Command::Convergence(args) => study::convergence(&args),
+        Command::Scaling(args) => study::scaling(&args),
         Command::Billiards { which } => match which {
             BilliardsCommand::Run(args) => billiards::run(&args),
             BilliardsCommand::Check(args) => billiards::check(&args),
             BilliardsCommand::Gen(args) => billiards::gen(&args),
+            BilliardsCommand::Sweep(args) => billiards::sweep(&args),
         },
         Command::Bench { which } => match which {
             BenchCommand::Neighbors(args) => bench::neighbors(&args),

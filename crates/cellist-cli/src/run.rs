@@ -14,5 +14,6 @@ pub fn run(args: &RunArgs) -> CliResult {
         out: args.out.clone(),
         restart: args.restart.as_deref(),
     };
-    Ok(cellist_sim::run(&request, &pool)?)
+    cellist_sim::run(&request, &pool)?;
+    Ok(())
 }

@@ -38,7 +38,7 @@ fn text(bytes: &[u8]) -> String {
 }
 
 #[test]
-fn final_states_equal_the_golden_bits_with_1_and_2_threads() {
+fn final_states_equal_the_golden_bits_with_1_and_2_threads_and_both_cell_shapes() {
     let Some(data) = shared_testdata("billiards") else {
         return;
     };
@@ -46,7 +46,8 @@ fn final_states_equal_the_golden_bits_with_1_and_2_threads() {
     assert_eq!(inputs.len(), 15, "the 15 public inputs");
     for (key, path) in inputs {
         let golden = std::fs::read(data.join("golden").join(format!("{key}.final.bits"))).unwrap();
-        for threads in ["1", "2"] {
+        // hexagonal cells find the same contacts: the same bits
+        for (threads, cells) in [("1", "square"), ("2", "square"), ("1", "hex"), ("2", "hex")] {
             let out = cellist(&[
                 "billiards",
                 "run",
@@ -55,11 +56,13 @@ fn final_states_equal_the_golden_bits_with_1_and_2_threads() {
                 "bits",
                 "--threads",
                 threads,
+                "--cells",
+                cells,
             ]);
             assert!(out.status.success(), "{key}: {}", text(&out.stderr));
             assert!(
                 out.stdout == golden,
-                "{key} on {threads} thread(s) differs from the golden bits"
+                "{key} on {threads} thread(s) with {cells} cells differs from the golden bits"
             );
         }
         let out = cellist(&["billiards", "run", path.to_str().unwrap()]);
@@ -570,6 +573,23 @@ fn pictures_and_the_benchmark_are_written() {
     assert!(out.status.success(), "{}", text(&out.stderr));
     assert_eq!(&std::fs::read(&gif).unwrap()[..6], b"GIF89a");
     assert_eq!(&std::fs::read(&png).unwrap()[1..4], b"PNG");
+    // the frames are charts like the PNG (at least 640 pixels wide), one per step
+    let png_size = {
+        let decoder = png::Decoder::new(std::fs::File::open(&png).unwrap());
+        let reader = decoder.read_info().unwrap();
+        let info = reader.info();
+        (info.width, info.height)
+    };
+    assert_eq!(png_size.0, 640);
+    let mut decoder = gif::DecodeOptions::new()
+        .read_info(std::fs::File::open(&gif).unwrap())
+        .unwrap();
+    let mut frames = 0;
+    while let Some(frame) = decoder.read_next_frame().unwrap() {
+        assert_eq!((frame.width as u32, frame.height as u32), png_size);
+        frames += 1;
+    }
+    assert_eq!(frames, 21, "steps 0 to 20");
     let out = cellist(&[
         "bench",
         "billiards",
@@ -586,4 +606,214 @@ fn pictures_and_the_benchmark_are_written() {
     assert_eq!(json["steps"], 100);
     assert_eq!(json["max_sweeps"], 5);
     assert!(json["seconds"].as_f64().unwrap() > 0.0);
+}
+
+#[test]
+fn hex_cells_give_the_bytes_of_square_cells() {
+    // seed 001's hexagon arrangement only changes which cells are searched: every
+    // step's state, hence the trajectory and the final state, is the same bytes
+    let dir = tempfile::tempdir().unwrap();
+    let input = dir.path().join("crowded.in");
+    let out = cellist(&[
+        "billiards",
+        "gen",
+        "3000",
+        "200",
+        "2",
+        "30",
+        "-1",
+        "1",
+        "--overlaps",
+        "--seed",
+        "5",
+        "--output",
+        input.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let mut runs = Vec::new();
+    for (cells, threads) in [("square", "1"), ("hex", "1"), ("hex", "2")] {
+        let viz = dir.path().join(format!("{cells}-{threads}.viz"));
+        let out = cellist(&[
+            "billiards",
+            "run",
+            input.to_str().unwrap(),
+            "--format",
+            "bits",
+            "--cells",
+            cells,
+            "--threads",
+            threads,
+            "--viz",
+            viz.to_str().unwrap(),
+        ]);
+        assert!(out.status.success(), "{cells}: {}", text(&out.stderr));
+        assert!(!out.stdout.is_empty());
+        runs.push((cells, threads, out.stdout, std::fs::read(&viz).unwrap()));
+    }
+    for (cells, threads, last, viz) in &runs[1..] {
+        assert!(
+            *last == runs[0].2,
+            "--cells {cells} --threads {threads}: final state"
+        );
+        assert!(
+            *viz == runs[0].3,
+            "--cells {cells} --threads {threads}: trajectory"
+        );
+    }
+    // the input does collide: pairs overlap in the first steps
+    let read = cellist_io::read_billiards_input(&input).unwrap();
+    let mut contacts = Vec::new();
+    ContactGrid::default().find(
+        &read.x,
+        &read.y,
+        Table {
+            side: 200,
+            radius: 2,
+        }
+        .contact(),
+        &Threads::single(),
+        &mut contacts,
+    );
+    assert!(contacts.len() > 100, "{} overlapping pairs", contacts.len());
+
+    let out = cellist(&[
+        "bench",
+        "billiards",
+        input.to_str().unwrap(),
+        "--cells",
+        "hex",
+        "--steps",
+        "3",
+        "--repeat",
+        "1",
+        "--json",
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(json["cells"], "hex");
+    let out = cellist(&[
+        "billiards",
+        "run",
+        input.to_str().unwrap(),
+        "--cells",
+        "hexagon",
+    ]);
+    assert_eq!(out.status.code(), Some(2), "{}", text(&out.stderr));
+}
+
+#[test]
+fn sweep_times_every_combination_of_generated_inputs() {
+    let dir = tempfile::tempdir().unwrap();
+    let out_dir = dir.path().join("sweep");
+    let out = cellist(&[
+        "billiards",
+        "sweep",
+        "--n",
+        "200,400",
+        "--l",
+        "2000",
+        "--r",
+        "5",
+        "--steps",
+        "5",
+        "--threads",
+        "1,2",
+        "--overlaps",
+        "--repeat",
+        "2",
+        "--out",
+        out_dir.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let stdout = text(&out.stdout);
+    // one progress line per timed run: 4 combinations, 2 rounds
+    assert_eq!(stdout.matches("(round ").count(), 8, "{stdout}");
+    let csv = std::fs::read_to_string(out_dir.join("sweep.csv")).unwrap();
+    let lines: Vec<&str> = csv.lines().collect();
+    assert_eq!(
+        lines[0],
+        "N,L,r,S,cells,threads,time,steps_per_s,ns_per_disc_step,max_sweeps"
+    );
+    assert_eq!(lines.len(), 5, "{csv}");
+    let expected = [("200", "1"), ("200", "2"), ("400", "1"), ("400", "2")];
+    for (line, (n, threads)) in lines[1..].iter().zip(expected) {
+        let f: Vec<&str> = line.split(',').collect();
+        assert_eq!(f[..6], [n, "2000", "5", "5", "square", threads], "{line}");
+        let metrics: Vec<f64> = f[6..].iter().map(|v| v.parse().unwrap()).collect();
+        assert!(metrics.iter().all(|&m| m > 0.0), "{line}");
+        let time = metrics[0];
+        assert!(
+            (metrics[1] - 5.0 / time).abs() <= 1e-9 * metrics[1],
+            "{line}"
+        );
+        assert!(metrics[3] >= 1.0 && metrics[3].fract() == 0.0, "{line}");
+    }
+    // the hardest step's sweeps do not depend on the thread count
+    assert_eq!(
+        lines[1].rsplit(',').next(),
+        lines[2].rsplit(',').next(),
+        "{csv}"
+    );
+    assert_eq!(
+        &std::fs::read(out_dir.join("sweep.png")).unwrap()[1..4],
+        b"PNG"
+    );
+}
+
+#[test]
+fn sweep_refuses_bad_flags_naming_them_and_writes_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let out_dir = dir.path().join("sweep");
+    let base = ["--n", "200", "--l", "2000", "--r", "5", "--steps", "5"];
+    let cases: [(&[&str], &str); 11] = [
+        (&["--n", ""], "--n"),
+        (&["--n", "100,0"], "--n"),
+        (&["--threads", "0"], "--threads"),
+        (&["--threads", ""], "--threads"),
+        (&["--l", "-5"], "--l"),
+        (&["--l", "0"], "--l"),
+        (&["--r", "0"], "--r"),
+        (&["--r", "-1,5"], "--r"),
+        (&["--repeat", "0"], "--repeat"),
+        (&["--cells", "triangle"], "--cells"),
+        (&["--steps", "0"], "--steps"),
+    ];
+    for (extra, flag) in cases {
+        let mut args = vec!["billiards", "sweep"];
+        args.extend(base);
+        args.extend(extra);
+        args.extend(["--out", out_dir.to_str().unwrap()]);
+        let out = cellist(&args);
+        let stderr = text(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{extra:?}: {stderr}");
+        assert!(
+            stderr.contains(flag),
+            "{extra:?} does not name {flag}: {stderr}"
+        );
+        assert!(!out_dir.exists(), "{extra:?} wrote {}", out_dir.display());
+    }
+    // too dense for the separated placement: refused, naming the combination,
+    // before anything is timed
+    let out = cellist(&[
+        "billiards",
+        "sweep",
+        "--n",
+        "100,3000",
+        "--l",
+        "1000",
+        "--r",
+        "10",
+        "--steps",
+        "5",
+        "--out",
+        out_dir.to_str().unwrap(),
+    ]);
+    let stderr = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains("N = 3000, L = 1000, r = 10") && stderr.contains("--overlaps"),
+        "{stderr}"
+    );
+    assert!(text(&out.stdout).is_empty(), "nothing timed");
+    assert!(!out_dir.exists());
 }

@@ -270,6 +270,24 @@ fn bad_input_exits_with_status_2_and_names_the_problem() {
             plummer_scenario(r#""direct""#, "").replace("G = 1.0", "G = 0.0"),
             "G must be finite and > 0",
         ),
+        (
+            plummer_scenario(r#""direct""#, "") + "picture_size = 8\n",
+            "output.picture_size must be between 16 and 4096 pixels, got 8",
+        ),
+        (
+            plummer_scenario(r#""direct""#, "") + "plane = \"zx\"\n",
+            "output.plane 'zx' is unknown",
+        ),
+        (
+            plummer_scenario(r#""direct""#, "")
+                .replace("model = \"gravity\"", "model = \"gravity\"\ndimension = 2")
+                + "plane = \"xz\"\n",
+            "output.plane = \"xz\" shows a line of a 2D run",
+        ),
+        (
+            plummer_scenario(r#""direct""#, "") + "gif = { every = 5, name = \"b.gif\" }\n",
+            "unknown field `name`",
+        ),
     ];
     for (k, (scenario, expected)) in cases.iter().enumerate() {
         let (_, run) = run_scenario(dir.path(), &format!("bad{k}"), scenario, &[]);
@@ -288,6 +306,87 @@ fn bad_input_exits_with_status_2_and_names_the_problem() {
     // two bodies at the same point are fine with softening
     let (_, run) = run_scenario(dir.path(), "soft", &file_scenario(&same, 0.1), &[]);
     assert!(run.status.success(), "{}", text(&run.stderr));
+}
+
+/// Decodes every frame of a GIF; returns the frame count and the frames' size
+/// (all frames of one size).
+fn gif_frames(path: &Path) -> (usize, [u32; 2]) {
+    let mut options = gif::DecodeOptions::new();
+    options.set_color_output(gif::ColorOutput::RGBA);
+    let mut decoder = options
+        .read_info(std::fs::File::open(path).unwrap())
+        .unwrap();
+    let size = [decoder.width() as u32, decoder.height() as u32];
+    let mut frames = 0;
+    while let Some(frame) = decoder.read_next_frame().unwrap() {
+        assert_eq!([frame.width as u32, frame.height as u32], size);
+        assert_eq!(frame.buffer.len(), 4 * (size[0] * size[1]) as usize);
+        frames += 1;
+    }
+    (frames, size)
+}
+
+/// Decodes a PNG; returns its size.
+fn png_size(path: &Path) -> [u32; 2] {
+    let decoder = png::Decoder::new(std::fs::File::open(path).unwrap());
+    let mut reader = decoder.read_info().unwrap();
+    let mut buf = vec![0; reader.output_buffer_size()];
+    let info = reader.next_frame(&mut buf).unwrap();
+    [info.width, info.height]
+}
+
+#[test]
+fn a_run_draws_its_bodies_and_a_restart_continues_the_animation() {
+    let dir = tempfile::tempdir().unwrap();
+    let scenario = plummer_scenario(r#""direct""#, "").replace("n = 600", "n = 300")
+        + "checkpoint = { every = 10, file = \"state.ckpt\" }\n";
+    // by default: bodies.png of the last step, no animation
+    let (out, run) = run_scenario(dir.path(), "default", &scenario, &[]);
+    assert!(run.status.success(), "{}", text(&run.stderr));
+    assert_eq!(png_size(&out.join("bodies.png")), [640, 512]);
+    assert!(!out.join("bodies.gif").exists());
+
+    // an animation every 5 steps (0, 5, ..., 20), in one go and restarted at 10
+    let gif = scenario.clone() + "gif = { every = 5 }\npng = { every = 10, file = \"b.png\" }\n";
+    let (whole, run) = run_scenario(dir.path(), "whole", &gif, &[]);
+    assert!(run.status.success(), "{}", text(&run.stderr));
+    assert_eq!(gif_frames(&whole.join("bodies.gif")), (5, [640, 512]));
+    for name in ["b_00.png", "b_10.png", "b_20.png"] {
+        assert_eq!(png_size(&whole.join(name)), [640, 512], "{name}");
+    }
+    assert!(!whole.join("bodies.png").exists());
+    let (split, run) = run_scenario(dir.path(), "split", &gif, &["--set", "run.steps=10"]);
+    assert!(run.status.success(), "{}", text(&run.stderr));
+    assert_eq!(gif_frames(&split.join("bodies.gif")).0, 3);
+    let ckpt = split.join("state.ckpt");
+    let (_, run) = run_scenario(
+        dir.path(),
+        "split",
+        &gif,
+        &["--restart", ckpt.to_str().unwrap()],
+    );
+    assert!(run.status.success(), "{}", text(&run.stderr));
+    assert_eq!(gif_frames(&split.join("bodies.gif")), (5, [640, 512]));
+    for name in ["bodies.gif", "b_00.png", "b_10.png", "b_20.png"] {
+        assert_eq!(
+            std::fs::read(whole.join(name)).unwrap(),
+            std::fs::read(split.join(name)).unwrap(),
+            "{name} differs after a restart"
+        );
+    }
+
+    // wider pictures, another plane; every = 0 turns them off
+    let wide = scenario.clone()
+        + "picture_size = 800\nplane = \"yz\"\ngif = { every = 10, file = \"yz.gif\" }\n";
+    let (out, run) = run_scenario(dir.path(), "wide", &wide, &[]);
+    assert!(run.status.success(), "{}", text(&run.stderr));
+    let size = png_size(&out.join("bodies.png"));
+    assert_eq!(size[0], 800);
+    assert_eq!(gif_frames(&out.join("yz.gif")), (3, size));
+    let off = scenario + "png = { every = 0 }\n";
+    let (out, run) = run_scenario(dir.path(), "off", &off, &[]);
+    assert!(run.status.success(), "{}", text(&run.stderr));
+    assert!(!out.join("bodies.png").exists());
 }
 
 #[test]

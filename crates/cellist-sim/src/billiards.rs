@@ -4,20 +4,26 @@
 
 use crate::driver::{self, recorded, CheckpointKeys, Job, LastFrame};
 use crate::error::{SimError, SimResult};
-use crate::observers::{open_stream, Observer, Recorded};
-use cellist::models::billiards::{Billiards, BilliardsModel, Table};
+use crate::observers::{open_stream, ChartAnimation, Observer, OutputPlan, Recorded, TableStyle};
+use crate::{RunContext, RunSummary};
+use cellist::models::billiards::{Billiards, BilliardsModel, CellShape, Table, DEFAULT_MAX_SWEEPS};
 use cellist::models::Model;
 use cellist::Threads;
 use cellist_io::{
     palette_rgb, read_billiards_input, write_chart, write_state, AtomicFile, BilliardsInput,
-    DiscPainter, FieldChart, GifAnimation, StateFormat, StreamFile, DUMP_COLUMNS,
+    DiscPainter, FieldChart, StateFormat, StreamFile, DUMP_COLUMNS,
 };
 use indicatif::ProgressBar;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-/// Reads an input and sets up the table (warnings to standard error).
-pub fn load(path: &Path, max_sweeps: u64) -> SimResult<(BilliardsInput, Billiards)> {
+/// Reads an input and sets up the table with the bound on sweeps per step and the
+/// cells of the contact search (warnings to standard error).
+pub fn load(
+    path: &Path,
+    max_sweeps: u64,
+    cells: CellShape,
+) -> SimResult<(BilliardsInput, Billiards)> {
     let input = read_billiards_input(path)?;
     for w in &input.warnings {
         eprintln!("warning: {w}");
@@ -28,7 +34,8 @@ pub fn load(path: &Path, max_sweeps: u64) -> SimResult<(BilliardsInput, Billiard
     };
     let system = Billiards::new(table, input.x.clone(), input.y.clone(), input.v.clone())
         .map_err(|e| SimError::Input(format!("{}: {e}", path.display())))?
-        .with_max_sweeps(max_sweeps);
+        .with_max_sweeps(max_sweeps)
+        .with_cells(cells);
     Ok((input, system))
 }
 
@@ -40,6 +47,8 @@ pub struct BilliardsRun<'a> {
     pub steps: Option<u64>,
     /// The bound on sweeps per step.
     pub max_sweeps: u64,
+    /// The cells of the contact search (the bits are the same either way).
+    pub cells: CellShape,
     /// The number format of state files.
     pub format: StateFormat,
     /// The trajectory file: every step's state.
@@ -132,12 +141,12 @@ impl Observer<BilliardsModel> for States {
     }
 }
 
-/// Frames of the discs coloured by speed (`--gif`).
+/// Frames of the discs coloured by speed (`--gif`): the chart of the final
+/// picture, the step in the title.
 struct Animation {
-    name: String,
     every: u64,
-    painter: DiscPainter,
-    gif: Option<GifAnimation>,
+    chart: DiscChart,
+    gif: Option<ChartAnimation>,
 }
 
 impl Observer<BilliardsModel> for Animation {
@@ -148,28 +157,28 @@ impl Observer<BilliardsModel> for Animation {
     fn observe(
         &mut self,
         model: &BilliardsModel,
-        _step: u64,
+        step: u64,
         _last: u64,
         _bar: &ProgressBar,
     ) -> SimResult {
-        let s = &model.system;
-        let pixels = self.painter.render(&s.x, &s.y, &s.v);
+        let pixels = self
+            .chart
+            .render(model, step)
+            .map_err(SimError::output("a GIF frame of the discs"))?;
         self.gif
             .as_mut()
             .expect("an open animation")
-            .add_frame(pixels, 8)
-            .map_err(SimError::output(self.name.clone()))
+            .add(&pixels, 8)
     }
 
     fn sync(&mut self) -> SimResult<Vec<(String, u64)>> {
         let gif = self.gif.as_mut().expect("an open animation");
-        let length = gif.sync().map_err(SimError::output(self.name.clone()))?;
-        Ok(vec![(self.name.clone(), length)])
+        Ok(vec![gif.sync()?])
     }
 
     fn finish(&mut self) -> SimResult {
         match self.gif.take() {
-            Some(gif) => gif.finish().map_err(SimError::output(self.name.clone())),
+            Some(gif) => gif.finish(),
             None => Ok(()),
         }
     }
@@ -185,8 +194,46 @@ fn painter(model: &BilliardsModel, size: u32) -> DiscPainter {
     DiscPainter::new(size, table.side_f(), table.radius_f(), top_speed)
 }
 
-/// The discs at the end of the run as a chart: the box with axes, the step in
-/// the title and the speed colour bar (the animation's colours and scale).
+/// The chart of the discs: the box with axes, the step in the title and the
+/// speed colour bar, the view and colour scale of the initial state (also after
+/// a restart).
+struct DiscChart {
+    frame: FieldChart,
+    painter: DiscPainter,
+}
+
+impl DiscChart {
+    /// The chart of `initial`'s table, at least `size` pixels wide.
+    fn new(initial: &BilliardsModel, size: u32) -> Self {
+        let (lo, side) = painter(initial, size).view();
+        let mut frame = FieldChart::new(lo, side, 0.0, 1.0);
+        frame.width = frame.width.max(size);
+        frame.unit = "input length units".into();
+        frame.value_label = "speed |v| (length per step)".into();
+        let (_, n) = frame.plot_area();
+        DiscChart {
+            frame,
+            painter: painter(initial, n),
+        }
+    }
+
+    /// The RGB pixels of the chart of `model` after `step`.
+    fn render(&mut self, model: &BilliardsModel, step: u64) -> std::io::Result<Vec<u8>> {
+        self.frame.title = format!("discs after step {step}");
+        let palette = DiscPainter::palette();
+        let s = &model.system;
+        let field = palette_rgb(self.painter.render(&s.x, &s.y, &s.v), &palette);
+        let painter = &self.painter;
+        self.frame
+            .render_painted(field, (0.0, painter.top_speed()), |speed| {
+                palette_rgb(&[painter.speed_index(speed)], &palette)
+                    .try_into()
+                    .expect("three bytes")
+            })
+    }
+}
+
+/// The discs at the end of the run as a chart ([`DiscChart`]).
 fn final_picture(
     path: &Path,
     initial: &BilliardsModel,
@@ -194,22 +241,9 @@ fn final_picture(
     steps: u64,
     size: u32,
 ) -> std::io::Result<()> {
-    let (lo, side) = painter(initial, size).view();
-    let mut chart = FieldChart::new(lo, side, 0.0, 1.0);
-    chart.width = chart.width.max(size);
-    chart.title = format!("discs after step {steps}");
-    chart.value_label = "speed |v|".into();
-    let (_, n) = chart.plot_area();
-    let mut painter = painter(initial, n);
-    let palette = DiscPainter::palette();
-    let s = &model.system;
-    let field = palette_rgb(painter.render(&s.x, &s.y, &s.v), &palette);
-    let pixels = chart.render_painted(field, (0.0, painter.top_speed()), |speed| {
-        palette_rgb(&[painter.speed_index(speed)], &palette)
-            .try_into()
-            .expect("three bytes")
-    })?;
-    write_chart(path, &chart, &pixels)
+    let mut chart = DiscChart::new(initial, size);
+    let pixels = chart.render(model, steps)?;
+    write_chart(path, &chart.frame, &pixels)
 }
 
 fn observers(
@@ -231,25 +265,14 @@ fn observers(
     }
     if let Some(path) = run.gif {
         let name = path.to_string_lossy().into_owned();
-        // the colour scale is the initial state's, also after a restart
-        let painter = painter(initial, run.picture_size);
-        let what = || SimError::output(name.clone());
-        let palette = DiscPainter::palette();
-        let gif = match recorded.iter().find(|(n, _)| *n == name) {
-            Some((_, length)) if path.exists() => {
-                GifAnimation::resume(path, *length, painter.size(), &palette).map_err(
-                    |e| match e.kind() {
-                        std::io::ErrorKind::InvalidData => SimError::Input(e.to_string()),
-                        _ => what()(e),
-                    },
-                )?
-            }
-            _ => GifAnimation::create(path, painter.size(), &palette).map_err(what())?,
-        };
+        // the view and colour scale are the initial state's, also after a restart
+        let chart = DiscChart::new(initial, run.picture_size);
+        let size = [chart.frame.picture_width(), chart.frame.height()];
+        let colours = &DiscPainter::palette()[..3 * DiscPainter::COLOURS];
+        let gif = ChartAnimation::open(here, &name, recorded, size, colours)?;
         list.push(Box::new(Animation {
-            name,
             every: run.frame_every.unwrap_or(steps.div_ceil(200).max(1)),
-            painter,
+            chart,
             gif: Some(gif),
         }));
     }
@@ -276,7 +299,7 @@ pub fn run(run: &BilliardsRun, threads: &Threads) -> SimResult {
             run.picture_size
         )));
     }
-    let (input, system) = load(run.input, run.max_sweeps)?;
+    let (input, system) = load(run.input, run.max_sweeps, run.cells)?;
     let steps = run.steps.unwrap_or(input.steps);
     let initial = BilliardsModel::new(system.clone(), input.ids.clone());
     let mut job = Job {
@@ -292,7 +315,6 @@ pub fn run(run: &BilliardsRun, threads: &Threads) -> SimResult {
             file: "last.lammpstrj",
             columns: DUMP_COLUMNS[..8].iter().map(|c| c.to_string()).collect(),
         },
-        timings: false,
     };
     let checkpoint = run
         .restart
@@ -312,7 +334,7 @@ pub fn run(run: &BilliardsRun, threads: &Threads) -> SimResult {
         eprintln!("restart: from step {first} of {}", path.display());
     }
     let list = observers(run, &initial, steps, recorded(checkpoint.as_ref()))?;
-    let report = job.run(checkpoint.as_ref(), list, threads)?;
+    let report = job.run(checkpoint.as_ref(), list, threads, false)?;
     let model = report.model;
     if let Some(path) = run.png {
         final_picture(path, &initial, &model, steps, run.picture_size)
@@ -355,4 +377,38 @@ fn write_final(run: &BilliardsRun, steps: u64, model: &BilliardsModel) -> SimRes
                 .map_err(SimError::output("the final state"))
         }
     }
+}
+
+/// Runs a collision-benchmark input start to end on the driver, quietly, with
+/// only its thermo file (the energy at the first and last step) in `dir`: the
+/// studies time it this way (`cellist scaling INPUT.in`).
+pub fn run_quiet(path: &Path, threads: &Threads, dir: &Path) -> SimResult<RunSummary> {
+    let (input, system) = load(path, DEFAULT_MAX_SWEEPS, CellShape::Square)?;
+    let job = Job {
+        model: BilliardsModel::new(system, input.ids.clone()),
+        steps: input.steps,
+        dir: dir.to_path_buf(),
+        checkpoint: None,
+        physics: physics(&input),
+        last_frame: LastFrame::Dump {
+            file: "last.lammpstrj",
+            columns: DUMP_COLUMNS[..8].iter().map(|c| c.to_string()).collect(),
+        },
+    };
+    let plan = OutputPlan {
+        thermo_every: 0,
+        table: TableStyle {
+            width: 16,
+            precision: 8,
+            exponent: true,
+            shown: 1,
+        },
+        plot: None,
+        dumps: Vec::new(),
+        field: None,
+        bodies: None,
+        quiet: true,
+    };
+    let context = RunContext::new(dir.to_path_buf(), None, threads).quiet();
+    crate::execute(job, &plan, &context, std::time::Instant::now())
 }

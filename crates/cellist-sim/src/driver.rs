@@ -24,6 +24,7 @@ use cellist::state::State;
 use cellist::Threads;
 use cellist_io::checkpoint::{read_checkpoint, write_checkpoint, Checkpoint};
 use cellist_io::{write_lammps_frame, AtomicFile};
+use indicatif::ProgressBar;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
@@ -85,8 +86,6 @@ pub struct Job<M: Model> {
     pub physics: Vec<(String, String)>,
     /// Where a blow-up writes its last good frame.
     pub last_frame: LastFrame,
-    /// Print the loop's speed and time per stage at the end (on standard output).
-    pub timings: bool,
 }
 
 /// What a finished run reports.
@@ -97,6 +96,10 @@ pub struct Report<M> {
     pub first: u64,
     /// Wall time of the loop.
     pub loop_time: Duration,
+    /// Wall time of the loop spent in the observers and checkpoints.
+    pub output_time: Duration,
+    /// The thermo rows `(step, values)` the observers kept.
+    pub thermo: Vec<(u64, Vec<f64>)>,
 }
 
 /// The state at the last step that passed the checks and was observed: what a
@@ -188,17 +191,22 @@ fn physics_difference(saved: &[(String, String)], now: &[(String, String)]) -> O
 impl<M: Model> Job<M> {
     /// Runs to the last step with `observers`, from step 0 or from the step of
     /// `restored`, the checkpoint the model's state came from (whose step's
-    /// outputs are already written).
+    /// outputs are already written). `quiet` hides the progress bar.
     pub fn run(
         mut self,
         restored: Option<&Checkpoint>,
         mut observers: Vec<Box<dyn Observer<M>>>,
         threads: &Threads,
+        quiet: bool,
     ) -> SimResult<Report<M>> {
         let first = restored.map_or(0, |c| c.step);
         let last = self.steps;
         let count = self.model.len();
-        let bar = progress_bar(last - first);
+        let bar = if quiet {
+            ProgressBar::hidden()
+        } else {
+            progress_bar(last - first)
+        };
         let mut output = Duration::ZERO;
         if restored.is_none() {
             for o in observers.iter_mut().filter(|o| o.due(0, last)) {
@@ -247,13 +255,16 @@ impl<M: Model> Job<M> {
         for o in &mut observers {
             o.finish()?;
         }
-        if self.timings && last > first {
-            print_timings(&self.model, last - first, loop_time, output, threads);
-        }
+        let thermo = observers
+            .iter_mut()
+            .find_map(|o| o.take_thermo_rows())
+            .unwrap_or_default();
         Ok(Report {
             model: self.model,
             first,
             loop_time,
+            output_time: output,
+            thermo,
         })
     }
 
@@ -359,21 +370,30 @@ pub fn recorded(checkpoint: Option<&Checkpoint>) -> Recorded<'_> {
     checkpoint.map_or(&[], |c| &c.outputs)
 }
 
-/// The loop's speed and its time per stage: the model's stages, the output, and
-/// the rest.
-fn print_timings<M: Model>(
+/// The loop's time per stage: the model's stages, `Output` (observers and
+/// checkpoints) and `Other` (the rest of the loop time).
+pub(crate) fn stages<M: Model>(
     model: &M,
-    steps: u64,
     loop_time: Duration,
     output: Duration,
-    threads: &Threads,
-) {
-    let total = loop_time.as_secs_f64();
-    println!("\n{}", model.speed(total, steps, threads.count()));
+) -> Vec<(&'static str, Duration)> {
     let mut stages = model.stage_times();
     stages.push(("Output", output));
     let known: Duration = stages.iter().map(|(_, d)| *d).sum();
     stages.push(("Other", loop_time.saturating_sub(known)));
+    stages
+}
+
+/// Prints the loop's speed and its time per stage.
+pub(crate) fn print_timings<M: Model>(
+    model: &M,
+    steps: u64,
+    loop_time: Duration,
+    stages: &[(&'static str, Duration)],
+    threads: &Threads,
+) {
+    let total = loop_time.as_secs_f64();
+    println!("\n{}", model.speed(total, steps, threads.count()));
     println!("{:<10} | {:>10} | {:>6}", "Section", "time (s)", "%total");
     for (name, d) in stages {
         let s = d.as_secs_f64();

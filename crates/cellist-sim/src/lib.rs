@@ -12,16 +12,18 @@ pub mod models;
 pub mod observers;
 pub mod progress;
 pub mod scenario;
+pub mod study;
 
 pub use error::{SimError, SimResult};
 pub use scenario::Scenario;
 
-use cellist::models::Model;
+use cellist::models::{Field, Model, Particles};
 use cellist::Threads;
 use driver::{recorded, Job};
 use observers::OutputPlan;
+use std::cell::RefCell;
 use std::path::{Path, PathBuf};
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 /// The models `cellist run` runs, for messages.
 const MODELS: &str =
@@ -40,35 +42,123 @@ pub struct RunRequest<'a> {
     pub restart: Option<&'a Path>,
 }
 
+/// Where a run writes, from what it starts, on how many threads, and how much
+/// it prints.
+pub struct RunContext<'a> {
+    /// The output folder.
+    pub out_dir: PathBuf,
+    /// A checkpoint to continue from.
+    pub restart: Option<&'a Path>,
+    /// The worker threads.
+    pub threads: &'a Threads,
+    /// Print nothing (no header, table, progress bar or timings; warnings are
+    /// collected in the summary instead): the studies run scenarios this way.
+    pub quiet: bool,
+    warnings: RefCell<Vec<String>>,
+}
+
+impl<'a> RunContext<'a> {
+    /// A run into `out_dir` on `threads`, from `restart` if given.
+    pub fn new(out_dir: PathBuf, restart: Option<&'a Path>, threads: &'a Threads) -> Self {
+        RunContext {
+            out_dir,
+            restart,
+            threads,
+            quiet: false,
+            warnings: RefCell::new(Vec::new()),
+        }
+    }
+
+    /// The same run without printing.
+    pub fn quiet(mut self) -> Self {
+        self.quiet = true;
+        self
+    }
+
+    /// Prints a line of the run's header on standard output (not when quiet).
+    pub fn say(&self, line: impl std::fmt::Display) {
+        if !self.quiet {
+            println!("{line}");
+        }
+    }
+
+    /// Prints `warning: ...` on standard error, or keeps it for the summary when
+    /// quiet.
+    pub fn warn(&self, message: impl std::fmt::Display) {
+        if self.quiet {
+            self.warnings.borrow_mut().push(message.to_string());
+        } else {
+            eprintln!("warning: {message}");
+        }
+    }
+}
+
+/// What a finished run leaves for the studies: its times, its thermo rows and its
+/// final particles or field.
+pub struct RunSummary {
+    /// The model's name.
+    pub model: &'static str,
+    /// The time step.
+    pub dt: f64,
+    /// Steps the loop ran.
+    pub steps: u64,
+    /// Worker threads.
+    pub threads: usize,
+    /// Wall time of the loop.
+    pub loop_time: Duration,
+    /// Wall time per stage of the loop: the model's stages, `Output` and `Other`
+    /// (the rest), summing to the loop time.
+    pub stages: Vec<(&'static str, Duration)>,
+    /// The thermo columns after `step`.
+    pub thermo_columns: Vec<&'static str>,
+    /// The thermo rows `(step, values)` of the run, in step order.
+    pub thermo: Vec<(u64, Vec<f64>)>,
+    /// The particles at the last step (models with particles).
+    pub particles: Option<Particles>,
+    /// The field at the last step (field models).
+    pub field: Option<Field>,
+    /// Warnings of a quiet run.
+    pub warnings: Vec<String>,
+}
+
 /// Runs a scenario: loads it, builds its model and runs it to the end.
-pub fn run(request: &RunRequest, threads: &Threads) -> SimResult {
+pub fn run(request: &RunRequest, threads: &Threads) -> SimResult<RunSummary> {
     let scenario = Scenario::load(request.scenario, request.sets)?;
-    let model = scenario.model()?;
     let out_dir = request
         .out
         .clone()
         .unwrap_or_else(|| Path::new("out").join(&scenario.name));
-    let restart = request.restart;
+    run_scenario(
+        &scenario,
+        &RunContext::new(out_dir, request.restart, threads),
+    )
+}
+
+/// Runs a loaded scenario in `context`.
+pub fn run_scenario(scenario: &Scenario, context: &RunContext) -> SimResult<RunSummary> {
+    let model = scenario.model()?;
     match model.as_str() {
-        "md" => models::md::run(&scenario, &out_dir, restart, threads),
-        "pse" => models::pse::run(&scenario, &out_dir, restart, threads),
-        "gravity" => models::gravity::run(&scenario, &out_dir, restart, threads),
-        "vortex" => models::vortex::run(&scenario, &out_dir, restart, threads),
+        "md" => models::md::run(scenario, context),
+        "pse" => models::pse::run(scenario, context),
+        "gravity" => models::gravity::run(scenario, context),
+        "vortex" => models::vortex::run(scenario, context),
         other => Err(scenario.error(format!(
             "model '{other}' is unknown; this build runs: {MODELS}"
         ))),
     }
 }
 
-/// Runs `job` with the observers of `plan`, from the checkpoint `restart` if
-/// given (checked before anything is written), and prints the closing line.
+/// Runs `job` with the observers of `plan` in `context` (from its checkpoint if
+/// given, checked before anything is written), prints the timings and the closing
+/// line, and returns the run's summary.
 pub(crate) fn execute<M: Model + 'static>(
     mut job: Job<M>,
     plan: &OutputPlan,
-    restart: Option<&Path>,
-    threads: &Threads,
+    context: &RunContext,
     started: Instant,
-) -> SimResult {
+) -> SimResult<RunSummary> {
+    let threads = context.threads;
+    let restart = context.restart;
     let checkpoint = restart
         .map(|path| {
             driver::restore(
@@ -85,14 +175,37 @@ pub(crate) fn execute<M: Model + 'static>(
     std::fs::create_dir_all(&dir).map_err(SimError::output(format!("folder {}", dir.display())))?;
     let first = checkpoint.as_ref().map_or(0, |c| c.step);
     if let Some(path) = restart {
-        println!("restart: from step {first} of {}", path.display());
+        context.say(format!("restart: from step {first} of {}", path.display()));
     }
+    let mut plan = plan.clone();
+    plan.quiet = context.quiet;
     let observers = plan.observers(&job.model, &dir, recorded(checkpoint.as_ref()))?;
-    job.run(checkpoint.as_ref(), observers, threads)?;
-    println!(
-        "total wall time {:.2} s; results in {}",
-        started.elapsed().as_secs_f64(),
-        dir.display()
-    );
-    Ok(())
+    let last = job.steps;
+    let report = job.run(checkpoint.as_ref(), observers, threads, context.quiet)?;
+    let model = &report.model;
+    let steps = last - report.first;
+    let stages = driver::stages(model, report.loop_time, report.output_time);
+    if !context.quiet {
+        if steps > 0 {
+            driver::print_timings(model, steps, report.loop_time, &stages, threads);
+        }
+        println!(
+            "total wall time {:.2} s; results in {}",
+            started.elapsed().as_secs_f64(),
+            dir.display()
+        );
+    }
+    Ok(RunSummary {
+        model: model.name(),
+        dt: model.dt(),
+        steps,
+        threads: threads.count(),
+        loop_time: report.loop_time,
+        stages,
+        thermo_columns: model.thermo_columns().to_vec(),
+        thermo: report.thermo,
+        particles: model.particles(last, false),
+        field: model.field(),
+        warnings: context.warnings.take(),
+    })
 }

@@ -9,8 +9,8 @@ use crate::progress::print_above;
 use cellist::models::{Field, Model, Particles};
 use cellist_io::plot::{line_chart, Series};
 use cellist_io::{
-    field_chart, format_g17, write_field_columns, write_lammps_frame, write_png, write_xyz_frame,
-    AtomicFile, FieldChart, FieldPainter, Frame, GifAnimation, StreamFile,
+    format_g17, write_chart, write_field_columns, write_lammps_frame, write_xyz_frame, AtomicFile,
+    BodyChart, ChartPalette, FieldChart, FieldPainter, Frame, GifAnimation, StreamFile,
 };
 use indicatif::ProgressBar;
 use std::io::Write;
@@ -40,6 +40,12 @@ pub trait Observer<M: Model> {
     fn finish(&mut self) -> SimResult {
         Ok(())
     }
+
+    /// The thermo rows `(step, values)` it kept, handed over once at the end
+    /// (the thermo observer; others have none).
+    fn take_thermo_rows(&mut self) -> Option<Vec<(u64, Vec<f64>)>> {
+        None
+    }
 }
 
 /// The output files a checkpoint recorded, `(name, length)`; empty for a new run.
@@ -62,6 +68,117 @@ pub fn open_stream(dir: &Path, name: &str, recorded: Recorded) -> SimResult<(Str
             .map(|f| (f, false))
             .map_err(SimError::output(what)),
     }
+}
+
+/// Opens the GIF animation `dir/name` of `width` x `height` frames in `palette`:
+/// continued from its recorded length when the checkpoint recorded it and it
+/// exists, else new.
+pub fn open_animation(
+    dir: &Path,
+    name: &str,
+    recorded: Recorded,
+    [width, height]: [u32; 2],
+    palette: &[u8],
+) -> SimResult<GifAnimation> {
+    let path = dir.join(name);
+    let what = path.display().to_string();
+    match recorded.iter().find(|(n, _)| n == name) {
+        Some((_, length)) if path.exists() => {
+            GifAnimation::resume(&path, *length, width, height, palette).map_err(|e| {
+                match e.kind() {
+                    std::io::ErrorKind::InvalidData => SimError::Input(e.to_string()),
+                    _ => SimError::Output(e, what),
+                }
+            })
+        }
+        _ => GifAnimation::create(&path, width, height, palette).map_err(SimError::output(what)),
+    }
+}
+
+/// An animation of annotated charts: the GIF, its palette and the frame's
+/// indices (kept between frames).
+pub struct ChartAnimation {
+    name: String,
+    gif: GifAnimation,
+    palette: ChartPalette,
+    indices: Vec<u8>,
+}
+
+/// Flushes an observer's animation, if it has one, and returns its name and
+/// length for a checkpoint.
+fn sync_animation(gif: &mut Option<(Every, ChartAnimation)>) -> SimResult<Vec<(String, u64)>> {
+    match gif.as_mut() {
+        Some((_, animation)) => Ok(vec![animation.sync()?]),
+        None => Ok(Vec::new()),
+    }
+}
+
+/// Completes an observer's animation, if it has one.
+fn finish_animation(gif: &mut Option<(Every, ChartAnimation)>) -> SimResult {
+    match gif.take() {
+        Some((_, animation)) => animation.finish(),
+        None => Ok(()),
+    }
+}
+
+impl ChartAnimation {
+    /// The animation `dir/name` of charts of `width` x `height` pixels painted in
+    /// the colours `data` (RGB triples), continued if `recorded` says so
+    /// ([`open_animation`]).
+    pub fn open(
+        dir: &Path,
+        name: &str,
+        recorded: Recorded,
+        size: [u32; 2],
+        data: &[u8],
+    ) -> SimResult<Self> {
+        let palette = ChartPalette::new(data);
+        let gif = open_animation(dir, name, recorded, size, palette.rgb())?;
+        Ok(ChartAnimation {
+            name: name.to_string(),
+            gif,
+            palette,
+            indices: Vec::new(),
+        })
+    }
+
+    /// Appends the chart's RGB `pixels` as a frame shown for `delay` hundredths
+    /// of a second.
+    pub fn add(&mut self, pixels: &[u8], delay: u16) -> SimResult {
+        self.palette.indices_into(pixels, &mut self.indices);
+        self.gif
+            .add_frame(&self.indices, delay)
+            .map_err(SimError::output(self.name.clone()))
+    }
+
+    /// Flushes the frames so far; returns the file's name and length.
+    pub fn sync(&mut self) -> SimResult<(String, u64)> {
+        let length = self
+            .gif
+            .sync()
+            .map_err(SimError::output(self.name.clone()))?;
+        Ok((self.name.clone(), length))
+    }
+
+    /// Ends the animation.
+    pub fn finish(self) -> SimResult {
+        self.gif.finish().map_err(SimError::output(self.name))
+    }
+}
+
+/// The title of a snapshot of `what` after `step` steps of `dt`: `"<what> at t =
+/// <time> (step <step>)"`, the time with as many decimals as `dt` needs, so that
+/// titles of one run have one width.
+pub fn snapshot_title(what: &str, step: u64, dt: f64) -> String {
+    let decimals = if dt > 0.0 && dt.is_finite() {
+        ((-dt.log10() - 1e-9).ceil().max(0.0) as usize).min(12)
+    } else {
+        3
+    };
+    format!(
+        "{what} at t = {:.decimals$} (step {step})",
+        step as f64 * dt
+    )
 }
 
 fn sync_one(file: &mut StreamFile, name: &str) -> SimResult<(String, u64)> {
@@ -111,13 +228,14 @@ pub struct Thermo {
     rows: Vec<(u64, Vec<f64>)>,
     plot: Option<PlotSpec>,
     dir: PathBuf,
+    quiet: bool,
 }
 
 const THERMO_FILE: &str = "thermo.csv";
 
 impl Thermo {
     /// Thermo every `every` steps (and at the first and last) of `model`, the
-    /// rows of a continued file read back for the plot.
+    /// rows of a continued file read back for the plot; `quiet` prints no table.
     pub fn new<M: Model>(
         model: &M,
         every: u64,
@@ -125,6 +243,7 @@ impl Thermo {
         plot: Option<PlotSpec>,
         dir: &Path,
         recorded: Recorded,
+        quiet: bool,
     ) -> SimResult<Self> {
         let mut columns = vec!["step"];
         columns.extend_from_slice(model.thermo_columns());
@@ -140,7 +259,9 @@ impl Thermo {
             .iter()
             .map(|c| format!("{c:>w$}", w = style.width))
             .collect();
-        println!("{header}");
+        if !quiet {
+            println!("{header}");
+        }
         Ok(Thermo {
             every,
             columns,
@@ -150,6 +271,7 @@ impl Thermo {
             rows,
             plot,
             dir: dir.to_path_buf(),
+            quiet,
         })
     }
 
@@ -174,7 +296,7 @@ impl Thermo {
             .series
             .iter()
             .zip(&curves)
-            .map(|(&(label, _, _), points)| Series { label, points })
+            .map(|(&(label, _, _), points)| Series::line(label, points))
             .collect();
         let path = self.dir.join(plot.file);
         line_chart(&path, plot.title, plot.x_label, plot.y_label, &series)
@@ -245,7 +367,9 @@ impl<M: Model> Observer<M> for Thermo {
                     }
                 })
                 .collect::<String>();
-        print_above(bar, &table);
+        if !self.quiet {
+            print_above(bar, &table);
+        }
         self.rows.push((step, values));
         Ok(())
     }
@@ -260,6 +384,10 @@ impl<M: Model> Observer<M> for Thermo {
             Some(plot) if self.rows.len() >= 2 => self.draw_plot(plot),
             _ => Ok(()),
         }
+    }
+
+    fn take_thermo_rows(&mut self) -> Option<Vec<(u64, Vec<f64>)>> {
+        Some(std::mem::take(&mut self.rows))
     }
 }
 
@@ -421,48 +549,53 @@ pub fn write_field_csv(path: &Path, field: &Field) -> SimResult {
     file.commit().map_err(SimError::output(what()))
 }
 
-/// The particles to draw: all of a 2D field; in 3D the layer nearest the middle of
-/// the box along z (within half a spacing of it).
-fn slice(field: &Field) -> impl Iterator<Item = ([f64; 2], f64)> + '_ {
-    let three = field.dimension == 3;
-    let middle = 0.5 * field.side;
-    let plane = if three {
+/// The z of the particle layer a 3D field's pictures show: the layer nearest the
+/// middle of the box along z; `None` in 2D.
+fn middle_layer(field: &Field) -> Option<f64> {
+    (field.dimension == 3).then(|| {
+        let middle = field.origin[2] + 0.5 * field.side;
         field
             .positions
             .iter()
             .map(|x| x[2])
             .min_by(|a, b| (a - middle).abs().total_cmp(&(b - middle).abs()))
             .unwrap_or(middle)
-    } else {
-        0.0
-    };
+    })
+}
+
+/// The particles to draw: all of a 2D field; in 3D those within half a spacing
+/// of the `layer`.
+fn slice(field: &Field, layer: Option<f64>) -> impl Iterator<Item = ([f64; 2], f64)> + '_ {
     field
         .positions
         .iter()
         .zip(&field.values)
-        .filter(move |(x, _)| !three || (x[2] - plane).abs() < 0.5 * field.spacing)
+        .filter(move |(x, _)| layer.is_none_or(|z| (x[2] - z).abs() < 0.5 * field.spacing))
         .map(|(x, &v)| ([x[0], x[1]], v))
 }
 
-/// What the annotated field pictures say: the quantity in the title (followed by
-/// the time) and the colour bar's label.
+/// What the field pictures say: the quantity in the title (followed by the
+/// layer in 3D, the time and the step), the colour bar's label and the unit of
+/// the axes.
 #[derive(Clone, Copy, Debug)]
 pub struct ChartLabels {
     /// The title's quantity ("vorticity").
     pub title: &'static str,
     /// The colour bar's label ("ω = Γ/h²").
     pub value: &'static str,
+    /// The unit of length of the axes ("simulation units"; empty for none).
+    pub unit: &'static str,
 }
 
-/// Field snapshots: CSV files, PNG pictures and a GIF animation.
+/// Field snapshots: CSV files, and PNG pictures and GIF frames as charts (the
+/// field with axes, the time in the title, a colour bar).
 pub struct FieldFiles {
     dir: PathBuf,
     csv: Option<Every>,
     png: Option<Every>,
-    gif: Option<(Every, GifAnimation)>,
-    painter: FieldPainter,
-    /// PNGs as charts with axes, time and colour bar (otherwise bare frames).
-    chart: Option<(ChartLabels, FieldChart)>,
+    gif: Option<(Every, ChartAnimation)>,
+    labels: ChartLabels,
+    chart: FieldChart,
 }
 
 impl FieldFiles {
@@ -478,42 +611,26 @@ impl FieldFiles {
             png,
             gif,
             size,
-            chart,
+            chart: labels,
         } = plan.clone();
         let field = model
             .field()
             .ok_or_else(|| SimError::Internal(format!("model {} has no field", model.name())))?;
-        let (side, spacing, scale) = (field.side, field.spacing, field.scale);
         let lo = [field.origin[0], field.origin[1]];
-        let painter = if field.periodic {
-            FieldPainter::new(size, side, spacing, scale)
-        } else {
-            FieldPainter::with_view(size, lo, side, spacing, scale)
-        };
-        let chart = chart.map(|labels| {
-            let mut c = FieldChart::new(lo, side, spacing, painter.scale());
-            c.width = c.width.max(size);
-            c.value_label = labels.value.to_string();
-            (labels, c)
-        });
+        let mut chart = FieldChart::new(lo, field.side, field.spacing, field.scale);
+        chart.width = chart.width.max(size);
+        chart.value_label = labels.value.to_string();
+        chart.unit = labels.unit.to_string();
+        chart.periodic = field.periodic;
         let gif = match gif {
             Some(g) => {
-                let path = dir.join(&g.file);
-                let name = g.file.to_string_lossy().into_owned();
-                let palette = FieldPainter::palette();
-                let what = path.display().to_string();
-                let animation = match recorded.iter().find(|(n, _)| *n == name) {
-                    Some((_, length)) if path.exists() => {
-                        GifAnimation::resume(&path, *length, painter.size(), &palette).map_err(
-                            |e| match e.kind() {
-                                std::io::ErrorKind::InvalidData => SimError::Input(e.to_string()),
-                                _ => SimError::Output(e, what.clone()),
-                            },
-                        )?
-                    }
-                    _ => GifAnimation::create(&path, painter.size(), &palette)
-                        .map_err(SimError::output(what))?,
-                };
+                let animation = ChartAnimation::open(
+                    dir,
+                    &g.file.to_string_lossy(),
+                    recorded,
+                    [chart.picture_width(), chart.height()],
+                    &FieldPainter::palette(),
+                )?;
                 Some((g, animation))
             }
             None => None,
@@ -523,7 +640,7 @@ impl FieldFiles {
             csv,
             png,
             gif,
-            painter,
+            labels,
             chart,
         })
     }
@@ -541,50 +658,143 @@ impl<M: Model> Observer<M> for FieldFiles {
         if let Some(c) = self.csv.as_ref().filter(|c| c.due(step, last)) {
             write_field_csv(&snapshot_path(&self.dir, &c.file, step, last), &field)?;
         }
-        let gif_due = self.gif.as_ref().is_some_and(|(g, _)| g.due(step, last));
-        if let (Some(p), Some((labels, chart))) = (
-            self.png.as_ref().filter(|p| p.due(step, last)),
-            self.chart.as_mut(),
-        ) {
+        let png = self.png.as_ref().filter(|p| p.due(step, last));
+        let gif = self.gif.as_mut().filter(|(g, _)| g.due(step, last));
+        if png.is_none() && gif.is_none() {
+            return Ok(());
+        }
+        let layer = middle_layer(&field);
+        let what = match layer {
+            Some(z) => format!("{} in the layer z = {z:.4}", self.labels.title),
+            None => self.labels.title.to_string(),
+        };
+        self.chart.title = snapshot_title(&what, step, model.dt());
+        let pixels = self
+            .chart
+            .render(slice(&field, layer))
+            .map_err(SimError::output("a field picture"))?;
+        if let Some(p) = png {
             let path = snapshot_path(&self.dir, &p.file, step, last);
-            chart.title = format!("{} at t = {:.4}", labels.title, step as f64 * model.dt());
-            field_chart(&path, chart, slice(&field))
+            write_chart(&path, &self.chart, &pixels)
                 .map_err(SimError::output(path.display().to_string()))?;
         }
-        let bare_png = self.chart.is_none() && due(&self.png, step, last);
-        if bare_png || gif_due {
-            let size = self.painter.size();
-            let pixels = self.painter.render(slice(&field));
-            if let Some(p) = self.png.as_ref().filter(|p| bare_png && p.due(step, last)) {
-                let path = snapshot_path(&self.dir, &p.file, step, last);
-                write_png(&path, size, pixels, &FieldPainter::palette())
-                    .map_err(SimError::output(path.display().to_string()))?;
-            }
-            if let Some((_, gif)) = self.gif.as_mut().filter(|_| gif_due) {
-                gif.add_frame(pixels, 8)
-                    .map_err(SimError::output("the GIF animation"))?;
-            }
+        if let Some((_, animation)) = gif {
+            animation.add(&pixels, 8)?;
         }
         Ok(())
     }
 
     fn sync(&mut self) -> SimResult<Vec<(String, u64)>> {
-        match self.gif.as_mut() {
-            Some((g, gif)) => {
-                let length = gif.sync().map_err(SimError::output("the GIF animation"))?;
-                Ok(vec![(g.file.to_string_lossy().into_owned(), length)])
-            }
-            None => Ok(Vec::new()),
-        }
+        sync_animation(&mut self.gif)
     }
 
     fn finish(&mut self) -> SimResult {
-        match self.gif.take() {
-            Some((g, gif)) => gif.finish().map_err(SimError::output(
-                self.dir.join(g.file).display().to_string(),
-            )),
-            None => Ok(()),
+        finish_animation(&mut self.gif)
+    }
+}
+
+/// Pictures of the bodies the scenario asks for.
+#[derive(Clone, Debug)]
+pub struct BodyPlan {
+    /// PNG snapshots at step 0, every `every` steps and the last step (file names
+    /// with the step, [`snapshot_path`]).
+    pub png: Option<Every>,
+    /// One PNG of the last step, under this name.
+    pub final_png: Option<PathBuf>,
+    /// The GIF animation.
+    pub gif: Option<Every>,
+    /// The picture: the view and plane, the colour scale and the labels (the
+    /// title is set for each picture).
+    pub chart: BodyChart,
+}
+
+/// Pictures of the bodies (any model with particles): PNG snapshots and GIF
+/// frames of the positions projected on a plane, coloured by speed, with the time
+/// in the title.
+pub struct BodyPictures {
+    dir: PathBuf,
+    png: Option<Every>,
+    final_png: Option<PathBuf>,
+    gif: Option<(Every, ChartAnimation)>,
+    chart: BodyChart,
+}
+
+impl BodyPictures {
+    /// The pictures `plan` asks for, written to `dir` (continuing the animation a
+    /// checkpoint `recorded`).
+    pub fn new(plan: &BodyPlan, dir: &Path, recorded: Recorded) -> SimResult<Self> {
+        let chart = plan.chart.clone();
+        let gif = match &plan.gif {
+            Some(g) => {
+                let animation = ChartAnimation::open(
+                    dir,
+                    &g.file.to_string_lossy(),
+                    recorded,
+                    [chart.frame.picture_width(), chart.frame.height()],
+                    &BodyChart::palette(),
+                )?;
+                Some((g.clone(), animation))
+            }
+            None => None,
+        };
+        Ok(BodyPictures {
+            dir: dir.to_path_buf(),
+            png: plan.png.clone(),
+            final_png: plan.final_png.clone(),
+            gif,
+            chart,
+        })
+    }
+}
+
+impl<M: Model> Observer<M> for BodyPictures {
+    fn due(&self, step: u64, last: u64) -> bool {
+        due(&self.png, step, last)
+            || (self.final_png.is_some() && step == last)
+            || self.gif.as_ref().is_some_and(|(g, _)| g.due(step, last))
+    }
+
+    fn observe(&mut self, model: &M, step: u64, last: u64, _bar: &ProgressBar) -> SimResult {
+        let Some(particles) = model.particles(step, false) else {
+            return Err(SimError::Internal(format!(
+                "model {} has no particles to draw",
+                model.name()
+            )));
+        };
+        let (x, v) = (&particles.positions, &particles.velocities);
+        let mut title = snapshot_title("bodies", step, model.dt());
+        let outside = self.chart.outside(x);
+        if outside > 0 {
+            title += &format!(", {outside} outside");
         }
+        self.chart.frame.title = title;
+        let pixels = self
+            .chart
+            .render(x, v)
+            .map_err(SimError::output("a picture of the bodies"))?;
+        let mut paths = Vec::new();
+        if let Some(p) = self.png.as_ref().filter(|p| p.due(step, last)) {
+            paths.push(snapshot_path(&self.dir, &p.file, step, last));
+        }
+        if let Some(file) = self.final_png.as_ref().filter(|_| step == last) {
+            paths.push(self.dir.join(file));
+        }
+        for path in paths {
+            write_chart(&path, &self.chart.frame, &pixels)
+                .map_err(SimError::output(path.display().to_string()))?;
+        }
+        if let Some((_, animation)) = self.gif.as_mut().filter(|(g, _)| g.due(step, last)) {
+            animation.add(&pixels, 8)?;
+        }
+        Ok(())
+    }
+
+    fn sync(&mut self) -> SimResult<Vec<(String, u64)>> {
+        sync_animation(&mut self.gif)
+    }
+
+    fn finish(&mut self) -> SimResult {
+        finish_animation(&mut self.gif)
     }
 }
 
@@ -610,10 +820,10 @@ pub struct FieldPlan {
     pub png: Option<Every>,
     /// The GIF animation.
     pub gif: Option<Every>,
-    /// Picture size in pixels.
+    /// Picture width in pixels (at least 640).
     pub size: u32,
-    /// PNGs as annotated charts with these labels (`None`: bare frames).
-    pub chart: Option<ChartLabels>,
+    /// What the pictures say.
+    pub chart: ChartLabels,
 }
 
 /// The outputs of a scenario run: thermo, dumps and field snapshots.
@@ -629,6 +839,10 @@ pub struct OutputPlan {
     pub dumps: Vec<DumpPlan>,
     /// Field snapshots.
     pub field: Option<FieldPlan>,
+    /// Pictures of the bodies.
+    pub bodies: Option<BodyPlan>,
+    /// No thermo table on the terminal (the file and the rows are kept).
+    pub quiet: bool,
 }
 
 impl OutputPlan {
@@ -647,6 +861,7 @@ impl OutputPlan {
             self.plot.clone(),
             dir,
             recorded,
+            self.quiet,
         )?)];
         for d in &self.dumps {
             observers.push(Box::new(Dump::new(
@@ -661,6 +876,26 @@ impl OutputPlan {
         if let Some(f) = &self.field {
             observers.push(Box::new(FieldFiles::new(model, f, dir, recorded)?));
         }
+        if let Some(b) = &self.bodies {
+            observers.push(Box::new(BodyPictures::new(b, dir, recorded)?));
+        }
         Ok(observers)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn snapshot_titles_show_the_time_to_the_step_size_and_the_step() {
+        assert_eq!(
+            snapshot_title("bodies", 100, 0.01),
+            "bodies at t = 1.00 (step 100)"
+        );
+        assert_eq!(snapshot_title("φ", 30, 2e-5), "φ at t = 0.00060 (step 30)");
+        assert_eq!(snapshot_title("ω", 3, 0.005), "ω at t = 0.015 (step 3)");
+        assert_eq!(snapshot_title("x", 2, 1.0), "x at t = 2 (step 2)");
+        assert_eq!(snapshot_title("x", 2, 0.0), "x at t = 0.000 (step 2)");
     }
 }

@@ -48,6 +48,16 @@ impl Scenario {
         })
     }
 
+    /// The same scenario with more `--set key=value` overrides applied.
+    pub fn with_sets(&self, sets: &[String]) -> SimResult<Self> {
+        Ok(Scenario {
+            text: apply_sets(&self.text, &self.origin, sets)?,
+            origin: self.origin.clone(),
+            base_dir: self.base_dir.clone(),
+            name: self.name.clone(),
+        })
+    }
+
     /// The `model` key.
     pub fn model(&self) -> SimResult<String> {
         let table: toml::Table = toml::from_str(&self.text).map_err(|e| self.error(e))?;

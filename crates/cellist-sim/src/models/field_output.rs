@@ -58,7 +58,8 @@ pub struct FieldOutputKeys {
     pub png: Option<SnapshotKeys>,
     /// The GIF animation (default about 60 frames).
     pub gif: Option<SnapshotKeys>,
-    /// Picture side in pixels, 16 to 4096 (default 512).
+    /// The pictures' width in pixels, 16 to 4096 (default 512; the charts are at
+    /// least 640 pixels wide).
     pub picture_size: u32,
     /// Checkpoints.
     pub checkpoint: Option<CheckpointKeys>,
@@ -85,6 +86,28 @@ pub struct SnapshotKeys {
     file: Option<PathBuf>,
 }
 
+impl SnapshotKeys {
+    /// The snapshots these keys ask for, to `file` or else `name`; `None` for
+    /// `every = 0`.
+    pub fn every(&self, name: &str) -> Option<Every> {
+        (self.every > 0).then(|| Every {
+            every: self.every,
+            file: self.file.clone().unwrap_or_else(|| name.into()),
+        })
+    }
+}
+
+/// Checks `output.picture_size`: 16 to 4096 pixels.
+pub fn check_picture_size(size: u32) -> Result<(), String> {
+    if (16..=4096).contains(&size) {
+        Ok(())
+    } else {
+        Err(format!(
+            "output.picture_size must be between 16 and 4096 pixels, got {size}"
+        ))
+    }
+}
+
 /// The snapshots of a run: field CSV files, PNG pictures and the GIF animation.
 pub struct Snapshots {
     /// Field CSV files.
@@ -101,13 +124,7 @@ impl FieldOutputKeys {
         if let Some(c) = &self.checkpoint {
             c.check("output.checkpoint")?;
         }
-        if !(16..=4096).contains(&self.picture_size) {
-            return Err(format!(
-                "output.picture_size must be between 16 and 4096 pixels, got {}",
-                self.picture_size
-            ));
-        }
-        Ok(())
+        check_picture_size(self.picture_size)
     }
 
     /// The snapshots of a run of `steps` steps, files named `csv`, `png` and `gif`
@@ -116,10 +133,7 @@ impl FieldOutputKeys {
     pub fn snapshots(&self, steps: u64, [csv, png, gif]: [&str; 3]) -> Snapshots {
         // every = 0 turns a snapshot off; a missing key takes the default
         let snapshot = |keys: &Option<SnapshotKeys>, name: &str, default: Option<u64>| match keys {
-            Some(s) => (s.every > 0).then(|| Every {
-                every: s.every,
-                file: s.file.clone().unwrap_or_else(|| name.into()),
-            }),
+            Some(s) => s.every(name),
             None => default.map(|every| Every {
                 every,
                 file: name.into(),

@@ -5,8 +5,10 @@
 
 use crate::driver::{CheckpointKeys, Job, LastFrame};
 use crate::error::{SimError, SimResult};
-use crate::observers::{DumpFormat, DumpPlan, OutputPlan, PlotSpec, TableStyle};
+use crate::models::field_output::{check_picture_size, SnapshotKeys};
+use crate::observers::{BodyPlan, DumpFormat, DumpPlan, OutputPlan, PlotSpec, TableStyle};
 use crate::scenario::Scenario;
+use crate::{RunContext, RunSummary};
 use cellist::interactions::GravityLaw;
 use cellist::longrange::p3m::SPLIT_CELLS;
 use cellist::longrange::{MeshBoundary, MeshParams, TreeParams};
@@ -15,9 +17,9 @@ use cellist::models::gravity::{
     SolverChoice,
 };
 use cellist::Threads;
-use cellist_io::{read_bodies, GRAVITY_DUMP_COLUMNS};
+use cellist_io::{read_bodies, BodyChart, Plane, GRAVITY_DUMP_COLUMNS};
 use serde::Deserialize;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::time::Instant;
 
 /// The most bodies a generated sphere or a benchmark may have (about 1 GB of
@@ -137,6 +139,14 @@ struct OutputKeys {
     thermo_every: u64,
     dump: Option<DumpKeys>,
     checkpoint: Option<CheckpointKeys>,
+    /// PNG snapshots of the bodies (default: `bodies.png` of the last step).
+    png: Option<SnapshotKeys>,
+    /// The GIF animation of the bodies (default none).
+    gif: Option<SnapshotKeys>,
+    /// The pictures' width in pixels (at least 640 are drawn).
+    picture_size: u32,
+    /// The plane the pictures project the bodies on: "xy", "xz" or "yz".
+    plane: String,
 }
 
 impl Default for OutputKeys {
@@ -145,6 +155,10 @@ impl Default for OutputKeys {
             thermo_every: 10,
             dump: None,
             checkpoint: None,
+            png: None,
+            gif: None,
+            picture_size: 512,
+            plane: "xy".into(),
         }
     }
 }
@@ -181,21 +195,25 @@ struct Setup {
     thermo_every: u64,
     dump: Option<DumpKeys>,
     checkpoint: Option<CheckpointKeys>,
+    pictures: Pictures,
+}
+
+/// The pictures of the bodies a scenario asks for.
+struct Pictures {
+    png: Option<SnapshotKeys>,
+    gif: Option<SnapshotKeys>,
+    size: u32,
+    plane: Plane,
 }
 
 /// Runs a gravity scenario, from the checkpoint `restart` if given.
-pub fn run(
-    scenario: &Scenario,
-    out_dir: &Path,
-    restart: Option<&Path>,
-    threads: &Threads,
-) -> SimResult {
+pub fn run(scenario: &Scenario, context: &RunContext) -> SimResult<RunSummary> {
     let keys: GravityScenario = scenario.parse()?;
     debug_assert_eq!(keys.model, "gravity");
     if !(keys.dimension == 2 || keys.dimension == 3) {
         return Err(scenario.error(format!("dimension must be 2 or 3, got {}", keys.dimension)));
     }
-    let setup = build(scenario, &keys, threads)?;
+    let setup = build(scenario, &keys, context.threads)?;
     if keys.dimension == 2 {
         let b = &setup.bodies;
         if let Some(i) = (0..b.len()).find(|&i| b.position[i][2] != 0.0 || b.velocity[i][2] != 0.0)
@@ -207,7 +225,7 @@ pub fn run(
             )));
         }
     }
-    run_setup(scenario, setup, out_dir, restart, threads)
+    run_setup(scenario, setup, context)
 }
 
 /// The solver of `keys` and its name for messages.
@@ -399,6 +417,19 @@ fn build(scenario: &Scenario, keys: &GravityScenario, threads: &Threads) -> SimR
     if let Some(c) = &keys.output.checkpoint {
         c.check("output.checkpoint").map_err(err)?;
     }
+    check_picture_size(keys.output.picture_size).map_err(err)?;
+    let plane = Plane::from_name(&keys.output.plane).ok_or_else(|| {
+        err(format!(
+            "output.plane '{}' is unknown; expected \"xy\", \"xz\" or \"yz\"",
+            keys.output.plane
+        ))
+    })?;
+    if keys.dimension == 2 && plane != Plane::Xy {
+        return Err(err(format!(
+            "output.plane = \"{}\" shows a line of a 2D run (the bodies lie in z = 0); use \"xy\"",
+            keys.output.plane
+        )));
+    }
     if let Some(d) = &keys.output.dump {
         if d.every == 0 {
             return Err(err("output.dump.every must be >= 1".into()));
@@ -430,16 +461,54 @@ fn build(scenario: &Scenario, keys: &GravityScenario, threads: &Threads) -> SimR
         thermo_every: keys.output.thermo_every,
         dump: keys.output.dump.clone(),
         checkpoint: keys.output.checkpoint.clone(),
+        pictures: Pictures {
+            png: keys.output.png.clone(),
+            gif: keys.output.gif.clone(),
+            size: keys.output.picture_size,
+            plane,
+        },
     })
 }
 
-fn run_setup(
-    scenario: &Scenario,
-    setup: Setup,
-    out_dir: &Path,
-    restart: Option<&Path>,
-    threads: &Threads,
-) -> SimResult {
+/// The pictures of the bodies: PNG snapshots when `png` asks for them, else
+/// `bodies.png` of the last step (none for `every = 0`), and the animation when
+/// `gif` asks for it. The view (a square around the centre of mass holding 98 %
+/// of the bodies, with a margin) and the colour scale (the speed 98 % of the
+/// bodies do not exceed, at least the circular speed `sqrt(G M / R)` at the
+/// view's half side `R`) come from the initial bodies, the same for the whole
+/// run and after a restart.
+fn body_plan(setup: &Setup) -> Option<BodyPlan> {
+    let p = &setup.pictures;
+    let png = p.png.as_ref().and_then(|k| k.every("bodies.png"));
+    let final_png = p.png.is_none().then(|| PathBuf::from("bodies.png"));
+    let gif = p.gif.as_ref().and_then(|k| k.every("bodies.gif"));
+    if png.is_none() && final_png.is_none() && gif.is_none() {
+        return None;
+    }
+    let b = &setup.bodies;
+    let (lo, side) = BodyChart::view_around(&b.position, Some(&b.mass), p.plane, 0.98);
+    let g = setup.law.g();
+    let circular = (g * b.mass.iter().sum::<f64>() / (0.5 * side)).sqrt();
+    let top = BodyChart::speed_scale(&b.velocity, 0.98, circular);
+    let mut chart = BodyChart::new(p.plane, lo, side, top, b.len());
+    chart.frame.width = chart.frame.width.max(p.size);
+    chart.set_dot_radius(b.len());
+    chart.frame.unit = if g == 1.0 {
+        "simulation units, G = 1".into()
+    } else {
+        "simulation units".into()
+    };
+    chart.frame.value_label = "speed |v| (simulation units)".into();
+    Some(BodyPlan {
+        png,
+        final_png,
+        gif,
+        chart,
+    })
+}
+
+fn run_setup(scenario: &Scenario, setup: Setup, context: &RunContext) -> SimResult<RunSummary> {
+    let (threads, out_dir) = (context.threads, &context.out_dir);
     let started = Instant::now();
     let system = GravitySystem::new(setup.law, setup.bodies.clone(), &setup.choice, threads)
         .map_err(|e| match e {
@@ -448,7 +517,7 @@ fn run_setup(
             }
             GravityError::Parameter(_) => scenario.error(e),
         })?;
-    println!(
+    context.say(format!(
         "gravity: {}; G {}, softening {}{}; solver {}",
         setup.initial,
         setup.law.g(),
@@ -459,15 +528,15 @@ fn run_setup(
             String::new()
         },
         setup.solver_name
-    );
-    println!(
+    ));
+    context.say(format!(
         "run: {} steps of dt {} with {}, {} thread(s); results in {}",
         setup.steps,
         setup.dt,
         setup.integrator_name,
         threads.count(),
         out_dir.display()
-    );
+    ));
     let plan = OutputPlan {
         thermo_every: setup.thermo_every,
         table: TableStyle {
@@ -479,8 +548,8 @@ fn run_setup(
         plot: Some(PlotSpec {
             file: "energy.png",
             title: "Relative energy error",
-            x_label: "time",
-            y_label: "|E - E0| / |E0|",
+            x_label: "time (simulation units)",
+            y_label: "|E - E0| / |E0| (dimensionless)",
             series: vec![("relative energy error", "rel_energy_error", true)],
         }),
         dumps: setup
@@ -494,6 +563,8 @@ fn run_setup(
             })
             .collect(),
         field: None,
+        bodies: body_plan(&setup),
+        quiet: false,
     };
     let job = Job {
         model: GravityModel::new(system, setup.integrator, setup.dt),
@@ -501,11 +572,10 @@ fn run_setup(
         dir: out_dir.to_path_buf(),
         checkpoint: setup.checkpoint.clone(),
         physics: scenario.physics_keys()?,
-        timings: true,
         last_frame: LastFrame::Dump {
             file: "last.dump",
             columns: dump_columns(),
         },
     };
-    crate::execute(job, &plan, restart, threads, started)
+    crate::execute(job, &plan, context, started)
 }

@@ -6,13 +6,13 @@ use crate::driver::{CheckpointKeys, Job, LastFrame};
 use crate::error::{SimError, SimResult};
 use crate::observers::{DumpFormat, DumpPlan, OutputPlan, PlotSpec, TableStyle};
 use crate::scenario::Scenario;
+use crate::{RunContext, RunSummary};
 use cellist::geometry::{Boundary, Domain};
 use cellist::interactions::{LennardJones, PairPotential};
 use cellist::models::md::{
     create_velocities, lattice, Atoms, Integrator, Langevin, LatticeKind, MdModel, MdSystem,
     VelocityDistribution,
 };
-use cellist::Threads;
 use cellist_io::{read_data, DUMP_COLUMNS};
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
@@ -191,17 +191,12 @@ struct Setup<const D: usize> {
 }
 
 /// Runs an md scenario, from the checkpoint `restart` if given.
-pub fn run(
-    scenario: &Scenario,
-    out_dir: &Path,
-    restart: Option<&Path>,
-    threads: &Threads,
-) -> SimResult {
+pub fn run(scenario: &Scenario, context: &RunContext) -> SimResult<RunSummary> {
     let keys: MdScenario = scenario.parse()?;
     debug_assert_eq!(keys.model, "md");
     match keys.dimension {
-        2 => run_in::<2>(scenario, &keys, out_dir, restart, threads),
-        3 => run_in::<3>(scenario, &keys, out_dir, restart, threads),
+        2 => run_in::<2>(scenario, &keys, context),
+        3 => run_in::<3>(scenario, &keys, context),
         d => Err(scenario.error(format!("dimension must be 2 or 3, got {d}"))),
     }
 }
@@ -209,18 +204,17 @@ pub fn run(
 fn run_in<const D: usize>(
     scenario: &Scenario,
     keys: &MdScenario,
-    out_dir: &Path,
-    restart: Option<&Path>,
-    threads: &Threads,
-) -> SimResult {
+    context: &RunContext,
+) -> SimResult<RunSummary> {
+    let (threads, out_dir) = (context.threads, &context.out_dir);
     let mut setup = build::<D>(scenario, keys)?;
     let started = Instant::now();
     let atoms = std::mem::take(&mut setup.atoms);
     let system = MdSystem::new(setup.domain, atoms, setup.potential, setup.skin, threads)
         .map_err(|e| scenario.error(e))?;
-    print_header(&setup, &system, threads, out_dir);
+    print_header(&setup, &system, context);
     for note in &setup.notes {
-        eprintln!("warning: {note}");
+        context.warn(note);
     }
     let mut dumps = Vec::new();
     if let Some(d) = &setup.dump {
@@ -250,8 +244,8 @@ fn run_in<const D: usize>(
         plot: Some(PlotSpec {
             file: "energy.png",
             title: "Energy per atom",
-            x_label: "time (lj units)",
-            y_label: "energy per atom",
+            x_label: "time (LJ units, τ)",
+            y_label: "energy per atom (ε)",
             series: vec![
                 ("potential", "pe", false),
                 ("kinetic", "ke", false),
@@ -260,6 +254,8 @@ fn run_in<const D: usize>(
         }),
         dumps,
         field: None,
+        bodies: None,
+        quiet: false,
     };
     let job = Job {
         model: MdModel::new(system, setup.integrator, setup.dt, setup.z_bounds),
@@ -267,7 +263,6 @@ fn run_in<const D: usize>(
         dir: out_dir.to_path_buf(),
         checkpoint: setup.checkpoint.clone(),
         physics: scenario.physics_keys()?,
-        timings: true,
         last_frame: LastFrame::Dump {
             file: "last.lammpstrj",
             columns: [
@@ -277,7 +272,7 @@ fn run_in<const D: usize>(
             .to_vec(),
         },
     };
-    crate::execute(job, &plan, restart, threads, started)
+    crate::execute(job, &plan, context, started)
 }
 
 /// Checks the scenario and builds the initial state.
@@ -504,12 +499,8 @@ fn from_data<const D: usize>(
     Ok((domain, atoms, (data.lo[2], data.hi[2])))
 }
 
-fn print_header<const D: usize>(
-    setup: &Setup<D>,
-    system: &MdSystem<D>,
-    threads: &Threads,
-    out_dir: &Path,
-) {
+fn print_header<const D: usize>(setup: &Setup<D>, system: &MdSystem<D>, context: &RunContext) {
+    let (threads, out_dir) = (context.threads, &context.out_dir);
     let sides: Vec<String> = setup
         .domain
         .length
@@ -525,7 +516,7 @@ fn print_header<const D: usize>(
             }
         })
         .collect();
-    println!(
+    context.say(format!(
         "md: {} atoms in {D}D, box {} ({}), lj/cut eps {} sigma {} cutoff {}{}, skin {}",
         system.atoms().len(),
         sides.join(" x "),
@@ -539,13 +530,13 @@ fn print_header<const D: usize>(
             ""
         },
         setup.skin
-    );
-    println!(
+    ));
+    context.say(format!(
         "run: {} steps of dt {} with {}, {} thread(s); results in {}",
         setup.steps,
         setup.dt,
         setup.integrator_name,
         threads.count(),
         out_dir.display()
-    );
+    ));
 }

@@ -5,15 +5,16 @@
 use crate::driver::{CheckpointKeys, Job, LastFrame};
 use crate::error::SimResult;
 use crate::models::field_output::{FieldOutputKeys, RunKeys};
-use crate::observers::{Every, FieldPlan, OutputPlan, PlotSpec, TableStyle};
+use crate::observers::{ChartLabels, Every, FieldPlan, OutputPlan, PlotSpec, TableStyle};
 use crate::scenario::Scenario;
+use crate::{RunContext, RunSummary};
 use cellist::models::pse::{
     lattice, InitialField, Integrator, Method, PseModel, PseParams, PseSystem,
 };
-use cellist::{Domain, Threads};
+use cellist::Domain;
 use cellist_io::read_field;
 use serde::Deserialize;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::time::Instant;
 
 /// The keys of a pse scenario.
@@ -107,17 +108,12 @@ struct Setup<const D: usize> {
 }
 
 /// Runs a pse scenario, from the checkpoint `restart` if given.
-pub fn run(
-    scenario: &Scenario,
-    out_dir: &Path,
-    restart: Option<&Path>,
-    threads: &Threads,
-) -> SimResult {
+pub fn run(scenario: &Scenario, context: &RunContext) -> SimResult<RunSummary> {
     let keys: PseScenario = scenario.parse()?;
     debug_assert_eq!(keys.model, "pse");
     match keys.dimension {
-        2 => run_in::<2>(scenario, &keys, out_dir, restart, threads),
-        3 => run_in::<3>(scenario, &keys, out_dir, restart, threads),
+        2 => run_in::<2>(scenario, &keys, context),
+        3 => run_in::<3>(scenario, &keys, context),
         d => Err(scenario.error(format!("dimension must be 2 or 3, got {d}"))),
     }
 }
@@ -286,10 +282,9 @@ fn initial_field<const D: usize>(keys: &InitialKeys, side: f64) -> Result<Initia
 fn run_in<const D: usize>(
     scenario: &Scenario,
     keys: &PseScenario,
-    out_dir: &Path,
-    restart: Option<&Path>,
-    threads: &Threads,
-) -> SimResult {
+    context: &RunContext,
+) -> SimResult<RunSummary> {
+    let (threads, out_dir) = (context.threads, &context.out_dir);
     let setup = build::<D>(scenario, keys)?;
     let started = Instant::now();
     let mut system = PseSystem::new(
@@ -305,7 +300,7 @@ fn run_in<const D: usize>(
         Method::Direct => "all pairs".to_string(),
         Method::CellList { cutoff_factor } => format!("cell list, cutoff {cutoff_factor} eps"),
     };
-    println!(
+    context.say(format!(
         "pse: {} particles in {D}D, box {} (periodic), h {:.6}, nu {}, eps {} (eps/h {:.3}), {method}: {} pair kernels per rate",
         system.len(),
         setup.domain.length[0],
@@ -314,15 +309,15 @@ fn run_in<const D: usize>(
         setup.params.epsilon,
         setup.params.epsilon / setup.spacing,
         system.pairs_per_rate()
-    );
-    println!(
+    ));
+    context.say(format!(
         "run: {} steps of dt {} with {} (stable for dt <= {limit:.4e}), {} thread(s); results in {}",
         setup.steps,
         setup.dt,
         setup.integrator_name,
         threads.count(),
         out_dir.display()
-    );
+    ));
     if setup.dt > limit {
         let message = format!(
             "run.dt = {} exceeds the stability limit {limit:.6e} of {} for this kernel and spacing \
@@ -334,20 +329,22 @@ fn run_in<const D: usize>(
                 "{message}; use a smaller dt, or set run.allow_unstable = true to run anyway"
             )));
         }
-        eprintln!("warning: {message}; running anyway (run.allow_unstable = true)");
+        context.warn(format!(
+            "{message}; running anyway (run.allow_unstable = true)"
+        ));
     }
     if setup.params.epsilon < 0.5 * setup.spacing {
-        eprintln!(
-            "warning: eps/h = {:.3} < 0.5: the kernel barely reaches the neighbours, so the \
+        context.warn(format!(
+            "eps/h = {:.3} < 0.5: the kernel barely reaches the neighbours, so the \
              particles hardly exchange and diffusion is underestimated (see docs/models.md, the eps study)",
             setup.params.epsilon / setup.spacing
-        );
+        ));
     }
     let plot = setup.initial.is_some().then(|| PlotSpec {
         file: "error.png",
         title: "Error against the exact solution",
-        x_label: "time",
-        y_label: "L2 error",
+        x_label: "time (simulation units)",
+        y_label: "L2 error of φ",
         series: vec![("L2 error", "l2_error", false)],
     });
     let plan = OutputPlan {
@@ -365,8 +362,14 @@ fn run_in<const D: usize>(
             png: setup.png.clone(),
             gif: setup.gif.clone(),
             size: setup.picture_size,
-            chart: None,
+            chart: ChartLabels {
+                title: "φ",
+                value: "φ (strength per volume)",
+                unit: "simulation units",
+            },
         }),
+        bodies: None,
+        quiet: false,
     };
     let job = Job {
         model: PseModel::new(
@@ -380,8 +383,7 @@ fn run_in<const D: usize>(
         dir: out_dir.to_path_buf(),
         checkpoint: setup.checkpoint.clone(),
         physics: scenario.physics_keys()?,
-        timings: true,
         last_frame: LastFrame::Field { file: "last.csv" },
     };
-    crate::execute(job, &plan, restart, threads, started)
+    crate::execute(job, &plan, context, started)
 }

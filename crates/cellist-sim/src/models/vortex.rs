@@ -8,14 +8,14 @@ use crate::error::SimResult;
 use crate::models::field_output::{FieldOutputKeys, RunKeys};
 use crate::observers::{ChartLabels, FieldPlan, OutputPlan, PlotSpec, TableStyle};
 use crate::scenario::Scenario;
+use crate::{RunContext, RunSummary};
 use cellist::longrange::{TreeParams, VicBoundary, VicParams};
 use cellist::models::vortex::{
     seed, Extras, InitialVorticity, VelocitySolver, VortexModel, VortexParams, VortexSystem,
 };
-use cellist::Threads;
 use cellist_io::read_field_of;
 use serde::Deserialize;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::time::Instant;
 
 /// The keys of a vortex scenario.
@@ -392,14 +392,10 @@ fn solver(scenario: &Scenario, v: &VelocityKeys, center: [f64; 2]) -> SimResult<
 }
 
 /// Runs a vortex scenario, from the checkpoint `restart` if given.
-pub fn run(
-    scenario: &Scenario,
-    out_dir: &Path,
-    restart: Option<&Path>,
-    threads: &Threads,
-) -> SimResult {
+pub fn run(scenario: &Scenario, context: &RunContext) -> SimResult<RunSummary> {
     let keys: VortexScenario = scenario.parse()?;
     debug_assert_eq!(keys.model, "vortex");
+    let (threads, out_dir) = (context.threads, &context.out_dir);
     let err = |m: String| scenario.error(m);
     if keys.dimension != 2 {
         return Err(err(format!(
@@ -425,10 +421,10 @@ pub fn run(
         )));
     }
     if sys.sigma_over_h < 1.0 {
-        eprintln!(
-            "warning: system.sigma_over_h = {} < 1: the blobs hardly overlap, so the velocity and the PSE diffusion lose accuracy (1.5 to 2 is usual)",
+        context.warn(format!(
+            "system.sigma_over_h = {} < 1: the blobs hardly overlap, so the velocity and the PSE diffusion lose accuracy (1.5 to 2 is usual)",
             sys.sigma_over_h
-        );
+        ));
     }
     let seeded = seed_particles(scenario, sys)?;
     let velocity = solver(scenario, &sys.velocity, seeded.center)?;
@@ -449,7 +445,9 @@ pub fn run(
                 "{message}; use a smaller dt, or set run.allow_unstable = true to run anyway"
             )));
         }
-        eprintln!("warning: {message}; running anyway (run.allow_unstable = true)");
+        context.warn(format!(
+            "{message}; running anyway (run.allow_unstable = true)"
+        ));
     }
     let params = VortexParams {
         nu: sys.nu,
@@ -501,7 +499,7 @@ pub fn run(
             }
         },
     };
-    println!(
+    context.say(format!(
         "vortex: {n} particles, {}; nu {}, sigma {} ({} h), velocity by {solver_name}, remeshing {}",
         seeded.what,
         sys.nu,
@@ -511,27 +509,27 @@ pub fn run(
             0 => "never".to_string(),
             k => format!("every {k} steps"),
         }
-    );
-    println!(
+    ));
+    context.say(format!(
         "run: {steps} steps of dt {} with {}, {} thread(s); results in {}",
         run.dt,
         run.integrator,
         threads.count(),
         out_dir.display()
-    );
+    ));
     let plot = match seeded.extras {
         Extras::LambOseen { .. } => Some(PlotSpec {
             file: "error.png",
             title: "Vorticity error against Lamb-Oseen",
-            x_label: "time",
-            y_label: "L2 error of omega",
+            x_label: "time (simulation units)",
+            y_label: "L2 error of ω",
             series: vec![("L2 error", "omega_l2_error", false)],
         }),
         _ => Some(PlotSpec {
             file: "invariants.png",
             title: "Circulation and enstrophy",
-            x_label: "time",
-            y_label: "value",
+            x_label: "time (simulation units)",
+            y_label: "Γ, enstrophy (simulation units)",
             series: vec![
                 ("circulation", "circulation", false),
                 ("enstrophy", "enstrophy", false),
@@ -553,11 +551,14 @@ pub fn run(
             png: snapshots.png,
             gif: snapshots.gif,
             size: out.picture_size,
-            chart: Some(ChartLabels {
+            chart: ChartLabels {
                 title: "vorticity",
                 value: "ω = Γ/h²",
-            }),
+                unit: "simulation units",
+            },
         }),
+        bodies: None,
+        quiet: false,
     };
     let model = VortexModel::new(system, integrator, run.dt, seeded.extras, view, threads);
     let job = Job {
@@ -566,8 +567,7 @@ pub fn run(
         dir: out_dir.to_path_buf(),
         checkpoint: out.checkpoint.clone(),
         physics: scenario.physics_keys()?,
-        timings: true,
         last_frame: LastFrame::Field { file: "last.csv" },
     };
-    crate::execute(job, &plan, restart, threads, started)
+    crate::execute(job, &plan, context, started)
 }
