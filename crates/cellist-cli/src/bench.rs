@@ -10,6 +10,7 @@ use cellist::models::md::{
 use cellist::neighbors::half_pairs;
 use cellist::random::Rng;
 use cellist::{CellList, Domain, Threads};
+use cellist_sim::study::median;
 use std::time::Instant;
 
 /// `n` uniform random points in the periodic box `[0, L)^D` with `L = (n / rho)^(1/D)`.
@@ -25,17 +26,6 @@ pub fn uniform_points<const D: usize>(
         .collect();
     let domain = Domain::periodic([side; D]).expect("a positive side");
     (domain, points)
-}
-
-/// The median of the samples (the mean of the middle two for an even count).
-pub fn median(samples: &mut [f64]) -> f64 {
-    samples.sort_by(f64::total_cmp);
-    let n = samples.len();
-    if n % 2 == 1 {
-        samples[n / 2]
-    } else {
-        0.5 * (samples[n / 2 - 1] + samples[n / 2])
-    }
 }
 
 /// `cellist bench neighbors`.
@@ -86,7 +76,7 @@ fn time_half_list<const D: usize>(
         count = pairs.len();
         drop(pairs);
     }
-    Ok((median(&mut times), count))
+    Ok((median(&times), count))
 }
 
 /// `cellist bench lj`: the loop time of the LAMMPS melt, as LAMMPS reports it (set-up
@@ -136,7 +126,7 @@ pub fn lj(args: &BenchLjArgs) -> CliResult {
         last = Some((system.rebuilds(), times));
     }
     let (rebuilds, times) = last.expect("at least one repetition");
-    let seconds = median(&mut samples);
+    let seconds = median(&samples);
     let atoms_n = atoms.len();
     let us = seconds * 1e6 / (atoms_n as f64 * args.steps.max(1) as f64);
     if args.json {

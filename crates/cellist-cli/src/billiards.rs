@@ -1,22 +1,19 @@
 //! `cellist billiards run | check | gen` and `cellist bench billiards`: the hard-disk
 //! collision benchmark of seed 001.
 
-use crate::bench::median;
 use crate::cli::{
     BenchBilliardsArgs, BilliardsCheckArgs, BilliardsGenArgs, BilliardsRunArgs, BilliardsSweepArgs,
     StateFormatArg,
 };
 use crate::error::{threads, CliError, CliResult};
 use cellist::models::billiards::{
-    check_step, separated_discs, uniform_discs, BilliardsModel, CellShape, DiscState, StepChecker,
-    Table,
+    check_step, separated_discs, uniform_discs, CellShape, DiscState, StepChecker, Table,
 };
-use cellist::models::Model;
 use cellist::Threads;
 use cellist_io::{read_billiards_input, AtomicFile, StateFormat, TrajectoryReader};
-use cellist_sim::billiards::{load, BilliardsRun};
+use cellist_sim::billiards::{load, time_steps, BilliardsRun};
+use cellist_sim::study::median;
 use std::io::{BufReader, Write};
-use std::time::Instant;
 
 /// The `--cells` of `cellist billiards run` and `cellist bench billiards`: the
 /// layout of the contact search's cells ([`CellShape`]).
@@ -43,10 +40,7 @@ impl CellsArg {
 
     /// The name on the command line.
     pub fn name(self) -> &'static str {
-        match self {
-            CellsArg::Square => "square",
-            CellsArg::Hex => "hex",
-        }
+        self.shape().name()
     }
 }
 
@@ -191,17 +185,11 @@ pub fn bench(args: &BenchBilliardsArgs) -> CliResult {
     let mut samples = Vec::with_capacity(args.repeat);
     let mut hardest = (0, 0);
     for _ in 0..args.repeat {
-        let mut model = BilliardsModel::new(start_state.clone(), input.ids.clone());
-        let start = Instant::now();
-        for step in 1..=steps {
-            model
-                .step(step, false, &pool)
-                .map_err(|b| CliError::Run(b.to_string()))?;
-        }
-        samples.push(start.elapsed().as_secs_f64());
-        hardest = model.hardest;
+        let (seconds, worst) = time_steps(&start_state, steps, &pool)?;
+        samples.push(seconds);
+        hardest = worst;
     }
-    let seconds = median(&mut samples);
+    let seconds = median(&samples);
     let per_second = steps as f64 / seconds.max(1e-12);
     let n = start_state.len();
     if args.json {

@@ -76,7 +76,7 @@ pub fn threads(requested: Option<usize>) -> CliResult<cellist::Threads> {
     let count = match requested {
         Some(0) => return Err(CliError::Input("--threads must be at least 1".into())),
         Some(n) => n,
-        None => std::thread::available_parallelism().map_or(1, |n| n.get()),
+        None => cellist_sim::study::cores(),
     };
     cellist::Threads::new(count)
         .map_err(|e| CliError::Input(format!("cannot start {count} threads: {e}")))

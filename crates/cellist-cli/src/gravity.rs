@@ -1,13 +1,13 @@
 //! `cellist bench gravity`: one force evaluation of a Plummer sphere by a solver,
 //! timed, with its error against the direct sum.
 
-use crate::bench::median;
 use crate::cli::{BenchGravityArgs, GravitySolverArg};
 use crate::error::{threads, CliError, CliResult};
 use cellist::interactions::GravityLaw;
 use cellist::longrange::{DirectSum, FieldOut, MeshBoundary, MeshParams, Sources, TreeParams};
 use cellist::models::gravity::{plummer, Solver, SolverChoice};
 use cellist_sim::models::gravity::MAX_BODIES;
+use cellist_sim::study::median;
 use std::time::Instant;
 
 /// `cellist bench gravity`.
@@ -75,7 +75,7 @@ pub fn bench(args: &BenchGravityArgs) -> CliResult {
         );
         samples.push(start.elapsed().as_secs_f64());
     }
-    let seconds = median(&mut samples[1..]);
+    let seconds = median(&samples[1..]);
     let pairs = (args.n as f64) * (args.n as f64 - 1.0) / 2.0;
     let rms = match choice {
         SolverChoice::Direct => None,

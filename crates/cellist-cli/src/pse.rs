@@ -1,11 +1,11 @@
 //! `cellist bench pse`: forward Euler steps of diffusion by particle strength
 //! exchange on a lattice, timed.
 
-use crate::bench::median;
 use crate::cli::{BenchPseArgs, PseMethodArg};
 use crate::error::{threads, CliError, CliResult};
 use cellist::models::pse::{lattice, InitialField, Integrator, Method, PseParams, PseSystem};
 use cellist::{Domain, Threads};
+use cellist_sim::study::median;
 use std::time::Instant;
 
 /// `cellist bench pse`.
@@ -78,5 +78,5 @@ fn time_steps<const D: usize>(args: &BenchPseArgs, pool: &Threads) -> CliResult<
         }
         samples.push(start.elapsed().as_secs_f64() / args.steps as f64);
     }
-    Ok((median(&mut samples), system.pairs_per_rate(), points.len()))
+    Ok((median(&samples), system.pairs_per_rate(), points.len()))
 }

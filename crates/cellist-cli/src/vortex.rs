@@ -1,13 +1,13 @@
 //! `cellist bench vortex`: one velocity evaluation of 2D vortex particles by a
 //! solver, timed, with its error against the direct sum.
 
-use crate::bench::median;
 use crate::cli::{BenchVortexArgs, VortexSolverArg};
 use crate::error::{threads, CliError, CliResult};
 use cellist::longrange::biot_savart::velocity_at;
 use cellist::longrange::mesh::MAX_VIC_GRID;
 use cellist::longrange::{BlobKernel, TreeParams, VicBoundary, VicParams};
 use cellist::models::vortex::{seed, InitialVorticity, VelocityEngine, VelocitySolver};
+use cellist_sim::study::median;
 use std::time::Instant;
 
 /// The most particles the benchmark seeds.
@@ -74,7 +74,7 @@ pub fn bench(args: &BenchVortexArgs) -> CliResult {
         solver.compute(&positions, &gamma, &mut velocity, &pool);
         samples.push(start.elapsed().as_secs_f64());
     }
-    let seconds = median(&mut samples[1..]);
+    let seconds = median(&samples[1..]);
     // the error on evenly spread targets against the one-sided direct sum
     let stride = n.div_ceil(args.sample.min(n));
     let targets: Vec<usize> = (0..n).step_by(stride).collect();

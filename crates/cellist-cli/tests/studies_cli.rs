@@ -288,6 +288,18 @@ fn bad_study_input_runs_nothing_and_writes_nothing() {
         vec!["sweep", &scenario, "--set", "system.nope=1,2", "--out", o],
         vec!["sweep", &scenario, "--set", "run.dt=1e-6,abc", "--out", o],
         vec!["sweep", &scenario, "--set", "run.dt=", "--out", o],
+        // the probe sees the values given, run.steps too
+        vec!["sweep", &scenario, "--set", "run.steps=3,-1", "--out", o],
+        vec![
+            "sweep",
+            &scenario,
+            "--set",
+            "run.dt=1e-6,2e-6",
+            "--set",
+            "run.dt=3e-6",
+            "--out",
+            o,
+        ],
         vec![
             "sweep",
             &scenario,

@@ -24,10 +24,16 @@ pub fn load(
     max_sweeps: u64,
     cells: CellShape,
 ) -> SimResult<(BilliardsInput, Billiards)> {
-    let input = read_billiards_input(path)?;
+    let (input, system) = read(path, max_sweeps, cells)?;
     for w in &input.warnings {
         eprintln!("warning: {w}");
     }
+    Ok((input, system))
+}
+
+/// [`load`] without printing the input's warnings (they stay in the input).
+fn read(path: &Path, max_sweeps: u64, cells: CellShape) -> SimResult<(BilliardsInput, Billiards)> {
+    let input = read_billiards_input(path)?;
     let table = Table {
         side: input.side,
         radius: input.radius,
@@ -381,9 +387,10 @@ fn write_final(run: &BilliardsRun, steps: u64, model: &BilliardsModel) -> SimRes
 
 /// Runs a collision-benchmark input start to end on the driver, quietly, with
 /// only its thermo file (the energy at the first and last step) in `dir`: the
-/// studies time it this way (`cellist scaling INPUT.in`).
+/// studies time it this way (`cellist scaling INPUT.in`, which loads the input
+/// once first and prints its warnings then).
 pub fn run_quiet(path: &Path, threads: &Threads, dir: &Path) -> SimResult<RunSummary> {
-    let (input, system) = load(path, DEFAULT_MAX_SWEEPS, CellShape::Square)?;
+    let (input, system) = read(path, DEFAULT_MAX_SWEEPS, CellShape::Square)?;
     let job = Job {
         model: BilliardsModel::new(system, input.ids.clone()),
         steps: input.steps,
@@ -411,4 +418,26 @@ pub fn run_quiet(path: &Path, threads: &Threads, dir: &Path) -> SimResult<RunSum
     };
     let context = RunContext::new(dir.to_path_buf(), None, threads).quiet();
     crate::execute(job, &plan, &context, std::time::Instant::now())
+}
+
+/// `steps` collision steps from a copy of `start` on `threads`, timed: the wall
+/// time of the loop and the hardest step `(step, sweeps)`. The benchmarks and
+/// the billiards sweep time the collision benchmark this way.
+pub fn time_steps(
+    start: &Billiards,
+    steps: u64,
+    threads: &Threads,
+) -> SimResult<(f64, (u64, u64))> {
+    let mut system = start.clone();
+    let mut hardest = (0, 0);
+    let clock = std::time::Instant::now();
+    for step in 1..=steps {
+        let stats = system
+            .step(step, threads)
+            .map_err(|e| SimError::BlowUp(e.to_string()))?;
+        if stats.sweeps > hardest.1 {
+            hardest = (step, stats.sweeps);
+        }
+    }
+    Ok((clock.elapsed().as_secs_f64(), hardest))
 }

@@ -23,6 +23,11 @@ impl SimError {
         let what = what.into();
         move |e| SimError::Output(e, what)
     }
+
+    /// An error of the chart drawn to `path` (the plotting library reports text).
+    pub fn chart(path: &std::path::Path) -> impl FnOnce(String) -> SimError + '_ {
+        move |e| SimError::Output(std::io::Error::other(e), path.display().to_string())
+    }
 }
 
 impl fmt::Display for SimError {

@@ -54,6 +54,9 @@ pub struct RunContext<'a> {
     /// Print nothing (no header, table, progress bar or timings; warnings are
     /// collected in the summary instead): the studies run scenarios this way.
     pub quiet: bool,
+    /// Build the model and stop before the loop (nothing written): the studies'
+    /// check of a scenario before they run it.
+    pub build_only: bool,
     warnings: RefCell<Vec<String>>,
 }
 
@@ -65,8 +68,17 @@ impl<'a> RunContext<'a> {
             restart,
             threads,
             quiet: false,
+            build_only: false,
             warnings: RefCell::new(Vec::new()),
         }
+    }
+
+    /// The same run stopping once the model is built, quiet: its summary has
+    /// the step-0 thermo row, particles and field, and no time.
+    pub fn build_only(mut self) -> Self {
+        self.quiet = true;
+        self.build_only = true;
+        self
     }
 
     /// The same run without printing.
@@ -158,6 +170,13 @@ pub(crate) fn execute<M: Model + 'static>(
     started: Instant,
 ) -> SimResult<RunSummary> {
     let threads = context.threads;
+    if context.build_only {
+        return Ok(RunSummary {
+            stages: driver::stages(&job.model, Duration::ZERO, Duration::ZERO),
+            thermo: vec![(0, job.model.thermo(0))],
+            ..RunSummary::of(&job.model, 0, context, threads)
+        });
+    }
     let restart = context.restart;
     let checkpoint = restart
         .map(|path| {
@@ -196,16 +215,30 @@ pub(crate) fn execute<M: Model + 'static>(
         );
     }
     Ok(RunSummary {
-        model: model.name(),
-        dt: model.dt(),
         steps,
-        threads: threads.count(),
         loop_time: report.loop_time,
         stages,
-        thermo_columns: model.thermo_columns().to_vec(),
         thermo: report.thermo,
-        particles: model.particles(last, false),
-        field: model.field(),
-        warnings: context.warnings.take(),
+        ..RunSummary::of(model, last, context, threads)
     })
+}
+
+impl RunSummary {
+    /// What `model` at step `last` reports, and the warnings of `context`; no
+    /// steps, times or thermo rows yet.
+    fn of<M: Model>(model: &M, last: u64, context: &RunContext, threads: &Threads) -> Self {
+        RunSummary {
+            model: model.name(),
+            dt: model.dt(),
+            steps: 0,
+            threads: threads.count(),
+            loop_time: Duration::ZERO,
+            stages: Vec::new(),
+            thermo_columns: model.thermo_columns().to_vec(),
+            thermo: Vec::new(),
+            particles: model.particles(last, false),
+            field: model.field(),
+            warnings: context.warnings.take(),
+        }
+    }
 }

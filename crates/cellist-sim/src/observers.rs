@@ -300,7 +300,7 @@ impl Thermo {
             .collect();
         let path = self.dir.join(plot.file);
         line_chart(&path, plot.title, plot.x_label, plot.y_label, &series)
-            .map_err(|e| SimError::Output(std::io::Error::other(e), path.display().to_string()))
+            .map_err(SimError::chart(&path))
     }
 }
 

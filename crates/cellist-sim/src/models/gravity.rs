@@ -16,7 +16,6 @@ use cellist::models::gravity::{
     plummer, two_body_seed004, Bodies, GravityError, GravityModel, GravitySystem, Integrator,
     SolverChoice,
 };
-use cellist::Threads;
 use cellist_io::{read_bodies, BodyChart, Plane, GRAVITY_DUMP_COLUMNS};
 use serde::Deserialize;
 use std::path::PathBuf;
@@ -213,7 +212,7 @@ pub fn run(scenario: &Scenario, context: &RunContext) -> SimResult<RunSummary> {
     if !(keys.dimension == 2 || keys.dimension == 3) {
         return Err(scenario.error(format!("dimension must be 2 or 3, got {}", keys.dimension)));
     }
-    let setup = build(scenario, &keys, context.threads)?;
+    let setup = build(scenario, &keys, context)?;
     if keys.dimension == 2 {
         let b = &setup.bodies;
         if let Some(i) = (0..b.len()).find(|&i| b.position[i][2] != 0.0 || b.velocity[i][2] != 0.0)
@@ -347,7 +346,7 @@ fn initial_bodies(
     scenario: &Scenario,
     keys: &InitialKeys,
     law: &GravityLaw,
-    threads: &Threads,
+    context: &RunContext,
 ) -> SimResult<(Bodies, String)> {
     let err = |m: String| scenario.error(m);
     match (&keys.kind, &keys.file) {
@@ -362,7 +361,7 @@ fn initial_bodies(
             let path = scenario.input_path(file);
             let read = read_bodies(&path).map_err(|e| SimError::Input(e.to_string()))?;
             if read.extra_columns {
-                eprintln!("warning: {}: columns after the 7th (m x y z vx vy vz) are ignored", path.display());
+                context.warn(format!("{}: columns after the 7th (m x y z vx vy vz) are ignored", path.display()));
             }
             let text = format!("{} bodies from {}", read.mass.len(), path.display());
             Ok((Bodies { mass: read.mass, position: read.position, velocity: read.velocity }, text))
@@ -374,7 +373,7 @@ fn initial_bodies(
                     return Err(err(format!("system.initial.n must be in 2..={MAX_BODIES}, got {n}")));
                 }
                 let seed = keys.seed.unwrap_or(1);
-                let bodies = plummer(n as usize, seed, law, threads);
+                let bodies = plummer(n as usize, seed, law, context.threads);
                 Ok((bodies, format!("Plummer sphere of {n} bodies (seed {seed}, G = M = a = 1, virial 2T = |W|)")))
             }
             "two-body-seed004" => {
@@ -391,7 +390,7 @@ fn initial_bodies(
 }
 
 /// Checks the scenario and builds the bodies.
-fn build(scenario: &Scenario, keys: &GravityScenario, threads: &Threads) -> SimResult<Setup> {
+fn build(scenario: &Scenario, keys: &GravityScenario, context: &RunContext) -> SimResult<Setup> {
     let err = |m: String| scenario.error(m);
     let s = &keys.system;
     if !(s.softening.is_finite() && s.softening >= 0.0) {
@@ -403,7 +402,7 @@ fn build(scenario: &Scenario, keys: &GravityScenario, threads: &Threads) -> SimR
     let law = GravityLaw::new(s.g, s.softening, s.repulsion_radius)
         .map_err(|e| err(format!("system: {e}")))?;
     let (choice, solver_name) = solver_choice(&s.solver).map_err(err)?;
-    let (bodies, initial) = initial_bodies(scenario, &s.initial, &law, threads)?;
+    let (bodies, initial) = initial_bodies(scenario, &s.initial, &law, context)?;
     let integrator = Integrator::from_name(&keys.run.integrator).ok_or_else(|| {
         err(format!(
             "run.integrator '{}' is unknown; expected one of: {}",

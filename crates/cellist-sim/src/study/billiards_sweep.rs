@@ -10,9 +10,7 @@ use super::table::{Column, SweepTable};
 use super::{cores, create_dir, median, progress, thread_counts, Pools};
 use crate::error::{SimError, SimResult};
 use cellist::models::billiards::{separated_discs, uniform_discs, Billiards, CellShape, Table};
-use cellist::Threads;
-use std::path::{Path, PathBuf};
-use std::time::Instant;
+use std::path::PathBuf;
 
 /// What `cellist billiards sweep` asks for: a list of values per key (one value
 /// is fixed, several are swept).
@@ -48,14 +46,6 @@ pub struct BilliardsSweepRequest<'a> {
 /// slowest).
 pub const KEYS: [&str; 6] = ["N", "L", "r", "S", "cells", "threads"];
 
-/// The name of a cell layout on the command line and in the table.
-pub fn cells_name(shape: CellShape) -> &'static str {
-    match shape {
-        CellShape::Square => "square",
-        CellShape::Hex => "hex",
-    }
-}
-
 /// One combination of the keys' values.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Combination {
@@ -81,7 +71,7 @@ impl Combination {
             self.l.to_string(),
             self.r.to_string(),
             self.steps.to_string(),
-            cells_name(self.cells).to_string(),
+            self.cells.name().to_string(),
             self.threads.to_string(),
         ]
     }
@@ -189,29 +179,6 @@ fn check(request: &BilliardsSweepRequest) -> SimResult<Vec<usize>> {
     }
 }
 
-/// The study's folder: `out` if given, else `out/billiards-sweep/`.
-pub fn sweep_dir(out: Option<&Path>) -> PathBuf {
-    out.map_or_else(
-        || Path::new("out").join("billiards-sweep"),
-        Path::to_path_buf,
-    )
-}
-
-/// One timed run: the loop of `steps` collision steps from `start` on `threads`;
-/// its wall time and the most sweeps a step needed.
-fn time_loop(start: &Billiards, steps: u64, threads: &Threads) -> SimResult<(f64, u64)> {
-    let mut system = start.clone();
-    let mut hardest = 0;
-    let clock = Instant::now();
-    for step in 1..=steps {
-        let stats = system
-            .step(step, threads)
-            .map_err(|e| SimError::BlowUp(e.to_string()))?;
-        hardest = hardest.max(stats.sweeps);
-    }
-    Ok((clock.elapsed().as_secs_f64(), hardest))
-}
-
 /// Runs the sweep: checks the flags, draws and checks every combination's input
 /// (a density the separated placement cannot reach is refused here, naming the
 /// combination, before anything is timed), then times every combination
@@ -262,7 +229,7 @@ pub fn sweep(request: &BilliardsSweepRequest) -> SimResult<SweepTable> {
             .with_cells(c.cells);
         starts.push((c.input(), c.cells, system));
     }
-    let dir = sweep_dir(request.out.as_deref());
+    let dir = super::study_dir(request.out.as_deref(), "billiards", "sweep");
     create_dir(&dir)?;
     let placement = if request.overlaps {
         "uniform positions (--overlaps, the course's generator)"
@@ -295,8 +262,8 @@ pub fn sweep(request: &BilliardsSweepRequest) -> SimResult<SweepTable> {
                 .2;
             let threads = pools.get(c.threads);
             let what = progress(k, combinations.len(), round, request.repeat, &c.describe());
-            match time_loop(start, c.steps, threads) {
-                Ok((seconds, hardest)) => {
+            match crate::billiards::time_steps(start, c.steps, threads) {
+                Ok((seconds, (_, hardest))) => {
                     let over = if c.threads > cores {
                         format!(" (oversubscribed: {} threads on {cores} cores)", c.threads)
                     } else {

@@ -74,7 +74,10 @@ impl Metric {
         let stages: Vec<&str> = probe.stages.iter().map(|(s, _)| *s).collect();
         let columns = &probe.thermo_columns;
         let known = || {
-            let mut names = vec!["time".to_string(), "error".to_string()];
+            let mut names = vec!["time".to_string()];
+            if error_column(probe).is_some() {
+                names.push("error".to_string());
+            }
             names.extend(stages.iter().map(|s| format!("time.{s}")));
             // a `time` column (the simulated time) is shadowed by the wall time
             let columns = columns.iter().filter(|c| **c != "time");

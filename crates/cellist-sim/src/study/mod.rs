@@ -42,28 +42,18 @@ pub fn report_warnings(run: &RunSummary, seen: &mut Vec<String>) {
     }
 }
 
-/// Builds `scenario` with zero steps, quietly, in a scratch folder that is removed
-/// afterwards: the check of its keys and values before a study runs it, and what
-/// the model reports (thermo columns, stages, particles or field).
+/// Builds `scenario` and stops before the loop (nothing is written): the check
+/// of its keys and values before a study runs it, and what the model reports
+/// (thermo columns and the step-0 row, stages, particles or field).
 pub fn probe(scenario: &Scenario, label: &str) -> SimResult<RunSummary> {
-    let zero = scenario.with_sets(&["run.steps=0".to_string()])?;
-    let scratch = std::env::temp_dir().join(format!(
-        "cellist-probe-{}-{}",
-        std::process::id(),
-        PROBES.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
-    ));
     let threads = Threads::new(1).map_err(|e| SimError::Internal(e.to_string()))?;
-    let result = run_quiet(&zero, &threads, &scratch);
-    // the scratch folder holds only the probe's step-0 files
-    let _ = std::fs::remove_dir_all(&scratch);
-    result.map_err(|e| match e {
+    let context = RunContext::new(PathBuf::new(), None, &threads).build_only();
+    run_scenario(scenario, &context).map_err(|e| match e {
         SimError::Input(m) => SimError::Input(format!("{label}: {m}")),
         SimError::BlowUp(m) => SimError::Input(format!("{label}: the initial state: {m}")),
         other => other,
     })
 }
-
-static PROBES: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
 
 /// The output folder of a study: `out` if given, else `out/<name>-<study>/`.
 pub fn study_dir(out: Option<&Path>, name: &str, study: &str) -> PathBuf {

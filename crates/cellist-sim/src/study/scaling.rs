@@ -33,6 +33,9 @@ pub struct AmdahlFit {
     pub t1: f64,
     /// The serial fraction `f = a / (a + b)`, clamped to [0, 1].
     pub serial_fraction: f64,
+    /// True when the fitted `f` was outside [0, 1] and clamped: above 1 the
+    /// section got slower with more threads, below 0 faster than ideal.
+    pub clamped: bool,
 }
 
 impl AmdahlFit {
@@ -59,9 +62,11 @@ impl AmdahlFit {
         if t1.is_nan() || t1 <= 0.0 {
             return None;
         }
+        let f = a / t1;
         Some(AmdahlFit {
             t1,
-            serial_fraction: (a / t1).clamp(0.0, 1.0),
+            serial_fraction: f.clamp(0.0, 1.0),
+            clamped: !(0.0..=1.0).contains(&f),
         })
     }
 
@@ -283,7 +288,11 @@ fn print_table(table: &[(String, Vec<Row>, Option<AmdahlFit>)], threads: &[usize
         let times: Vec<String> = rows.iter().map(|r| format!("{:>10.5}", r.median)).collect();
         let (f, limit) = match fit {
             Some(fit) => (
-                format!("{:.3}", fit.serial_fraction),
+                format!(
+                    "{:.3}{}",
+                    fit.serial_fraction,
+                    if fit.clamped { "*" } else { "" }
+                ),
                 if fit.serial_fraction > 0.0 {
                     format!("{:.2}", 1.0 / fit.serial_fraction)
                 } else {
@@ -301,6 +310,15 @@ fn print_table(table: &[(String, Vec<Row>, Option<AmdahlFit>)], threads: &[usize
             "{name:>10}  {}  {:>9.3}  {f:>8}  {limit:>9}{small}",
             times.join("  "),
             rows[rows.len() - 1].speedup
+        );
+    }
+    if table
+        .iter()
+        .any(|(_, _, fit)| fit.is_some_and(|f| f.clamped))
+    {
+        println!(
+            "*: the fitted f was outside [0, 1] and is clamped: above 1 the section got slower \
+             with more threads, below 0 faster than ideal"
         );
     }
 }
@@ -386,7 +404,7 @@ fn draw(
             series: &series,
         },
     )
-    .map_err(|e| SimError::Output(std::io::Error::other(e), path.display().to_string()))
+    .map_err(SimError::chart(path))
 }
 
 #[cfg(test)]
@@ -428,5 +446,11 @@ mod tests {
         // faster than ideal: a < 0, clamped to f = 0
         let fit = AmdahlFit::fit(&[(1, 1.0), (2, 0.4)]).unwrap();
         assert_eq!(fit.serial_fraction, 0.0);
+        assert!(fit.clamped);
+        // slower with more threads: clamped to f = 1
+        let fit = AmdahlFit::fit(&[(1, 1.0), (2, 1.2)]).unwrap();
+        assert_eq!(fit.serial_fraction, 1.0);
+        assert!(fit.clamped);
+        assert!(!AmdahlFit::fit(&[(1, 1.0), (2, 0.6)]).unwrap().clamped);
     }
 }

@@ -48,6 +48,15 @@ pub fn sweep(request: &SweepRequest) -> SimResult<SweepTable> {
         .iter()
         .map(|s| SweptKey::parse(s))
         .collect::<SimResult<_>>()?;
+    let mut named: Vec<&str> = Vec::new();
+    for key in keys.iter().flat_map(|k| &k.keys) {
+        if named.contains(&key.as_str()) {
+            return Err(SimError::Input(format!(
+                "--set {key}: the key is swept twice; give all its values in one --set"
+            )));
+        }
+        named.push(key);
+    }
     let threads = match &request.threads {
         Some(list) => super::thread_counts(list)?,
         None => vec![super::cores()],
@@ -110,7 +119,10 @@ pub fn sweep(request: &SweepRequest) -> SimResult<SweepTable> {
     }
     let mut measured: Vec<Vec<Vec<f64>>> = vec![Vec::new(); combinations.len()];
     let mut warnings = Vec::new();
-    for round in 0..request.repeat {
+    // an error other than a blow-up stops the sweep, but what was measured is
+    // still reported and written
+    let mut failed = None;
+    'rounds: for round in 0..request.repeat {
         for (k, c) in combinations.iter().enumerate() {
             let s = &scenarios[k / threads.len()];
             let threads = pools.get(c.threads);
@@ -140,7 +152,10 @@ pub fn sweep(request: &SweepRequest) -> SimResult<SweepTable> {
                     println!("{what}: blew up: {m}");
                     vec![f64::NAN; metrics.len()]
                 }
-                Err(e) => return Err(e),
+                Err(e) => {
+                    failed = Some(e);
+                    break 'rounds;
+                }
             };
             measured[k].push(values);
         }
@@ -148,13 +163,17 @@ pub fn sweep(request: &SweepRequest) -> SimResult<SweepTable> {
     let rows = combinations
         .iter()
         .zip(&measured)
+        .filter(|(_, runs)| !runs.is_empty())
         .map(|(c, runs)| {
             let values = metrics
                 .iter()
                 .enumerate()
                 .map(|(m, metric)| {
                     let all: Vec<f64> = runs.iter().map(|r| r[m]).collect();
-                    if metric.is_time() {
+                    if all.iter().any(|v| v.is_nan()) {
+                        // a run that blew up makes the row's value NaN
+                        f64::NAN
+                    } else if metric.is_time() {
                         median(&all)
                     } else {
                         *all.last().expect("one run at least")
@@ -178,7 +197,10 @@ pub fn sweep(request: &SweepRequest) -> SimResult<SweepTable> {
         rows,
     };
     table.report(&dir)?;
-    Ok(table)
+    match failed {
+        Some(e) => Err(e),
+        None => Ok(table),
+    }
 }
 
 /// Every combination of the keys' values and the thread counts, the first key

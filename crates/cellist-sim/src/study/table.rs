@@ -242,7 +242,7 @@ impl SweepTable {
                     series: &series,
                 },
             )
-            .map_err(|e| SimError::Output(std::io::Error::other(e), path.display().to_string()))?;
+            .map_err(SimError::chart(&path))?;
             written.push(path);
         }
         Ok(written)

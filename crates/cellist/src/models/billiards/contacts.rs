@@ -47,6 +47,16 @@ pub enum CellShape {
     Hex,
 }
 
+impl CellShape {
+    /// The name on the command line and in outputs: `square` or `hex`.
+    pub fn name(self) -> &'static str {
+        match self {
+            CellShape::Square => "square",
+            CellShape::Hex => "hex",
+        }
+    }
+}
+
 /// A grid of cells ([`CellShape`]) over the discs' bounding box, with the discs
 /// sorted by cell (counting sort), and its buffers kept between searches.
 #[derive(Clone, Debug, Default)]
