@@ -18,6 +18,11 @@ use std::process::ExitCode;
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    #[cfg(feature = "mpi")]
+    let _cluster = match distributed(&cli) {
+        Ok(cluster) => cluster,
+        Err(code) => return code,
+    };
     let result = match cli.command {
         Command::Run(args) => run::run(&args),
         Command::Neighbors(args) => neighbors::run(&args),
@@ -51,4 +56,29 @@ fn main() -> ExitCode {
             ExitCode::from(e.exit_code())
         }
     }
+}
+
+/// With the `mpi` feature: MPI starts once for the process. On one rank every
+/// command runs as without MPI; on several, `cellist run` is refused with one
+/// message from rank 0 (no model is distributed yet) and every other command
+/// too, every rank exiting with status 2.
+#[cfg(feature = "mpi")]
+fn distributed(cli: &Cli) -> Result<Option<cellist_sim::distributed::Cluster>, ExitCode> {
+    let Some(cluster) = cellist_sim::distributed::Cluster::start() else {
+        return Ok(None);
+    };
+    if cluster.ranks() == 1 {
+        return Ok(Some(cluster));
+    }
+    let message = match &cli.command {
+        Command::Run(args) => cluster
+            .refuse_run(args.scenario.as_deref(), &args.set)
+            .to_string(),
+        _ => "only `cellist run` runs on several MPI ranks; run this command without mpirun"
+            .to_string(),
+    };
+    if cluster.rank() == 0 {
+        eprintln!("error: {message}");
+    }
+    Err(ExitCode::from(2))
 }

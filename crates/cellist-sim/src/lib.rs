@@ -6,6 +6,8 @@
 #![warn(missing_docs)]
 
 pub mod billiards;
+#[cfg(feature = "mpi")]
+pub mod distributed;
 pub mod driver;
 pub mod error;
 pub mod models;

@@ -140,6 +140,83 @@ impl DirectSum {
     }
 }
 
+/// The sums of a set of targets against sources held elsewhere (one side of each
+/// pair only): what a rank of a distributed direct sum adds up while the sources
+/// of the other ranks pass by in a ring.
+///
+/// `acc_i = G sum_j k_ij m_j d_ij` and `phi_i = -G sum_j p_ij m_j` over every
+/// source `j` that is not `i` itself, with `d_ij = x_j - x_i` and `k`, `p` of
+/// [`GravityLaw`]; each target's sum runs over the source blocks in the order they
+/// are added, so the result does not depend on the thread count.
+#[derive(Clone, Debug)]
+pub struct PartialField {
+    law: GravityLaw,
+    /// `sum k m d` per target (before `G`).
+    acc: Vec<[f64; 3]>,
+    /// `sum p m` per target (before `-G`).
+    pot: Vec<f64>,
+}
+
+impl PartialField {
+    /// Zero sums for `n` targets under `law`.
+    pub fn new(law: GravityLaw, n: usize) -> Self {
+        PartialField {
+            law,
+            acc: vec![[0.0; 3]; n],
+            pot: vec![0.0; n],
+        }
+    }
+
+    /// Adds the field of `sources` (positions and masses) at `targets`; with
+    /// `same`, the sources are the targets themselves and `j = i` is left out.
+    pub fn add(&mut self, targets: &[[f64; 3]], sources: &Sources, same: bool, threads: &Threads) {
+        assert_eq!(targets.len(), self.acc.len(), "one sum per target");
+        let kernel = Kernel::new(&self.law);
+        let repulsion = self.law.has_repulsion();
+        threads.install(|| {
+            self.acc
+                .par_iter_mut()
+                .zip(self.pot.par_iter_mut())
+                .enumerate()
+                .with_min_len(64)
+                .for_each(|(i, (acc, pot))| {
+                    let xi = targets[i];
+                    let mut sum = [0.0; 4];
+                    for (j, (xj, &mj)) in sources.position.iter().zip(sources.mass).enumerate() {
+                        if same && i == j {
+                            continue;
+                        }
+                        let d = [xj[0] - xi[0], xj[1] - xi[1], xj[2] - xi[2]];
+                        let r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+                        let (k, p) = if repulsion {
+                            kernel.at::<true>(r2)
+                        } else {
+                            kernel.at::<false>(r2)
+                        };
+                        let km = k * mj;
+                        sum[0] += km * d[0];
+                        sum[1] += km * d[1];
+                        sum[2] += km * d[2];
+                        sum[3] += p * mj;
+                    }
+                    for a in 0..3 {
+                        acc[a] += sum[a];
+                    }
+                    *pot += sum[3];
+                });
+        });
+    }
+
+    /// Writes the accelerations and potentials of the sums so far.
+    pub fn finish(&self, out: FieldOut) {
+        let g = self.law.g();
+        for (i, (a, p)) in self.acc.iter().zip(&self.pot).enumerate() {
+            out.acc[i] = a.map(|v| g * v);
+            out.phi[i] = -g * p;
+        }
+    }
+}
+
 /// The running sums of a run of particles: x, y, z and potential.
 struct Block<'s> {
     sums: [&'s mut [f64]; 4],
@@ -322,6 +399,56 @@ impl Kernel {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn partial_sums_over_split_sources_match_the_direct_sum() {
+        let law = GravityLaw::new(1.5, 0.01, 0.0).unwrap();
+        let n = 301;
+        let mut seed = 7u64;
+        let mut next = || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let x: Vec<[f64; 3]> = (0..n).map(|_| [next(), next(), next()]).collect();
+        let m: Vec<f64> = (0..n).map(|_| 0.5 + next()).collect();
+        let threads = Threads::new(2).unwrap();
+        let (mut acc, mut phi) = (vec![[0.0; 3]; n], vec![0.0; n]);
+        DirectSum::new(law, n).compute(
+            &Sources {
+                mass: &m,
+                position: &x,
+            },
+            FieldOut {
+                acc: &mut acc,
+                phi: &mut phi,
+            },
+            &threads,
+        );
+        // targets 100..200, sources in three pieces, its own piece marked `same`
+        let targets = &x[100..200];
+        let mut partial = PartialField::new(law, targets.len());
+        for range in [200..301, 0..100, 100..200] {
+            let sources = Sources {
+                mass: &m[range.clone()],
+                position: &x[range.clone()],
+            };
+            partial.add(targets, &sources, range.start == 100, &threads);
+        }
+        let (mut a2, mut p2) = (vec![[0.0; 3]; 100], vec![0.0; 100]);
+        partial.finish(FieldOut {
+            acc: &mut a2,
+            phi: &mut p2,
+        });
+        for i in 0..100 {
+            let (a, b) = (acc[100 + i], a2[i]);
+            let norm = a.iter().map(|v| v * v).sum::<f64>().sqrt();
+            let diff = (0..3).map(|k| (a[k] - b[k]).powi(2)).sum::<f64>().sqrt();
+            assert!(diff <= 1e-13 * norm, "{i}: {a:?} {b:?}");
+            assert!((phi[100 + i] - p2[i]).abs() <= 1e-13 * phi[100 + i].abs());
+        }
+    }
 
     /// The plain double loop over ordered pairs, from the law's own formula.
     fn reference(law: &GravityLaw, m: &[f64], x: &[[f64; 3]]) -> (Vec<[f64; 3]>, Vec<f64>) {

@@ -13,7 +13,7 @@ pub mod p3m;
 pub mod tree;
 
 pub use biot_savart::{BlobKernel, DirectBiotSavart};
-pub use direct::DirectSum;
+pub use direct::{DirectSum, PartialField};
 pub use mesh::{MeshBoundary, MeshParams, ParticleMesh, VicBoundary, VicParams, VortexInCell};
 pub use p3m::P3m;
 pub use tree::{BarnesHut, TreeParams, VortexTree};
