@@ -8,6 +8,9 @@
 //! ```
 
 use std::path::Path;
+
+mod common;
+use common::example;
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
@@ -35,14 +38,6 @@ fn mpirun(ranks: usize, args: &[&str]) -> Result<Output, String> {
         std::thread::sleep(Duration::from_millis(50));
     }
     child.wait_with_output().map_err(|e| e.to_string())
-}
-
-fn example(name: &str) -> String {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../examples")
-        .join(name)
-        .display()
-        .to_string()
 }
 
 fn one_rank_is_the_plain_run(dir: &Path) -> Result<(), String> {

@@ -404,13 +404,8 @@ mod tests {
     fn partial_sums_over_split_sources_match_the_direct_sum() {
         let law = GravityLaw::new(1.5, 0.01, 0.0).unwrap();
         let n = 301;
-        let mut seed = 7u64;
-        let mut next = || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (seed >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut rng = crate::random::Rng::new(7);
+        let mut next = || rng.uniform();
         let x: Vec<[f64; 3]> = (0..n).map(|_| [next(), next(), next()]).collect();
         let m: Vec<f64> = (0..n).map(|_| 0.5 + next()).collect();
         let threads = Threads::new(2).unwrap();
