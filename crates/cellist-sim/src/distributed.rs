@@ -8,13 +8,20 @@
 //! `t_comp ~ gamma n^2` against `t_comm ~ alpha + beta n`: the communication is
 //! hidden once `gamma n^2 > alpha + beta n`.
 //!
+//! For short-range forces, seed 003's domain decomposition: the box cut into
+//! subdomains ([`Decomposition`]), particles moved to the rank that owns their
+//! position ([`migrate`]) and the ghosts within cutoff + skin of each subdomain
+//! sent to it, periodic images included ([`ghosts`]).
+//!
 //! What runs distributed so far: the ring-pass direct gravity
-//! ([`ring_gravity`]). `cellist run` under `mpirun` with more than one rank
+//! ([`ring_gravity`]) and the particle exchanges of the decomposition, tested
+//! on 2 and 4 ranks. `cellist run` under `mpirun` with more than one rank
 //! refuses every model with one message from rank 0 ([`refuse_run`]) until the
 //! models' distributed steps are built.
 
 use crate::error::SimError;
 use crate::scenario::Scenario;
+use cellist::decomposition::Decomposition;
 use cellist::interactions::GravityLaw;
 use cellist::longrange::{FieldOut, PartialField, Sources};
 use cellist::Threads;
@@ -154,4 +161,170 @@ pub fn refuse_run<C: Communicator>(
         )
     };
     SimError::Input(message)
+}
+
+/// Particles a rank holds for a distributed short-range run: an id and `width`
+/// numbers each (the position's `D` coordinates first, then whatever the model
+/// carries: velocities, strengths), as flat columns that travel as they are.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct LocalParticles {
+    /// Global ids.
+    pub ids: Vec<u64>,
+    /// `width` numbers per particle.
+    pub values: Vec<f64>,
+    /// Numbers per particle.
+    pub width: usize,
+}
+
+impl LocalParticles {
+    /// The position of particle `k` (its first `D` numbers).
+    pub fn position<const D: usize>(&self, k: usize) -> [f64; D] {
+        std::array::from_fn(|d| self.values[k * self.width + d])
+    }
+
+    /// The number of particles.
+    pub fn len(&self) -> usize {
+        self.ids.len()
+    }
+
+    /// True with no particle.
+    pub fn is_empty(&self) -> bool {
+        self.ids.is_empty()
+    }
+
+    fn push_from(&mut self, other: &LocalParticles, k: usize, shift: &[f64]) {
+        self.ids.push(other.ids[k]);
+        let row = &other.values[k * other.width..(k + 1) * other.width];
+        self.values.extend_from_slice(row);
+        let at = self.values.len() - other.width;
+        for (d, s) in shift.iter().enumerate() {
+            self.values[at + d] += s;
+        }
+    }
+}
+
+/// Sends `outgoing[r]` to rank `r` and returns what every rank sent here, in rank
+/// order (counts first, then the ids and values, non-blocking both ways).
+fn exchange<C: Communicator>(
+    world: &C,
+    outgoing: &[LocalParticles],
+    width: usize,
+) -> LocalParticles {
+    let ranks = world.size() as usize;
+    let counts: Vec<u64> = outgoing.iter().map(|o| o.len() as u64).collect();
+    let mut incoming_counts = vec![0u64; ranks];
+    world.all_to_all_into(&counts[..], &mut incoming_counts[..]);
+    let mut ids: Vec<Vec<u64>> = incoming_counts
+        .iter()
+        .map(|&c| vec![0; c as usize])
+        .collect();
+    let mut values: Vec<Vec<f64>> = incoming_counts
+        .iter()
+        .map(|&c| vec![0.0; c as usize * width])
+        .collect();
+    mpi::request::scope(|scope| {
+        let (mut id_requests, mut value_requests) = (Vec::new(), Vec::new());
+        let (mut id_receives, mut value_receives) = (Vec::new(), Vec::new());
+        for (r, (o, (i, v))) in outgoing
+            .iter()
+            .zip(ids.iter_mut().zip(values.iter_mut()))
+            .enumerate()
+        {
+            let process = world.process_at_rank(r as i32);
+            if !o.is_empty() {
+                id_requests.push(process.immediate_send(scope, &o.ids[..]));
+                value_requests.push(process.immediate_send(scope, &o.values[..]));
+            }
+            if !i.is_empty() {
+                id_receives.push(process.immediate_receive_into(scope, &mut i[..]));
+                value_receives.push(process.immediate_receive_into(scope, &mut v[..]));
+            }
+        }
+        for r in id_receives {
+            r.wait();
+        }
+        for r in value_receives {
+            r.wait();
+        }
+        for r in id_requests {
+            r.wait();
+        }
+        for r in value_requests {
+            r.wait();
+        }
+    });
+    LocalParticles {
+        ids: ids.concat(),
+        values: values.concat(),
+        width,
+    }
+}
+
+/// Moves every particle to the rank that owns its (wrapped) position: the
+/// migration at a neighbour-list rebuild. Kept particles stay in their order,
+/// arrivals follow in rank order.
+pub fn migrate<C: Communicator, const D: usize>(
+    world: &C,
+    decomposition: &Decomposition<D>,
+    particles: &mut LocalParticles,
+) {
+    let width = particles.width;
+    let ranks = world.size() as usize;
+    let rank = world.rank() as usize;
+    let mut staying = LocalParticles {
+        width,
+        ..LocalParticles::default()
+    };
+    let mut outgoing = vec![
+        LocalParticles {
+            width,
+            ..LocalParticles::default()
+        };
+        ranks
+    ];
+    let none = [0.0; D];
+    for k in 0..particles.len() {
+        let x = decomposition.domain.wrap(particles.position::<D>(k));
+        let owner = decomposition.owner(&x);
+        let target = if owner == rank {
+            &mut staying
+        } else {
+            &mut outgoing[owner]
+        };
+        target.push_from(particles, k, &none);
+        let at = target.values.len() - width;
+        target.values[at..at + D].copy_from_slice(&x);
+    }
+    let arrived = exchange(world, &outgoing, width);
+    staying.ids.extend_from_slice(&arrived.ids);
+    staying.values.extend_from_slice(&arrived.values);
+    *particles = staying;
+}
+
+/// The ghosts of this rank: every particle of another rank (or a periodic image
+/// of one of its own) within `reach` of its subdomain, positions shifted to the
+/// image next to it ([`Decomposition::ghosts`]), in the order of the sending
+/// ranks.
+pub fn ghosts<C: Communicator, const D: usize>(
+    world: &C,
+    decomposition: &Decomposition<D>,
+    particles: &LocalParticles,
+    reach: f64,
+) -> LocalParticles {
+    let width = particles.width;
+    let rank = world.rank() as usize;
+    let positions: Vec<[f64; D]> = (0..particles.len())
+        .map(|k| particles.position(k))
+        .collect();
+    let mut outgoing = vec![
+        LocalParticles {
+            width,
+            ..LocalParticles::default()
+        };
+        world.size() as usize
+    ];
+    for g in decomposition.ghosts(rank, &positions, reach) {
+        outgoing[g.to].push_from(particles, g.index, &g.shift);
+    }
+    exchange(world, &outgoing, width)
 }

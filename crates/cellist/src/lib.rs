@@ -7,6 +7,7 @@
 // Loops over axes index several per-axis arrays (position, length, boundary) at once.
 #![allow(clippy::needless_range_loop)]
 
+pub mod decomposition;
 pub mod geometry;
 pub mod interactions;
 pub mod interpolation;

@@ -1,0 +1,335 @@
+//! Spatial domain decomposition for distributed short-range runs (seed 003): the
+//! box cut into a Cartesian grid of subdomains, one per rank, the grid chosen to
+//! minimise the surface each subdomain shares with its neighbours (the ghost
+//! traffic), and the ghost rule: which particles a rank sends to which neighbour
+//! so that every neighbour holds every particle within `reach` (cutoff + skin) of
+//! its subdomain, periodic images included.
+//!
+//! No communication here: the MPI layer moves what these functions select, and
+//! the tests check them against brute force by playing every rank in one
+//! process.
+
+use crate::geometry::{wrap_coordinate, Domain};
+
+/// A box cut into `grid[0] x grid[1] (x grid[2])` equal subdomains; rank `r` owns
+/// the subdomain at grid coordinates [`Decomposition::coords`]`(r)`, the first
+/// axis varying fastest.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Decomposition<const D: usize> {
+    /// The whole box.
+    pub domain: Domain<D>,
+    /// Subdomains per axis.
+    pub grid: [usize; D],
+}
+
+/// A particle a rank sends as a ghost: its index on the sending rank, the rank it
+/// goes to, and the shift (`0` or `+-L` per periodic axis) that puts its image
+/// next to the receiving subdomain.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ghost<const D: usize> {
+    /// Index of the particle on the sending rank.
+    pub index: usize,
+    /// The receiving rank.
+    pub to: usize,
+    /// Added to the position: the periodic image the receiver sees.
+    pub shift: [f64; D],
+}
+
+impl<const D: usize> Decomposition<D> {
+    /// The grid of `ranks` subdomains whose surface `sum_d prod_(e != d) L_e / p_e`
+    /// (one subdomain's faces, up to a factor 2) is smallest; ties go to the
+    /// first grid in lexicographic order.
+    pub fn new(domain: Domain<D>, ranks: usize) -> Self {
+        assert!(ranks >= 1, "at least one rank");
+        let mut best: Option<([usize; D], f64)> = None;
+        let mut grid = [1usize; D];
+        loop {
+            if grid.iter().product::<usize>() == ranks {
+                let surface: f64 = (0..D)
+                    .map(|d| {
+                        (0..D)
+                            .filter(|&e| e != d)
+                            .map(|e| domain.length[e] / grid[e] as f64)
+                            .product::<f64>()
+                    })
+                    .sum();
+                if best.is_none_or(|(_, s)| surface < s * (1.0 - 1e-12)) {
+                    best = Some((grid, surface));
+                }
+            }
+            // next grid: odometer over the divisors
+            let mut axis = 0;
+            loop {
+                if axis == D {
+                    let grid = best.expect("ranks x 1 x 1 is a grid").0;
+                    return Decomposition { domain, grid };
+                }
+                grid[axis] += 1;
+                if grid[axis] <= ranks {
+                    break;
+                }
+                grid[axis] = 1;
+                axis += 1;
+            }
+        }
+    }
+
+    /// The number of subdomains.
+    pub fn ranks(&self) -> usize {
+        self.grid.iter().product()
+    }
+
+    /// The grid coordinates of `rank`.
+    pub fn coords(&self, rank: usize) -> [usize; D] {
+        let mut rest = rank;
+        std::array::from_fn(|d| {
+            let c = rest % self.grid[d];
+            rest /= self.grid[d];
+            c
+        })
+    }
+
+    /// The rank at grid coordinates `coords`.
+    pub fn rank_at(&self, coords: [usize; D]) -> usize {
+        (0..D)
+            .rev()
+            .fold(0, |rank, d| rank * self.grid[d] + coords[d])
+    }
+
+    /// The subdomain's width along each axis.
+    pub fn width(&self) -> [f64; D] {
+        std::array::from_fn(|d| self.domain.length[d] / self.grid[d] as f64)
+    }
+
+    /// The owner of a position: periodic axes wrapped, open axes clamped to the
+    /// first or last subdomain.
+    pub fn owner(&self, x: &[f64; D]) -> usize {
+        let w = self.width();
+        let coords = std::array::from_fn(|d| {
+            let lo = self.domain.lo[d];
+            let xd = if self.domain.is_periodic(d) {
+                wrap_coordinate(x[d], lo, self.domain.length[d])
+            } else {
+                x[d]
+            };
+            let c = ((xd - lo) / w[d]).floor();
+            if c.is_nan() || c < 0.0 {
+                0
+            } else {
+                (c as usize).min(self.grid[d] - 1)
+            }
+        });
+        self.rank_at(coords)
+    }
+
+    /// The subdomain of `rank`, `[lo, hi)` per axis; on an open axis the first
+    /// and last subdomains reach to infinity outward.
+    pub fn bounds(&self, rank: usize) -> ([f64; D], [f64; D]) {
+        let c = self.coords(rank);
+        let w = self.width();
+        let mut lo: [f64; D] = std::array::from_fn(|d| self.domain.lo[d] + c[d] as f64 * w[d]);
+        let mut hi: [f64; D] = std::array::from_fn(|d| lo[d] + w[d]);
+        for d in 0..D {
+            if !self.domain.is_periodic(d) {
+                if c[d] == 0 {
+                    lo[d] = f64::NEG_INFINITY;
+                }
+                if c[d] + 1 == self.grid[d] {
+                    hi[d] = f64::INFINITY;
+                }
+            }
+        }
+        (lo, hi)
+    }
+
+    /// Refuses a subdomain thinner than `reach` along an axis it is cut along (or
+    /// a periodic axis): its ghosts would have to come from beyond its
+    /// neighbours.
+    pub fn check_reach(&self, reach: f64) -> Result<(), String> {
+        const AXES: [&str; 3] = ["x", "y", "z"];
+        let w = self.width();
+        for d in 0..D {
+            let cut = self.grid[d] > 1 || self.domain.is_periodic(d);
+            if cut && w[d] < reach {
+                return Err(format!(
+                    "{} ranks cut the box into {} subdomains along {} of width {:.6}, thinner \
+                     than the cutoff + skin {reach}: use fewer ranks or a larger box",
+                    self.ranks(),
+                    self.grid[d],
+                    AXES[d],
+                    w[d]
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// The ghosts `rank` sends: for each of its particles at `positions` (inside
+    /// its subdomain, wrapped) and each neighbouring subdomain, across faces,
+    /// edges and corners, the particle goes when it lies within `reach` of every
+    /// face it crosses towards that neighbour (`x - lo <= reach` towards the lower
+    /// one, `hi - x <= reach` towards the upper one), with the periodic shift of
+    /// its image. On a periodic axis of one or two subdomains a neighbour may be
+    /// the rank itself or the same rank twice, each with its own shift.
+    pub fn ghosts(&self, rank: usize, positions: &[[f64; D]], reach: f64) -> Vec<Ghost<D>> {
+        let (lo, hi) = self.bounds(rank);
+        let c = self.coords(rank);
+        let mut out = Vec::new();
+        let offsets = 3usize.pow(D as u32);
+        for code in 0..offsets {
+            let o: [i64; D] = std::array::from_fn(|d| (code / 3usize.pow(d as u32) % 3) as i64 - 1);
+            if o.iter().all(|&v| v == 0) {
+                continue;
+            }
+            // the neighbour's coordinates and the shift of images crossing the box
+            let mut to = [0usize; D];
+            let mut shift = [0.0; D];
+            let mut exists = true;
+            for d in 0..D {
+                let n = c[d] as i64 + o[d];
+                let p = self.grid[d] as i64;
+                if (0..p).contains(&n) {
+                    to[d] = n as usize;
+                } else if self.domain.is_periodic(d) {
+                    to[d] = n.rem_euclid(p) as usize;
+                    // leaving through the upper face: the image is x - L
+                    shift[d] = -(o[d] as f64) * self.domain.length[d];
+                } else {
+                    exists = false;
+                }
+            }
+            if !exists {
+                continue;
+            }
+            let to = self.rank_at(to);
+            for (index, x) in positions.iter().enumerate() {
+                let near = (0..D).all(|d| match o[d] {
+                    -1 => x[d] - lo[d] <= reach,
+                    1 => hi[d] - x[d] <= reach,
+                    _ => true,
+                });
+                if near {
+                    out.push(Ghost { index, to, shift });
+                }
+            }
+        }
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::Boundary;
+    use crate::random::Rng;
+
+    #[test]
+    fn grids_minimise_the_surface() {
+        let cube = Domain::periodic([10.0; 3]).unwrap();
+        assert_eq!(Decomposition::new(cube, 1).grid, [1, 1, 1]);
+        assert_eq!(Decomposition::new(cube, 2).grid, [2, 1, 1]);
+        assert_eq!(Decomposition::new(cube, 4).grid, [2, 2, 1]);
+        assert_eq!(Decomposition::new(cube, 8).grid, [2, 2, 2]);
+        assert_eq!(Decomposition::new(cube, 12).grid, [3, 2, 2]);
+        // a long box is cut along its long side
+        let slab = Domain::periodic([40.0, 10.0, 10.0]).unwrap();
+        assert_eq!(Decomposition::new(slab, 4).grid, [4, 1, 1]);
+        let plane = Domain::periodic([10.0, 10.0]).unwrap();
+        assert_eq!(Decomposition::new(plane, 6).grid, [3, 2]);
+        assert_eq!(Decomposition::new(plane, 7).grid, [7, 1]);
+    }
+
+    #[test]
+    fn ranks_and_coordinates_round_trip() {
+        let d = Decomposition::new(Domain::periodic([6.0, 4.0, 2.0]).unwrap(), 12);
+        for r in 0..d.ranks() {
+            assert_eq!(d.rank_at(d.coords(r)), r);
+            let (lo, hi) = d.bounds(r);
+            let middle = std::array::from_fn(|k| 0.5 * (lo[k] + hi[k]));
+            assert_eq!(d.owner(&middle), r);
+        }
+    }
+
+    #[test]
+    fn thin_subdomains_are_refused() {
+        let d = Decomposition::new(Domain::periodic([10.0, 10.0, 10.0]).unwrap(), 8);
+        assert!(d.check_reach(5.0).is_ok());
+        let e = d.check_reach(5.5).unwrap_err();
+        assert!(e.contains("thinner than the cutoff + skin 5.5"), "{e}");
+    }
+
+    /// Every rank's ghosts, played in one process, against brute force: a rank
+    /// receives exactly the images of other ranks' particles (and its own shifted
+    /// ones) that lie in the shell of width `reach` around its subdomain.
+    fn check_ghosts<const D: usize>(domain: Domain<D>, ranks: usize, reach: f64, n: usize) {
+        let d = Decomposition::new(domain, ranks);
+        d.check_reach(reach).unwrap();
+        let mut rng = Rng::new(ranks as u64 * 31 + D as u64);
+        let mut points: Vec<[f64; D]> = (0..n)
+            .map(|_| std::array::from_fn(|k| domain.lo[k] + rng.uniform() * domain.length[k]))
+            .collect();
+        // a point on the faces between subdomains (wrapped: on one rank it is
+        // the box's upper face, the lower one of its periodic axes)
+        let w = d.width();
+        points.push(domain.wrap(std::array::from_fn(|k| domain.lo[k] + w[k])));
+        let owner: Vec<usize> = points.iter().map(|x| d.owner(x)).collect();
+        let periodic: [bool; D] = std::array::from_fn(|k| domain.is_periodic(k));
+        for to in 0..ranks {
+            let (lo, hi) = d.bounds(to);
+            let mut got: Vec<(usize, Vec<i64>)> = Vec::new();
+            for from in 0..ranks {
+                let mine: Vec<usize> = (0..points.len()).filter(|&i| owner[i] == from).collect();
+                let local: Vec<[f64; D]> = mine.iter().map(|&i| points[i]).collect();
+                for g in d
+                    .ghosts(from, &local, reach)
+                    .into_iter()
+                    .filter(|g| g.to == to)
+                {
+                    let image = (0..D)
+                        .map(|k| (g.shift[k] / domain.length[k]).round() as i64)
+                        .collect();
+                    got.push((mine[g.index], image));
+                }
+            }
+            let mut expected = Vec::new();
+            for (i, x) in points.iter().enumerate() {
+                for code in 0..3usize.pow(D as u32) {
+                    let m: [i64; D] =
+                        std::array::from_fn(|k| (code / 3usize.pow(k as u32) % 3) as i64 - 1);
+                    if (0..D).any(|k| m[k] != 0 && !periodic[k]) {
+                        continue;
+                    }
+                    let y: [f64; D] =
+                        std::array::from_fn(|k| x[k] + m[k] as f64 * domain.length[k]);
+                    let inside = (0..D).all(|k| y[k] >= lo[k] && y[k] < hi[k]);
+                    let shell = (0..D).all(|k| y[k] >= lo[k] - reach && y[k] <= hi[k] + reach);
+                    if shell && !inside {
+                        expected.push((i, m.to_vec()));
+                    }
+                }
+            }
+            got.sort();
+            expected.sort();
+            assert_eq!(got, expected, "rank {to} of {ranks}");
+        }
+    }
+
+    #[test]
+    fn ghosts_are_the_shell_around_each_subdomain() {
+        for ranks in [1, 2, 3, 4, 6, 8] {
+            check_ghosts(
+                Domain::periodic([10.0, 12.0, 9.0]).unwrap(),
+                ranks,
+                1.7,
+                400,
+            );
+        }
+        for ranks in [1, 2, 4, 5] {
+            check_ghosts(Domain::periodic([11.0, 7.0]).unwrap(), ranks, 1.3, 300);
+        }
+        let mixed = Domain::new([10.0, 10.0], [Boundary::Periodic, Boundary::Open]).unwrap();
+        for ranks in [1, 2, 4] {
+            check_ghosts(mixed, ranks, 1.5, 300);
+        }
+    }
+}
