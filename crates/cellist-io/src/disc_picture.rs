@@ -274,26 +274,12 @@ impl io::Write for AtomicFile {
     }
 }
 
-/// Writes one frame (indices into `palette`, `size^2`) as an indexed PNG.
-pub fn write_png(path: &Path, size: u32, pixels: &[u8], palette: &[u8]) -> io::Result<()> {
-    let mut file = AtomicFile::create(path)?;
-    {
-        let mut encoder = png::Encoder::new(file.writer(), size, size);
-        encoder.set_color(png::ColorType::Indexed);
-        encoder.set_depth(png::BitDepth::Eight);
-        encoder.set_palette(palette);
-        let mut writer = encoder.write_header().map_err(io::Error::other)?;
-        writer.write_image_data(pixels).map_err(io::Error::other)?;
-    }
-    file.commit()
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
 
     #[test]
-    fn draws_a_disc_in_its_speed_colour_and_writes_both_files() {
+    fn draws_a_disc_in_its_speed_colour_and_animates_it() {
         let mut painter = DiscPainter::new(100, 10.0, 1.0, 2.0);
         let pixels = painter.render(&[5.0], &[5.0], &[[2.0, 0.0]]).to_vec();
         let centre = 50 * 100 + 50;
@@ -311,9 +297,6 @@ mod tests {
         gif.add_frame(&far, 5).unwrap();
         gif.finish().unwrap();
         assert_eq!(&std::fs::read(&gif_path).unwrap()[..6], b"GIF89a");
-        let png_path = dir.path().join("a.png");
-        write_png(&png_path, 100, &pixels, &DiscPainter::palette()).unwrap();
-        assert_eq!(&std::fs::read(&png_path).unwrap()[1..4], b"PNG");
         assert_eq!(DiscPainter::palette().len(), 768);
     }
 }

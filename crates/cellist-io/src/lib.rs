@@ -31,7 +31,7 @@ pub use bodies::{parse_bodies, read_bodies, BodyFile};
 pub use body_picture::{body_chart, BodyChart, Plane};
 pub use chart_gif::ChartPalette;
 pub use checkpoint::{read_checkpoint, write_checkpoint, Checkpoint};
-pub use disc_picture::{write_png, DiscPainter, GifAnimation};
+pub use disc_picture::{DiscPainter, GifAnimation};
 pub use dump::{write_lammps_frame, write_xyz_frame, Frame, DUMP_COLUMNS, GRAVITY_DUMP_COLUMNS};
 pub use error::InputError;
 pub use field_chart::{field_chart, palette_rgb, write_chart, FieldChart};

@@ -1,5 +1,6 @@
 //! The keys the models whose particles carry a field (`pse`, `vortex`) share:
-//! `[run]` (steps, dt, a Runge-Kutta integrator) and `[output]` (thermo, field
+//! the top level ([`FieldScenario`]: the model, the dimension and the model's own
+//! `[system]`), `[run]` (steps, dt, a Runge-Kutta integrator) and `[output]` (thermo, field
 //! CSV snapshots, PNG pictures, the GIF animation, the picture size and
 //! checkpoints), with their defaults and checks.
 
@@ -8,6 +9,29 @@ use crate::observers::Every;
 use cellist::models::pse::Integrator;
 use serde::Deserialize;
 use std::path::PathBuf;
+
+/// A field model's scenario: `model`, `dimension` (default 2), the model's
+/// `[system]` keys `S`, and the shared `[run]` and `[output]`.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FieldScenario<S> {
+    /// The model's name.
+    pub model: String,
+    /// 2 or 3.
+    #[serde(default = "two")]
+    pub dimension: u64,
+    /// The model's own keys.
+    pub system: S,
+    /// `[run]`.
+    pub run: RunKeys,
+    /// `[output]`.
+    #[serde(default)]
+    pub output: FieldOutputKeys,
+}
+
+fn two() -> u64 {
+    2
+}
 
 /// `[run]` of a field model.
 #[derive(Deserialize)]

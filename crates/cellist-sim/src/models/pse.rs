@@ -4,7 +4,7 @@
 
 use crate::driver::{CheckpointKeys, Job, LastFrame};
 use crate::error::SimResult;
-use crate::models::field_output::{FieldOutputKeys, RunKeys};
+use crate::models::field_output::FieldScenario;
 use crate::observers::{ChartLabels, Every, FieldPlan, OutputPlan, PlotSpec, TableStyle};
 use crate::scenario::Scenario;
 use crate::{RunContext, RunSummary};
@@ -18,21 +18,7 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 /// The keys of a pse scenario.
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct PseScenario {
-    model: String,
-    #[serde(default = "two")]
-    dimension: u64,
-    system: SystemKeys,
-    run: RunKeys,
-    #[serde(default)]
-    output: FieldOutputKeys,
-}
-
-fn two() -> u64 {
-    2
-}
+type PseScenario = FieldScenario<SystemKeys>;
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]

@@ -5,7 +5,7 @@
 
 use crate::driver::{Job, LastFrame};
 use crate::error::SimResult;
-use crate::models::field_output::{FieldOutputKeys, RunKeys};
+use crate::models::field_output::FieldScenario;
 use crate::observers::{ChartLabels, FieldPlan, OutputPlan, PlotSpec, TableStyle};
 use crate::scenario::Scenario;
 use crate::{RunContext, RunSummary};
@@ -19,21 +19,7 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 /// The keys of a vortex scenario.
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct VortexScenario {
-    model: String,
-    #[serde(default = "two")]
-    dimension: u64,
-    system: SystemKeys,
-    run: RunKeys,
-    #[serde(default)]
-    output: FieldOutputKeys,
-}
-
-fn two() -> u64 {
-    2
-}
+type VortexScenario = FieldScenario<SystemKeys>;
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]

@@ -296,7 +296,7 @@ mod tests {
             for n in [100, 1000, 10000] {
                 rows.push((
                     vec![n.to_string(), cells.to_string()],
-                    vec![n as f64 * 1e-6, 1.0],
+                    vec![n as f64 / 1024.0, 1.0],
                 ));
             }
         }
@@ -327,8 +327,8 @@ mod tests {
         let lines: Vec<&str> = text.lines().collect();
         assert_eq!(lines.len(), 7);
         assert_eq!(lines[0], "system.n,system.cells,time,etotal");
-        // 100 * 1e-6 is not 1e-4 in binary: %.17g shows it
-        assert_eq!(lines[1], "100,\"[4,4,4]\",9.9999999999999991e-05,1");
+        // 100 / 1024 = 0.09765625 exactly; the list value is quoted
+        assert_eq!(lines[1], "100,\"[4,4,4]\",0.09765625,1");
     }
 
     #[test]
