@@ -5,6 +5,7 @@
 //! module.
 #![warn(missing_docs)]
 
+pub mod bench;
 pub mod billiards;
 #[cfg(feature = "mpi")]
 pub mod distributed;

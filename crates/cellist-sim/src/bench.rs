@@ -1,0 +1,137 @@
+//! Benchmark workloads that the command line times and prints: built and
+//! measured here, so that the CLI only parses and prints.
+
+use crate::error::{SimError, SimResult};
+use crate::study::median;
+use cellist::longrange::biot_savart::velocity_at;
+use cellist::longrange::mesh::MAX_VIC_GRID;
+use cellist::longrange::{BlobKernel, TreeParams, VicBoundary, VicParams};
+use cellist::models::vortex::{seed, InitialVorticity, VelocityEngine, VelocitySolver};
+use cellist::Threads;
+use std::time::Instant;
+
+/// The most particles the vortex benchmark seeds.
+const MAX_VORTEX_PARTICLES: usize = 20_000_000;
+
+/// The velocity solver of the vortex benchmark and its settings.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum VortexBenchSolver {
+    /// All pairs, exact.
+    Direct,
+    /// The Barnes-Hut tree with this opening angle.
+    BarnesHut {
+        /// Opening angle.
+        theta: f64,
+    },
+    /// Vortex-in-cell on a mesh of this many nodes a side (default: the smallest
+    /// power of two at least as fine as the particle lattice, with a margin).
+    Mesh {
+        /// Nodes per axis.
+        grid: Option<usize>,
+    },
+}
+
+/// What the vortex benchmark measured.
+#[derive(Clone, Debug)]
+pub struct VortexBench {
+    /// The solver, with its settings, for messages.
+    pub solver: String,
+    /// Particles (a square lattice).
+    pub n: usize,
+    /// Lattice spacing `h` (the blobs' core is `1.5 h`).
+    pub spacing: f64,
+    /// Median seconds per velocity evaluation.
+    pub seconds: f64,
+    /// Target particles the error was measured on.
+    pub targets: usize,
+    /// `sqrt(sum |u - u_direct|^2 / sum |u_direct|^2)` over the targets.
+    pub rms_relative_error: f64,
+    /// The largest `|u - u_direct|` over the largest `|u_direct|`.
+    pub max_error_over_peak_speed: f64,
+}
+
+/// Two Gaussian vortices on a lattice of about `n` particles over `[-1, 1]^2`
+/// (`sigma = 1.5 h`): the median time of `repeat` velocity evaluations by
+/// `solver` (after an untimed one that builds its tables) and the error against
+/// the one-sided direct sum on `sample` evenly spread targets.
+pub fn vortex(
+    solver: VortexBenchSolver,
+    n: usize,
+    repeat: usize,
+    sample: usize,
+    threads: &Threads,
+) -> SimResult<VortexBench> {
+    if !(4..=MAX_VORTEX_PARTICLES).contains(&n) {
+        return Err(SimError::Input(format!(
+            "--n must be in 4..={MAX_VORTEX_PARTICLES}, got {n}"
+        )));
+    }
+    if repeat == 0 || sample == 0 {
+        return Err(SimError::Input(
+            "--repeat and --sample must be at least 1".into(),
+        ));
+    }
+    // a lattice of (2 m + 1)^2 nodes over [-1, 1]^2 with two Gaussian vortices
+    let m = (((n as f64).sqrt() - 1.0) / 2.0).round().max(1.0) as usize;
+    let h = 1.0 / m as f64;
+    let field = InitialVorticity::Pair {
+        circulation: 1.0,
+        separation: 0.6,
+        core: 0.15,
+    };
+    let (positions, gamma) = seed(&field, [0.0, 0.0], h, 1.0);
+    let n = positions.len();
+    let kernel = BlobKernel::new(1.5 * h);
+    let (kind, name) = match solver {
+        VortexBenchSolver::Direct => (VelocitySolver::Direct, "direct".to_string()),
+        VortexBenchSolver::BarnesHut { theta } => (
+            VelocitySolver::BarnesHut(TreeParams {
+                theta,
+                ..TreeParams::default()
+            }),
+            format!("barnes-hut (theta {theta})"),
+        ),
+        VortexBenchSolver::Mesh { grid } => {
+            // the particle lattice has 2 m + 1 nodes a side; the mesh adds a margin
+            let grid = grid.unwrap_or_else(|| (2 * m + 8).next_power_of_two().min(MAX_VIC_GRID));
+            let params = VicParams {
+                grid,
+                boundary: VicBoundary::Unbounded,
+            };
+            (
+                VelocitySolver::Mesh(params),
+                format!("mesh (grid {grid}^2)"),
+            )
+        }
+    };
+    let mut engine = VelocityEngine::new(kind, kernel, n).map_err(SimError::Input)?;
+    let mut velocity = vec![[0.0; 2]; n];
+    let mut samples = Vec::with_capacity(repeat + 1);
+    for _ in 0..=repeat {
+        let start = Instant::now();
+        engine.compute(&positions, &gamma, &mut velocity, threads);
+        samples.push(start.elapsed().as_secs_f64());
+    }
+    // the error on evenly spread targets against the one-sided direct sum
+    let stride = n.div_ceil(sample.min(n));
+    let targets: Vec<usize> = (0..n).step_by(stride).collect();
+    let points: Vec<[f64; 2]> = targets.iter().map(|&i| positions[i]).collect();
+    let exact = velocity_at(&kernel, &points, &positions, &gamma, threads);
+    let (mut err2, mut norm2, mut max_err, mut max_speed) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
+    for (&i, e) in targets.iter().zip(&exact) {
+        let d = (velocity[i][0] - e[0]).hypot(velocity[i][1] - e[1]);
+        err2 += d * d;
+        norm2 += e[0] * e[0] + e[1] * e[1];
+        max_err = max_err.max(d);
+        max_speed = max_speed.max(e[0].hypot(e[1]));
+    }
+    Ok(VortexBench {
+        solver: name,
+        n,
+        spacing: h,
+        seconds: median(&samples[1..]),
+        targets: targets.len(),
+        rms_relative_error: (err2 / norm2).sqrt(),
+        max_error_over_peak_speed: max_err / max_speed,
+    })
+}
