@@ -144,7 +144,8 @@ side.";
 pub struct RunArgs {
     /// Scenario file (TOML). Without one, the built-in LJ melt runs.
     pub scenario: Option<PathBuf>,
-    /// Worker threads (default: every core).
+    /// Worker threads (default: every core; under mpirun, the cores shared
+    /// among the ranks on this machine).
     #[arg(long)]
     pub threads: Option<usize>,
     /// Output folder (default: out/<scenario name>/).

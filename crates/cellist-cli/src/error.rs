@@ -76,10 +76,20 @@ pub fn threads(requested: Option<usize>) -> CliResult<cellist::Threads> {
     let count = match requested {
         Some(0) => return Err(CliError::Input("--threads must be at least 1".into())),
         Some(n) => n,
-        None => cellist_sim::study::cores(),
+        None => (cellist_sim::study::cores() / ranks_on_this_machine()).max(1),
     };
     cellist::Threads::new(count)
         .map_err(|e| CliError::Input(format!("cannot start {count} threads: {e}")))
+}
+
+/// The MPI ranks started on this machine, as Open MPI or MPICH tell them (1
+/// outside mpirun): ranks on one machine share its cores.
+fn ranks_on_this_machine() -> usize {
+    ["OMPI_COMM_WORLD_LOCAL_SIZE", "MPI_LOCALNRANKS"]
+        .iter()
+        .find_map(|k| std::env::var(k).ok()?.parse().ok())
+        .unwrap_or(1usize)
+        .max(1)
 }
 
 /// Checks a `--cutoff` value.

@@ -52,16 +52,18 @@ fn main() -> ExitCode {
             ExitCode::from(1)
         }
         Err(e) => {
-            eprintln!("error: {e}");
+            if !silent_rank() {
+                eprintln!("error: {e}");
+            }
             ExitCode::from(e.exit_code())
         }
     }
 }
 
 /// With the `mpi` feature: MPI starts once for the process. On one rank every
-/// command runs as without MPI; on several, `cellist run` is refused with one
-/// message from rank 0 (no model is distributed yet) and every other command
-/// too, every rank exiting with status 2.
+/// command runs as without MPI; on several, `cellist run` runs the models that
+/// are distributed and refuses the others with one message from rank 0, and
+/// every other command is refused too, every rank exiting with status 2.
 #[cfg(feature = "mpi")]
 fn distributed(cli: &Cli) -> Result<Option<cellist_sim::distributed::Cluster>, ExitCode> {
     let Some(cluster) = cellist_sim::distributed::Cluster::start() else {
@@ -71,9 +73,10 @@ fn distributed(cli: &Cli) -> Result<Option<cellist_sim::distributed::Cluster>, E
         return Ok(Some(cluster));
     }
     let message = match &cli.command {
-        Command::Run(args) => cluster
-            .refuse_run(args.scenario.as_deref(), &args.set)
-            .to_string(),
+        Command::Run(args) => match cluster.refuse_run(args.scenario.as_deref(), &args.set) {
+            None => return Ok(Some(cluster)),
+            Some(e) => e.to_string(),
+        },
         _ => "only `cellist run` runs on several MPI ranks; run this command without mpirun"
             .to_string(),
     };
@@ -81,4 +84,17 @@ fn distributed(cli: &Cli) -> Result<Option<cellist_sim::distributed::Cluster>, E
         eprintln!("error: {message}");
     }
     Err(ExitCode::from(2))
+}
+
+/// True on every rank but rank 0 of a run on several MPI ranks: errors are
+/// agreed between the ranks, and rank 0 prints them.
+fn silent_rank() -> bool {
+    #[cfg(feature = "mpi")]
+    {
+        cellist_sim::distributed::rank_of_many().is_some_and(|rank| rank != 0)
+    }
+    #[cfg(not(feature = "mpi"))]
+    {
+        false
+    }
 }

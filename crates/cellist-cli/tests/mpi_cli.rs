@@ -1,13 +1,17 @@
 //! MPI test of the command line (feature `mpi`; its own binary, run directly,
 //! not under mpirun: it starts `mpirun` itself). `cellist run` on one rank is
-//! the plain run; on several ranks it stops with one message from rank 0 and a
-//! non-zero status on every rank, never a hang. Ends with `N passed, N failed`.
+//! the plain run; md on 2, 3 and 4 ranks gives the dumps of the plain run
+//! within 1e-10 after 100 steps (and the same bytes on 2 and 4 ranks), a 4-rank
+//! checkpoint continues in one process and on 2 ranks like the uninterrupted
+//! run; bad input, a thin subdomain, a model not distributed and a blow-up
+//! stop every rank with one message from rank 0 and a non-zero status, never
+//! a hang. Ends with `N passed, N failed`.
 //!
 //! ```text
 //! cargo test --release -p cellist-cli --features mpi --test mpi_cli
 //! ```
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 mod common;
 use common::example;
@@ -64,6 +68,220 @@ fn one_rank_is_the_plain_run(dir: &Path) -> Result<(), String> {
     Ok(())
 }
 
+/// A small LJ melt (2048 atoms, 100 steps) whose dump at step 100 holds
+/// positions, velocities and forces, written as `dir/melt.toml`.
+fn melt_scenario(dir: &Path) -> String {
+    let path = dir.join("melt.toml");
+    std::fs::write(
+        &path,
+        r#"model = "md"
+[system]
+lattice = { kind = "fcc", density = 0.8442, cells = [8, 8, 8] }
+velocity = { temperature = 3.0, seed = 87287 }
+[pair]
+cutoff = 2.5
+shift = true
+[run]
+steps = 100
+[output]
+thermo_every = 20
+dump = { every = 50, file = "melt.dump", columns = ["id", "x", "y", "z", "vx", "vy", "vz", "fx", "fy", "fz"] }
+checkpoint = { every = 50 }
+"#,
+    )
+    .expect("write the scenario");
+    path.display().to_string()
+}
+
+/// A small PSE run (128^2 particles, 100 RK4 steps) whose field at step 100
+/// is `field_100.csv`, written as `dir/pse.toml`.
+fn pse_scenario(dir: &Path) -> String {
+    let path = dir.join("pse.toml");
+    std::fs::write(
+        &path,
+        r#"model = "pse"
+dimension = 2
+[system]
+lattice = { n = 128 }
+nu = 1.0
+epsilon = 0.01171875
+cutoff_factor = 5.0
+method = "cell-list"
+initial = { kind = "gaussian", center = [0.5, 0.5], width = 0.05 }
+[run]
+steps = 100
+dt = 8e-6
+integrator = "rk4"
+[output]
+thermo_every = 20
+field = { every = 50, file = "field.csv" }
+checkpoint = { every = 50 }
+"#,
+    )
+    .expect("write the scenario");
+    path.display().to_string()
+}
+
+/// `cellist run ARGS` in one process.
+fn plain(args: &[&str]) -> Result<(), String> {
+    let o = Command::new(env!("CARGO_BIN_EXE_cellist"))
+        .args(args)
+        .output()
+        .map_err(|e| e.to_string())?;
+    if o.status.success() {
+        Ok(())
+    } else {
+        Err(format!(
+            "the plain run {args:?} failed: {}",
+            String::from_utf8_lossy(&o.stderr)
+        ))
+    }
+}
+
+/// `mpirun -np RANKS cellist ARGS`, which must succeed.
+fn distributed(ranks: usize, args: &[&str]) -> Result<(), String> {
+    let o = mpirun(ranks, args)?;
+    if o.status.success() {
+        Ok(())
+    } else {
+        Err(format!(
+            "-np {ranks} {args:?} failed: {}",
+            String::from_utf8_lossy(&o.stderr)
+        ))
+    }
+}
+
+/// The largest difference between the numbers of two dumps, which must have
+/// the same lines with the same words where they are not numbers.
+fn dump_difference(a: &Path, b: &Path) -> Result<f64, String> {
+    let read = |p: &Path| std::fs::read_to_string(p).map_err(|e| format!("{}: {e}", p.display()));
+    let (a, b) = (read(a)?, read(b)?);
+    if a.lines().count() != b.lines().count() {
+        return Err("the dumps have different numbers of lines".into());
+    }
+    let words = |line: &str| -> Vec<String> {
+        line.split([' ', ','])
+            .filter(|w| !w.is_empty())
+            .map(String::from)
+            .collect()
+    };
+    let mut most = 0.0f64;
+    for (x, y) in a.lines().zip(b.lines()) {
+        let (wx, wy) = (words(x), words(y));
+        if wx.len() != wy.len() {
+            return Err(format!("lines differ: `{x}` and `{y}`"));
+        }
+        for (u, v) in wx.iter().zip(&wy) {
+            match (u.parse::<f64>(), v.parse::<f64>()) {
+                (Ok(p), Ok(q)) if p == q => {}
+                // a NaN on either side counts as an infinite difference
+                (Ok(p), Ok(q)) => {
+                    most = most.max((p - q).abs()).max(if (p - q).is_nan() {
+                        f64::INFINITY
+                    } else {
+                        0.0
+                    })
+                }
+                _ if u == v => {}
+                _ => return Err(format!("lines differ: `{x}` and `{y}`")),
+            }
+        }
+    }
+    Ok(most)
+}
+
+/// `scenario` (of `model`, writing `file`) on 1 to 4 ranks against the plain
+/// run: within 1e-10, and the same bytes on 2 and 4 ranks.
+fn distributed_runs_match_the_plain_run(
+    dir: &Path,
+    model: &str,
+    scenario: &str,
+    file: &str,
+) -> Result<(), String> {
+    let out = |name: &str| dir.join(format!("{model}-{name}"));
+    let text = |p: PathBuf| p.display().to_string();
+    plain(&["run", scenario, "--out", &text(out("plain"))])?;
+    for ranks in [1, 2, 3, 4] {
+        let name = format!("np{ranks}");
+        distributed(ranks, &["run", scenario, "--out", &text(out(&name))])?;
+        let d = dump_difference(&out("plain").join(file), &out(&name).join(file))?;
+        if d > 1e-10 {
+            return Err(format!(
+                "-np {ranks}: {file} differs from the plain run by {d:e}"
+            ));
+        }
+    }
+    let two = std::fs::read(out("np2").join(file)).map_err(|e| e.to_string())?;
+    let four = std::fs::read(out("np4").join(file)).map_err(|e| e.to_string())?;
+    if two != four {
+        return Err(format!("{file} of 2 and 4 ranks are not the same bytes"));
+    }
+    Ok(())
+}
+
+/// A checkpoint of `scenario` written at step 50 of 100 on 4 ranks, continued
+/// in one process and on 2 ranks: `file` within 1e-10 of the uninterrupted run.
+fn four_rank_checkpoint_continues(
+    dir: &Path,
+    model: &str,
+    scenario: &str,
+    file: &str,
+) -> Result<(), String> {
+    let out = |name: &str| dir.join(format!("{model}-{name}"));
+    let text = |p: PathBuf| p.display().to_string();
+    plain(&["run", scenario, "--out", &text(out("whole"))])?;
+    for (ranks, name) in [(1usize, "restart-plain"), (2, "restart-np2")] {
+        let folder = text(out(name));
+        distributed(
+            4,
+            &["run", scenario, "--set", "run.steps=50", "--out", &folder],
+        )?;
+        let checkpoint = text(out(name).join("state.ckpt"));
+        let args = ["run", scenario, "--restart", &checkpoint, "--out", &folder];
+        if ranks == 1 {
+            plain(&args)?;
+        } else {
+            distributed(ranks, &args)?;
+        }
+        let d = dump_difference(&out("whole").join(file), &out(name).join(file))?;
+        if d > 1e-10 {
+            return Err(format!(
+                "restarted on {ranks} rank(s) from 4: {file} differs from the uninterrupted run by {d:e}"
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// A blow-up on some rank stops every rank: status 3, one message, the last
+/// good frame written by rank 0.
+fn blowup_stops_every_rank(dir: &Path) -> Result<(), String> {
+    let scenario = melt_scenario(dir);
+    let out = dir.join("blowup");
+    let o = mpirun(
+        4,
+        &[
+            "run",
+            &scenario,
+            "--set",
+            "run.dt=0.5",
+            "--out",
+            out.to_str().unwrap(),
+        ],
+    )?;
+    let err = String::from_utf8_lossy(&o.stderr);
+    let lines = err.lines().filter(|l| l.starts_with("error: ")).count();
+    if o.status.success() || lines != 1 || !err.contains("last good state") {
+        return Err(format!(
+            "expected one `error: ... last good state ...` line:\n{err}"
+        ));
+    }
+    if !out.join("last.lammpstrj").exists() {
+        return Err("no last.lammpstrj".into());
+    }
+    Ok(())
+}
+
 /// Several ranks: a non-zero status and `expected` once on standard error.
 fn refused_once(ranks: usize, args: &[&str], expected: &str) -> Result<(), String> {
     let o = mpirun(ranks, args)?;
@@ -82,11 +300,41 @@ fn refused_once(ranks: usize, args: &[&str], expected: &str) -> Result<(), Strin
 
 fn main() {
     let dir = tempfile::tempdir().expect("a temporary folder");
-    let scenario = example("lj-melt.toml");
+    let scenario = example("vortex-pair.toml");
+    let melt = melt_scenario(dir.path());
+    let pse = pse_scenario(dir.path());
     let cases: Vec<(&str, Result<(), String>)> = vec![
         (
             "-np 1 writes the bytes of the plain run",
             one_rank_is_the_plain_run(dir.path()),
+        ),
+        (
+            "md on 1 to 4 ranks: the dumps of the plain run within 1e-10",
+            distributed_runs_match_the_plain_run(dir.path(), "md", &melt, "melt.dump"),
+        ),
+        (
+            "pse on 1 to 4 ranks: the fields of the plain run within 1e-10",
+            distributed_runs_match_the_plain_run(dir.path(), "pse", &pse, "field_100.csv"),
+        ),
+        (
+            "md: a 4-rank checkpoint continues in one process and on 2 ranks",
+            four_rank_checkpoint_continues(dir.path(), "md", &melt, "melt.dump"),
+        ),
+        (
+            "pse: a 4-rank checkpoint continues in one process and on 2 ranks",
+            four_rank_checkpoint_continues(dir.path(), "pse", &pse, "field_100.csv"),
+        ),
+        (
+            "-np 4: a blow-up stops every rank with one message",
+            blowup_stops_every_rank(dir.path()),
+        ),
+        (
+            "-np 3: a subdomain thinner than cutoff + skin, one message",
+            refused_once(
+                3,
+                &["run", &melt, "--set", "pair.cutoff=4.5"],
+                "thinner than the cutoff + skin",
+            ),
         ),
         (
             "-np 2: a model not distributed yet, one message",

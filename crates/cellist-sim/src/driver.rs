@@ -216,7 +216,13 @@ impl<M: Model> Job<M> {
         let mut good = self.snapshot(first, &mut observers)?;
         let loop_start = Instant::now();
         for step in first + 1..=last {
-            let observe = observers.iter().any(|o| o.needs_observables(step, last));
+            let checkpoint = self
+                .checkpoint
+                .as_ref()
+                .is_some_and(|c| step % c.every == 0 || step == last);
+            let observe = observers.iter().any(|o| o.needs_observables(step, last))
+                || (self.model.observe_when_due()
+                    && (checkpoint || observers.iter().any(|o| o.due(step, last))));
             let stepped = self
                 .model
                 .step(step, observe, threads)
@@ -226,27 +232,8 @@ impl<M: Model> Job<M> {
                 return Err(self.blow_up(blowup, good, &mut observers, threads));
             }
             let t = Instant::now();
-            let mut fired = false;
-            for o in observers.iter_mut().filter(|o| o.due(step, last)) {
-                o.observe(&self.model, step, last, &bar)?;
-                fired = true;
-            }
-            let checkpoint = self
-                .checkpoint
-                .as_ref()
-                .is_some_and(|c| step % c.every == 0 || step == last);
-            if fired || checkpoint {
-                good = self.snapshot(step, &mut observers)?;
-            }
-            if checkpoint {
-                let file = self
-                    .checkpoint
-                    .as_ref()
-                    .expect("checkpoint keys")
-                    .file
-                    .clone();
-                self.write_checkpoint(&file, &good)?;
-            }
+            let written = self.output(step, last, checkpoint, &mut observers, &bar, &mut good);
+            agreed(&self.model, written)?;
             output += t.elapsed();
             bar.inc(1);
         }
@@ -266,6 +253,37 @@ impl<M: Model> Job<M> {
             output_time: output,
             thermo,
         })
+    }
+
+    /// Runs the observers due at `step`, keeps the state as the last good one if
+    /// one fired or a checkpoint is due, and writes the checkpoint.
+    fn output(
+        &mut self,
+        step: u64,
+        last: u64,
+        checkpoint: bool,
+        observers: &mut [Box<dyn Observer<M>>],
+        bar: &ProgressBar,
+        good: &mut Snapshot,
+    ) -> SimResult {
+        let mut fired = false;
+        for o in observers.iter_mut().filter(|o| o.due(step, last)) {
+            o.observe(&self.model, step, last, bar)?;
+            fired = true;
+        }
+        if fired || checkpoint {
+            *good = self.snapshot(step, observers)?;
+        }
+        if checkpoint && self.model.writes_output() {
+            let file = self
+                .checkpoint
+                .as_ref()
+                .expect("checkpoint keys")
+                .file
+                .clone();
+            self.write_checkpoint(&file, good)?;
+        }
+        Ok(())
     }
 
     fn snapshot(&self, step: u64, observers: &mut [Box<dyn Observer<M>>]) -> SimResult<Snapshot> {
@@ -310,6 +328,9 @@ impl<M: Model> Job<M> {
             }
         }
         let mut written = Vec::new();
+        if !self.model.writes_output() {
+            return SimError::BlowUp(format!("{blowup}"));
+        }
         match self.model.restore(&good.state, threads) {
             Ok(()) => {
                 match self.write_last_frame(good.step) {
@@ -362,6 +383,16 @@ impl<M: Model> Job<M> {
                 Ok(path.display().to_string())
             }
         }
+    }
+}
+
+/// `result` made one for every rank of a distributed model: a rank that did
+/// not fail returns the failure of the lowest rank that did.
+pub(crate) fn agreed<M: Model, T>(model: &M, result: SimResult<T>) -> SimResult<T> {
+    let failure = result.as_ref().err().map(ToString::to_string);
+    match (model.agree(failure), result) {
+        (Some(message), Ok(_)) => Err(SimError::Input(message)),
+        (_, result) => result,
     }
 }
 

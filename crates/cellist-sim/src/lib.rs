@@ -192,16 +192,24 @@ pub(crate) fn execute<M: Model + 'static>(
                 threads,
             )
         })
-        .transpose()?;
+        .transpose();
+    let checkpoint = driver::agreed(&job.model, checkpoint)?;
     let dir = job.dir.clone();
-    std::fs::create_dir_all(&dir).map_err(SimError::output(format!("folder {}", dir.display())))?;
     let first = checkpoint.as_ref().map_or(0, |c| c.step);
     if let Some(path) = restart {
         context.say(format!("restart: from step {first} of {}", path.display()));
     }
-    let mut plan = plan.clone();
-    plan.quiet = context.quiet;
-    let observers = plan.observers(&job.model, &dir, recorded(checkpoint.as_ref()))?;
+    let writer = job.model.writes_output();
+    let observers = if writer {
+        let mut plan = plan.clone();
+        plan.quiet = context.quiet;
+        std::fs::create_dir_all(&dir)
+            .map_err(SimError::output(format!("folder {}", dir.display())))
+            .and_then(|()| plan.observers(&job.model, &dir, recorded(checkpoint.as_ref())))
+    } else {
+        Ok(Vec::new())
+    };
+    let observers = driver::agreed(&job.model, observers)?;
     let last = job.steps;
     let report = job.run(checkpoint.as_ref(), observers, threads, context.quiet)?;
     let model = &report.model;

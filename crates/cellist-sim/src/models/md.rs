@@ -13,6 +13,7 @@ use cellist::models::md::{
     create_velocities, lattice, Atoms, Integrator, Langevin, LatticeKind, MdModel, MdSystem,
     VelocityDistribution,
 };
+use cellist::models::Model;
 use cellist_io::{read_data, DUMP_COLUMNS};
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
@@ -206,16 +207,48 @@ fn run_in<const D: usize>(
     keys: &MdScenario,
     context: &RunContext,
 ) -> SimResult<RunSummary> {
-    let (threads, out_dir) = (context.threads, &context.out_dir);
+    let threads = context.threads;
     let mut setup = build::<D>(scenario, keys)?;
     let started = Instant::now();
     let atoms = std::mem::take(&mut setup.atoms);
+    #[cfg(feature = "mpi")]
+    if let Some(world) = crate::distributed::world_of_many() {
+        use crate::distributed::md::DistributedMd;
+        let model = DistributedMd::new(
+            world,
+            setup.domain,
+            atoms,
+            setup.potential,
+            setup.skin,
+            setup.integrator,
+            setup.dt,
+            setup.z_bounds,
+            threads,
+        )
+        .map_err(|e| scenario.error(e))?;
+        let silent = crate::distributed::rank_context(context);
+        let context = silent.as_ref().unwrap_or(context);
+        print_header(&setup, model.total(), context);
+        context.say(model.describe());
+        for note in &setup.notes {
+            context.warn(note);
+        }
+        let job = job_of(model, &setup, scenario, context)?;
+        return crate::execute(job, &output_plan(&setup), context, started);
+    }
     let system = MdSystem::new(setup.domain, atoms, setup.potential, setup.skin, threads)
         .map_err(|e| scenario.error(e))?;
-    print_header(&setup, &system, context);
+    print_header(&setup, system.atoms().len(), context);
     for note in &setup.notes {
         context.warn(note);
     }
+    let model = MdModel::new(system, setup.integrator, setup.dt, setup.z_bounds);
+    let job = job_of(model, &setup, scenario, context)?;
+    crate::execute(job, &output_plan(&setup), context, started)
+}
+
+/// The outputs of an md run: thermo table and plot, dumps.
+fn output_plan<const D: usize>(setup: &Setup<D>) -> OutputPlan {
     let mut dumps = Vec::new();
     if let Some(d) = &setup.dump {
         dumps.push(DumpPlan {
@@ -233,7 +266,7 @@ fn run_in<const D: usize>(
             format: DumpFormat::Xyz,
         });
     }
-    let plan = OutputPlan {
+    OutputPlan {
         thermo_every: setup.thermo_every,
         table: TableStyle {
             width: 15,
@@ -256,11 +289,20 @@ fn run_in<const D: usize>(
         field: None,
         bodies: None,
         quiet: false,
-    };
-    let job = Job {
-        model: MdModel::new(system, setup.integrator, setup.dt, setup.z_bounds),
+    }
+}
+
+/// The run of `model` (in one process or one rank of several) as the scenario asks.
+fn job_of<M: Model, const D: usize>(
+    model: M,
+    setup: &Setup<D>,
+    scenario: &Scenario,
+    context: &RunContext,
+) -> SimResult<Job<M>> {
+    Ok(Job {
+        model,
         steps: setup.steps,
-        dir: out_dir.to_path_buf(),
+        dir: context.out_dir.to_path_buf(),
         checkpoint: setup.checkpoint.clone(),
         physics: scenario.physics_keys()?,
         last_frame: LastFrame::Dump {
@@ -271,8 +313,7 @@ fn run_in<const D: usize>(
             .map(String::from)
             .to_vec(),
         },
-    };
-    crate::execute(job, &plan, context, started)
+    })
 }
 
 /// Checks the scenario and builds the initial state.
@@ -499,7 +540,7 @@ fn from_data<const D: usize>(
     Ok((domain, atoms, (data.lo[2], data.hi[2])))
 }
 
-fn print_header<const D: usize>(setup: &Setup<D>, system: &MdSystem<D>, context: &RunContext) {
+fn print_header<const D: usize>(setup: &Setup<D>, atoms: usize, context: &RunContext) {
     let (threads, out_dir) = (context.threads, &context.out_dir);
     let sides: Vec<String> = setup
         .domain
@@ -518,7 +559,7 @@ fn print_header<const D: usize>(setup: &Setup<D>, system: &MdSystem<D>, context:
         .collect();
     context.say(format!(
         "md: {} atoms in {D}D, box {} ({}), lj/cut eps {} sigma {} cutoff {}{}, skin {}",
-        system.atoms().len(),
+        atoms,
         sides.join(" x "),
         flags.join(" "),
         setup.potential.epsilon(),

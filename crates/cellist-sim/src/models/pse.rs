@@ -270,6 +270,10 @@ fn run_in<const D: usize>(
     keys: &PseScenario,
     context: &RunContext,
 ) -> SimResult<RunSummary> {
+    #[cfg(feature = "mpi")]
+    let silent = crate::distributed::rank_context(context);
+    #[cfg(feature = "mpi")]
+    let context = silent.as_ref().unwrap_or(context);
     let (threads, out_dir) = (context.threads, &context.out_dir);
     let setup = build::<D>(scenario, keys)?;
     let started = Instant::now();
@@ -357,19 +361,42 @@ fn run_in<const D: usize>(
         bodies: None,
         quiet: false,
     };
-    let job = Job {
-        model: PseModel::new(
-            system,
-            setup.integrator,
-            setup.dt,
-            setup.initial,
-            setup.spacing,
-        ),
+    let model = PseModel::new(
+        system,
+        setup.integrator,
+        setup.dt,
+        setup.initial,
+        setup.spacing,
+    );
+    let physics = scenario.physics_keys()?;
+    #[cfg(feature = "mpi")]
+    if let Some(world) = crate::distributed::world_of_many() {
+        let model = crate::distributed::pse::DistributedPse::new(world, model, threads)
+            .map_err(|e| scenario.error(e))?;
+        let job = job_of(model, &setup, out_dir, physics);
+        return crate::execute(job, &plan, context, started);
+    }
+    crate::execute(
+        job_of(model, &setup, out_dir, physics),
+        &plan,
+        context,
+        started,
+    )
+}
+
+/// The run of `model` (in one process or one rank of several) as the scenario asks.
+fn job_of<M: cellist::models::Model, const D: usize>(
+    model: M,
+    setup: &Setup<D>,
+    dir: &std::path::Path,
+    physics: Vec<(String, String)>,
+) -> Job<M> {
+    Job {
+        model,
         steps: setup.steps,
-        dir: out_dir.to_path_buf(),
+        dir: dir.to_path_buf(),
         checkpoint: setup.checkpoint.clone(),
-        physics: scenario.physics_keys()?,
+        physics,
         last_frame: LastFrame::Field { file: "last.csv" },
-    };
-    crate::execute(job, &plan, context, started)
+    }
 }

@@ -139,6 +139,27 @@ pub trait Model {
         false
     }
 
+    /// True for a model whose state is spread over MPI ranks and gathered for
+    /// output: the driver then asks for `observe` on every step where an
+    /// observer fires or a checkpoint is written, not only where thermo or
+    /// energies are needed.
+    fn observe_when_due(&self) -> bool {
+        false
+    }
+
+    /// False on the ranks of a distributed run other than rank 0: they write no
+    /// output (rank 0 writes the gathered state).
+    fn writes_output(&self) -> bool {
+        true
+    }
+
+    /// The outcome of a stage of the run made one for every rank of a
+    /// distributed model: the failure of the lowest rank that failed, or `None`.
+    /// In one process, `failure` itself.
+    fn agree(&self, failure: Option<String>) -> Option<String> {
+        failure
+    }
+
     /// The time step; the time of step `s` is `s * dt`.
     fn dt(&self) -> f64;
 

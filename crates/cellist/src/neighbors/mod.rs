@@ -4,6 +4,7 @@
 mod brute;
 mod cell_list;
 mod grid;
+mod ordered;
 mod pairs;
 mod parallel;
 mod traverse;
@@ -14,6 +15,7 @@ pub use cell_list::CellList;
 pub use grid::{
     image_code, offsets, AnchoredPair, CellGrid, NeighbourCell, StencilKind, StencilRun,
 };
+pub use ordered::OrderedRows;
 pub use pairs::half_pairs;
 pub use parallel::{
     gather_cells, gather_verlet, scatter_coloured, scatter_half_rows, scatter_verlet_serial,

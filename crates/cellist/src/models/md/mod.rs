@@ -14,12 +14,14 @@ mod atoms;
 mod integrate;
 mod lattice;
 mod model;
+mod subdomain;
 mod velocity;
 
 pub use atoms::Atoms;
 pub use integrate::{Integrator, Langevin};
 pub use lattice::{lattice, LatticeKind};
-pub use model::MdModel;
+pub use model::{blowup_of, MdModel};
+pub use subdomain::{ordered_forces, AtomForce};
 pub use velocity::{create_velocities, VelocityDistribution};
 
 use crate::geometry::{norm2, Domain, GeometryError};
@@ -287,15 +289,18 @@ impl<const D: usize> MdSystem<D> {
         self.list.reference()
     }
 
-    /// Replaces the atoms by a saved set, in the slot order [`MdSystem::atoms`] had,
-    /// whose Verlet list was built at `reference` (what
-    /// [`MdSystem::list_reference`] returned). The list is built again from
-    /// `reference`: those positions are wrapped and in cell order, so the counting
-    /// sort leaves them in place and the list is the saved run's, entry for entry.
-    /// Forces are kept as given (they are those of the saved step).
+    /// Replaces the atoms by a saved set whose Verlet list was built at
+    /// `reference` (each atom's wrapped position at the last rebuild, what
+    /// [`MdSystem::list_reference`] returned, in the saved atoms' order). The
+    /// atoms are put in the cell order of `reference` and the list is built
+    /// from it: the saved run's list, entry for entry, when the atoms come in
+    /// the slot order [`MdSystem::atoms`] had (the counting sort then leaves them
+    /// in place), and the same pairs in another order when they come from a
+    /// distributed run (sorted by id). Forces are kept as given (those of the
+    /// saved step).
     pub fn restore(
         &mut self,
-        atoms: Atoms<D>,
+        mut atoms: Atoms<D>,
         reference: &[[f64; D]],
         rebuilds: u64,
         threads: &Threads,
@@ -312,14 +317,19 @@ impl<const D: usize> MdSystem<D> {
             return Err("a saved reference position is not finite".into());
         }
         self.cells.rebin(reference);
-        let in_place = self
-            .cells
-            .order()
+        let order = self.cells.order();
+        let wrapped = order
             .iter()
-            .enumerate()
-            .all(|(k, &o)| o as usize == k);
-        if !in_place || self.cells.positions() != reference {
-            return Err("the saved reference positions are not wrapped and in cell order".into());
+            .zip(self.cells.positions())
+            .all(|(&k, x)| reference[k as usize] == *x);
+        if !wrapped {
+            return Err("the saved reference positions are not wrapped into the box".into());
+        }
+        if order.iter().enumerate().any(|(k, &o)| o as usize != k) {
+            atoms.permute_except_positions(order, &mut self.scratch);
+            self.cells
+                .permute(&atoms.positions, &mut self.scratch.positions);
+            std::mem::swap(&mut atoms.positions, &mut self.scratch.positions);
         }
         self.atoms = atoms;
         self.list.rebuild(&self.cells, threads);
@@ -453,8 +463,9 @@ fn lap(t: Instant, total: &mut Duration) -> Instant {
     now
 }
 
-/// Every position finite, and inside the box on non-periodic axes.
-fn check_positions<const D: usize>(
+/// Every position finite, and inside the box on non-periodic axes
+/// (`lo_a <= x_a <= lo_a + L_a`); the first atom that is not, as the error of `step`.
+pub fn check_positions<const D: usize>(
     domain: &Domain<D>,
     atoms: &Atoms<D>,
     step: u64,

@@ -39,6 +39,33 @@ fn pad<const D: usize>(v: [f64; D]) -> [f64; 3] {
     std::array::from_fn(|a| if a < D { v[a] } else { 0.0 })
 }
 
+/// The driver's [`Blowup`] of an md error at `step`: the atom, the quantity
+/// and the remedy.
+pub fn blowup_of(e: &MdError, step: u64) -> Blowup {
+    let (what, value) = match e {
+        MdError::LeftBox {
+            id,
+            axis,
+            coordinate,
+            ..
+        } => (
+            format!(
+                "atom {id} left the box through the non-periodic {} boundary",
+                ["x", "y", "z"][*axis]
+            ),
+            Some((["x", "y", "z"][*axis].to_string(), *coordinate)),
+        ),
+        MdError::NotFinite { id, .. } => (format!("atom {id} has a non-finite position"), None),
+        other => (other.to_string(), None),
+    };
+    Blowup {
+        step,
+        what,
+        value,
+        remedy: REMEDY.into(),
+    }
+}
+
 impl<const D: usize> Model for MdModel<D> {
     fn name(&self) -> &'static str {
         "md"
@@ -66,32 +93,7 @@ impl<const D: usize> Model for MdModel<D> {
                 threads,
                 &mut self.times,
             )
-            .map_err(|e| {
-                let (what, value) = match &e {
-                    MdError::LeftBox {
-                        id,
-                        axis,
-                        coordinate,
-                        ..
-                    } => (
-                        format!(
-                            "atom {id} left the box through the non-periodic {} boundary",
-                            ["x", "y", "z"][*axis]
-                        ),
-                        Some((["x", "y", "z"][*axis].to_string(), *coordinate)),
-                    ),
-                    MdError::NotFinite { id, .. } => {
-                        (format!("atom {id} has a non-finite position"), None)
-                    }
-                    other => (other.to_string(), None),
-                };
-                Blowup {
-                    step,
-                    what,
-                    value,
-                    remedy: REMEDY.into(),
-                }
-            })
+            .map_err(|e| blowup_of(&e, step))
     }
 
     fn thermo_columns(&self) -> &'static [&'static str] {

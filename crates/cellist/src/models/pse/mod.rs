@@ -18,8 +18,9 @@ pub use exact::InitialField;
 pub use kernel::{exp_nonpositive, PairWeight};
 pub use model::PseModel;
 
+use crate::geometry::norm2;
 use crate::geometry::{Domain, GeometryError};
-use crate::neighbors::CellList;
+use crate::neighbors::{CellList, OrderedRows};
 use crate::random::Rng;
 use crate::threads::Threads;
 use pairs::{AllPairs, ListPairs, Summed};
@@ -384,42 +385,14 @@ impl<const D: usize> PseSystem<D> {
             weight,
             positions,
             phi,
-            stages: [k1, k2, k3, k4],
+            stages,
             trial,
             ..
         } = self;
-        let mut rate = |field: &[f64], out: &mut [f64]| {
+        let rate = |field: &[f64], out: &mut [f64]| {
             pairs.sum(weight, Summed::Rate, positions, field, out, threads)
         };
-        match integrator {
-            Integrator::Euler => {
-                rate(phi, k1);
-                combine(phi, None, &[(dt, k1)], threads);
-            }
-            Integrator::Rk2 => {
-                rate(phi, k1);
-                combine(trial, Some(phi), &[(0.5 * dt, k1)], threads);
-                rate(trial, k2);
-                combine(phi, None, &[(dt, k2)], threads);
-            }
-            Integrator::Rk4 => {
-                rate(phi, k1);
-                combine(trial, Some(phi), &[(0.5 * dt, k1)], threads);
-                rate(trial, k2);
-                combine(trial, Some(phi), &[(0.5 * dt, k2)], threads);
-                rate(trial, k3);
-                combine(trial, Some(phi), &[(dt, k3)], threads);
-                rate(trial, k4);
-                let sixth = dt / 6.0;
-                let terms = [
-                    (sixth, &k1[..]),
-                    (2.0 * sixth, k2),
-                    (2.0 * sixth, k3),
-                    (sixth, k4),
-                ];
-                combine(phi, None, &terms, threads);
-            }
-        }
+        advance(integrator, dt, phi, stages, trial, rate, threads);
         match self.phi.iter().position(|v| !v.is_finite()) {
             Some(slot) => Err(PseError::NotFinite {
                 index: self.order[slot] as usize,
@@ -439,6 +412,95 @@ impl<const D: usize> PseSystem<D> {
             threads,
         );
     }
+}
+
+/// One step of `dt` of `d phi / dt = L phi` with `integrator`, the rate
+/// `L phi` given by `rate(field, out)`: `stages` and `trial` are the buffers of
+/// the stages (as long as `phi`). Each update is elementwise, so the bits do not
+/// depend on the thread count.
+pub fn advance(
+    integrator: Integrator,
+    dt: f64,
+    phi: &mut [f64],
+    stages: &mut [Vec<f64>; 4],
+    trial: &mut [f64],
+    mut rate: impl FnMut(&[f64], &mut [f64]),
+    threads: &Threads,
+) {
+    let [k1, k2, k3, k4] = stages;
+    match integrator {
+        Integrator::Euler => {
+            rate(phi, k1);
+            combine(phi, None, &[(dt, k1)], threads);
+        }
+        Integrator::Rk2 => {
+            rate(phi, k1);
+            combine(trial, Some(phi), &[(0.5 * dt, k1)], threads);
+            rate(trial, k2);
+            combine(phi, None, &[(dt, k2)], threads);
+        }
+        Integrator::Rk4 => {
+            rate(phi, k1);
+            combine(trial, Some(phi), &[(0.5 * dt, k1)], threads);
+            rate(trial, k2);
+            combine(trial, Some(phi), &[(0.5 * dt, k2)], threads);
+            rate(trial, k3);
+            combine(trial, Some(phi), &[(dt, k3)], threads);
+            rate(trial, k4);
+            let sixth = dt / 6.0;
+            let terms = [
+                (sixth, &k1[..]),
+                (2.0 * sixth, k2),
+                (2.0 * sixth, k3),
+                (sixth, k4),
+            ];
+            combine(phi, None, &terms, threads);
+        }
+    }
+}
+
+/// The PSE rate of a subdomain's particles over the id-sorted rows of
+/// [`OrderedRows`] (owned particles first, then ghosts): `out_i = sum_{j in
+/// row(i)} w_ij (phi_j - phi_i)`, with the fixed pair weights `weights` (one per
+/// row entry, [`row_weights`]), each particle's sum in id order.
+pub fn ordered_rate<const D: usize>(
+    rows: &OrderedRows<D>,
+    weights: &[f64],
+    phi: &[f64],
+    out: &mut [f64],
+    threads: &Threads,
+) {
+    rows.map(out, threads, |i| {
+        let entries = rows.entries(i);
+        let mut rate = 0.0;
+        for (&j, w) in rows.row(i).iter().zip(&weights[entries]) {
+            rate += w * (phi[j as usize] - phi[i]);
+        }
+        rate
+    });
+}
+
+/// The weight `w(r_ij^2)` of every entry of `rows` at `points` (the particles
+/// do not move: computed once), zero beyond `cutoff`.
+pub fn row_weights<const D: usize>(
+    rows: &OrderedRows<D>,
+    weight: &PairWeight,
+    points: &[[f64; D]],
+    cutoff: f64,
+) -> Vec<f64> {
+    let mut weights = Vec::with_capacity(rows.num_entries());
+    for i in 0..rows.len() {
+        for &j in rows.row(i) {
+            let d: [f64; D] = std::array::from_fn(|a| points[i][a] - points[j as usize][a]);
+            let r2 = norm2(&d);
+            weights.push(if r2.sqrt() < cutoff {
+                weight.at(r2)
+            } else {
+                0.0
+            });
+        }
+    }
+    weights
 }
 
 /// The PSE rate of particles that move (the vortex model's diffusion): `out_i =

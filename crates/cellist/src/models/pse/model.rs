@@ -24,6 +24,12 @@ pub struct PseModel<const D: usize> {
 }
 
 impl<const D: usize> PseModel<D> {
+    /// The thermo columns.
+    pub const THERMO_COLUMNS: &'static [&'static str] = &["time", "total", "l2_error", "max_error"];
+
+    /// What to try when the field stops being finite.
+    pub const REMEDY: &'static str = "run.dt is above the stability limit of the integrator for this kernel and spacing: use a smaller run.dt";
+
     /// The model of `system`; the pictures' scale is the largest `|phi|` now.
     pub fn new(
         system: PseSystem<D>,
@@ -70,7 +76,7 @@ impl<const D: usize> Model for PseModel<D> {
     }
 
     fn thermo_columns(&self) -> &'static [&'static str] {
-        &["time", "total", "l2_error", "max_error"]
+        Self::THERMO_COLUMNS
     }
 
     fn thermo(&self, step: u64) -> Vec<f64> {
@@ -104,7 +110,7 @@ impl<const D: usize> Model for PseModel<D> {
     }
 
     fn remedy(&self) -> &'static str {
-        "run.dt is above the stability limit of the integrator for this kernel and spacing: use a smaller run.dt"
+        Self::REMEDY
     }
 
     fn particles(&self, _step: u64, _energies: bool) -> Option<Particles> {

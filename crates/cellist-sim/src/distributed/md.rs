@@ -1,0 +1,653 @@
+//! Lennard-Jones molecular dynamics by domain decomposition: each rank owns the
+//! atoms of its subdomain, receives ghosts within cutoff + skin of it, and
+//! computes the forces on its own atoms over full neighbour rows in ascending
+//! id ([`OrderedRows`]), so that the run gives the same bits on any number of
+//! ranks and threads.
+//!
+//! ```text
+//! step:  first half (kick + drift)          # own atoms
+//!        check positions        (agreed)    # every rank stops on the same blow-up
+//!        rebuild?  = any rank's atom moved more than skin/2   (all-reduce)
+//!          yes: wrap, migrate to owners, new ghost plan and ids, new rows
+//!          no:  send the ghosts' positions along the plan
+//!        forces on own atoms (rows over own + ghosts)
+//!        second half (kick)
+//!        count the atoms (all-reduce), check v and f (agreed)
+//!        observed step: gather everything on rank 0, sorted by id
+//! ```
+//!
+//! Rank 0 writes every output from the gathered state (thermo summed in id
+//! order, dumps, checkpoints of the global state); the other ranks write
+//! nothing. The speed line adds the communication time of rank 0 and the load
+//! imbalance (largest over mean atoms per rank, averaged over the rebuilds).
+
+use super::{agree, agree_blowup, migrate, GhostPlan, LocalParticles};
+use cellist::decomposition::Decomposition;
+use cellist::geometry::{norm2, Domain};
+use cellist::interactions::{LennardJones, PairPotential};
+use cellist::models::md::{
+    blowup_of, check_positions, ordered_forces, AtomForce, Atoms, Integrator, MdError, StageTimes,
+};
+use cellist::models::{check, Blowup, Checked, Model, Particles};
+use cellist::neighbors::OrderedRows;
+use cellist::state::{State, StateError};
+use cellist::Threads;
+use mpi::collective::SystemOperation;
+use mpi::topology::SimpleCommunicator;
+use mpi::traits::*;
+use std::time::{Duration, Instant};
+
+/// The global state on rank 0 after an observed step: every atom, sorted by
+/// id, with its half pair energy and half virial and its position at the last
+/// rebuild.
+#[derive(Clone, Debug, Default)]
+struct Gathered<const D: usize> {
+    atoms: Atoms<D>,
+    energies: Vec<f64>,
+    virials: Vec<f64>,
+    reference: Vec<[f64; D]>,
+    energies_valid: bool,
+}
+
+/// The md model of one rank of a distributed run.
+pub struct DistributedMd<const D: usize> {
+    world: SimpleCommunicator,
+    decomposition: Decomposition<D>,
+    potential: LennardJones,
+    skin: f64,
+    integrator: Integrator,
+    dt: f64,
+    z_bounds: (f64, f64),
+    total: usize,
+    atoms: Atoms<D>,
+    plan: GhostPlan<D>,
+    ghost_ids: Vec<u64>,
+    points: Vec<[f64; D]>,
+    rows: OrderedRows<D>,
+    computed: Vec<AtomForce<D>>,
+    gathered: Option<Gathered<D>>,
+    /// Set by a restore: the next step rebuilds whatever the skin test says.
+    stale: bool,
+    rebuilds: u64,
+    times: StageTimes,
+    communication: Duration,
+    imbalance_sum: f64,
+    imbalance_count: u64,
+}
+
+const REMEDY: &str =
+    "the forces grew without bound: try a smaller run.dt, or check the initial state for atoms too close together";
+
+impl<const D: usize> DistributedMd<D> {
+    /// The model of this rank: `atoms` (every atom, the same on every rank)
+    /// kept where this rank owns them, ghosts exchanged, forces, energies and
+    /// virials evaluated and gathered on rank 0. Every rank returns the same
+    /// error for a box too small for the cutoff, a subdomain thinner than
+    /// cutoff + skin, an atom outside a non-periodic box or two atoms at one
+    /// position.
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        world: SimpleCommunicator,
+        domain: Domain<D>,
+        atoms: Atoms<D>,
+        potential: LennardJones,
+        skin: f64,
+        integrator: Integrator,
+        dt: f64,
+        z_bounds: (f64, f64),
+        threads: &Threads,
+    ) -> Result<Self, String> {
+        if atoms.is_empty() {
+            return Err("the system has no atoms".into());
+        }
+        let reach = potential.cutoff() + skin;
+        domain.check_cutoff(reach).map_err(|e| e.to_string())?;
+        check_positions(&domain, &atoms, 0).map_err(|e| e.to_string())?;
+        let decomposition = Decomposition::new(domain, world.size() as usize);
+        decomposition.check_reach(reach)?;
+        let rank = world.rank() as usize;
+        let total = atoms.len();
+        let mine: Vec<usize> = (0..total)
+            .filter(|&k| decomposition.owner(&atoms.positions[k]) == rank)
+            .collect();
+        let owned = Atoms {
+            ids: mine.iter().map(|&k| atoms.ids[k]).collect(),
+            types: mine.iter().map(|&k| atoms.types[k]).collect(),
+            masses: mine.iter().map(|&k| atoms.masses[k]).collect(),
+            positions: mine.iter().map(|&k| atoms.positions[k]).collect(),
+            velocities: mine.iter().map(|&k| atoms.velocities[k]).collect(),
+            forces: vec![[0.0; D]; mine.len()],
+        };
+        let mut model = DistributedMd {
+            plan: GhostPlan::new(&world, &decomposition, &[], reach),
+            world,
+            decomposition,
+            potential,
+            skin,
+            integrator,
+            dt,
+            z_bounds,
+            total,
+            atoms: owned,
+            ghost_ids: Vec::new(),
+            points: Vec::new(),
+            rows: OrderedRows::default(),
+            computed: Vec::new(),
+            gathered: None,
+            stale: false,
+            rebuilds: 0,
+            times: StageTimes::default(),
+            communication: Duration::ZERO,
+            imbalance_sum: 0.0,
+            imbalance_count: 0,
+        };
+        model
+            .redistribute(threads)
+            .map_err(|e| e.what.to_string())?;
+        model.forces(threads);
+        model.gather();
+        Ok(model)
+    }
+
+    /// The number of atoms over all ranks.
+    pub fn total(&self) -> usize {
+        self.total
+    }
+
+    /// One line on the decomposition: ranks, grid, atoms per rank.
+    pub fn describe(&self) -> String {
+        let grid: Vec<String> = self
+            .decomposition
+            .grid
+            .iter()
+            .map(|g| g.to_string())
+            .collect();
+        let width: Vec<String> = self
+            .decomposition
+            .width()
+            .iter()
+            .map(|w| format!("{w:.4}"))
+            .collect();
+        format!(
+            "mpi: {} ranks, the box cut {} (subdomains {} wide), ghosts within cutoff + skin {}",
+            self.world.size(),
+            grid.join(" x "),
+            width.join(" x "),
+            self.reach()
+        )
+    }
+
+    fn reach(&self) -> f64 {
+        self.potential.cutoff() + self.skin
+    }
+
+    /// Wraps and migrates the atoms to their owners, makes the new ghost plan
+    /// and rows; an overlap found on any rank stops every rank.
+    fn redistribute(&mut self, threads: &Threads) -> Result<(), Blowup> {
+        let t = Instant::now();
+        let mut travelling = self.pack();
+        migrate(&self.world, &self.decomposition, &mut travelling);
+        self.unpack(&travelling);
+        let reach = self.reach();
+        self.plan = GhostPlan::new(
+            &self.world,
+            &self.decomposition,
+            &self.atoms.positions,
+            reach,
+        );
+        self.ghost_ids = self.plan.ids(&self.world, &self.atoms.ids);
+        let n = self.atoms.len();
+        self.points.clear();
+        self.points.extend_from_slice(&self.atoms.positions);
+        self.points.resize(n + self.ghost_ids.len(), [0.0; D]);
+        self.plan
+            .positions(&self.world, &self.atoms.positions, &mut self.points[n..]);
+        let mut most = 0u64;
+        self.world
+            .all_reduce_into(&(n as u64), &mut most, SystemOperation::max());
+        self.imbalance_sum += most as f64 * self.world.size() as f64 / self.total as f64;
+        self.imbalance_count += 1;
+        self.communication += t.elapsed();
+        let mut keys = self.atoms.ids.clone();
+        keys.extend_from_slice(&self.ghost_ids);
+        let cutoff = self.potential.cutoff();
+        let failure = match OrderedRows::build(&self.points, n, &keys, cutoff, self.skin, threads) {
+            Ok(rows) => {
+                self.rows = rows;
+                self.rows
+                    .coincident(&self.points, &keys)
+                    .map(|(first, second)| MdError::Overlap { first, second }.to_string())
+            }
+            Err(e) => Some(e.to_string()),
+        };
+        let t = Instant::now();
+        let agreed = agree(&self.world, failure);
+        self.communication += t.elapsed();
+        if let Some(what) = agreed {
+            return Err(Blowup::new(0, what, REMEDY));
+        }
+        self.computed.resize(n, AtomForce::default());
+        self.stale = false;
+        Ok(())
+    }
+
+    /// The own atoms as travelling rows: position, velocity, force, mass, type.
+    fn pack(&self) -> LocalParticles {
+        let a = &self.atoms;
+        let width = 3 * D + 2;
+        let mut values = Vec::with_capacity(a.len() * width);
+        for k in 0..a.len() {
+            values.extend_from_slice(&a.positions[k]);
+            values.extend_from_slice(&a.velocities[k]);
+            values.extend_from_slice(&a.forces[k]);
+            values.push(a.masses[k]);
+            values.push(a.types[k] as f64);
+        }
+        LocalParticles {
+            ids: a.ids.clone(),
+            values,
+            width,
+        }
+    }
+
+    fn unpack(&mut self, p: &LocalParticles) {
+        self.atoms = atoms_of(p);
+    }
+
+    /// The forces on the own atoms (energies and virials computed alongside).
+    fn forces(&mut self, threads: &Threads) {
+        ordered_forces(
+            &self.rows,
+            &self.potential,
+            &self.points,
+            &mut self.computed,
+            threads,
+        );
+        for (f, c) in self.atoms.forces.iter_mut().zip(&self.computed) {
+            *f = c.force;
+        }
+    }
+
+    /// Every atom on rank 0, sorted by id, with its half energy, half virial
+    /// and position at the last rebuild after the columns of [`Self::pack`]
+    /// (the other ranks keep nothing).
+    fn gather(&mut self) {
+        let t = Instant::now();
+        let own = self.pack();
+        let width = own.width + 2 + D;
+        let mut values = Vec::with_capacity(own.len() * width);
+        for k in 0..own.len() {
+            values.extend_from_slice(&own.values[k * own.width..(k + 1) * own.width]);
+            values.extend([self.computed[k].energy, self.computed[k].virial]);
+            values.extend_from_slice(&self.rows.reference()[k]);
+        }
+        let mut outgoing = vec![
+            LocalParticles {
+                width,
+                ..LocalParticles::default()
+            };
+            self.world.size() as usize
+        ];
+        outgoing[0] = LocalParticles {
+            ids: own.ids,
+            values,
+            width,
+        };
+        let all = super::exchange(&self.world, &outgoing, width);
+        self.communication += t.elapsed();
+        if self.world.rank() != 0 {
+            self.gathered = None;
+            return;
+        }
+        let mut order: Vec<usize> = (0..all.len()).collect();
+        order.sort_unstable_by_key(|&k| all.ids[k]);
+        let sorted = LocalParticles {
+            ids: order.iter().map(|&k| all.ids[k]).collect(),
+            values: order
+                .iter()
+                .flat_map(|&k| all.values[k * width..(k + 1) * width].iter().copied())
+                .collect(),
+            width,
+        };
+        let base = 3 * D + 2;
+        let row = |k: usize| &sorted.values[k * width..(k + 1) * width];
+        self.gathered = Some(Gathered {
+            atoms: atoms_of(&sorted),
+            energies: (0..sorted.len()).map(|k| row(k)[base]).collect(),
+            virials: (0..sorted.len()).map(|k| row(k)[base + 1]).collect(),
+            reference: (0..sorted.len())
+                .map(|k| std::array::from_fn(|d| row(k)[base + 2 + d]))
+                .collect(),
+            energies_valid: true,
+        });
+    }
+
+    /// The gathered state (rank 0, after an observed step).
+    fn global(&self) -> &Gathered<D> {
+        self.gathered
+            .as_ref()
+            .expect("the global state is gathered on rank 0 at every observed step")
+    }
+
+    /// The time of the MPI exchanges and all-reduces of this rank.
+    fn agree_blowup(&mut self, step: u64, local: Option<Blowup>) -> Result<(), Blowup> {
+        let t = Instant::now();
+        let agreed = agree_blowup(&self.world, step, local);
+        self.communication += t.elapsed();
+        agreed.map_or(Ok(()), Err)
+    }
+
+    /// `max` over the ranks of each flag.
+    fn any(&mut self, flags: [u8; 2]) -> [bool; 2] {
+        let t = Instant::now();
+        let mut all = [0u8; 2];
+        self.world
+            .all_reduce_into(&flags[..], &mut all[..], SystemOperation::max());
+        self.communication += t.elapsed();
+        all.map(|f| f != 0)
+    }
+}
+
+/// The atoms of travelling rows whose first `3 D + 2` columns are those of
+/// [`DistributedMd::pack`]: position, velocity, force, mass, type.
+fn atoms_of<const D: usize>(p: &LocalParticles) -> Atoms<D> {
+    let row = |k: usize| &p.values[k * p.width..(k + 1) * p.width];
+    let vector = |k: usize, at: usize| -> [f64; D] { std::array::from_fn(|d| row(k)[at + d]) };
+    Atoms {
+        ids: p.ids.clone(),
+        positions: (0..p.len()).map(|k| vector(k, 0)).collect(),
+        velocities: (0..p.len()).map(|k| vector(k, D)).collect(),
+        forces: (0..p.len()).map(|k| vector(k, 2 * D)).collect(),
+        masses: (0..p.len()).map(|k| row(k)[3 * D]).collect(),
+        types: (0..p.len()).map(|k| row(k)[3 * D + 1] as u32).collect(),
+    }
+}
+
+fn pad<const D: usize>(v: [f64; D]) -> [f64; 3] {
+    std::array::from_fn(|a| if a < D { v[a] } else { 0.0 })
+}
+
+fn lap(t: Instant, total: &mut Duration) -> Instant {
+    let now = Instant::now();
+    *total += now - t;
+    now
+}
+
+impl<const D: usize> Model for DistributedMd<D> {
+    fn name(&self) -> &'static str {
+        "md"
+    }
+
+    fn particle_word(&self) -> &'static str {
+        "atom"
+    }
+
+    /// The atoms this rank owns (the global count is checked by the step).
+    fn len(&self) -> usize {
+        self.atoms.len()
+    }
+
+    fn count_may_change(&self) -> bool {
+        true
+    }
+
+    fn observe_when_due(&self) -> bool {
+        true
+    }
+
+    fn writes_output(&self) -> bool {
+        self.world.rank() == 0
+    }
+
+    fn agree(&self, failure: Option<String>) -> Option<String> {
+        agree(&self.world, failure)
+    }
+
+    fn dt(&self) -> f64 {
+        self.dt
+    }
+
+    fn step(&mut self, step: u64, observe: bool, threads: &Threads) -> Result<(), Blowup> {
+        let t = Instant::now();
+        self.integrator.first_half(&mut self.atoms, self.dt);
+        let t = lap(t, &mut self.times.integrate);
+        let domain = self.decomposition.domain;
+        let local = check_positions(&domain, &self.atoms, step)
+            .err()
+            .map(|e| blowup_of(&e, step));
+        self.agree_blowup(step, local)?;
+        let moved = self.stale || self.rows.needs_rebuild(&self.atoms.positions);
+        let [rebuild, observe] = self.any([u8::from(moved), u8::from(observe)]);
+        let t = lap(t, &mut self.times.neighbor);
+        if rebuild {
+            self.redistribute(threads)
+                .map_err(|b| Blowup { step, ..b })?;
+            self.rebuilds += 1;
+        } else {
+            let n = self.atoms.len();
+            self.points[..n].copy_from_slice(&self.atoms.positions);
+            let c = Instant::now();
+            self.plan
+                .positions(&self.world, &self.atoms.positions, &mut self.points[n..]);
+            self.communication += c.elapsed();
+        }
+        let t = lap(t, &mut self.times.neighbor);
+        self.forces(threads);
+        let t = lap(t, &mut self.times.force);
+        self.integrator.second_half(&mut self.atoms, self.dt, step);
+        lap(t, &mut self.times.integrate);
+        let c = Instant::now();
+        let mut count = 0u64;
+        self.world.all_reduce_into(
+            &(self.atoms.len() as u64),
+            &mut count,
+            SystemOperation::sum(),
+        );
+        self.communication += c.elapsed();
+        if count as usize != self.total {
+            return Err(Blowup::new(
+                step,
+                format!(
+                    "the number of atoms over the ranks changed from {} to {count}",
+                    self.total
+                ),
+                "atoms were lost or duplicated between ranks: this is a bug in cellist",
+            ));
+        }
+        let local = check(self, step, 0).err();
+        self.agree_blowup(step, local)?;
+        if observe {
+            self.gather();
+        }
+        Ok(())
+    }
+
+    fn thermo_columns(&self) -> &'static [&'static str] {
+        &["temp", "pe", "ke", "etotal", "press"]
+    }
+
+    /// Summed on rank 0 over the gathered atoms in id order.
+    fn thermo(&self, _step: u64) -> Vec<f64> {
+        let g = self.global();
+        let n = g.atoms.len() as f64;
+        let dof = (D * g.atoms.len()).saturating_sub(D) as f64;
+        let twice_kinetic: f64 = g
+            .atoms
+            .velocities
+            .iter()
+            .zip(&g.atoms.masses)
+            .map(|(v, m)| norm2(v) * m)
+            .sum();
+        let temp = if dof > 0.0 { twice_kinetic / dof } else { 0.0 };
+        let energy: f64 = g.energies.iter().sum();
+        let virial: f64 = g.virials.iter().sum();
+        let pe = energy / n;
+        let ke = temp * 0.5 * dof / n;
+        let press = (dof * temp + virial) / D as f64 * (1.0 / self.decomposition.domain.volume());
+        vec![temp, pe, ke, pe + ke, press]
+    }
+
+    fn checked(&self) -> Vec<Checked<'_>> {
+        let atoms = &self.atoms;
+        [
+            ("position", &atoms.positions),
+            ("velocity", &atoms.velocities),
+            ("force", &atoms.forces),
+        ]
+        .map(|(quantity, v)| Checked {
+            quantity,
+            values: v.as_flattened(),
+            per_particle: D,
+        })
+        .into()
+    }
+
+    fn id_of(&self, index: usize) -> u64 {
+        self.atoms.ids[index]
+    }
+
+    fn walls(&self) -> Vec<(usize, f64, f64)> {
+        let dom = &self.decomposition.domain;
+        (0..D)
+            .filter(|&a| !dom.is_periodic(a))
+            .map(|a| (a, dom.lo[a], dom.lo[a] + dom.length[a]))
+            .collect()
+    }
+
+    fn remedy(&self) -> &'static str {
+        REMEDY
+    }
+
+    /// On rank 0 the gathered atoms (sorted by id, positions wrapped); `None`
+    /// on the other ranks.
+    fn particles(&self, _step: u64, energies: bool) -> Option<Particles> {
+        let g = self.gathered.as_ref()?;
+        let dom = &self.decomposition.domain;
+        let mut lo = [0.0, 0.0, self.z_bounds.0];
+        let mut hi = [0.0, 0.0, self.z_bounds.1];
+        let mut periodic = [true; 3];
+        for a in 0..D {
+            lo[a] = dom.lo[a];
+            hi[a] = dom.lo[a] + dom.length[a];
+            periodic[a] = dom.is_periodic(a);
+        }
+        let atoms = &g.atoms;
+        Some(Particles {
+            lo,
+            hi,
+            periodic,
+            ids: atoms.ids.clone(),
+            types: atoms.types.clone(),
+            positions: atoms.positions.iter().map(|&x| pad(dom.wrap(x))).collect(),
+            velocities: atoms.velocities.iter().map(|&v| pad(v)).collect(),
+            forces: atoms.forces.iter().map(|&f| pad(f)).collect(),
+            energies: (energies && g.energies_valid).then(|| g.energies.clone()),
+            masses: None,
+            accelerations: None,
+            potentials: None,
+        })
+    }
+
+    fn stage_times(&self) -> Vec<(&'static str, Duration)> {
+        vec![
+            ("Neighbor", self.times.neighbor),
+            ("Force", self.times.force),
+            ("Integrate", self.times.integrate),
+        ]
+    }
+
+    fn speed(&self, loop_seconds: f64, steps: u64, threads: usize) -> String {
+        let n = self.total;
+        let ranks = self.world.size();
+        let per = loop_seconds * 1e6 / (n as f64 * steps.max(1) as f64);
+        let imbalance = self.imbalance_sum / self.imbalance_count.max(1) as f64;
+        format!(
+            "Loop time of {loop_seconds:.4} s on {ranks} ranks x {threads} thread(s) for {steps} \
+             steps with {n} atoms: {per:.4} us/atom-step, {} neighbour-list rebuilds\n\
+             Communication {:.4} s on rank 0 ({:.1}% of the loop; inside the sections below); \
+             load imbalance {imbalance:.3} (largest over mean atoms per rank, mean over the rebuilds)",
+            self.rebuilds,
+            self.communication.as_secs_f64(),
+            100.0 * self.communication.as_secs_f64() / loop_seconds.max(1e-300),
+        )
+    }
+
+    /// On rank 0 the global state sorted by id, in the single-process layout
+    /// (a distributed checkpoint restarts in one process or on any number of
+    /// ranks); nothing on the other ranks.
+    fn save(&self, state: &mut State) {
+        let Some(g) = &self.gathered else {
+            return;
+        };
+        let atoms = &g.atoms;
+        state.put_u64s("ids", atoms.ids.iter().copied());
+        state.put_u64s("types", atoms.types.iter().map(|&t| t as u64));
+        state.put_f64s("masses", atoms.masses.iter().copied());
+        state.put_vectors("positions", &atoms.positions);
+        state.put_vectors("velocities", &atoms.velocities);
+        state.put_vectors("forces", &atoms.forces);
+        state.put_vectors("list_reference", &g.reference);
+        state.put_u64s("rebuilds", [self.rebuilds]);
+    }
+
+    /// Takes the atoms this rank owns from a global state (of any number of
+    /// ranks, or of one process); the next step migrates and rebuilds. Not
+    /// collective: a rank that fails returns its error alone.
+    fn restore(&mut self, state: &State, _threads: &Threads) -> Result<(), StateError> {
+        let n = self.total;
+        let types = state
+            .u64s_of("types", n)?
+            .iter()
+            .map(|&t| {
+                u32::try_from(t).map_err(|_| StateError(format!("atom type {t} is out of range")))
+            })
+            .collect::<Result<Vec<u32>, StateError>>()?;
+        let all = Atoms {
+            ids: state.u64s_of("ids", n)?,
+            types,
+            masses: state.f64s_of("masses", n)?,
+            positions: state.vectors("positions", n)?,
+            velocities: state.vectors("velocities", n)?,
+            forces: state.vectors("forces", n)?,
+        };
+        let reference: Vec<[f64; D]> = state.vectors("list_reference", n)?;
+        let rebuilds = state.u64("rebuilds")?;
+        if all.positions.iter().flatten().any(|c| !c.is_finite()) {
+            return Err(StateError("a saved position is not finite".into()));
+        }
+        let rank = self.world.rank() as usize;
+        let mine: Vec<usize> = (0..n)
+            .filter(|&k| self.decomposition.owner(&all.positions[k]) == rank)
+            .collect();
+        self.atoms = Atoms {
+            ids: mine.iter().map(|&k| all.ids[k]).collect(),
+            types: mine.iter().map(|&k| all.types[k]).collect(),
+            masses: mine.iter().map(|&k| all.masses[k]).collect(),
+            positions: mine.iter().map(|&k| all.positions[k]).collect(),
+            velocities: mine.iter().map(|&k| all.velocities[k]).collect(),
+            forces: mine.iter().map(|&k| all.forces[k]).collect(),
+        };
+        self.rebuilds = rebuilds;
+        self.stale = true;
+        self.gathered = (rank == 0).then(|| {
+            let mut order: Vec<usize> = (0..n).collect();
+            order.sort_unstable_by_key(|&k| all.ids[k]);
+            let pick = |v: &[[f64; D]]| order.iter().map(|&k| v[k]).collect();
+            Gathered {
+                atoms: Atoms {
+                    ids: order.iter().map(|&k| all.ids[k]).collect(),
+                    types: order.iter().map(|&k| all.types[k]).collect(),
+                    masses: order.iter().map(|&k| all.masses[k]).collect(),
+                    positions: pick(&all.positions),
+                    velocities: pick(&all.velocities),
+                    forces: pick(&all.forces),
+                },
+                reference: pick(&reference),
+                energies: vec![0.0; n],
+                virials: vec![0.0; n],
+                energies_valid: false,
+            }
+        });
+        Ok(())
+    }
+}

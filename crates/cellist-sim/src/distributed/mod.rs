@@ -1,0 +1,528 @@
+//! Distributed runs on MPI (cargo feature `mpi`).
+//!
+//! For all-pairs forces, seed 003's ring: each of the `P` ranks holds a block of
+//! the particles, and in `P` stages every rank computes the field of the block
+//! it holds on its own particles while it passes that block to rank `+1` and
+//! receives the next from rank `-1` (non-blocking send and receive, overlapped
+//! with the computation). With `n = N/P` particles per rank, a stage costs
+//! `t_comp ~ gamma n^2` against `t_comm ~ alpha + beta n`: the communication is
+//! hidden once `gamma n^2 > alpha + beta n`.
+//!
+//! For short-range forces, seed 003's domain decomposition: the box cut into
+//! subdomains ([`Decomposition`]), particles moved to the rank that owns their
+//! position ([`migrate`]) and the ghosts within cutoff + skin of each subdomain
+//! sent to it, periodic images included ([`ghosts`]).
+//!
+//! What runs distributed: the md model ([`md::DistributedMd`], on the driver
+//! like every model: rank 0 writes the outputs), the ring-pass direct gravity
+//! ([`ring_gravity`], tested against the direct sum; not yet a model's step).
+//! `cellist run` under `mpirun` with more than one rank refuses the other
+//! models with one message from rank 0 ([`refuse_run`]). Whatever can fail on
+//! one rank only is agreed ([`agree`]): every rank stops with the message of
+//! the lowest rank that failed, none waits in an exchange.
+
+pub mod md;
+pub mod pse;
+
+use crate::error::SimError;
+use crate::scenario::Scenario;
+use crate::RunContext;
+use cellist::decomposition::Decomposition;
+use cellist::interactions::GravityLaw;
+use cellist::longrange::{FieldOut, PartialField, Sources};
+use cellist::models::Blowup;
+use cellist::Threads;
+use mpi::collective::SystemOperation;
+use mpi::topology::SimpleCommunicator;
+use mpi::traits::*;
+use std::path::Path;
+
+/// The accelerations and potentials of this rank's bodies (`position`, `mass`)
+/// due to every body of every rank, by the ring pass. Every rank calls it with
+/// its own block; the sums are those of the direct sum up to rounding (each
+/// body's sum runs over the blocks in ring order, its own first).
+pub fn ring_gravity<C: Communicator>(
+    world: &C,
+    law: GravityLaw,
+    position: &[[f64; 3]],
+    mass: &[f64],
+    threads: &Threads,
+) -> (Vec<[f64; 3]>, Vec<f64>) {
+    assert_eq!(position.len(), mass.len());
+    let ranks = world.size();
+    let rank = world.rank();
+    let n = mass.len();
+    let mut counts = vec![0u64; ranks as usize];
+    world.all_gather_into(&(n as u64), &mut counts[..]);
+    let most = counts.iter().copied().max().unwrap_or(0) as usize;
+    let (next, previous) = ((rank + 1) % ranks, (rank + ranks - 1) % ranks);
+    let mut held_position: Vec<[f64; 3]> = Vec::with_capacity(most);
+    let mut held_mass: Vec<f64> = Vec::with_capacity(most);
+    held_position.extend_from_slice(position);
+    held_mass.extend_from_slice(mass);
+    let mut incoming_position: Vec<[f64; 3]> = Vec::with_capacity(most);
+    let mut incoming_mass: Vec<f64> = Vec::with_capacity(most);
+    let mut partial = PartialField::new(law, n);
+    for stage in 0..ranks {
+        let sources = Sources {
+            mass: &held_mass,
+            position: &held_position,
+        };
+        let own = stage == 0;
+        if stage + 1 == ranks {
+            partial.add(position, &sources, own, threads);
+            break;
+        }
+        // the block that arrives now left rank - stage - 1 at stage 0
+        let from = (rank - stage - 1).rem_euclid(ranks) as usize;
+        incoming_position.resize(counts[from] as usize, [0.0; 3]);
+        incoming_mass.resize(counts[from] as usize, 0.0);
+        mpi::request::scope(|scope| {
+            let to_next = world.process_at_rank(next);
+            let from_previous = world.process_at_rank(previous);
+            let send_x = to_next.immediate_send(scope, held_position.as_flattened());
+            let send_m = to_next.immediate_send(scope, &held_mass[..]);
+            let receive_x =
+                from_previous.immediate_receive_into(scope, incoming_position.as_flattened_mut());
+            let receive_m = from_previous.immediate_receive_into(scope, &mut incoming_mass[..]);
+            partial.add(position, &sources, own, threads);
+            receive_x.wait();
+            receive_m.wait();
+            send_x.wait();
+            send_m.wait();
+        });
+        std::mem::swap(&mut held_position, &mut incoming_position);
+        std::mem::swap(&mut held_mass, &mut incoming_mass);
+    }
+    let mut acc = vec![[0.0; 3]; n];
+    let mut phi = vec![0.0; n];
+    partial.finish(FieldOut {
+        acc: &mut acc,
+        phi: &mut phi,
+    });
+    (acc, phi)
+}
+
+/// MPI in this process: initialised once by [`Cluster::start`], finalised when
+/// dropped.
+pub struct Cluster {
+    universe: mpi::environment::Universe,
+}
+
+impl Cluster {
+    /// Initialises MPI (under `mpirun`, or as a single rank without it); `None`
+    /// if it was initialised before in this process.
+    pub fn start() -> Option<Self> {
+        mpi::initialize().map(|universe| Cluster { universe })
+    }
+
+    /// The number of ranks.
+    pub fn ranks(&self) -> i32 {
+        self.universe.world().size()
+    }
+
+    /// This process's rank.
+    pub fn rank(&self) -> i32 {
+        self.universe.world().rank()
+    }
+
+    /// [`refuse_run`] on every rank of this cluster.
+    pub fn refuse_run(&self, scenario: Option<&Path>, sets: &[String]) -> Option<SimError> {
+        refuse_run(&self.universe.world(), scenario, sets)
+    }
+}
+
+/// The models that run on several ranks.
+pub const DISTRIBUTED_MODELS: &[&str] = &["md", "pse"];
+
+/// `cellist run` on more than one rank: every rank reads the scenario, and
+/// unless every rank read it and its model is distributed
+/// ([`DISTRIBUTED_MODELS`]), rank 0 says once why the run cannot go on (a rank
+/// that cannot read its input, or a model not distributed yet). Every rank
+/// returns the same error, so that every rank stops with a non-zero status and
+/// none waits for another.
+pub fn refuse_run<C: Communicator>(
+    world: &C,
+    scenario: Option<&Path>,
+    sets: &[String],
+) -> Option<SimError> {
+    let read = Scenario::load(scenario, sets).and_then(|s| s.model());
+    let mut first_failed = 0i32;
+    // the lowest rank that failed (ranks that read it report size)
+    let mine = if read.is_err() {
+        world.rank()
+    } else {
+        world.size()
+    };
+    world.all_reduce_into(&mine, &mut first_failed, SystemOperation::min());
+    let message = if first_failed < world.size() {
+        match &read {
+            Err(e) if first_failed == world.rank() => e.to_string(),
+            _ => format!(
+                "rank {first_failed} cannot read its input (do all ranks see the same files?)"
+            ),
+        }
+    } else {
+        let model = read.as_deref().unwrap_or("?");
+        if DISTRIBUTED_MODELS.contains(&model) {
+            return None;
+        }
+        format!(
+            "model '{model}' does not run on {} MPI ranks yet: run it in one process (without \
+             mpirun, or with -np 1); the models that run distributed are: {}",
+            world.size(),
+            DISTRIBUTED_MODELS.join(", ")
+        )
+    };
+    Some(SimError::Input(message))
+}
+
+/// Particles a rank holds for a distributed short-range run: an id and `width`
+/// numbers each (the position's `D` coordinates first, then whatever the model
+/// carries: velocities, strengths), as flat columns that travel as they are.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct LocalParticles {
+    /// Global ids.
+    pub ids: Vec<u64>,
+    /// `width` numbers per particle.
+    pub values: Vec<f64>,
+    /// Numbers per particle.
+    pub width: usize,
+}
+
+impl LocalParticles {
+    /// The position of particle `k` (its first `D` numbers).
+    pub fn position<const D: usize>(&self, k: usize) -> [f64; D] {
+        std::array::from_fn(|d| self.values[k * self.width + d])
+    }
+
+    /// The number of particles.
+    pub fn len(&self) -> usize {
+        self.ids.len()
+    }
+
+    /// True with no particle.
+    pub fn is_empty(&self) -> bool {
+        self.ids.is_empty()
+    }
+
+    fn push_from(&mut self, other: &LocalParticles, k: usize, shift: &[f64]) {
+        self.ids.push(other.ids[k]);
+        let row = &other.values[k * other.width..(k + 1) * other.width];
+        self.values.extend_from_slice(row);
+        let at = self.values.len() - other.width;
+        for (d, s) in shift.iter().enumerate() {
+            self.values[at + d] += s;
+        }
+    }
+}
+
+/// Sends `outgoing[r]` to rank `r` and receives `incoming[r]` values from rank
+/// `r` into `received`, in rank order (non-blocking both ways; no message for
+/// an empty block).
+fn swap_blocks<C: Communicator, T: Equivalence + Copy + Default>(
+    world: &C,
+    outgoing: &[Vec<T>],
+    incoming: &[usize],
+    received: &mut Vec<T>,
+) {
+    received.clear();
+    received.resize(incoming.iter().sum(), T::default());
+    mpi::request::scope(|scope| {
+        let mut requests = Vec::new();
+        let mut rest = &mut received[..];
+        for (r, (o, &count)) in outgoing.iter().zip(incoming).enumerate() {
+            let process = world.process_at_rank(r as i32);
+            if !o.is_empty() {
+                requests.push(process.immediate_send(scope, &o[..]));
+            }
+            let (block, tail) = rest.split_at_mut(count);
+            rest = tail;
+            if count > 0 {
+                requests.push(process.immediate_receive_into(scope, block));
+            }
+        }
+        for r in requests {
+            r.wait();
+        }
+    });
+}
+
+/// Sends `outgoing[r]` to rank `r` and returns what every rank sent here, in rank
+/// order (counts first, then the ids and values, non-blocking both ways).
+fn exchange<C: Communicator>(
+    world: &C,
+    outgoing: &[LocalParticles],
+    width: usize,
+) -> LocalParticles {
+    let ranks = world.size() as usize;
+    let counts: Vec<u64> = outgoing.iter().map(|o| o.len() as u64).collect();
+    let mut incoming_counts = vec![0u64; ranks];
+    world.all_to_all_into(&counts[..], &mut incoming_counts[..]);
+    let incoming: Vec<usize> = incoming_counts.iter().map(|&c| c as usize).collect();
+    let ids: Vec<Vec<u64>> = outgoing.iter().map(|o| o.ids.clone()).collect();
+    let values: Vec<Vec<f64>> = outgoing.iter().map(|o| o.values.clone()).collect();
+    let mut arrived = LocalParticles {
+        width,
+        ..LocalParticles::default()
+    };
+    swap_blocks(world, &ids, &incoming, &mut arrived.ids);
+    let incoming_values: Vec<usize> = incoming.iter().map(|&c| c * width).collect();
+    swap_blocks(world, &values, &incoming_values, &mut arrived.values);
+    arrived
+}
+
+/// Moves every particle to the rank that owns its (wrapped) position: the
+/// migration at a neighbour-list rebuild. Kept particles stay in their order,
+/// arrivals follow in rank order.
+pub fn migrate<C: Communicator, const D: usize>(
+    world: &C,
+    decomposition: &Decomposition<D>,
+    particles: &mut LocalParticles,
+) {
+    let width = particles.width;
+    let ranks = world.size() as usize;
+    let rank = world.rank() as usize;
+    let mut staying = LocalParticles {
+        width,
+        ..LocalParticles::default()
+    };
+    let mut outgoing = vec![
+        LocalParticles {
+            width,
+            ..LocalParticles::default()
+        };
+        ranks
+    ];
+    let none = [0.0; D];
+    for k in 0..particles.len() {
+        let x = decomposition.domain.wrap(particles.position::<D>(k));
+        let owner = decomposition.owner(&x);
+        let target = if owner == rank {
+            &mut staying
+        } else {
+            &mut outgoing[owner]
+        };
+        target.push_from(particles, k, &none);
+        let at = target.values.len() - width;
+        target.values[at..at + D].copy_from_slice(&x);
+    }
+    let arrived = exchange(world, &outgoing, width);
+    staying.ids.extend_from_slice(&arrived.ids);
+    staying.values.extend_from_slice(&arrived.values);
+    *particles = staying;
+}
+
+/// The ghosts of this rank: every particle of another rank (or a periodic image
+/// of one of its own) within `reach` of its subdomain, positions shifted to the
+/// image next to it ([`Decomposition::ghosts`]), in the order of the sending
+/// ranks.
+pub fn ghosts<C: Communicator, const D: usize>(
+    world: &C,
+    decomposition: &Decomposition<D>,
+    particles: &LocalParticles,
+    reach: f64,
+) -> LocalParticles {
+    let width = particles.width;
+    let rank = world.rank() as usize;
+    let positions: Vec<[f64; D]> = (0..particles.len())
+        .map(|k| particles.position(k))
+        .collect();
+    let mut outgoing = vec![
+        LocalParticles {
+            width,
+            ..LocalParticles::default()
+        };
+        world.size() as usize
+    ];
+    for g in decomposition.ghosts(rank, &positions, reach) {
+        outgoing[g.to].push_from(particles, g.index, &g.shift);
+    }
+    exchange(world, &outgoing, width)
+}
+
+/// Who sends which ghosts where, fixed between two neighbour-list rebuilds: for
+/// each rank, the indices of this rank's particles it receives as ghosts and
+/// their periodic shifts, and how many ghosts come from each rank. Every step
+/// sends the ghosts' new positions along the same plan (LAMMPS's forward
+/// communication), so that the ghosts keep their order.
+pub struct GhostPlan<const D: usize> {
+    sends: Vec<Vec<(usize, [f64; D])>>,
+    incoming: Vec<usize>,
+    buffers: Vec<Vec<f64>>,
+    received: Vec<f64>,
+}
+
+impl<const D: usize> GhostPlan<D> {
+    /// The plan for this rank's particles at `positions` (inside its
+    /// subdomain), ghosts within `reach` ([`Decomposition::ghosts`]); the
+    /// counts travel by one all-to-all.
+    pub fn new<C: Communicator>(
+        world: &C,
+        decomposition: &Decomposition<D>,
+        positions: &[[f64; D]],
+        reach: f64,
+    ) -> Self {
+        let ranks = world.size() as usize;
+        let mut sends = vec![Vec::new(); ranks];
+        for g in decomposition.ghosts(world.rank() as usize, positions, reach) {
+            sends[g.to].push((g.index, g.shift));
+        }
+        let counts: Vec<u64> = sends.iter().map(|s| s.len() as u64).collect();
+        let mut incoming = vec![0u64; ranks];
+        world.all_to_all_into(&counts[..], &mut incoming[..]);
+        GhostPlan {
+            sends,
+            incoming: incoming.iter().map(|&c| c as usize).collect(),
+            buffers: vec![Vec::new(); ranks],
+            received: Vec::new(),
+        }
+    }
+
+    /// The number of ghosts this rank receives.
+    pub fn len(&self) -> usize {
+        self.incoming.iter().sum()
+    }
+
+    /// True when no ghost comes.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// The number of particles this rank sends as ghosts.
+    pub fn sent(&self) -> usize {
+        self.sends.iter().map(Vec::len).sum()
+    }
+
+    /// The ghosts' ids, in ghost order.
+    pub fn ids<C: Communicator>(&self, world: &C, ids: &[u64]) -> Vec<u64> {
+        let outgoing: Vec<Vec<u64>> = self
+            .sends
+            .iter()
+            .map(|s| s.iter().map(|&(k, _)| ids[k]).collect())
+            .collect();
+        let mut received = Vec::new();
+        swap_blocks(world, &outgoing, &self.incoming, &mut received);
+        received
+    }
+
+    /// The ghosts' positions now, `x_k + shift`, written to `ghosts` in ghost
+    /// order (no allocation once the buffers have grown).
+    pub fn positions<C: Communicator>(
+        &mut self,
+        world: &C,
+        positions: &[[f64; D]],
+        ghosts: &mut [[f64; D]],
+    ) {
+        self.forward(
+            world,
+            D,
+            |k, shift, buffer| buffer.extend((0..D).map(|a| positions[k][a] + shift[a])),
+            ghosts.as_flattened_mut(),
+        );
+    }
+
+    /// The ghosts' values of a per-particle field, written to `ghosts` in
+    /// ghost order.
+    pub fn values<C: Communicator>(&mut self, world: &C, values: &[f64], ghosts: &mut [f64]) {
+        self.forward(world, 1, |k, _, buffer| buffer.push(values[k]), ghosts);
+    }
+
+    /// Sends `width` numbers per ghost, written by `fill(index, shift, buffer)`,
+    /// along the plan, and writes what arrives to `ghosts`.
+    fn forward<C: Communicator>(
+        &mut self,
+        world: &C,
+        width: usize,
+        fill: impl Fn(usize, &[f64; D], &mut Vec<f64>),
+        ghosts: &mut [f64],
+    ) {
+        for (buffer, sends) in self.buffers.iter_mut().zip(&self.sends) {
+            buffer.clear();
+            for (k, shift) in sends {
+                fill(*k, shift, buffer);
+            }
+        }
+        let incoming: Vec<usize> = self.incoming.iter().map(|&c| c * width).collect();
+        swap_blocks(world, &self.buffers, &incoming, &mut self.received);
+        ghosts.copy_from_slice(&self.received);
+    }
+}
+
+/// The world of a run spread over several MPI ranks: `Some` when MPI was
+/// started (by the command line) and has more than one rank.
+pub fn world_of_many() -> Option<SimpleCommunicator> {
+    if !mpi::environment::is_initialized() {
+        return None;
+    }
+    let world = SimpleCommunicator::world();
+    (world.size() > 1).then_some(world)
+}
+
+/// On the ranks other than 0 of a distributed run, `context` made quiet (they
+/// print nothing); `None` on rank 0 and in one process.
+pub fn rank_context<'a>(context: &RunContext<'a>) -> Option<RunContext<'a>> {
+    (rank_of_many()? != 0)
+        .then(|| RunContext::new(context.out_dir.clone(), context.restart, context.threads).quiet())
+}
+
+/// This process's rank in a run over several MPI ranks (`None` in one process).
+pub fn rank_of_many() -> Option<i32> {
+    world_of_many().map(|w| w.rank())
+}
+
+/// Every rank's outcome made one: the message of the lowest rank that failed
+/// (`None` when none did), on every rank, so that all stop together and none
+/// waits in a later exchange.
+pub fn agree<C: Communicator>(world: &C, failure: Option<String>) -> Option<String> {
+    let size = world.size();
+    let mine = if failure.is_some() {
+        world.rank()
+    } else {
+        size
+    };
+    let mut first = size;
+    world.all_reduce_into(&mine, &mut first, SystemOperation::min());
+    if first == size {
+        return None;
+    }
+    let root = world.process_at_rank(first);
+    let mut bytes = if first == world.rank() {
+        failure.unwrap_or_default().into_bytes()
+    } else {
+        Vec::new()
+    };
+    let mut length = bytes.len() as u64;
+    root.broadcast_into(&mut length);
+    bytes.resize(length as usize, 0);
+    root.broadcast_into(&mut bytes[..]);
+    Some(String::from_utf8_lossy(&bytes).into_owned())
+}
+
+/// [`agree`] on a blow-up of `step`: every rank returns the blow-up of the
+/// lowest rank that had one.
+pub fn agree_blowup<C: Communicator>(
+    world: &C,
+    step: u64,
+    blowup: Option<Blowup>,
+) -> Option<Blowup> {
+    const SEP: char = '\u{1f}';
+    let encoded = blowup.map(|b| {
+        let (quantity, value) = b.value.map_or((String::new(), String::new()), |(q, v)| {
+            (q, format!("{:x}", v.to_bits()))
+        });
+        format!("{}{SEP}{}{SEP}{quantity}{SEP}{value}", b.what, b.remedy)
+    });
+    agree(world, encoded).map(|text| {
+        let parts: Vec<&str> = text.split(SEP).collect();
+        let value = u64::from_str_radix(parts.get(3).copied().unwrap_or(""), 16)
+            .ok()
+            .map(|bits| (parts[2].to_string(), f64::from_bits(bits)));
+        Blowup {
+            step,
+            what: parts[0].to_string(),
+            value,
+            remedy: parts.get(1).copied().unwrap_or("").to_string(),
+        }
+    })
+}

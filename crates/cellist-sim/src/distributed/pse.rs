@@ -1,0 +1,339 @@
+//! Diffusion by particle strength exchange by domain decomposition: the
+//! particles do not move, so each rank owns the particles of its subdomain for
+//! the whole run, receives the ghosts within the kernel's cutoff once (their
+//! ids and shifted positions), and at every stage of the integrator receives
+//! the ghosts' field values along the same plan. Each owned particle's rate
+//! sums its id-sorted row ([`ordered_rate`]), so the run gives the same bits on
+//! any number of ranks and threads.
+//!
+//! Rank 0 keeps the whole single-process model as the replica that outputs
+//! read: at every observed step the field is gathered into it, and its thermo,
+//! field files, pictures and checkpoints (of the global state, in the
+//! single-process layout) are those of a plain run.
+
+use super::{agree, agree_blowup, exchange, GhostPlan, LocalParticles};
+use cellist::decomposition::Decomposition;
+use cellist::models::pse::{
+    advance, ordered_rate, row_weights, Method, PairWeight, PseError, PseModel,
+};
+use cellist::models::{Blowup, Checked, Field, Model, Particles};
+use cellist::neighbors::OrderedRows;
+use cellist::state::{State, StateError};
+use cellist::Threads;
+use mpi::collective::SystemOperation;
+use mpi::topology::SimpleCommunicator;
+use mpi::traits::*;
+use std::time::{Duration, Instant};
+
+/// The pse model of one rank of a distributed run.
+pub struct DistributedPse<const D: usize> {
+    world: SimpleCommunicator,
+    integrator: cellist::models::pse::Integrator,
+    dt: f64,
+    /// Rank 0: the single-process model whose field is set at observed steps.
+    replica: Option<PseModel<D>>,
+    /// `order[slot]`: the input index of the particle in slot `slot` of the
+    /// single-process model (the layout of checkpoints).
+    order: Vec<u32>,
+    total: usize,
+    /// Input indices of the own particles.
+    ids: Vec<u64>,
+    phi: Vec<f64>,
+    plan: GhostPlan<D>,
+    rows: OrderedRows<D>,
+    weights: Vec<f64>,
+    /// Own then ghost values of the field a stage reads.
+    values: Vec<f64>,
+    stages: [Vec<f64>; 4],
+    trial: Vec<f64>,
+    entries: u64,
+    /// Largest over mean row entries per rank (the work of a rate).
+    imbalance: f64,
+    step_time: Duration,
+    communication: Duration,
+}
+
+impl<const D: usize> DistributedPse<D> {
+    /// This rank's part of `model` (built from the scenario on every rank): the
+    /// particles of its subdomain, their ghosts within the cutoff and the fixed
+    /// pair weights of their rows. Only the cell-list method runs distributed;
+    /// a subdomain thinner than the cutoff is refused. Every rank returns the
+    /// same error.
+    pub fn new(
+        world: SimpleCommunicator,
+        model: PseModel<D>,
+        threads: &Threads,
+    ) -> Result<Self, String> {
+        let system = &model.system;
+        let params = *system.params();
+        let Method::CellList { cutoff_factor } = params.method else {
+            return Err(format!(
+                "pse.method \"direct\" (all pairs) does not run on {} MPI ranks: use \
+                 method = \"cell-list\", or run in one process",
+                world.size()
+            ));
+        };
+        let cutoff = cutoff_factor * params.epsilon;
+        let domain = *system.domain();
+        let decomposition = Decomposition::new(domain, world.size() as usize);
+        decomposition.check_reach(cutoff)?;
+        let rank = world.rank() as usize;
+        let positions = system.positions();
+        let field = system.phi();
+        let mine: Vec<usize> = (0..positions.len())
+            .filter(|&k| decomposition.owner(&positions[k]) == rank)
+            .collect();
+        let own: Vec<[f64; D]> = mine.iter().map(|&k| positions[k]).collect();
+        let ids: Vec<u64> = mine.iter().map(|&k| k as u64).collect();
+        let t = Instant::now();
+        let plan = GhostPlan::new(&world, &decomposition, &own, cutoff);
+        let ghost_ids = plan.ids(&world, &ids);
+        let mut points = own.clone();
+        points.resize(own.len() + ghost_ids.len(), [0.0; D]);
+        let mut plan = plan;
+        plan.positions(&world, &own, &mut points[own.len()..]);
+        let communication = t.elapsed();
+        let mut keys = ids.clone();
+        keys.extend_from_slice(&ghost_ids);
+        let rows = OrderedRows::build(&points, own.len(), &keys, cutoff, 0.0, threads);
+        let failure = rows.as_ref().err().map(|e| e.to_string());
+        if let Some(message) = agree(&world, failure) {
+            return Err(message);
+        }
+        let rows = rows.expect("no rank failed");
+        let weight = PairWeight::new(D, params.nu, params.epsilon, system.volume());
+        let weights = row_weights(&rows, &weight, &points, cutoff);
+        let mut entries = 0u64;
+        world.all_reduce_into(
+            &(rows.num_entries() as u64),
+            &mut entries,
+            SystemOperation::sum(),
+        );
+        let mut most = 0u64;
+        world.all_reduce_into(
+            &(rows.num_entries() as u64),
+            &mut most,
+            SystemOperation::max(),
+        );
+        let imbalance = most as f64 * world.size() as f64 / entries.max(1) as f64;
+        let n = own.len();
+        Ok(DistributedPse {
+            integrator: model.integrator,
+            dt: model.dt,
+            order: system.order().to_vec(),
+            total: positions.len(),
+            phi: mine.iter().map(|&k| field[k]).collect(),
+            ids,
+            values: vec![0.0; n + ghost_ids.len()],
+            stages: std::array::from_fn(|_| vec![0.0; n]),
+            trial: vec![0.0; n],
+            plan,
+            rows,
+            weights,
+            entries,
+            imbalance,
+            step_time: Duration::ZERO,
+            communication,
+            replica: (rank == 0).then_some(model),
+            world,
+        })
+    }
+
+    /// The number of particles over all ranks.
+    pub fn total(&self) -> usize {
+        self.total
+    }
+
+    /// The field of every particle, gathered into rank 0's replica.
+    fn gather(&mut self) {
+        let t = Instant::now();
+        let mut outgoing = vec![
+            LocalParticles {
+                width: 1,
+                ..LocalParticles::default()
+            };
+            self.world.size() as usize
+        ];
+        outgoing[0] = LocalParticles {
+            ids: self.ids.clone(),
+            values: self.phi.clone(),
+            width: 1,
+        };
+        let all = exchange(&self.world, &outgoing, 1);
+        self.communication += t.elapsed();
+        if let Some(replica) = &mut self.replica {
+            let mut by_input = vec![0.0; self.total];
+            for (&id, &v) in all.ids.iter().zip(&all.values) {
+                by_input[id as usize] = v;
+            }
+            let slots: Vec<f64> = self.order.iter().map(|&k| by_input[k as usize]).collect();
+            replica
+                .system
+                .set_slot_phi(&slots)
+                .expect("one value per particle");
+        }
+    }
+}
+
+impl<const D: usize> Model for DistributedPse<D> {
+    fn name(&self) -> &'static str {
+        "pse"
+    }
+
+    fn particle_word(&self) -> &'static str {
+        "particle"
+    }
+
+    /// The particles this rank owns (they never move between ranks).
+    fn len(&self) -> usize {
+        self.ids.len()
+    }
+
+    fn count_may_change(&self) -> bool {
+        true
+    }
+
+    fn observe_when_due(&self) -> bool {
+        true
+    }
+
+    fn writes_output(&self) -> bool {
+        self.replica.is_some()
+    }
+
+    fn agree(&self, failure: Option<String>) -> Option<String> {
+        agree(&self.world, failure)
+    }
+
+    fn dt(&self) -> f64 {
+        self.dt
+    }
+
+    fn step(&mut self, step: u64, observe: bool, threads: &Threads) -> Result<(), Blowup> {
+        let t = Instant::now();
+        let DistributedPse {
+            world,
+            plan,
+            rows,
+            weights,
+            values,
+            phi,
+            stages,
+            trial,
+            communication,
+            ..
+        } = self;
+        let n = phi.len();
+        let rate = |field: &[f64], out: &mut [f64]| {
+            values[..n].copy_from_slice(field);
+            let c = Instant::now();
+            plan.values(world, field, &mut values[n..]);
+            *communication += c.elapsed();
+            ordered_rate(rows, weights, values, out, threads);
+        };
+        advance(self.integrator, self.dt, phi, stages, trial, rate, threads);
+        self.step_time += t.elapsed();
+        let bad = self.phi.iter().position(|v| !v.is_finite()).map(|k| {
+            let index = self.ids[k] as usize;
+            Blowup::new(
+                step,
+                PseError::NotFinite { index }.to_string(),
+                PseModel::<D>::REMEDY,
+            )
+        });
+        let c = Instant::now();
+        let agreed = agree_blowup(&self.world, step, bad);
+        self.communication += c.elapsed();
+        if let Some(blowup) = agreed {
+            return Err(blowup);
+        }
+        let mut observe_any = 0u8;
+        self.world
+            .all_reduce_into(&u8::from(observe), &mut observe_any, SystemOperation::max());
+        if observe_any != 0 {
+            self.gather();
+        }
+        Ok(())
+    }
+
+    fn thermo_columns(&self) -> &'static [&'static str] {
+        PseModel::<D>::THERMO_COLUMNS
+    }
+
+    /// Rank 0's replica's thermo (its field gathered at this step).
+    fn thermo(&self, step: u64) -> Vec<f64> {
+        self.replica
+            .as_ref()
+            .map_or_else(Vec::new, |r| r.thermo(step))
+    }
+
+    /// The own particles' field (checked by the step on every rank).
+    fn checked(&self) -> Vec<Checked<'_>> {
+        vec![Checked {
+            quantity: "field",
+            values: &self.phi,
+            per_particle: 1,
+        }]
+    }
+
+    fn id_of(&self, index: usize) -> u64 {
+        self.ids[index]
+    }
+
+    fn remedy(&self) -> &'static str {
+        PseModel::<D>::REMEDY
+    }
+
+    fn particles(&self, _step: u64, _energies: bool) -> Option<Particles> {
+        None
+    }
+
+    fn field(&self) -> Option<Field> {
+        self.replica.as_ref()?.field()
+    }
+
+    fn stage_times(&self) -> Vec<(&'static str, Duration)> {
+        vec![("Rates", self.step_time)]
+    }
+
+    fn speed(&self, loop_seconds: f64, steps: u64, threads: usize) -> String {
+        let evaluations = self.entries * self.integrator.stages() * steps;
+        format!(
+            "Loop time of {loop_seconds:.4} s on {} ranks x {threads} thread(s) for {steps} steps \
+             with {} particles: {:.3e} row entries per second (each pair on both sides)\n\
+             Communication {:.4} s on rank 0 ({:.1}% of the loop); load imbalance {:.3} \
+             (largest over mean row entries per rank)",
+            self.world.size(),
+            self.total,
+            evaluations as f64 / loop_seconds.max(1e-12),
+            self.communication.as_secs_f64(),
+            100.0 * self.communication.as_secs_f64() / loop_seconds.max(1e-300),
+            self.imbalance,
+        )
+    }
+
+    /// Rank 0's replica's state: the global field in the single-process layout.
+    fn save(&self, state: &mut State) {
+        if let Some(r) = &self.replica {
+            r.save(state);
+        }
+    }
+
+    /// Takes the own particles' values from a global state (of any number of
+    /// ranks or of one process); rank 0's replica takes all of it. Not
+    /// collective.
+    fn restore(&mut self, state: &State, threads: &Threads) -> Result<(), StateError> {
+        if let Some(r) = &mut self.replica {
+            r.restore(state, threads)?;
+        }
+        let slots = state.f64s_of("phi", self.total)?;
+        let mut by_input = vec![0.0; self.total];
+        for (slot, &k) in self.order.iter().enumerate() {
+            by_input[k as usize] = slots[slot];
+        }
+        for (v, &id) in self.phi.iter_mut().zip(&self.ids) {
+            *v = by_input[id as usize];
+        }
+        Ok(())
+    }
+}
