@@ -13,95 +13,30 @@
 //! position ([`migrate`]) and the ghosts within cutoff + skin of each subdomain
 //! sent to it, periodic images included ([`ghosts`]).
 //!
-//! What runs distributed: the md model ([`md::DistributedMd`], on the driver
-//! like every model: rank 0 writes the outputs), the ring-pass direct gravity
-//! ([`ring_gravity`], tested against the direct sum; not yet a model's step).
-//! `cellist run` under `mpirun` with more than one rank refuses the other
-//! models with one message from rank 0 ([`refuse_run`]). Whatever can fail on
+//! What runs distributed, on the driver like every model (rank 0 writes the
+//! outputs): md and pse by domain decomposition ([`md::DistributedMd`],
+//! [`pse::DistributedPse`]), and the direct solvers of gravity and of the
+//! vortex model by the ring pass ([`ring`]), their O(N) state replicated on
+//! every rank ([`replicated::Replicated`]) and their O(N^2) sums divided. Whatever can fail on
 //! one rank only is agreed ([`agree`]): every rank stops with the message of
 //! the lowest rank that failed, none waits in an exchange.
 
 pub mod md;
 pub mod pse;
+pub mod replicated;
+pub mod ring;
+
+pub use ring::ring_gravity;
 
 use crate::error::SimError;
 use crate::scenario::Scenario;
 use crate::RunContext;
 use cellist::decomposition::Decomposition;
-use cellist::interactions::GravityLaw;
-use cellist::longrange::{FieldOut, PartialField, Sources};
 use cellist::models::Blowup;
-use cellist::Threads;
 use mpi::collective::SystemOperation;
 use mpi::topology::SimpleCommunicator;
 use mpi::traits::*;
 use std::path::Path;
-
-/// The accelerations and potentials of this rank's bodies (`position`, `mass`)
-/// due to every body of every rank, by the ring pass. Every rank calls it with
-/// its own block; the sums are those of the direct sum up to rounding (each
-/// body's sum runs over the blocks in ring order, its own first).
-pub fn ring_gravity<C: Communicator>(
-    world: &C,
-    law: GravityLaw,
-    position: &[[f64; 3]],
-    mass: &[f64],
-    threads: &Threads,
-) -> (Vec<[f64; 3]>, Vec<f64>) {
-    assert_eq!(position.len(), mass.len());
-    let ranks = world.size();
-    let rank = world.rank();
-    let n = mass.len();
-    let mut counts = vec![0u64; ranks as usize];
-    world.all_gather_into(&(n as u64), &mut counts[..]);
-    let most = counts.iter().copied().max().unwrap_or(0) as usize;
-    let (next, previous) = ((rank + 1) % ranks, (rank + ranks - 1) % ranks);
-    let mut held_position: Vec<[f64; 3]> = Vec::with_capacity(most);
-    let mut held_mass: Vec<f64> = Vec::with_capacity(most);
-    held_position.extend_from_slice(position);
-    held_mass.extend_from_slice(mass);
-    let mut incoming_position: Vec<[f64; 3]> = Vec::with_capacity(most);
-    let mut incoming_mass: Vec<f64> = Vec::with_capacity(most);
-    let mut partial = PartialField::new(law, n);
-    for stage in 0..ranks {
-        let sources = Sources {
-            mass: &held_mass,
-            position: &held_position,
-        };
-        let own = stage == 0;
-        if stage + 1 == ranks {
-            partial.add(position, &sources, own, threads);
-            break;
-        }
-        // the block that arrives now left rank - stage - 1 at stage 0
-        let from = (rank - stage - 1).rem_euclid(ranks) as usize;
-        incoming_position.resize(counts[from] as usize, [0.0; 3]);
-        incoming_mass.resize(counts[from] as usize, 0.0);
-        mpi::request::scope(|scope| {
-            let to_next = world.process_at_rank(next);
-            let from_previous = world.process_at_rank(previous);
-            let send_x = to_next.immediate_send(scope, held_position.as_flattened());
-            let send_m = to_next.immediate_send(scope, &held_mass[..]);
-            let receive_x =
-                from_previous.immediate_receive_into(scope, incoming_position.as_flattened_mut());
-            let receive_m = from_previous.immediate_receive_into(scope, &mut incoming_mass[..]);
-            partial.add(position, &sources, own, threads);
-            receive_x.wait();
-            receive_m.wait();
-            send_x.wait();
-            send_m.wait();
-        });
-        std::mem::swap(&mut held_position, &mut incoming_position);
-        std::mem::swap(&mut held_mass, &mut incoming_mass);
-    }
-    let mut acc = vec![[0.0; 3]; n];
-    let mut phi = vec![0.0; n];
-    partial.finish(FieldOut {
-        acc: &mut acc,
-        phi: &mut phi,
-    });
-    (acc, phi)
-}
 
 /// MPI in this process: initialised once by [`Cluster::start`], finalised when
 /// dropped.
@@ -133,7 +68,7 @@ impl Cluster {
 }
 
 /// The models that run on several ranks.
-pub const DISTRIBUTED_MODELS: &[&str] = &["md", "pse"];
+pub const DISTRIBUTED_MODELS: &[&str] = &["md", "pse", "gravity", "vortex"];
 
 /// `cellist run` on more than one rank: every rank reads the scenario, and
 /// unless every rank read it and its model is distributed

@@ -14,7 +14,7 @@ use cellist::longrange::p3m::SPLIT_CELLS;
 use cellist::longrange::{MeshBoundary, MeshParams, TreeParams};
 use cellist::models::gravity::{
     plummer, two_body_seed004, Bodies, GravityError, GravityModel, GravitySystem, Integrator,
-    SolverChoice,
+    Solver, SolverChoice,
 };
 use cellist_io::{read_bodies, BodyChart, Plane, GRAVITY_DUMP_COLUMNS};
 use serde::Deserialize;
@@ -507,9 +507,36 @@ fn body_plan(setup: &Setup) -> Option<BodyPlan> {
 }
 
 fn run_setup(scenario: &Scenario, setup: Setup, context: &RunContext) -> SimResult<RunSummary> {
+    #[cfg(feature = "mpi")]
+    let silent = crate::distributed::rank_context(context);
+    #[cfg(feature = "mpi")]
+    let context = silent.as_ref().unwrap_or(context);
     let (threads, out_dir) = (context.threads, &context.out_dir);
     let started = Instant::now();
-    let system = GravitySystem::new(setup.law, setup.bodies.clone(), &setup.choice, threads)
+    let solver =
+        Solver::new(&setup.choice, setup.law, setup.bodies.len()).map_err(|e| scenario.error(e))?;
+    #[cfg(feature = "mpi")]
+    let (solver, ring) = match crate::distributed::replicated::gravity_ring(setup.law) {
+        Some((ring_solver, ring)) => {
+            if setup.choice != SolverChoice::Direct {
+                return Err(scenario.error(format!(
+                    "solver {} does not run on {} MPI ranks: only solver = \"direct\" runs \
+                     distributed (by the ring pass); run the others in one process",
+                    setup.solver_name,
+                    ring.ranks()
+                )));
+            }
+            context.say(format!(
+                "mpi: {} ranks; the direct sum by the ring pass, each rank summing for a block of \
+                 about {} bodies (the bodies held by every rank)",
+                ring.ranks(),
+                setup.bodies.len() / ring.ranks() as usize
+            ));
+            (ring_solver, Some(ring))
+        }
+        None => (solver, None),
+    };
+    let system = GravitySystem::with_solver(setup.law, setup.bodies.clone(), solver, threads)
         .map_err(|e| match e {
             GravityError::NotFinite { .. } => {
                 scenario.error(format!("step 0 (the first forces): {e}"))
@@ -565,16 +592,38 @@ fn run_setup(scenario: &Scenario, setup: Setup, context: &RunContext) -> SimResu
         bodies: body_plan(&setup),
         quiet: false,
     };
-    let job = Job {
-        model: GravityModel::new(system, setup.integrator, setup.dt),
+    let model = GravityModel::new(system, setup.integrator, setup.dt);
+    let physics = scenario.physics_keys()?;
+    #[cfg(feature = "mpi")]
+    if let Some(ring) = ring {
+        let job = job_of(ring.wrap(model), &setup, out_dir, physics);
+        return crate::execute(job, &plan, context, started);
+    }
+    crate::execute(
+        job_of(model, &setup, out_dir, physics),
+        &plan,
+        context,
+        started,
+    )
+}
+
+/// The run of `model` (in one process or on every rank of several) as the
+/// scenario asks.
+fn job_of<M: cellist::models::Model>(
+    model: M,
+    setup: &Setup,
+    dir: &std::path::Path,
+    physics: Vec<(String, String)>,
+) -> Job<M> {
+    Job {
+        model,
         steps: setup.steps,
-        dir: out_dir.to_path_buf(),
+        dir: dir.to_path_buf(),
         checkpoint: setup.checkpoint.clone(),
-        physics: scenario.physics_keys()?,
+        physics,
         last_frame: LastFrame::Dump {
             file: "last.dump",
             columns: dump_columns(),
         },
-    };
-    crate::execute(job, &plan, context, started)
+    }
 }

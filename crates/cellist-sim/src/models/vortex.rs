@@ -9,9 +9,10 @@ use crate::models::field_output::FieldScenario;
 use crate::observers::{ChartLabels, FieldPlan, OutputPlan, PlotSpec, TableStyle};
 use crate::scenario::Scenario;
 use crate::{RunContext, RunSummary};
-use cellist::longrange::{TreeParams, VicBoundary, VicParams};
+use cellist::longrange::{BlobKernel, TreeParams, VicBoundary, VicParams};
 use cellist::models::vortex::{
-    seed, Extras, InitialVorticity, VelocitySolver, VortexModel, VortexParams, VortexSystem,
+    seed, Extras, InitialVorticity, VelocityEngine, VelocitySolver, VortexModel, VortexParams,
+    VortexSystem,
 };
 use cellist_io::read_field_of;
 use serde::Deserialize;
@@ -381,6 +382,10 @@ fn solver(scenario: &Scenario, v: &VelocityKeys, center: [f64; 2]) -> SimResult<
 pub fn run(scenario: &Scenario, context: &RunContext) -> SimResult<RunSummary> {
     let keys: VortexScenario = scenario.parse()?;
     debug_assert_eq!(keys.model, "vortex");
+    #[cfg(feature = "mpi")]
+    let silent = crate::distributed::rank_context(context);
+    #[cfg(feature = "mpi")]
+    let context = silent.as_ref().unwrap_or(context);
     let (threads, out_dir) = (context.threads, &context.out_dir);
     let err = |m: String| scenario.error(m);
     if keys.dimension != 2 {
@@ -468,7 +473,32 @@ pub fn run(scenario: &Scenario, context: &RunContext) -> SimResult<RunSummary> {
     out.check().map_err(err)?;
     let snapshots = out.snapshots(steps, ["vorticity.csv", "vorticity.png", "vorticity.gif"]);
     let n = seeded.positions.len();
-    let system = VortexSystem::new(params, seeded.positions, seeded.gamma, threads)
+    #[cfg(feature = "mpi")]
+    let ring = crate::distributed::replicated::vortex_ring(BlobKernel::new(params.sigma));
+    #[cfg(feature = "mpi")]
+    if let Some((_, r)) = &ring {
+        if velocity != VelocitySolver::Direct {
+            return Err(err(format!(
+                "velocity.solver does not run on {} MPI ranks unless it is \"direct\" (by the \
+                 ring pass); run the tree and mesh solvers in one process",
+                r.ranks()
+            )));
+        }
+        context.say(format!(
+            "mpi: {} ranks; the direct velocity by the ring pass, each rank summing for a block of \
+             about {} particles (the particles held by every rank)",
+            r.ranks(),
+            n / r.ranks() as usize
+        ));
+    }
+    let engine = VelocityEngine::new(params.solver, BlobKernel::new(params.sigma), n)
+        .map_err(|e| err(format!("system: {e}")))?;
+    #[cfg(feature = "mpi")]
+    let (engine, ring) = match ring {
+        Some((ring_engine, r)) => (ring_engine, Some(r)),
+        None => (engine, None),
+    };
+    let system = VortexSystem::with_engine(params, seeded.positions, seeded.gamma, engine, threads)
         .map_err(|e| err(format!("system: {e}")))?;
     let solver_name = match velocity {
         VelocitySolver::Direct => "direct (all pairs)".to_string(),
@@ -547,13 +577,31 @@ pub fn run(scenario: &Scenario, context: &RunContext) -> SimResult<RunSummary> {
         quiet: false,
     };
     let model = VortexModel::new(system, integrator, run.dt, seeded.extras, view, threads);
-    let job = Job {
+    let physics = scenario.physics_keys()?;
+    let checkpoint = out.checkpoint.clone();
+    #[cfg(feature = "mpi")]
+    if let Some(r) = ring {
+        let job = job_of(r.wrap(model), steps, out_dir, checkpoint, physics);
+        return crate::execute(job, &plan, context, started);
+    }
+    let job = job_of(model, steps, out_dir, checkpoint, physics);
+    crate::execute(job, &plan, context, started)
+}
+
+/// The run of `model` (in one process or on every rank of several).
+fn job_of<M: cellist::models::Model>(
+    model: M,
+    steps: u64,
+    dir: &std::path::Path,
+    checkpoint: Option<crate::driver::CheckpointKeys>,
+    physics: Vec<(String, String)>,
+) -> Job<M> {
+    Job {
         model,
         steps,
-        dir: out_dir.to_path_buf(),
-        checkpoint: out.checkpoint.clone(),
-        physics: scenario.physics_keys()?,
+        dir: dir.to_path_buf(),
+        checkpoint,
+        physics,
         last_frame: LastFrame::Field { file: "last.csv" },
-    };
-    crate::execute(job, &plan, context, started)
+    }
 }

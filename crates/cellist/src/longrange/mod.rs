@@ -12,13 +12,15 @@ pub mod mesh;
 pub mod p3m;
 pub mod tree;
 
-pub use biot_savart::{BlobKernel, DirectBiotSavart};
+pub use biot_savart::{add_velocity_at, BlobKernel, DirectBiotSavart};
 pub use direct::{DirectSum, PartialField};
 pub use mesh::{MeshBoundary, MeshParams, ParticleMesh, VicBoundary, VicParams, VortexInCell};
 pub use p3m::P3m;
 pub use tree::{BarnesHut, TreeParams, VortexTree};
 
 use crate::interactions::GravityLaw;
+use crate::threads::Threads;
+use std::fmt;
 
 /// The particles a solver sees: masses and positions, in input order.
 #[derive(Clone, Copy, Debug)]
@@ -36,6 +38,15 @@ pub struct FieldOut<'a> {
     pub acc: &'a mut [[f64; 3]],
     /// `phi_i` (the potential energy is `1/2 sum_i m_i phi_i`).
     pub phi: &'a mut [f64],
+}
+
+/// A field solver supplied from outside the engine (the ring pass of a
+/// distributed run): it fills `acc_i` and `phi_i` of every particle like the
+/// engine's own solvers, called once per force evaluation (dynamic dispatch
+/// per evaluation, not per pair).
+pub trait FieldSolver: fmt::Debug {
+    /// Fills `out` with the accelerations and potentials of `sources`.
+    fn compute(&mut self, sources: &Sources, out: FieldOut, threads: &Threads);
 }
 
 /// Checks shared by every solver's input: equal lengths, positive finite masses,

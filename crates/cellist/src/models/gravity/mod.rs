@@ -12,8 +12,8 @@ pub use model::GravityModel;
 
 use crate::interactions::GravityLaw;
 use crate::longrange::{
-    check_sources, BarnesHut, DirectSum, FieldOut, MeshParams, P3m, ParticleMesh, Sources,
-    TreeParams,
+    check_sources, BarnesHut, DirectSum, FieldOut, FieldSolver, MeshParams, P3m, ParticleMesh,
+    Sources, TreeParams,
 };
 use crate::threads::Threads;
 use std::fmt;
@@ -49,6 +49,8 @@ pub enum Solver {
     Pm(ParticleMesh),
     /// P3M.
     P3m(P3m),
+    /// A solver from outside the engine (the ring pass of a distributed run).
+    External(Box<dyn FieldSolver>),
 }
 
 impl Solver {
@@ -71,6 +73,7 @@ impl Solver {
             Solver::BarnesHut(s) => s.compute(sources, out, threads),
             Solver::Pm(s) => s.compute(sources, out, threads),
             Solver::P3m(s) => s.compute(sources, out, threads),
+            Solver::External(s) => s.compute(sources, out, threads),
         }
     }
 }
@@ -164,6 +167,17 @@ impl GravitySystem {
         choice: &SolverChoice,
         threads: &Threads,
     ) -> Result<Self, GravityError> {
+        let solver = Solver::new(choice, law, bodies.len()).map_err(GravityError::Parameter)?;
+        Self::with_solver(law, bodies, solver, threads)
+    }
+
+    /// The system of `bodies` under `law` with `solver`, forces computed.
+    pub fn with_solver(
+        law: GravityLaw,
+        bodies: Bodies,
+        solver: Solver,
+        threads: &Threads,
+    ) -> Result<Self, GravityError> {
         let n = bodies.len();
         if bodies.velocity.len() != n {
             return Err(GravityError::Parameter(format!(
@@ -185,7 +199,6 @@ impl GravitySystem {
                 "body {i}: velocity is not finite"
             )));
         }
-        let solver = Solver::new(choice, law, n).map_err(GravityError::Parameter)?;
         let mut system = GravitySystem {
             law,
             bodies,

@@ -200,6 +200,21 @@ pub enum VelocityEngine {
     Tree(Box<VortexTree>),
     /// Vortex-in-cell.
     Mesh(Box<VortexInCell>),
+    /// A solver from outside the engine (the ring pass of a distributed run).
+    External(Box<dyn VelocityField>),
+}
+
+/// A velocity solver supplied from outside the engine: `velocity_i = sum_j
+/// Gamma_j K_sigma(x_i - x_j)` for every particle, called once per evaluation.
+pub trait VelocityField: fmt::Debug {
+    /// Fills `velocity` (one per position).
+    fn compute(
+        &mut self,
+        positions: &[[f64; 2]],
+        gamma: &[f64],
+        velocity: &mut [[f64; 2]],
+        threads: &Threads,
+    );
 }
 
 impl VelocityEngine {
@@ -228,6 +243,7 @@ impl VelocityEngine {
             VelocityEngine::Direct(s) => s.compute(positions, gamma, velocity, threads),
             VelocityEngine::Tree(s) => s.compute(positions, gamma, velocity, threads),
             VelocityEngine::Mesh(s) => s.compute(positions, gamma, velocity, threads),
+            VelocityEngine::External(s) => s.compute(positions, gamma, velocity, threads),
         }
     }
 }
@@ -286,6 +302,22 @@ impl VortexSystem {
         threads: &Threads,
     ) -> Result<Self, VortexError> {
         params.check().map_err(VortexError::Parameter)?;
+        let kernel = BlobKernel::new(params.sigma);
+        let solver = VelocityEngine::new(params.solver, kernel, positions.len())
+            .map_err(VortexError::Parameter)?;
+        Self::with_engine(params, positions, gamma, solver, threads)
+    }
+
+    /// The same with the velocity solver `solver` (of the kind `params.solver`
+    /// names, built elsewhere).
+    pub fn with_engine(
+        params: VortexParams,
+        positions: Vec<[f64; 2]>,
+        gamma: Vec<f64>,
+        solver: VelocityEngine,
+        threads: &Threads,
+    ) -> Result<Self, VortexError> {
+        params.check().map_err(VortexError::Parameter)?;
         if positions.len() != gamma.len() {
             return Err(VortexError::Parameter(format!(
                 "{} positions but {} circulations",
@@ -310,8 +342,6 @@ impl VortexSystem {
             )));
         }
         let kernel = BlobKernel::new(params.sigma);
-        let solver = VelocityEngine::new(params.solver, kernel, positions.len())
-            .map_err(VortexError::Parameter)?;
         let h2 = params.spacing * params.spacing;
         let mut system = VortexSystem {
             params,

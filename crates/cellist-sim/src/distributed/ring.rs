@@ -1,0 +1,274 @@
+//! Seed 003's ring for all-pairs sums: each of the `P` ranks holds a block of
+//! the particles, and in `P` stages every rank adds the field of the block it
+//! holds at its own particles while it passes that block to rank `+1` and
+//! receives the next from rank `-1` (non-blocking send and receive, overlapped
+//! with the sums). With `n = N/P` particles per rank a stage costs
+//! `t_comp ~ gamma n^2` against `t_comm ~ alpha + beta n`: the communication is
+//! hidden once `gamma n^2 > alpha + beta n`.
+//!
+//! [`RingGravity`] and [`RingVortex`] are the engine's direct solvers made
+//! distributed: given every particle (the state is replicated), each rank sums
+//! the field at the block it owns over all blocks by the ring, and the blocks'
+//! results are gathered on every rank.
+
+use cellist::interactions::GravityLaw;
+use cellist::longrange::{
+    add_velocity_at, BlobKernel, FieldOut, FieldSolver, PartialField, Sources,
+};
+use cellist::models::vortex::VelocityField;
+use cellist::Threads;
+use mpi::datatype::PartitionMut;
+use mpi::topology::SimpleCommunicator;
+use mpi::traits::*;
+use mpi::Count;
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+/// Passes every rank's `block` (a few numbers per particle) round the ring:
+/// `visit(held, own)` is called with each rank's block in turn, this rank's
+/// own first, while the next block is on its way. Returns the time spent
+/// waiting for the messages after the sums.
+pub fn ring_pass<C: Communicator>(
+    world: &C,
+    block: &[f64],
+    mut visit: impl FnMut(&[f64], bool),
+) -> Duration {
+    let ranks = world.size();
+    let rank = world.rank();
+    let mut counts = vec![0u64; ranks as usize];
+    world.all_gather_into(&(block.len() as u64), &mut counts[..]);
+    let most = counts.iter().copied().max().unwrap_or(0) as usize;
+    let (next, previous) = ((rank + 1) % ranks, (rank + ranks - 1) % ranks);
+    let mut held: Vec<f64> = Vec::with_capacity(most);
+    held.extend_from_slice(block);
+    let mut incoming: Vec<f64> = Vec::with_capacity(most);
+    let mut waited = Duration::ZERO;
+    for stage in 0..ranks {
+        let own = stage == 0;
+        if stage + 1 == ranks {
+            visit(&held, own);
+            break;
+        }
+        // the block that arrives now left rank - stage - 1 at stage 0
+        let from = (rank - stage - 1).rem_euclid(ranks) as usize;
+        incoming.resize(counts[from] as usize, 0.0);
+        mpi::request::scope(|scope| {
+            let send = world.process_at_rank(next).immediate_send(scope, &held[..]);
+            let receive = world
+                .process_at_rank(previous)
+                .immediate_receive_into(scope, &mut incoming[..]);
+            visit(&held, own);
+            let t = Instant::now();
+            receive.wait();
+            send.wait();
+            waited += t.elapsed();
+        });
+        std::mem::swap(&mut held, &mut incoming);
+    }
+    waited
+}
+
+/// The accelerations and potentials of this rank's bodies (`position`, `mass`)
+/// due to every body of every rank, by the ring pass. Every rank calls it with
+/// its own block; the sums are those of the direct sum up to rounding (each
+/// body's sum runs over the blocks in ring order, its own first).
+pub fn ring_gravity<C: Communicator>(
+    world: &C,
+    law: GravityLaw,
+    position: &[[f64; 3]],
+    mass: &[f64],
+    threads: &Threads,
+) -> (Vec<[f64; 3]>, Vec<f64>) {
+    let (acc, phi, _) = ring_gravity_timed(world, law, position, mass, threads);
+    (acc, phi)
+}
+
+/// [`ring_gravity`] and the time spent waiting for the ring's messages.
+fn ring_gravity_timed<C: Communicator>(
+    world: &C,
+    law: GravityLaw,
+    position: &[[f64; 3]],
+    mass: &[f64],
+    threads: &Threads,
+) -> (Vec<[f64; 3]>, Vec<f64>, Duration) {
+    assert_eq!(position.len(), mass.len());
+    let n = mass.len();
+    let block: Vec<f64> = position
+        .iter()
+        .zip(mass)
+        .flat_map(|(x, &m)| [x[0], x[1], x[2], m])
+        .collect();
+    let mut partial = PartialField::new(law, n);
+    let (mut held_position, mut held_mass) = (Vec::new(), Vec::new());
+    let waited = ring_pass(world, &block, |held, own| {
+        held_position.clear();
+        held_mass.clear();
+        for body in held.chunks_exact(4) {
+            held_position.push([body[0], body[1], body[2]]);
+            held_mass.push(body[3]);
+        }
+        let sources = Sources {
+            mass: &held_mass,
+            position: &held_position,
+        };
+        partial.add(position, &sources, own, threads);
+    });
+    let mut acc = vec![[0.0; 3]; n];
+    let mut phi = vec![0.0; n];
+    partial.finish(FieldOut {
+        acc: &mut acc,
+        phi: &mut phi,
+    });
+    (acc, phi, waited)
+}
+
+/// The particles `[lo, hi)` of `n` that rank `rank` of `ranks` sums for.
+fn block(n: usize, rank: usize, ranks: usize) -> std::ops::Range<usize> {
+    n * rank / ranks..n * (rank + 1) / ranks
+}
+
+/// `values` (`width` numbers per particle of this rank's block) gathered from
+/// every rank's block into `out` (all particles, in order).
+fn gather_blocks(world: &SimpleCommunicator, values: &[f64], width: usize, out: &mut [f64]) {
+    let ranks = world.size() as usize;
+    let n = out.len() / width;
+    let counts: Vec<Count> = (0..ranks)
+        .map(|r| (block(n, r, ranks).len() * width) as Count)
+        .collect();
+    let displacements: Vec<Count> = (0..ranks)
+        .map(|r| (block(n, r, ranks).start * width) as Count)
+        .collect();
+    let mut partition = PartitionMut::new(out, counts, &displacements[..]);
+    world.all_gather_varcount_into(values, &mut partition);
+}
+
+/// The time a distributed solver has waited for messages, shared with the
+/// model that reports it.
+pub type Waited = Arc<Mutex<Duration>>;
+
+fn add_wait(waited: &Waited, d: Duration) {
+    if let Ok(mut w) = waited.lock() {
+        *w += d;
+    }
+}
+
+/// Gravity's direct sum by the ring pass: the engine's [`FieldSolver`] for a
+/// run whose bodies every rank holds.
+pub struct RingGravity {
+    world: SimpleCommunicator,
+    law: GravityLaw,
+    waited: Waited,
+}
+
+impl RingGravity {
+    /// The solver for `law` on the ranks of `world`.
+    pub fn new(world: SimpleCommunicator, law: GravityLaw) -> Self {
+        RingGravity {
+            world,
+            law,
+            waited: Waited::default(),
+        }
+    }
+
+    /// The waiting time, shared.
+    pub fn waited(&self) -> Waited {
+        self.waited.clone()
+    }
+}
+
+impl std::fmt::Debug for RingGravity {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "RingGravity on {} ranks", self.world.size())
+    }
+}
+
+impl FieldSolver for RingGravity {
+    fn compute(&mut self, sources: &Sources, out: FieldOut, threads: &Threads) {
+        let n = sources.mass.len();
+        let mine = block(n, self.world.rank() as usize, self.world.size() as usize);
+        let (acc, phi, waited) = ring_gravity_timed(
+            &self.world,
+            self.law,
+            &sources.position[mine.clone()],
+            &sources.mass[mine],
+            threads,
+        );
+        let t = Instant::now();
+        gather_blocks(
+            &self.world,
+            acc.as_flattened(),
+            3,
+            out.acc.as_flattened_mut(),
+        );
+        gather_blocks(&self.world, &phi, 1, out.phi);
+        add_wait(&self.waited, waited + t.elapsed());
+    }
+}
+
+/// The vortex model's direct Biot-Savart sum by the ring pass: the engine's
+/// [`VelocityField`] for a run whose particles every rank holds.
+pub struct RingVortex {
+    world: SimpleCommunicator,
+    kernel: BlobKernel,
+    waited: Waited,
+}
+
+impl RingVortex {
+    /// The solver for blobs of `kernel` on the ranks of `world`.
+    pub fn new(world: SimpleCommunicator, kernel: BlobKernel) -> Self {
+        RingVortex {
+            world,
+            kernel,
+            waited: Waited::default(),
+        }
+    }
+
+    /// The waiting time, shared.
+    pub fn waited(&self) -> Waited {
+        self.waited.clone()
+    }
+}
+
+impl std::fmt::Debug for RingVortex {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "RingVortex on {} ranks", self.world.size())
+    }
+}
+
+impl VelocityField for RingVortex {
+    fn compute(
+        &mut self,
+        positions: &[[f64; 2]],
+        gamma: &[f64],
+        velocity: &mut [[f64; 2]],
+        threads: &Threads,
+    ) {
+        let n = positions.len();
+        let mine = block(n, self.world.rank() as usize, self.world.size() as usize);
+        let targets = &positions[mine.clone()];
+        let own: Vec<f64> = targets
+            .iter()
+            .zip(&gamma[mine])
+            .flat_map(|(x, &g)| [x[0], x[1], g])
+            .collect();
+        let mut u = vec![[0.0; 2]; targets.len()];
+        let (mut held_x, mut held_gamma) = (Vec::new(), Vec::new());
+        let waited = ring_pass(&self.world, &own, |held, _| {
+            held_x.clear();
+            held_gamma.clear();
+            for p in held.chunks_exact(3) {
+                held_x.push([p[0], p[1]]);
+                held_gamma.push(p[2]);
+            }
+            add_velocity_at(&self.kernel, targets, &held_x, &held_gamma, &mut u, threads);
+        });
+        let t = Instant::now();
+        gather_blocks(
+            &self.world,
+            u.as_flattened(),
+            2,
+            velocity.as_flattened_mut(),
+        );
+        add_wait(&self.waited, waited + t.elapsed());
+    }
+}
