@@ -29,7 +29,7 @@ use cellist::models::md::{
     blowup_of, check_positions, ordered_forces, AtomForce, Atoms, Integrator, MdError, StageTimes,
 };
 use cellist::models::{check, Blowup, Checked, Model, Particles};
-use cellist::neighbors::OrderedRows;
+use cellist::neighbors::{CellGrid, OrderedRows};
 use cellist::state::{State, StateError};
 use cellist::Threads;
 use mpi::collective::SystemOperation;
@@ -73,6 +73,7 @@ pub struct DistributedMd<const D: usize> {
     communication: Duration,
     imbalance_sum: f64,
     imbalance_count: u64,
+    ghosts_sum: f64,
 }
 
 const REMEDY: &str =
@@ -140,11 +141,12 @@ impl<const D: usize> DistributedMd<D> {
             communication: Duration::ZERO,
             imbalance_sum: 0.0,
             imbalance_count: 0,
+            ghosts_sum: 0.0,
         };
         model
             .redistribute(threads)
             .map_err(|e| e.what.to_string())?;
-        model.forces(threads);
+        model.forces(true, threads);
         model.gather();
         Ok(model)
     }
@@ -188,6 +190,7 @@ impl<const D: usize> DistributedMd<D> {
         let mut travelling = self.pack();
         migrate(&self.world, &self.decomposition, &mut travelling);
         self.unpack(&travelling);
+        self.sort_by_cell();
         let reach = self.reach();
         self.plan = GhostPlan::new(
             &self.world,
@@ -207,6 +210,7 @@ impl<const D: usize> DistributedMd<D> {
             .all_reduce_into(&(n as u64), &mut most, SystemOperation::max());
         self.imbalance_sum += most as f64 * self.world.size() as f64 / self.total as f64;
         self.imbalance_count += 1;
+        self.ghosts_sum += self.ghost_ids.len() as f64;
         self.communication += t.elapsed();
         let mut keys = self.atoms.ids.clone();
         keys.extend_from_slice(&self.ghost_ids);
@@ -229,6 +233,34 @@ impl<const D: usize> DistributedMd<D> {
         self.computed.resize(n, AtomForce::default());
         self.stale = false;
         Ok(())
+    }
+
+    /// Puts the own atoms in the order of the cells (of side cutoff + skin)
+    /// they are in, so that neighbours lie close in memory (and the ghosts,
+    /// sent in this order, too); the sums do not depend on this order.
+    fn sort_by_cell(&mut self) {
+        let Ok(grid) = CellGrid::new(&self.decomposition.domain, self.reach(), self.atoms.len())
+        else {
+            return;
+        };
+        let keys: Vec<usize> = self
+            .atoms
+            .positions
+            .iter()
+            .map(|x| grid.cell_of(x))
+            .collect();
+        let mut order: Vec<u32> = (0..self.atoms.len() as u32).collect();
+        order.sort_by_key(|&k| keys[k as usize]);
+        let a = &self.atoms;
+        let pick = |v: &[[f64; D]]| order.iter().map(|&k| v[k as usize]).collect();
+        self.atoms = Atoms {
+            ids: order.iter().map(|&k| a.ids[k as usize]).collect(),
+            types: order.iter().map(|&k| a.types[k as usize]).collect(),
+            masses: order.iter().map(|&k| a.masses[k as usize]).collect(),
+            positions: pick(&a.positions),
+            velocities: pick(&a.velocities),
+            forces: pick(&a.forces),
+        };
     }
 
     /// The own atoms as travelling rows: position, velocity, force, mass, type.
@@ -254,15 +286,15 @@ impl<const D: usize> DistributedMd<D> {
         self.atoms = atoms_of(p);
     }
 
-    /// The forces on the own atoms (energies and virials computed alongside).
-    fn forces(&mut self, threads: &Threads) {
-        ordered_forces(
-            &self.rows,
-            &self.potential,
-            &self.points,
-            &mut self.computed,
-            threads,
-        );
+    /// The forces on the own atoms; with `energy`, their half energies and
+    /// virials too.
+    fn forces(&mut self, energy: bool, threads: &Threads) {
+        let (rows, potential, points) = (&self.rows, &self.potential, &self.points);
+        if energy {
+            ordered_forces::<true, D, _>(rows, potential, points, &mut self.computed, threads);
+        } else {
+            ordered_forces::<false, D, _>(rows, potential, points, &mut self.computed, threads);
+        }
         for (f, c) in self.atoms.forces.iter_mut().zip(&self.computed) {
             *f = c.force;
         }
@@ -432,7 +464,7 @@ impl<const D: usize> Model for DistributedMd<D> {
             self.communication += c.elapsed();
         }
         let t = lap(t, &mut self.times.neighbor);
-        self.forces(threads);
+        self.forces(observe, threads);
         let t = lap(t, &mut self.times.force);
         self.integrator.second_half(&mut self.atoms, self.dt, step);
         lap(t, &mut self.times.integrate);
@@ -560,15 +592,20 @@ impl<const D: usize> Model for DistributedMd<D> {
         let n = self.total;
         let ranks = self.world.size();
         let per = loop_seconds * 1e6 / (n as f64 * steps.max(1) as f64);
-        let imbalance = self.imbalance_sum / self.imbalance_count.max(1) as f64;
+        let rebuilds = self.imbalance_count.max(1) as f64;
+        let imbalance = self.imbalance_sum / rebuilds;
+        let ghosts = self.ghosts_sum / rebuilds;
         format!(
             "Loop time of {loop_seconds:.4} s on {ranks} ranks x {threads} thread(s) for {steps} \
              steps with {n} atoms: {per:.4} us/atom-step, {} neighbour-list rebuilds\n\
              Communication {:.4} s on rank 0 ({:.1}% of the loop; inside the sections below); \
-             load imbalance {imbalance:.3} (largest over mean atoms per rank, mean over the rebuilds)",
+             load imbalance {imbalance:.3} (largest over mean atoms per rank, mean over the rebuilds); \
+             rank 0 holds {ghosts:.0} ghosts for {} own atoms ({:.0} bytes of positions received per step)",
             self.rebuilds,
             self.communication.as_secs_f64(),
             100.0 * self.communication.as_secs_f64() / loop_seconds.max(1e-300),
+            self.atoms.len(),
+            ghosts * (D * 8) as f64,
         )
     }
 

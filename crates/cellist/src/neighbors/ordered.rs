@@ -13,7 +13,7 @@
 //! (no Newton's third law across subdomain faces: nothing travels back to a
 //! ghost's owner).
 
-use super::{CellList, StencilKind, VerletList};
+use super::{for_each_in_row, CellList, CutoffTest, ScanScratch, StencilKind, StencilRun};
 use crate::geometry::{norm2, Domain, GeometryError};
 use crate::threads::Threads;
 use rayon::prelude::*;
@@ -23,19 +23,31 @@ use std::ops::Range;
 /// positions at the build (the reference of the skin/2 test).
 #[derive(Clone, Debug, Default)]
 pub struct OrderedRows<const D: usize> {
-    start: Vec<usize>,
+    /// Row `i` is `neighbors[spans[i].0..spans[i].1]`.
+    spans: Vec<(usize, usize)>,
     neighbors: Vec<u32>,
     reference: Vec<[f64; D]>,
     skin: f64,
 }
 
-/// Owned particles handled by one task of the build and of the row sums.
+/// Owned particles handled by one task of the row sums.
 const CHUNK: usize = 1024;
+
+/// The rows one task of the build found: for each owned particle of its
+/// cells, its index and its neighbours (sorted).
+#[derive(Default)]
+struct ChunkRows {
+    owned: Vec<u32>,
+    lengths: Vec<u32>,
+    neighbors: Vec<u32>,
+}
 
 impl<const D: usize> OrderedRows<D> {
     /// The rows of the first `owned` of `points` over all of `points` within
     /// `cutoff + skin` (open space: ghosts carry their periodic shifts), each
-    /// sorted by `(ids[j], j)`.
+    /// sorted by `(ids[j], j)`: the points are ranked in that order once,
+    /// binned in a cell list in rank order, and each owned point's row is found
+    /// from its cell's stencil and sorted by rank.
     pub fn build(
         points: &[[f64; D]],
         owned: usize,
@@ -45,50 +57,81 @@ impl<const D: usize> OrderedRows<D> {
         threads: &Threads,
     ) -> Result<Self, GeometryError> {
         assert!(owned <= points.len() && ids.len() == points.len());
+        assert!(points.len() < u32::MAX as usize, "at most 2^32 - 1 points");
         let mut rows = OrderedRows {
             reference: points[..owned].to_vec(),
             skin,
+            spans: vec![(0, 0); owned],
             ..OrderedRows::default()
         };
-        rows.start.push(0);
         if owned == 0 {
             return Ok(rows);
         }
-        let domain = Domain::open_around(points);
-        let cells = CellList::build(&domain, cutoff + skin, points)?;
-        let list = VerletList::build(&cells, StencilKind::Full, cutoff, skin, threads);
+        // bin the points in id order: a row's entries are then the points' ranks
+        let mut by_rank: Vec<u32> = (0..points.len() as u32).collect();
+        by_rank.sort_unstable_by_key(|&k| (ids[k as usize], k));
+        let ranked: Vec<[f64; D]> = by_rank.iter().map(|&k| points[k as usize]).collect();
+        let reach = cutoff + skin;
+        let cells = CellList::build(&Domain::open_around(&ranked), reach, &ranked)?;
+        let test = CutoffTest::new(reach);
         let order = cells.order();
-        let mut slot_of = vec![0u32; points.len()];
-        for (slot, &input) in order.iter().enumerate() {
-            slot_of[input as usize] = slot as u32;
-        }
-        let chunks: Vec<Vec<Vec<u32>>> = threads.install(|| {
-            (0..owned)
-                .collect::<Vec<usize>>()
-                .par_chunks(CHUNK)
-                .map(|chunk| {
+        let grid = cells.grid();
+        let chunks: Vec<ChunkRows> = threads.install(|| {
+            Threads::chunks(grid.num_cells())
+                .map(|range| {
+                    let mut chunk = ChunkRows::default();
+                    let mut runs = [StencilRun::<D>::default(); 27];
+                    let mut scratch = ScanScratch::default();
+                    for home in range {
+                        let mut n = None;
+                        for i in cells.cell_range(home) {
+                            let own = by_rank[order[i] as usize];
+                            if own as usize >= owned {
+                                continue;
+                            }
+                            let n = *n.get_or_insert_with(|| {
+                                grid.stencil_runs(home, StencilKind::Full, &mut runs)
+                            });
+                            let first = chunk.neighbors.len();
+                            let row = &mut chunk.neighbors;
+                            for_each_in_row(
+                                &cells,
+                                i,
+                                &runs[..n],
+                                StencilKind::Full,
+                                &test,
+                                &mut scratch,
+                                |j, _, _, _| row.push(order[j]),
+                            );
+                            let row = &mut chunk.neighbors[first..];
+                            row.sort_unstable();
+                            for r in row.iter_mut() {
+                                *r = by_rank[*r as usize];
+                            }
+                            chunk.owned.push(own);
+                            chunk.lengths.push(row.len() as u32);
+                        }
+                    }
                     chunk
-                        .iter()
-                        .map(|&i| {
-                            let (js, _) = list.row(slot_of[i] as usize);
-                            let mut row: Vec<u32> = js.iter().map(|&j| order[j as usize]).collect();
-                            row.sort_unstable_by_key(|&j| (ids[j as usize], j));
-                            row
-                        })
-                        .collect()
                 })
                 .collect()
         });
-        for row in chunks.iter().flatten() {
-            rows.neighbors.extend_from_slice(row);
-            rows.start.push(rows.neighbors.len());
+        rows.neighbors
+            .reserve(chunks.iter().map(|c| c.neighbors.len()).sum());
+        for chunk in &chunks {
+            let mut at = rows.neighbors.len();
+            rows.neighbors.extend_from_slice(&chunk.neighbors);
+            for (&i, &length) in chunk.owned.iter().zip(&chunk.lengths) {
+                rows.spans[i as usize] = (at, at + length as usize);
+                at += length as usize;
+            }
         }
         Ok(rows)
     }
 
     /// Number of rows (owned particles).
     pub fn len(&self) -> usize {
-        self.start.len() - 1
+        self.spans.len()
     }
 
     /// True without rows.
@@ -110,7 +153,7 @@ impl<const D: usize> OrderedRows<D> {
     /// The entry numbers of row `i` (for per-entry data such as fixed weights).
     #[inline]
     pub fn entries(&self, i: usize) -> Range<usize> {
-        self.start[i]..self.start[i + 1]
+        self.spans[i].0..self.spans[i].1
     }
 
     /// The owned positions at the build.

@@ -127,44 +127,67 @@ pub fn for_each_row_in_cell<const D: usize>(
     let mut runs = [StencilRun::<D>::default(); 27];
     let n = cells.grid().stencil_runs(home, kind, &mut runs);
     let mut scratch = ScanScratch::default();
-    let xs = cells.positions();
+    for i in cells.cell_range(home) {
+        for_each_in_row(
+            cells,
+            i,
+            &runs[..n],
+            kind,
+            test,
+            &mut scratch,
+            |j, image, d, r2| visit(i, j, image, d, r2),
+        );
+    }
+}
+
+/// The row of slot `i` alone: its neighbours `j` within the cutoff over the
+/// stencil `runs` of its cell (from [`CellGrid::stencil_runs`](super::CellGrid::stencil_runs)),
+/// visited as `visit(j, image, d, r2)` in stencil order, then slot order.
+#[inline]
+pub fn for_each_in_row<const D: usize>(
+    cells: &CellList<D>,
+    i: usize,
+    runs: &[StencilRun<D>],
+    kind: StencilKind,
+    test: &CutoffTest,
+    scratch: &mut ScanScratch,
+    mut visit: impl FnMut(usize, u8, &[f64; D], f64),
+) {
+    let xi = &cells.positions()[i];
     let cols = cells.columns();
     let start = cells.cell_start();
-    for i in cells.cell_range(home) {
-        let xi = &xs[i];
-        for run in &runs[..n] {
-            let range = start[run.first_cell] as usize..start[run.last_cell + 1] as usize;
-            let image = run.image;
-            let mut hit = |j: usize, d: &[f64; D], r2: f64| visit(i, j, image, d, r2);
-            if run.shifted {
-                // only the periodic image of a tiny box can bring i next to itself,
-                // and that image is at least 2 r_c away: no i == j check is needed
-                scan::<D, true>(&mut scratch, xi, cols, range, &run.shift, test, &mut hit);
-            } else if run.holds_home {
-                // the half stencil's home run starts at the home cell: j > i
-                if kind == StencilKind::Full {
-                    scan::<D, false>(
-                        &mut scratch,
-                        xi,
-                        cols,
-                        range.start..i,
-                        &run.shift,
-                        test,
-                        &mut hit,
-                    );
-                }
+    for run in runs {
+        let range = start[run.first_cell] as usize..start[run.last_cell + 1] as usize;
+        let image = run.image;
+        let mut hit = |j: usize, d: &[f64; D], r2: f64| visit(j, image, d, r2);
+        if run.shifted {
+            // only the periodic image of a tiny box can bring i next to itself,
+            // and that image is at least 2 r_c away: no i == j check is needed
+            scan::<D, true>(scratch, xi, cols, range, &run.shift, test, &mut hit);
+        } else if run.holds_home {
+            // the half stencil's home run starts at the home cell: j > i
+            if kind == StencilKind::Full {
                 scan::<D, false>(
-                    &mut scratch,
+                    scratch,
                     xi,
                     cols,
-                    i + 1..range.end,
+                    range.start..i,
                     &run.shift,
                     test,
                     &mut hit,
                 );
-            } else {
-                scan::<D, false>(&mut scratch, xi, cols, range, &run.shift, test, &mut hit);
             }
+            scan::<D, false>(
+                scratch,
+                xi,
+                cols,
+                i + 1..range.end,
+                &run.shift,
+                test,
+                &mut hit,
+            );
+        } else {
+            scan::<D, false>(scratch, xi, cols, range, &run.shift, test, &mut hit);
         }
     }
 }

@@ -508,16 +508,37 @@ struct PairArgs<'a, const D: usize, P> {
 
 /// Entries of a Verlet row handled together by the pair loop: gathered, then computed
 /// in straight-line (vectorisable) code, then scattered.
-const PAIR_BLOCK: usize = 16;
+pub(crate) const PAIR_BLOCK: usize = 16;
 
 /// One block of a row: separations `d = x_i - (x_j + shift)` by axis, then the pair
 /// force components and, for the energy, `U` and `-U'/r`.
-struct PairBlock<const D: usize> {
-    d: [[f64; PAIR_BLOCK]; D],
-    f: [[f64; PAIR_BLOCK]; D],
-    energy: [f64; PAIR_BLOCK],
-    f_over_r: [f64; PAIR_BLOCK],
-    r2: [f64; PAIR_BLOCK],
+pub(crate) struct PairBlock<const D: usize> {
+    pub(crate) d: [[f64; PAIR_BLOCK]; D],
+    pub(crate) f: [[f64; PAIR_BLOCK]; D],
+    pub(crate) energy: [f64; PAIR_BLOCK],
+    pub(crate) f_over_r: [f64; PAIR_BLOCK],
+    pub(crate) r2: [f64; PAIR_BLOCK],
+}
+
+impl<const D: usize> PairBlock<D> {
+    /// From the separations `d`: `r^2`, `U`, `-U'/r` and the pair forces
+    /// `f = d (-U'/r)`, branch-free (vectorisable): entries at or beyond the
+    /// cutoff get `-U'/r = 0`, so exact zero forces.
+    #[inline(always)]
+    pub(crate) fn compute<P: PairPotential>(&mut self, potential: &P, cutoff2: f64) {
+        for k in 0..PAIR_BLOCK {
+            let d: [f64; D] = std::array::from_fn(|a| self.d[a][k]);
+            let r2 = norm2(&d);
+            let (e, f_over_r) = potential.energy_and_force(r2);
+            let f_over_r = if r2 < cutoff2 { f_over_r } else { 0.0 };
+            for a in 0..D {
+                self.f[a][k] = d[a] * f_over_r;
+            }
+            self.energy[k] = e;
+            self.f_over_r[k] = f_over_r;
+            self.r2[k] = r2;
+        }
+    }
 }
 
 impl<const D: usize> Default for PairBlock<D> {
@@ -566,19 +587,7 @@ impl<const D: usize, P: PairPotential> PairArgs<'_, D, P> {
                                 b.d[a][k] = xi[a] - (xj[a] + s[a]);
                             }
                         }
-                        // branch-free: entries beyond the cutoff contribute exact zeros
-                        for k in 0..PAIR_BLOCK {
-                            let d: [f64; D] = std::array::from_fn(|a| b.d[a][k]);
-                            let r2 = norm2(&d);
-                            let (e, f_over_r) = potential.energy_and_force(r2);
-                            let f_over_r = if r2 < cutoff2 { f_over_r } else { 0.0 };
-                            for a in 0..D {
-                                b.f[a][k] = d[a] * f_over_r;
-                            }
-                            b.energy[k] = e;
-                            b.f_over_r[k] = f_over_r;
-                            b.r2[k] = r2;
-                        }
+                        b.compute(potential, cutoff2);
                         for (k, &j) in jb.iter().enumerate() {
                             let fij: [f64; D] = std::array::from_fn(|a| b.f[a][k]);
                             for a in 0..D {

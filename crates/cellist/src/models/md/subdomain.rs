@@ -10,7 +10,7 @@
 //! any number of ranks and threads; the total energy and virial are the sums of
 //! `u_i` and `w_i`.
 
-use crate::geometry::norm2;
+use super::{PairBlock, PAIR_BLOCK};
 use crate::interactions::PairPotential;
 use crate::neighbors::OrderedRows;
 use crate::threads::Threads;
@@ -36,10 +36,11 @@ impl<const D: usize> Default for AtomForce<D> {
     }
 }
 
-/// The force, half energy and half virial of every owned atom (`out[i]`) from
-/// `points` (owned then ghosts, in the order the rows were built for, at their
-/// positions now), in parallel, each atom's sum in row order.
-pub fn ordered_forces<const D: usize, P: PairPotential + Sync>(
+/// The force of every owned atom (`out[i]`), with `ENERGY` its half energy and
+/// half virial too (zero without), from `points` (owned then ghosts, in the
+/// order the rows were built for, at their positions now), in parallel, each
+/// atom's sum in row order.
+pub fn ordered_forces<const ENERGY: bool, const D: usize, P: PairPotential + Sync>(
     rows: &OrderedRows<D>,
     potential: &P,
     points: &[[f64; D]],
@@ -50,17 +51,25 @@ pub fn ordered_forces<const D: usize, P: PairPotential + Sync>(
     rows.map(out, threads, |i| {
         let xi = points[i];
         let mut a = AtomForce::default();
-        for &j in rows.row(i) {
-            let xj = &points[j as usize];
-            let d: [f64; D] = std::array::from_fn(|k| xi[k] - xj[k]);
-            let r2 = norm2(&d);
-            if r2 < cutoff2 {
-                let (e, f_over_r) = potential.energy_and_force(r2);
-                for k in 0..D {
-                    a.force[k] += d[k] * f_over_r;
+        let mut b = PairBlock::<D>::default();
+        for block in rows.row(i).chunks(PAIR_BLOCK) {
+            for (k, &j) in block.iter().enumerate() {
+                let xj = &points[j as usize];
+                for c in 0..D {
+                    b.d[c][k] = xi[c] - xj[c];
                 }
-                a.energy += 0.5 * e;
-                a.virial += 0.5 * f_over_r * r2;
+            }
+            b.compute(potential, cutoff2);
+            // the sums in row order: entries beyond the cutoff add exact zeros
+            for k in 0..block.len() {
+                for c in 0..D {
+                    a.force[c] += b.f[c][k];
+                }
+                if ENERGY {
+                    let half = if b.r2[k] < cutoff2 { 0.5 } else { 0.0 };
+                    a.energy += half * b.energy[k];
+                    a.virial += 0.5 * b.f_over_r[k] * b.r2[k];
+                }
             }
         }
         a
@@ -70,6 +79,7 @@ pub fn ordered_forces<const D: usize, P: PairPotential + Sync>(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geometry::norm2;
     use crate::interactions::LennardJones;
     use crate::random::Rng;
 
@@ -89,7 +99,7 @@ mod tests {
             let threads = Threads::new(t).unwrap();
             let rows = OrderedRows::build(p, owned, q, 2.5, 0.3, &threads).unwrap();
             let mut out = vec![AtomForce::default(); owned];
-            ordered_forces(&rows, &lj, p, &mut out, &threads);
+            ordered_forces::<true, 3, _>(&rows, &lj, p, &mut out, &threads);
             out
         };
         let one = forces(&points, &ids, 1);

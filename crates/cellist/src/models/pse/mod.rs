@@ -481,23 +481,24 @@ pub fn ordered_rate<const D: usize>(
 }
 
 /// The weight `w(r_ij^2)` of every entry of `rows` at `points` (the particles
-/// do not move: computed once), zero beyond `cutoff`.
+/// do not move: computed once), zero beyond `cutoff`, indexed like the entries
+/// ([`OrderedRows::entries`]).
 pub fn row_weights<const D: usize>(
     rows: &OrderedRows<D>,
     weight: &PairWeight,
     points: &[[f64; D]],
     cutoff: f64,
 ) -> Vec<f64> {
-    let mut weights = Vec::with_capacity(rows.num_entries());
+    let mut weights = vec![0.0; rows.num_entries()];
     for i in 0..rows.len() {
-        for &j in rows.row(i) {
+        for (e, &j) in rows.entries(i).zip(rows.row(i)) {
             let d: [f64; D] = std::array::from_fn(|a| points[i][a] - points[j as usize][a]);
             let r2 = norm2(&d);
-            weights.push(if r2.sqrt() < cutoff {
+            weights[e] = if r2.sqrt() < cutoff {
                 weight.at(r2)
             } else {
                 0.0
-            });
+            };
         }
     }
     weights

