@@ -172,32 +172,35 @@ impl PartialField {
     pub fn add(&mut self, targets: &[[f64; 3]], sources: &Sources, same: bool, threads: &Threads) {
         assert_eq!(targets.len(), self.acc.len(), "one sum per target");
         let kernel = Kernel::new(&self.law);
+        let x: [Vec<f64>; 3] =
+            std::array::from_fn(|a| sources.position.iter().map(|p| p[a]).collect());
+        let m = sources.mass;
+        let all = 0..m.len();
         let repulsion = self.law.has_repulsion();
         threads.install(|| {
             self.acc
                 .par_iter_mut()
                 .zip(self.pot.par_iter_mut())
                 .enumerate()
-                .with_min_len(64)
+                .with_min_len(16)
                 .for_each(|(i, (acc, pot))| {
                     let xi = targets[i];
+                    // the sources before and after i itself when they are the targets
+                    let (first, second) = if same {
+                        (0..i, i + 1..m.len())
+                    } else {
+                        (all.clone(), 0..0)
+                    };
                     let mut sum = [0.0; 4];
-                    for (j, (xj, &mj)) in sources.position.iter().zip(sources.mass).enumerate() {
-                        if same && i == j {
-                            continue;
-                        }
-                        let d = [xj[0] - xi[0], xj[1] - xi[1], xj[2] - xi[2]];
-                        let r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-                        let (k, p) = if repulsion {
-                            kernel.at::<true>(r2)
+                    for part in [first, second] {
+                        let got = if repulsion {
+                            kernel.one_sided::<true>(xi, &x, m, part)
                         } else {
-                            kernel.at::<false>(r2)
+                            kernel.one_sided::<false>(xi, &x, m, part)
                         };
-                        let km = k * mj;
-                        sum[0] += km * d[0];
-                        sum[1] += km * d[1];
-                        sum[2] += km * d[2];
-                        sum[3] += p * mj;
+                        for (s, g) in sum.iter_mut().zip(got) {
+                            *s += g;
+                        }
                     }
                     for a in 0..3 {
                         acc[a] += sum[a];
@@ -391,6 +394,54 @@ impl Kernel {
             sy[j] -= ki * d[1];
             sz[j] -= ki * d[2];
             sp[j] += p * mi;
+        }
+        total
+    }
+
+    /// The target at `xi` against the sources `partners` (positions `x`,
+    /// masses `m`), one side only: `(sum k m_j d, sum m_j p)` summed
+    /// [`LANES`] partners at a time, then across lanes, then the tail.
+    #[inline(always)]
+    fn one_sided<const REPULSION: bool>(
+        &self,
+        xi: [f64; 3],
+        x: &[Vec<f64>; 3],
+        m: &[f64],
+        partners: Range<usize>,
+    ) -> [f64; 4] {
+        let len = partners.len();
+        let [px, py, pz] = [
+            &x[0][partners.clone()],
+            &x[1][partners.clone()],
+            &x[2][partners.clone()],
+        ];
+        let pm = &m[partners];
+        let whole = len - len % LANES;
+        let xi4 = xi.map(F64x4::splat);
+        let one = F64x4::splat(1.0);
+        let mut lanes = [F64x4::splat(0.0); 4];
+        for j in (0..whole).step_by(LANES) {
+            let d = [
+                F64x4::load(&px[j..]) - xi4[0],
+                F64x4::load(&py[j..]) - xi4[1],
+                F64x4::load(&pz[j..]) - xi4[2],
+            ];
+            let (k, p) = self.factors4::<REPULSION>(one / self.s2(d).sqrt());
+            let kj = k * F64x4::load(&pm[j..]);
+            for a in 0..3 {
+                lanes[a] = kj.mul_add(d[a], lanes[a]);
+            }
+            lanes[3] = p.mul_add(F64x4::load(&pm[j..]), lanes[3]);
+        }
+        let mut total = lanes.map(F64x4::sum);
+        for j in whole..len {
+            let d = [px[j] - xi[0], py[j] - xi[1], pz[j] - xi[2]];
+            let (k, p) = self.at::<REPULSION>(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+            let kj = k * pm[j];
+            total[0] += kj * d[0];
+            total[1] += kj * d[1];
+            total[2] += kj * d[2];
+            total[3] += p * pm[j];
         }
         total
     }
