@@ -88,6 +88,35 @@ pub struct Job<M: Model> {
     pub last_frame: LastFrame,
 }
 
+/// A run's settings apart from its model: how far it goes, where it writes,
+/// its checkpoints, the physics a restart must match and its last frame.
+pub struct JobSpec {
+    /// The last step.
+    pub steps: u64,
+    /// The output folder.
+    pub dir: PathBuf,
+    /// Checkpoints, if asked for.
+    pub checkpoint: Option<CheckpointKeys>,
+    /// The physics a checkpoint records and a restart must match.
+    pub physics: Vec<(String, String)>,
+    /// Where a blow-up writes its last good frame.
+    pub last_frame: LastFrame,
+}
+
+impl JobSpec {
+    /// The run of `model` with these settings.
+    pub fn with<M: Model>(self, model: M) -> Job<M> {
+        Job {
+            model,
+            steps: self.steps,
+            dir: self.dir,
+            checkpoint: self.checkpoint,
+            physics: self.physics,
+            last_frame: self.last_frame,
+        }
+    }
+}
+
 /// What a finished run reports.
 pub struct Report<M> {
     /// The model in its final state.

@@ -23,10 +23,11 @@
 
 use super::{agree, agree_blowup, migrate, GhostPlan, LocalParticles};
 use cellist::decomposition::Decomposition;
-use cellist::geometry::{norm2, Domain};
+use cellist::geometry::Domain;
 use cellist::interactions::{LennardJones, PairPotential};
 use cellist::models::md::{
-    blowup_of, check_positions, ordered_forces, AtomForce, Atoms, Integrator, MdError, StageTimes,
+    blowup_of, check_positions, checked_atoms, dump_particles, load_atoms, ordered_forces,
+    save_atoms, AtomForce, Atoms, Integrator, MdError, PairTally, StageTimes, Thermo,
 };
 use cellist::models::{check, Blowup, Checked, Model, Particles};
 use cellist::neighbors::{CellGrid, OrderedRows};
@@ -111,14 +112,7 @@ impl<const D: usize> DistributedMd<D> {
         let mine: Vec<usize> = (0..total)
             .filter(|&k| decomposition.owner(&atoms.positions[k]) == rank)
             .collect();
-        let owned = Atoms {
-            ids: mine.iter().map(|&k| atoms.ids[k]).collect(),
-            types: mine.iter().map(|&k| atoms.types[k]).collect(),
-            masses: mine.iter().map(|&k| atoms.masses[k]).collect(),
-            positions: mine.iter().map(|&k| atoms.positions[k]).collect(),
-            velocities: mine.iter().map(|&k| atoms.velocities[k]).collect(),
-            forces: vec![[0.0; D]; mine.len()],
-        };
+        let owned = atoms.select(&mine);
         let mut model = DistributedMd {
             plan: GhostPlan::new(&world, &decomposition, &[], reach),
             world,
@@ -249,18 +243,9 @@ impl<const D: usize> DistributedMd<D> {
             .iter()
             .map(|x| grid.cell_of(x))
             .collect();
-        let mut order: Vec<u32> = (0..self.atoms.len() as u32).collect();
-        order.sort_by_key(|&k| keys[k as usize]);
-        let a = &self.atoms;
-        let pick = |v: &[[f64; D]]| order.iter().map(|&k| v[k as usize]).collect();
-        self.atoms = Atoms {
-            ids: order.iter().map(|&k| a.ids[k as usize]).collect(),
-            types: order.iter().map(|&k| a.types[k as usize]).collect(),
-            masses: order.iter().map(|&k| a.masses[k as usize]).collect(),
-            positions: pick(&a.positions),
-            velocities: pick(&a.velocities),
-            forces: pick(&a.forces),
-        };
+        let mut order: Vec<usize> = (0..self.atoms.len()).collect();
+        order.sort_by_key(|&k| keys[k]);
+        self.atoms = self.atoms.select(&order);
     }
 
     /// The own atoms as travelling rows: position, velocity, force, mass, type.
@@ -395,10 +380,6 @@ fn atoms_of<const D: usize>(p: &LocalParticles) -> Atoms<D> {
     }
 }
 
-fn pad<const D: usize>(v: [f64; D]) -> [f64; 3] {
-    std::array::from_fn(|a| if a < D { v[a] } else { 0.0 })
-}
-
 fn lap(t: Instant, total: &mut Duration) -> Instant {
     let now = Instant::now();
     *total += now - t;
@@ -501,37 +482,16 @@ impl<const D: usize> Model for DistributedMd<D> {
     /// Summed on rank 0 over the gathered atoms in id order.
     fn thermo(&self, _step: u64) -> Vec<f64> {
         let g = self.global();
-        let n = g.atoms.len() as f64;
-        let dof = (D * g.atoms.len()).saturating_sub(D) as f64;
-        let twice_kinetic: f64 = g
-            .atoms
-            .velocities
-            .iter()
-            .zip(&g.atoms.masses)
-            .map(|(v, m)| norm2(v) * m)
-            .sum();
-        let temp = if dof > 0.0 { twice_kinetic / dof } else { 0.0 };
-        let energy: f64 = g.energies.iter().sum();
-        let virial: f64 = g.virials.iter().sum();
-        let pe = energy / n;
-        let ke = temp * 0.5 * dof / n;
-        let press = (dof * temp + virial) / D as f64 * (1.0 / self.decomposition.domain.volume());
-        vec![temp, pe, ke, pe + ke, press]
+        let totals = PairTally {
+            energy: g.energies.iter().sum(),
+            virial: g.virials.iter().sum(),
+        };
+        let th = Thermo::of(&g.atoms, totals, self.decomposition.domain.volume());
+        vec![th.temp, th.pe, th.ke, th.etotal, th.press]
     }
 
     fn checked(&self) -> Vec<Checked<'_>> {
-        let atoms = &self.atoms;
-        [
-            ("position", &atoms.positions),
-            ("velocity", &atoms.velocities),
-            ("force", &atoms.forces),
-        ]
-        .map(|(quantity, v)| Checked {
-            quantity,
-            values: v.as_flattened(),
-            per_particle: D,
-        })
-        .into()
+        checked_atoms(&self.atoms)
     }
 
     fn id_of(&self, index: usize) -> u64 {
@@ -554,30 +514,13 @@ impl<const D: usize> Model for DistributedMd<D> {
     /// on the other ranks.
     fn particles(&self, _step: u64, energies: bool) -> Option<Particles> {
         let g = self.gathered.as_ref()?;
-        let dom = &self.decomposition.domain;
-        let mut lo = [0.0, 0.0, self.z_bounds.0];
-        let mut hi = [0.0, 0.0, self.z_bounds.1];
-        let mut periodic = [true; 3];
-        for a in 0..D {
-            lo[a] = dom.lo[a];
-            hi[a] = dom.lo[a] + dom.length[a];
-            periodic[a] = dom.is_periodic(a);
-        }
-        let atoms = &g.atoms;
-        Some(Particles {
-            lo,
-            hi,
-            periodic,
-            ids: atoms.ids.clone(),
-            types: atoms.types.clone(),
-            positions: atoms.positions.iter().map(|&x| pad(dom.wrap(x))).collect(),
-            velocities: atoms.velocities.iter().map(|&v| pad(v)).collect(),
-            forces: atoms.forces.iter().map(|&f| pad(f)).collect(),
-            energies: (energies && g.energies_valid).then(|| g.energies.clone()),
-            masses: None,
-            accelerations: None,
-            potentials: None,
-        })
+        let energies = (energies && g.energies_valid).then(|| g.energies.clone());
+        Some(dump_particles(
+            &g.atoms,
+            energies,
+            &self.decomposition.domain,
+            self.z_bounds,
+        ))
     }
 
     fn stage_times(&self) -> Vec<(&'static str, Duration)> {
@@ -613,18 +556,9 @@ impl<const D: usize> Model for DistributedMd<D> {
     /// (a distributed checkpoint restarts in one process or on any number of
     /// ranks); nothing on the other ranks.
     fn save(&self, state: &mut State) {
-        let Some(g) = &self.gathered else {
-            return;
-        };
-        let atoms = &g.atoms;
-        state.put_u64s("ids", atoms.ids.iter().copied());
-        state.put_u64s("types", atoms.types.iter().map(|&t| t as u64));
-        state.put_f64s("masses", atoms.masses.iter().copied());
-        state.put_vectors("positions", &atoms.positions);
-        state.put_vectors("velocities", &atoms.velocities);
-        state.put_vectors("forces", &atoms.forces);
-        state.put_vectors("list_reference", &g.reference);
-        state.put_u64s("rebuilds", [self.rebuilds]);
+        if let Some(g) = &self.gathered {
+            save_atoms(state, &g.atoms, &g.reference, self.rebuilds);
+        }
     }
 
     /// Takes the atoms this rank owns from a global state (of any number of
@@ -632,23 +566,7 @@ impl<const D: usize> Model for DistributedMd<D> {
     /// collective: a rank that fails returns its error alone.
     fn restore(&mut self, state: &State, _threads: &Threads) -> Result<(), StateError> {
         let n = self.total;
-        let types = state
-            .u64s_of("types", n)?
-            .iter()
-            .map(|&t| {
-                u32::try_from(t).map_err(|_| StateError(format!("atom type {t} is out of range")))
-            })
-            .collect::<Result<Vec<u32>, StateError>>()?;
-        let all = Atoms {
-            ids: state.u64s_of("ids", n)?,
-            types,
-            masses: state.f64s_of("masses", n)?,
-            positions: state.vectors("positions", n)?,
-            velocities: state.vectors("velocities", n)?,
-            forces: state.vectors("forces", n)?,
-        };
-        let reference: Vec<[f64; D]> = state.vectors("list_reference", n)?;
-        let rebuilds = state.u64("rebuilds")?;
+        let (all, reference, rebuilds) = load_atoms::<D>(state, n)?;
         if all.positions.iter().flatten().any(|c| !c.is_finite()) {
             return Err(StateError("a saved position is not finite".into()));
         }
@@ -656,30 +574,14 @@ impl<const D: usize> Model for DistributedMd<D> {
         let mine: Vec<usize> = (0..n)
             .filter(|&k| self.decomposition.owner(&all.positions[k]) == rank)
             .collect();
-        self.atoms = Atoms {
-            ids: mine.iter().map(|&k| all.ids[k]).collect(),
-            types: mine.iter().map(|&k| all.types[k]).collect(),
-            masses: mine.iter().map(|&k| all.masses[k]).collect(),
-            positions: mine.iter().map(|&k| all.positions[k]).collect(),
-            velocities: mine.iter().map(|&k| all.velocities[k]).collect(),
-            forces: mine.iter().map(|&k| all.forces[k]).collect(),
-        };
+        self.atoms = all.select(&mine);
         self.rebuilds = rebuilds;
         self.stale = true;
         self.gathered = (rank == 0).then(|| {
-            let mut order: Vec<usize> = (0..n).collect();
-            order.sort_unstable_by_key(|&k| all.ids[k]);
-            let pick = |v: &[[f64; D]]| order.iter().map(|&k| v[k]).collect();
+            let by_id = all.slots_by_id();
             Gathered {
-                atoms: Atoms {
-                    ids: order.iter().map(|&k| all.ids[k]).collect(),
-                    types: order.iter().map(|&k| all.types[k]).collect(),
-                    masses: order.iter().map(|&k| all.masses[k]).collect(),
-                    positions: pick(&all.positions),
-                    velocities: pick(&all.velocities),
-                    forces: pick(&all.forces),
-                },
-                reference: pick(&reference),
+                atoms: all.select(&by_id),
+                reference: by_id.iter().map(|&k| reference[k]).collect(),
                 energies: vec![0.0; n],
                 virials: vec![0.0; n],
                 energies_valid: false,

@@ -3,7 +3,7 @@
 //! the outputs (thermo with energies and momenta, LAMMPS dumps with accelerations
 //! and potentials, the energy-error plot).
 
-use crate::driver::{CheckpointKeys, Job, LastFrame};
+use crate::driver::{CheckpointKeys, JobSpec, LastFrame};
 use crate::error::{SimError, SimResult};
 use crate::models::field_output::{check_picture_size, SnapshotKeys};
 use crate::observers::{BodyPlan, DumpFormat, DumpPlan, OutputPlan, PlotSpec, TableStyle};
@@ -593,37 +593,19 @@ fn run_setup(scenario: &Scenario, setup: Setup, context: &RunContext) -> SimResu
         quiet: false,
     };
     let model = GravityModel::new(system, setup.integrator, setup.dt);
-    let physics = scenario.physics_keys()?;
-    #[cfg(feature = "mpi")]
-    if let Some(ring) = ring {
-        let job = job_of(ring.wrap(model), &setup, out_dir, physics);
-        return crate::execute(job, &plan, context, started);
-    }
-    crate::execute(
-        job_of(model, &setup, out_dir, physics),
-        &plan,
-        context,
-        started,
-    )
-}
-
-/// The run of `model` (in one process or on every rank of several) as the
-/// scenario asks.
-fn job_of<M: cellist::models::Model>(
-    model: M,
-    setup: &Setup,
-    dir: &std::path::Path,
-    physics: Vec<(String, String)>,
-) -> Job<M> {
-    Job {
-        model,
+    let spec = JobSpec {
         steps: setup.steps,
-        dir: dir.to_path_buf(),
+        dir: out_dir.to_path_buf(),
         checkpoint: setup.checkpoint.clone(),
-        physics,
+        physics: scenario.physics_keys()?,
         last_frame: LastFrame::Dump {
             file: "last.dump",
             columns: dump_columns(),
         },
+    };
+    #[cfg(feature = "mpi")]
+    if let Some(ring) = ring {
+        return crate::execute(spec.with(ring.wrap(model)), &plan, context, started);
     }
+    crate::execute(spec.with(model), &plan, context, started)
 }

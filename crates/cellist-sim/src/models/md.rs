@@ -2,7 +2,7 @@
 //! initial state (lattice or LAMMPS data file), and the outputs (thermo, LAMMPS
 //! dumps, extended XYZ, the energy plot).
 
-use crate::driver::{CheckpointKeys, Job, LastFrame};
+use crate::driver::{CheckpointKeys, JobSpec, LastFrame};
 use crate::error::{SimError, SimResult};
 use crate::observers::{DumpFormat, DumpPlan, OutputPlan, PlotSpec, TableStyle};
 use crate::scenario::Scenario;
@@ -13,7 +13,6 @@ use cellist::models::md::{
     create_velocities, lattice, Atoms, Integrator, Langevin, LatticeKind, MdModel, MdSystem,
     VelocityDistribution,
 };
-use cellist::models::Model;
 use cellist_io::{read_data, DUMP_COLUMNS};
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
@@ -233,7 +232,7 @@ fn run_in<const D: usize>(
         for note in &setup.notes {
             context.warn(note);
         }
-        let job = job_of(model, &setup, scenario, context)?;
+        let job = job_spec(&setup, scenario, context)?.with(model);
         return crate::execute(job, &output_plan(&setup), context, started);
     }
     let system = MdSystem::new(setup.domain, atoms, setup.potential, setup.skin, threads)
@@ -243,7 +242,7 @@ fn run_in<const D: usize>(
         context.warn(note);
     }
     let model = MdModel::new(system, setup.integrator, setup.dt, setup.z_bounds);
-    let job = job_of(model, &setup, scenario, context)?;
+    let job = job_spec(&setup, scenario, context)?.with(model);
     crate::execute(job, &output_plan(&setup), context, started)
 }
 
@@ -292,15 +291,14 @@ fn output_plan<const D: usize>(setup: &Setup<D>) -> OutputPlan {
     }
 }
 
-/// The run of `model` (in one process or one rank of several) as the scenario asks.
-fn job_of<M: Model, const D: usize>(
-    model: M,
+/// The run's settings (in one process or on one rank of several) as the
+/// scenario asks.
+fn job_spec<const D: usize>(
     setup: &Setup<D>,
     scenario: &Scenario,
     context: &RunContext,
-) -> SimResult<Job<M>> {
-    Ok(Job {
-        model,
+) -> SimResult<JobSpec> {
+    Ok(JobSpec {
         steps: setup.steps,
         dir: context.out_dir.to_path_buf(),
         checkpoint: setup.checkpoint.clone(),

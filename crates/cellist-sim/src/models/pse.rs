@@ -2,7 +2,7 @@
 //! the particles and their field, and the outputs (thermo against the exact
 //! solution, field CSV snapshots, PNG pictures, a GIF animation, the error plot).
 
-use crate::driver::{CheckpointKeys, Job, LastFrame};
+use crate::driver::{CheckpointKeys, JobSpec, LastFrame};
 use crate::error::SimResult;
 use crate::models::field_output::FieldScenario;
 use crate::observers::{ChartLabels, Every, FieldPlan, OutputPlan, PlotSpec, TableStyle};
@@ -368,35 +368,18 @@ fn run_in<const D: usize>(
         setup.initial,
         setup.spacing,
     );
-    let physics = scenario.physics_keys()?;
+    let spec = JobSpec {
+        steps: setup.steps,
+        dir: out_dir.to_path_buf(),
+        checkpoint: setup.checkpoint.clone(),
+        physics: scenario.physics_keys()?,
+        last_frame: LastFrame::Field { file: "last.csv" },
+    };
     #[cfg(feature = "mpi")]
     if let Some(world) = crate::distributed::world_of_many() {
         let model = crate::distributed::pse::DistributedPse::new(world, model, threads)
             .map_err(|e| scenario.error(e))?;
-        let job = job_of(model, &setup, out_dir, physics);
-        return crate::execute(job, &plan, context, started);
+        return crate::execute(spec.with(model), &plan, context, started);
     }
-    crate::execute(
-        job_of(model, &setup, out_dir, physics),
-        &plan,
-        context,
-        started,
-    )
-}
-
-/// The run of `model` (in one process or one rank of several) as the scenario asks.
-fn job_of<M: cellist::models::Model, const D: usize>(
-    model: M,
-    setup: &Setup<D>,
-    dir: &std::path::Path,
-    physics: Vec<(String, String)>,
-) -> Job<M> {
-    Job {
-        model,
-        steps: setup.steps,
-        dir: dir.to_path_buf(),
-        checkpoint: setup.checkpoint.clone(),
-        physics,
-        last_frame: LastFrame::Field { file: "last.csv" },
-    }
+    crate::execute(spec.with(model), &plan, context, started)
 }

@@ -3,7 +3,7 @@
 //! the errors against Lamb-Oseen, field CSV snapshots `x,y,omega,gamma,u,v`,
 //! vorticity pictures with axes and a colour bar, a GIF animation).
 
-use crate::driver::{Job, LastFrame};
+use crate::driver::{JobSpec, LastFrame};
 use crate::error::SimResult;
 use crate::models::field_output::FieldScenario;
 use crate::observers::{ChartLabels, FieldPlan, OutputPlan, PlotSpec, TableStyle};
@@ -577,31 +577,16 @@ pub fn run(scenario: &Scenario, context: &RunContext) -> SimResult<RunSummary> {
         quiet: false,
     };
     let model = VortexModel::new(system, integrator, run.dt, seeded.extras, view, threads);
-    let physics = scenario.physics_keys()?;
-    let checkpoint = out.checkpoint.clone();
+    let spec = JobSpec {
+        steps,
+        dir: out_dir.to_path_buf(),
+        checkpoint: out.checkpoint.clone(),
+        physics: scenario.physics_keys()?,
+        last_frame: LastFrame::Field { file: "last.csv" },
+    };
     #[cfg(feature = "mpi")]
     if let Some(r) = ring {
-        let job = job_of(r.wrap(model), steps, out_dir, checkpoint, physics);
-        return crate::execute(job, &plan, context, started);
+        return crate::execute(spec.with(r.wrap(model)), &plan, context, started);
     }
-    let job = job_of(model, steps, out_dir, checkpoint, physics);
-    crate::execute(job, &plan, context, started)
-}
-
-/// The run of `model` (in one process or on every rank of several).
-fn job_of<M: cellist::models::Model>(
-    model: M,
-    steps: u64,
-    dir: &std::path::Path,
-    checkpoint: Option<crate::driver::CheckpointKeys>,
-    physics: Vec<(String, String)>,
-) -> Job<M> {
-    Job {
-        model,
-        steps,
-        dir: dir.to_path_buf(),
-        checkpoint,
-        physics,
-        last_frame: LastFrame::Field { file: "last.csv" },
-    }
+    crate::execute(spec.with(model), &plan, context, started)
 }

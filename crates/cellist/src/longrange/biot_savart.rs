@@ -17,7 +17,6 @@ use crate::simd::F64x4;
 use crate::threads::{tournament, DisjointSlice, Threads};
 use rayon::prelude::*;
 use std::f64::consts::PI;
-use std::ops::Range;
 
 /// Below this `x = r^2 / (2 sigma^2)`, `(1 - exp(-x)) / x` is taken from its
 /// series (the difference `1 - exp(-x)` would lose `log10(1/x)` digits).
@@ -115,38 +114,13 @@ pub fn add_velocity_at(
     assert_eq!(positions.len(), gamma.len(), "one circulation per source");
     let xs: Vec<f64> = positions.iter().map(|p| p[0]).collect();
     let ys: Vec<f64> = positions.iter().map(|p| p[1]).collect();
-    let far = F64x4::splat(FAR / kernel.inv_two_sigma2);
-    let two_pi = F64x4::splat(2.0 * PI);
-    let one = F64x4::splat(1.0);
-    let whole = positions.len() / LANES * LANES;
     threads.install(|| {
         u.par_iter_mut()
             .zip(targets)
             .with_min_len(16)
             .for_each(|(u, x)| {
-                let (sx, sy) = (F64x4::splat(x[0]), F64x4::splat(x[1]));
-                let mut acc = [F64x4::splat(0.0); 2];
-                for j in (0..whole).step_by(LANES) {
-                    let dx = sx - F64x4::load(&xs[j..]);
-                    let dy = sy - F64x4::load(&ys[j..]);
-                    let gj = F64x4::load(&gamma[j..]);
-                    let r2 = dx * dx + dy * dy;
-                    let q = if F64x4::any_less(r2, far) {
-                        let r2 = r2.to_array();
-                        F64x4::load(&r2.map(|r2| kernel.factor(r2)))
-                    } else {
-                        one / (two_pi * r2)
-                    };
-                    acc[0] = acc[0] - q * gj * dy;
-                    acc[1] = acc[1] + q * gj * dx;
-                }
-                let mut sums = [acc[0].sum(), acc[1].sum()];
-                for j in whole..positions.len() {
-                    let (dx, dy) = (x[0] - xs[j], x[1] - ys[j]);
-                    let q = kernel.factor(dx * dx + dy * dy);
-                    sums[0] -= q * gamma[j] * dy;
-                    sums[1] += q * gamma[j] * dx;
-                }
+                let none: [&mut [f64]; 2] = [&mut [], &mut []];
+                let sums = row::<false>(kernel, *x, 0.0, [&xs, &ys], gamma, none);
                 u[0] += sums[0];
                 u[1] += sums[1];
             })
@@ -252,7 +226,15 @@ impl DirectBiotSavart {
                         for (local, i) in ra.clone().enumerate() {
                             let (u_own, u_later) = u.split_at_mut(local + 1);
                             let (v_own, v_later) = v.split_at_mut(local + 1);
-                            let got = row(kernel, x, g, i, i + 1..ra.end, [u_later, v_later]);
+                            let partners = i + 1..ra.end;
+                            let got = row::<true>(
+                                kernel,
+                                [x[0][i], x[1][i]],
+                                g[i],
+                                [&x[0][partners.clone()], &x[1][partners.clone()]],
+                                &g[partners],
+                                [u_later, v_later],
+                            );
                             u_own[local] += got[0];
                             v_own[local] += got[1];
                         }
@@ -267,7 +249,14 @@ impl DirectBiotSavart {
                             )
                         };
                         for (local, i) in ra.clone().enumerate() {
-                            let got = row(kernel, x, g, i, rb.clone(), [&mut *ub, &mut *vb]);
+                            let got = row::<true>(
+                                kernel,
+                                [x[0][i], x[1][i]],
+                                g[i],
+                                [&x[0][rb.clone()], &x[1][rb.clone()]],
+                                &g[rb.clone()],
+                                [&mut *ub, &mut *vb],
+                            );
                             ua[local] += got[0];
                             va[local] += got[1];
                         }
@@ -286,33 +275,34 @@ impl DirectBiotSavart {
 /// [`BlobKernel::factor`], without the exponential.
 const FAR: f64 = 40.0;
 
-/// Particle `i` against the consecutive `partners`, whose sums are `partner_sums`
-/// (same length): adds `Gamma_i K_sigma(x_j - x_i)` to each partner and returns
-/// `sum_j Gamma_j K_sigma(x_i - x_j)`. Four partners per AVX2 register; a group
-/// of four with no pair inside `FAR` skips the exponential; lane sums are added
-/// in lane order at the end, the last partial group after them.
+/// The particle at `xi` with circulation `gi` against the `partners` (their
+/// positions per axis and circulations): returns `sum_j Gamma_j K_sigma(x_i -
+/// x_j)` and, when `SYMMETRIC`, adds `Gamma_i K_sigma(x_j - x_i)` to each
+/// partner's `partner_sums` (same length; untouched otherwise). Four partners
+/// per AVX2 register; a group of four with no pair inside `FAR` skips the
+/// exponential; lane sums are added in lane order at the end, the last partial
+/// group after them.
 #[inline(always)]
-fn row(
+fn row<const SYMMETRIC: bool>(
     kernel: &BlobKernel,
-    x: &[Vec<f64>; 2],
+    xi: [f64; 2],
+    gi: f64,
+    partners: [&[f64]; 2],
     gamma: &[f64],
-    i: usize,
-    partners: Range<usize>,
     partner_sums: [&mut [f64]; 2],
 ) -> [f64; 2] {
-    let (xi, yi, gi) = (x[0][i], x[1][i], gamma[i]);
+    let [px, py] = partners;
     let [pu, pv] = partner_sums;
-    let (sx, sy, sg) = (F64x4::splat(xi), F64x4::splat(yi), F64x4::splat(gi));
+    let (sx, sy, sg) = (F64x4::splat(xi[0]), F64x4::splat(xi[1]), F64x4::splat(gi));
     let far = F64x4::splat(FAR / kernel.inv_two_sigma2);
     let two_pi = F64x4::splat(2.0 * PI);
     let one = F64x4::splat(1.0);
     let mut acc = [F64x4::splat(0.0); 2];
-    let start = partners.start;
-    let whole = partners.len() / LANES * LANES;
-    for at in (0..whole).step_by(LANES) {
-        let j = start + at;
-        let dx = sx - F64x4::load(&x[0][j..]);
-        let dy = sy - F64x4::load(&x[1][j..]);
+    let len = gamma.len();
+    let whole = len / LANES * LANES;
+    for j in (0..whole).step_by(LANES) {
+        let dx = sx - F64x4::load(&px[j..]);
+        let dy = sy - F64x4::load(&py[j..]);
         let gj = F64x4::load(&gamma[j..]);
         let r2 = dx * dx + dy * dy;
         let q = if F64x4::any_less(r2, far) {
@@ -323,19 +313,22 @@ fn row(
         };
         acc[0] = acc[0] - q * gj * dy;
         acc[1] = acc[1] + q * gj * dx;
-        let (qgy, qgx) = (q * sg * dy, q * sg * dx);
-        (F64x4::load(&pu[at..]) + qgy).store(&mut pu[at..]);
-        (F64x4::load(&pv[at..]) - qgx).store(&mut pv[at..]);
+        if SYMMETRIC {
+            let (qgy, qgx) = (q * sg * dy, q * sg * dx);
+            (F64x4::load(&pu[j..]) + qgy).store(&mut pu[j..]);
+            (F64x4::load(&pv[j..]) - qgx).store(&mut pv[j..]);
+        }
     }
     let mut sums = [acc[0].sum(), acc[1].sum()];
-    for at in whole..partners.len() {
-        let j = start + at;
-        let (dx, dy) = (xi - x[0][j], yi - x[1][j]);
+    for j in whole..len {
+        let (dx, dy) = (xi[0] - px[j], xi[1] - py[j]);
         let q = kernel.factor(dx * dx + dy * dy);
         sums[0] -= q * gamma[j] * dy;
         sums[1] += q * gamma[j] * dx;
-        pu[at] += q * gi * dy;
-        pv[at] -= q * gi * dx;
+        if SYMMETRIC {
+            pu[j] += q * gi * dy;
+            pv[j] -= q * gi * dx;
+        }
     }
     sums
 }
@@ -353,19 +346,17 @@ mod tests {
         let k = BlobKernel::new(0.05);
         let points: Vec<[f64; 2]> = (0..203).map(|_| [rng.uniform(), rng.uniform()]).collect();
         let gamma: Vec<f64> = (0..203).map(|_| rng.uniform() - 0.5).collect();
+        let halves = |threads: &Threads| {
+            let mut u = vec![[0.0; 2]; 50];
+            for (lo, hi) in [(0, 101), (101, 203)] {
+                let (p, g) = (&points[lo..hi], &gamma[lo..hi]);
+                add_velocity_at(&k, &points[..50], p, g, &mut u, threads);
+            }
+            u
+        };
         let one = Threads::new(1).unwrap();
         let reference = velocity_at(&k, &points[..50], &points, &gamma, &one);
-        let mut u = vec![[0.0; 2]; 50];
-        for (lo, hi) in [(0, 101), (101, 203)] {
-            add_velocity_at(
-                &k,
-                &points[..50],
-                &points[lo..hi],
-                &gamma[lo..hi],
-                &mut u,
-                &one,
-            );
-        }
+        let u = halves(&one);
         for (a, b) in u.iter().zip(&reference) {
             for c in 0..2 {
                 assert!(
@@ -374,18 +365,7 @@ mod tests {
                 );
             }
         }
-        let mut two = vec![[0.0; 2]; 50];
-        let threads = Threads::new(2).unwrap();
-        for (lo, hi) in [(0, 101), (101, 203)] {
-            add_velocity_at(
-                &k,
-                &points[..50],
-                &points[lo..hi],
-                &gamma[lo..hi],
-                &mut two,
-                &threads,
-            );
-        }
+        let two = halves(&Threads::new(2).unwrap());
         assert_eq!(u, two);
     }
 

@@ -119,9 +119,11 @@ impl DirectSum {
                         let mut own = unsafe { Block::of(&sums, block(a)) };
                         for i in block(a) {
                             let local = i - block(a).start;
-                            let partners = block(a).start + local + 1..block(a).end;
+                            let partners_of_i = block(a).start + local + 1..block(a).end;
                             let (mut mine, later) = own.split(local);
-                            let got = kernel.row::<REPULSION>(x, m, i, partners, later);
+                            let (px, pm) = partners(x, m, partners_of_i);
+                            let xi = [x[0][i], x[1][i], x[2][i]];
+                            let got = kernel.row::<REPULSION, true>(xi, m[i], px, pm, later);
                             mine.add(0, got);
                         }
                     } else {
@@ -130,7 +132,10 @@ impl DirectSum {
                             unsafe { (Block::of(&sums, block(a)), Block::of(&sums, block(b))) };
                         let mut other = other;
                         for i in block(a) {
-                            let got = kernel.row::<REPULSION>(x, m, i, block(b), other.reborrow());
+                            let (px, pm) = partners(x, m, block(b));
+                            let xi = [x[0][i], x[1][i], x[2][i]];
+                            let got =
+                                kernel.row::<REPULSION, true>(xi, m[i], px, pm, other.reborrow());
                             own.add(i - block(a).start, got);
                         }
                     }
@@ -193,10 +198,11 @@ impl PartialField {
                     };
                     let mut sum = [0.0; 4];
                     for part in [first, second] {
+                        let (px, pm) = partners(&x, m, part);
                         let got = if repulsion {
-                            kernel.one_sided::<true>(xi, &x, m, part)
+                            kernel.row::<true, false>(xi, 0.0, px, pm, Block::none())
                         } else {
-                            kernel.one_sided::<false>(xi, &x, m, part)
+                            kernel.row::<false, false>(xi, 0.0, px, pm, Block::none())
                         };
                         for (s, g) in sum.iter_mut().zip(got) {
                             *s += g;
@@ -226,6 +232,13 @@ struct Block<'s> {
 }
 
 impl<'s> Block<'s> {
+    /// No sums: the partners of a one-sided row.
+    fn none() -> Self {
+        Block {
+            sums: [&mut [], &mut [], &mut [], &mut []],
+        }
+    }
+
     /// The sums of the particles `range`.
     ///
     /// # Safety
@@ -336,27 +349,22 @@ impl Kernel {
         )
     }
 
-    /// Particle `i` against the consecutive `partners`, whose sums are `theirs`:
-    /// adds `-k m_i d` and `m_i p` to each partner and returns `i`'s
-    /// `(sum k m_j d, sum m_j p)`, summed lane by lane and then across lanes.
+    /// The particle at `xi` of mass `mi` against the `partners` (positions
+    /// per axis, masses `pm`): returns `(sum k m_j d, sum m_j p)`, summed lane
+    /// by lane and then across lanes, the last partial group after them; when
+    /// `SYMMETRIC`, also adds `-k m_i d` and `m_i p` to each partner's sums in
+    /// `theirs` (same length; untouched otherwise).
     #[inline(always)]
-    fn row<const REPULSION: bool>(
+    fn row<const REPULSION: bool, const SYMMETRIC: bool>(
         &self,
-        x: &[Vec<f64>; 3],
-        m: &[f64],
-        i: usize,
-        partners: Range<usize>,
+        xi: [f64; 3],
+        mi: f64,
+        partners: [&[f64]; 3],
+        pm: &[f64],
         mut theirs: Block,
     ) -> [f64; 4] {
-        let xi = [x[0][i], x[1][i], x[2][i]];
-        let mi = m[i];
-        let len = partners.len();
-        let [px, py, pz] = [
-            &x[0][partners.clone()],
-            &x[1][partners.clone()],
-            &x[2][partners.clone()],
-        ];
-        let pm = &m[partners];
+        let len = pm.len();
+        let [px, py, pz] = partners;
         let [sx, sy, sz, sp] = &mut theirs.sums;
         let whole = len - len % LANES;
         let (xi4, mi4) = (xi.map(F64x4::splat), F64x4::splat(mi));
@@ -370,68 +378,19 @@ impl Kernel {
             ];
             let (k, p) = self.factors4::<REPULSION>(one / self.s2(d).sqrt());
             let mj = F64x4::load(&pm[j..]);
-            let (kj, ki) = (k * mj, k * mi4);
+            let kj = k * mj;
             for a in 0..3 {
                 lanes[a] = kj.mul_add(d[a], lanes[a]);
             }
             lanes[3] = p.mul_add(mj, lanes[3]);
-            for (a, s) in [&mut *sx, &mut *sy, &mut *sz].into_iter().enumerate() {
-                ki.neg_mul_add(d[a], F64x4::load(&s[j..]))
-                    .store(&mut s[j..]);
+            if SYMMETRIC {
+                let ki = k * mi4;
+                for (a, s) in [&mut *sx, &mut *sy, &mut *sz].into_iter().enumerate() {
+                    ki.neg_mul_add(d[a], F64x4::load(&s[j..]))
+                        .store(&mut s[j..]);
+                }
+                p.mul_add(mi4, F64x4::load(&sp[j..])).store(&mut sp[j..]);
             }
-            p.mul_add(mi4, F64x4::load(&sp[j..])).store(&mut sp[j..]);
-        }
-        let mut total = lanes.map(F64x4::sum);
-        for j in whole..len {
-            let d = [px[j] - xi[0], py[j] - xi[1], pz[j] - xi[2]];
-            let (k, p) = self.at::<REPULSION>(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-            let (kj, ki) = (k * pm[j], k * mi);
-            total[0] += kj * d[0];
-            total[1] += kj * d[1];
-            total[2] += kj * d[2];
-            total[3] += p * pm[j];
-            sx[j] -= ki * d[0];
-            sy[j] -= ki * d[1];
-            sz[j] -= ki * d[2];
-            sp[j] += p * mi;
-        }
-        total
-    }
-
-    /// The target at `xi` against the sources `partners` (positions `x`,
-    /// masses `m`), one side only: `(sum k m_j d, sum m_j p)` summed
-    /// [`LANES`] partners at a time, then across lanes, then the tail.
-    #[inline(always)]
-    fn one_sided<const REPULSION: bool>(
-        &self,
-        xi: [f64; 3],
-        x: &[Vec<f64>; 3],
-        m: &[f64],
-        partners: Range<usize>,
-    ) -> [f64; 4] {
-        let len = partners.len();
-        let [px, py, pz] = [
-            &x[0][partners.clone()],
-            &x[1][partners.clone()],
-            &x[2][partners.clone()],
-        ];
-        let pm = &m[partners];
-        let whole = len - len % LANES;
-        let xi4 = xi.map(F64x4::splat);
-        let one = F64x4::splat(1.0);
-        let mut lanes = [F64x4::splat(0.0); 4];
-        for j in (0..whole).step_by(LANES) {
-            let d = [
-                F64x4::load(&px[j..]) - xi4[0],
-                F64x4::load(&py[j..]) - xi4[1],
-                F64x4::load(&pz[j..]) - xi4[2],
-            ];
-            let (k, p) = self.factors4::<REPULSION>(one / self.s2(d).sqrt());
-            let kj = k * F64x4::load(&pm[j..]);
-            for a in 0..3 {
-                lanes[a] = kj.mul_add(d[a], lanes[a]);
-            }
-            lanes[3] = p.mul_add(F64x4::load(&pm[j..]), lanes[3]);
         }
         let mut total = lanes.map(F64x4::sum);
         for j in whole..len {
@@ -442,9 +401,32 @@ impl Kernel {
             total[1] += kj * d[1];
             total[2] += kj * d[2];
             total[3] += p * pm[j];
+            if SYMMETRIC {
+                let ki = k * mi;
+                sx[j] -= ki * d[0];
+                sy[j] -= ki * d[1];
+                sz[j] -= ki * d[2];
+                sp[j] += p * mi;
+            }
         }
         total
     }
+}
+
+/// The columns `range` of `x` and `m`: a row's partners.
+fn partners<'a>(
+    x: &'a [Vec<f64>; 3],
+    m: &'a [f64],
+    range: Range<usize>,
+) -> ([&'a [f64]; 3], &'a [f64]) {
+    (
+        [
+            &x[0][range.clone()],
+            &x[1][range.clone()],
+            &x[2][range.clone()],
+        ],
+        &m[range],
+    )
 }
 
 #[cfg(test)]

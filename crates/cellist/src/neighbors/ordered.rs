@@ -13,8 +13,9 @@
 //! (no Newton's third law across subdomain faces: nothing travels back to a
 //! ghost's owner).
 
+use super::verlet::moved_beyond_half_skin;
 use super::{for_each_in_row, CellList, CutoffTest, ScanScratch, StencilKind, StencilRun};
-use crate::geometry::{norm2, Domain, GeometryError};
+use crate::geometry::{Domain, GeometryError};
 use crate::threads::Threads;
 use rayon::prelude::*;
 use std::ops::Range;
@@ -176,12 +177,7 @@ impl<const D: usize> OrderedRows<D> {
     /// True when an owned particle has moved more than `skin / 2` since the
     /// build, `max_i |x_i - x_i^build| > skin / 2` (`owned` in the build's order).
     pub fn needs_rebuild(&self, owned: &[[f64; D]]) -> bool {
-        assert_eq!(owned.len(), self.reference.len());
-        let limit = 0.25 * self.skin * self.skin;
-        owned.iter().zip(&self.reference).any(|(x, x0)| {
-            let d: [f64; D] = std::array::from_fn(|a| x[a] - x0[a]);
-            norm2(&d) > limit
-        })
+        moved_beyond_half_skin(owned, &self.reference, self.skin)
     }
 
     /// `out[i] = row_value(i)` for every owned particle, in parallel; each value
@@ -206,6 +202,7 @@ impl<const D: usize> OrderedRows<D> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geometry::norm2;
     use crate::random::Rng;
 
     /// The rows hold exactly the points within cutoff + skin, sorted by id, for

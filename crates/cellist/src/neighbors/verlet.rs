@@ -207,11 +207,21 @@ impl<const D: usize> VerletList<D> {
     /// `max_i |x_i - x_i^build| > skin / 2`: the cheap test, O(N), no neighbour search.
     /// `positions` are in slot order and not wrapped since the build.
     pub fn needs_rebuild(&self, positions: &[[f64; D]]) -> bool {
-        assert_eq!(positions.len(), self.reference.len());
-        let limit = 0.25 * self.skin * self.skin;
-        positions.iter().zip(&self.reference).any(|(x, x0)| {
-            let d: [f64; D] = std::array::from_fn(|a| x[a] - x0[a]);
-            norm2(&d) > limit
-        })
+        moved_beyond_half_skin(positions, &self.reference, self.skin)
     }
+}
+
+/// `max_i |x_i - x_i^build| > skin / 2`: some particle moved far enough that a
+/// list built at `reference` with this skin may miss a pair.
+pub(crate) fn moved_beyond_half_skin<const D: usize>(
+    positions: &[[f64; D]],
+    reference: &[[f64; D]],
+    skin: f64,
+) -> bool {
+    assert_eq!(positions.len(), reference.len());
+    let limit = 0.25 * skin * skin;
+    positions.iter().zip(reference).any(|(x, x0)| {
+        let d: [f64; D] = std::array::from_fn(|a| x[a] - x0[a]);
+        norm2(&d) > limit
+    })
 }

@@ -72,6 +72,21 @@ impl<const D: usize> Atoms<D> {
         apply(&mut self.forces, order, &mut scratch.forces);
     }
 
+    /// The atoms at `indices`, in that order: `out[k] = self[indices[k]]`.
+    pub fn select(&self, indices: &[usize]) -> Self {
+        fn pick<T: Copy>(values: &[T], indices: &[usize]) -> Vec<T> {
+            indices.iter().map(|&k| values[k]).collect()
+        }
+        Atoms {
+            ids: pick(&self.ids, indices),
+            types: pick(&self.types, indices),
+            masses: pick(&self.masses, indices),
+            positions: pick(&self.positions, indices),
+            velocities: pick(&self.velocities, indices),
+            forces: pick(&self.forces, indices),
+        }
+    }
+
     /// Slots in increasing id order (for output sorted by id).
     pub fn slots_by_id(&self) -> Vec<usize> {
         let mut slots: Vec<usize> = (0..self.len()).collect();

@@ -20,7 +20,7 @@ mod velocity;
 pub use atoms::Atoms;
 pub use integrate::{Integrator, Langevin};
 pub use lattice::{lattice, LatticeKind};
-pub use model::{blowup_of, MdModel};
+pub use model::{blowup_of, checked_atoms, dump_particles, load_atoms, save_atoms, MdModel};
 pub use subdomain::{ordered_forces, AtomForce};
 pub use velocity::{create_velocities, VelocityDistribution};
 
@@ -439,13 +439,22 @@ impl<const D: usize> MdSystem<D> {
         let totals = self
             .totals
             .expect("thermo needs a force evaluation with energy");
-        let n = self.atoms.len() as f64;
-        let dof = degrees_of_freedom::<D>(self.atoms.len());
-        let temp = temperature(&self.atoms);
+        Thermo::of(&self.atoms, totals, self.domain.volume())
+    }
+}
+
+impl Thermo {
+    /// The thermo of `atoms` whose pair sums are `totals`, in a box of
+    /// `volume`: `T = sum m v^2 / (D N - D)`, `pe = U / N`,
+    /// `ke = T (D N - D) / (2 N)`, `P = ((D N - D) T + W) / (D V)`.
+    pub fn of<const D: usize>(atoms: &Atoms<D>, totals: PairTally, volume: f64) -> Thermo {
+        let n = atoms.len() as f64;
+        let dof = degrees_of_freedom::<D>(atoms.len());
+        let temp = temperature(atoms);
         let ke_total = temp * 0.5 * dof;
         let pe = totals.energy / n;
         let ke = ke_total / n;
-        let press = (dof * temp + totals.virial) / D as f64 * (1.0 / self.domain.volume());
+        let press = (dof * temp + totals.virial) / D as f64 * (1.0 / volume);
         Thermo {
             temp,
             pe,

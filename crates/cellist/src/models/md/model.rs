@@ -1,6 +1,7 @@
 //! Molecular dynamics behind the driver's [`Model`] interface.
 
 use super::{Atoms, Integrator, MdError, MdSystem, StageTimes};
+use crate::geometry::Domain;
 use crate::models::{Blowup, Checked, Model, Particles};
 use crate::state::{State, StateError};
 use crate::threads::Threads;
@@ -106,18 +107,7 @@ impl<const D: usize> Model for MdModel<D> {
     }
 
     fn checked(&self) -> Vec<Checked<'_>> {
-        let atoms = self.system.atoms();
-        [
-            ("position", &atoms.positions),
-            ("velocity", &atoms.velocities),
-            ("force", &atoms.forces),
-        ]
-        .map(|(quantity, v)| Checked {
-            quantity,
-            values: v.as_flattened(),
-            per_particle: D,
-        })
-        .into()
+        checked_atoms(self.system.atoms())
     }
 
     fn id_of(&self, index: usize) -> u64 {
@@ -139,38 +129,18 @@ impl<const D: usize> Model for MdModel<D> {
     /// Sorted by id, positions wrapped into the box.
     fn particles(&self, _step: u64, energies: bool) -> Option<Particles> {
         let system = &self.system;
-        let atoms = system.atoms();
-        let slots = atoms.slots_by_id();
+        let slots = system.atoms().slots_by_id();
         let energies = energies.then(|| {
             let pe = system.per_atom_energy();
             slots.iter().map(|&k| pe[k]).collect()
         });
-        let dom = system.domain();
-        let mut lo = [0.0, 0.0, self.z_bounds.0];
-        let mut hi = [0.0, 0.0, self.z_bounds.1];
-        let mut periodic = [true; 3];
-        for a in 0..D {
-            lo[a] = dom.lo[a];
-            hi[a] = dom.lo[a] + dom.length[a];
-            periodic[a] = dom.is_periodic(a);
-        }
-        Some(Particles {
-            lo,
-            hi,
-            periodic,
-            ids: slots.iter().map(|&k| atoms.ids[k]).collect(),
-            types: slots.iter().map(|&k| atoms.types[k]).collect(),
-            positions: slots
-                .iter()
-                .map(|&k| pad(dom.wrap(atoms.positions[k])))
-                .collect(),
-            velocities: slots.iter().map(|&k| pad(atoms.velocities[k])).collect(),
-            forces: slots.iter().map(|&k| pad(atoms.forces[k])).collect(),
+        let sorted = system.atoms().select(&slots);
+        Some(dump_particles(
+            &sorted,
             energies,
-            masses: None,
-            accelerations: None,
-            potentials: None,
-        })
+            system.domain(),
+            self.z_bounds,
+        ))
     }
 
     fn stage_times(&self) -> Vec<(&'static str, Duration)> {
@@ -192,37 +162,118 @@ impl<const D: usize> Model for MdModel<D> {
     }
 
     fn save(&self, state: &mut State) {
-        let atoms = self.system.atoms();
-        state.put_u64s("ids", atoms.ids.iter().copied());
-        state.put_u64s("types", atoms.types.iter().map(|&t| t as u64));
-        state.put_f64s("masses", atoms.masses.iter().copied());
-        state.put_vectors("positions", &atoms.positions);
-        state.put_vectors("velocities", &atoms.velocities);
-        state.put_vectors("forces", &atoms.forces);
-        state.put_vectors("list_reference", self.system.list_reference());
-        state.put_u64s("rebuilds", [self.system.rebuilds()]);
+        let system = &self.system;
+        save_atoms(
+            state,
+            system.atoms(),
+            system.list_reference(),
+            system.rebuilds(),
+        );
     }
 
     fn restore(&mut self, state: &State, threads: &Threads) -> Result<(), StateError> {
-        let n = self.len();
-        let types = state.u64s_of("types", n)?;
-        let types = types
-            .iter()
-            .map(|&t| {
-                u32::try_from(t).map_err(|_| StateError(format!("atom type {t} is out of range")))
-            })
-            .collect::<Result<Vec<u32>, StateError>>()?;
-        let atoms = Atoms {
-            ids: state.u64s_of("ids", n)?,
-            types,
-            masses: state.f64s_of("masses", n)?,
-            positions: state.vectors("positions", n)?,
-            velocities: state.vectors("velocities", n)?,
-            forces: state.vectors("forces", n)?,
-        };
-        let reference = state.vectors("list_reference", n)?;
+        let (atoms, reference, rebuilds) = load_atoms(state, self.len())?;
         self.system
-            .restore(atoms, &reference, state.u64("rebuilds")?, threads)
+            .restore(atoms, &reference, rebuilds, threads)
             .map_err(StateError)
     }
+}
+
+/// The arrays of `atoms` the driver checks for finite values: positions,
+/// velocities, forces.
+pub fn checked_atoms<const D: usize>(atoms: &Atoms<D>) -> Vec<Checked<'_>> {
+    [
+        ("position", &atoms.positions),
+        ("velocity", &atoms.velocities),
+        ("force", &atoms.forces),
+    ]
+    .map(|(quantity, v)| Checked {
+        quantity,
+        values: v.as_flattened(),
+        per_particle: D,
+    })
+    .into()
+}
+
+/// The dump frame of `atoms` (in their order): positions wrapped into
+/// `domain`, vectors padded to 3 components, the z bounds of 2D systems
+/// `z_bounds`, per-atom energies if given.
+pub fn dump_particles<const D: usize>(
+    atoms: &Atoms<D>,
+    energies: Option<Vec<f64>>,
+    domain: &Domain<D>,
+    z_bounds: (f64, f64),
+) -> Particles {
+    let mut lo = [0.0, 0.0, z_bounds.0];
+    let mut hi = [0.0, 0.0, z_bounds.1];
+    let mut periodic = [true; 3];
+    for a in 0..D {
+        lo[a] = domain.lo[a];
+        hi[a] = domain.lo[a] + domain.length[a];
+        periodic[a] = domain.is_periodic(a);
+    }
+    Particles {
+        lo,
+        hi,
+        periodic,
+        ids: atoms.ids.clone(),
+        types: atoms.types.clone(),
+        positions: atoms
+            .positions
+            .iter()
+            .map(|&x| pad(domain.wrap(x)))
+            .collect(),
+        velocities: atoms.velocities.iter().map(|&v| pad(v)).collect(),
+        forces: atoms.forces.iter().map(|&f| pad(f)).collect(),
+        energies,
+        masses: None,
+        accelerations: None,
+        potentials: None,
+    }
+}
+
+/// Writes the atoms, each one's position at the last neighbour-list rebuild
+/// (`reference`, the skin/2 test's) and the rebuild count: an md checkpoint's
+/// state, the same whether one process or several ranks wrote it.
+pub fn save_atoms<const D: usize>(
+    state: &mut State,
+    atoms: &Atoms<D>,
+    reference: &[[f64; D]],
+    rebuilds: u64,
+) {
+    state.put_u64s("ids", atoms.ids.iter().copied());
+    state.put_u64s("types", atoms.types.iter().map(|&t| t as u64));
+    state.put_f64s("masses", atoms.masses.iter().copied());
+    state.put_vectors("positions", &atoms.positions);
+    state.put_vectors("velocities", &atoms.velocities);
+    state.put_vectors("forces", &atoms.forces);
+    state.put_vectors("list_reference", reference);
+    state.put_u64s("rebuilds", [rebuilds]);
+}
+
+/// Reads what [`save_atoms`] wrote for `n` atoms.
+pub fn load_atoms<const D: usize>(
+    state: &State,
+    n: usize,
+) -> Result<(Atoms<D>, Vec<[f64; D]>, u64), StateError> {
+    let types = state
+        .u64s_of("types", n)?
+        .iter()
+        .map(|&t| {
+            u32::try_from(t).map_err(|_| StateError(format!("atom type {t} is out of range")))
+        })
+        .collect::<Result<Vec<u32>, StateError>>()?;
+    let atoms = Atoms {
+        ids: state.u64s_of("ids", n)?,
+        types,
+        masses: state.f64s_of("masses", n)?,
+        positions: state.vectors("positions", n)?,
+        velocities: state.vectors("velocities", n)?,
+        forces: state.vectors("forces", n)?,
+    };
+    Ok((
+        atoms,
+        state.vectors("list_reference", n)?,
+        state.u64("rebuilds")?,
+    ))
 }
