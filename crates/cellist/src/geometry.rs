@@ -111,6 +111,14 @@ impl<const D: usize> Domain<D> {
         }
     }
 
+    /// The walls of the non-periodic axes: `(axis, lo, lo + L)` for each.
+    pub fn walls(&self) -> Vec<(usize, f64, f64)> {
+        (0..D)
+            .filter(|&a| !self.is_periodic(a))
+            .map(|a| (a, self.lo[a], self.lo[a] + self.length[a]))
+            .collect()
+    }
+
     /// True when axis `d` wraps.
     #[inline]
     pub fn is_periodic(&self, d: usize) -> bool {

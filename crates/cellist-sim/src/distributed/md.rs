@@ -27,7 +27,7 @@ use cellist::geometry::Domain;
 use cellist::interactions::{LennardJones, PairPotential};
 use cellist::models::md::{
     blowup_of, check_positions, checked_atoms, dump_particles, load_atoms, ordered_forces,
-    save_atoms, AtomForce, Atoms, Integrator, MdError, PairTally, StageTimes, Thermo,
+    save_atoms, AtomForce, Atoms, Integrator, MdError, PairTally, StageTimes, Thermo, REMEDY,
 };
 use cellist::models::{check, Blowup, Checked, Model, Particles};
 use cellist::neighbors::{CellGrid, OrderedRows};
@@ -76,9 +76,6 @@ pub struct DistributedMd<const D: usize> {
     imbalance_count: u64,
     ghosts_sum: f64,
 }
-
-const REMEDY: &str =
-    "the forces grew without bound: try a smaller run.dt, or check the initial state for atoms too close together";
 
 impl<const D: usize> DistributedMd<D> {
     /// The model of this rank: `atoms` (every atom, the same on every rank)
@@ -499,11 +496,7 @@ impl<const D: usize> Model for DistributedMd<D> {
     }
 
     fn walls(&self) -> Vec<(usize, f64, f64)> {
-        let dom = &self.decomposition.domain;
-        (0..D)
-            .filter(|&a| !dom.is_periodic(a))
-            .map(|a| (a, dom.lo[a], dom.lo[a] + dom.length[a]))
-            .collect()
+        self.decomposition.domain.walls()
     }
 
     fn remedy(&self) -> &'static str {
@@ -524,11 +517,7 @@ impl<const D: usize> Model for DistributedMd<D> {
     }
 
     fn stage_times(&self) -> Vec<(&'static str, Duration)> {
-        vec![
-            ("Neighbor", self.times.neighbor),
-            ("Force", self.times.force),
-            ("Integrate", self.times.integrate),
-        ]
+        self.times.stages()
     }
 
     fn speed(&self, loop_seconds: f64, steps: u64, threads: usize) -> String {

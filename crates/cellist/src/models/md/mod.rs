@@ -20,7 +20,9 @@ mod velocity;
 pub use atoms::Atoms;
 pub use integrate::{Integrator, Langevin};
 pub use lattice::{lattice, LatticeKind};
-pub use model::{blowup_of, checked_atoms, dump_particles, load_atoms, save_atoms, MdModel};
+pub use model::{
+    blowup_of, checked_atoms, dump_particles, load_atoms, save_atoms, MdModel, REMEDY,
+};
 pub use subdomain::{ordered_forces, AtomForce};
 pub use velocity::{create_velocities, VelocityDistribution};
 
@@ -137,6 +139,17 @@ pub struct StageTimes {
     pub integrate: Duration,
     /// Thermo, dumps, pictures (measured by the caller).
     pub output: Duration,
+}
+
+impl StageTimes {
+    /// The driver's stages: `Neighbor`, `Force`, `Integrate`.
+    pub fn stages(&self) -> Vec<(&'static str, Duration)> {
+        vec![
+            ("Neighbor", self.neighbor),
+            ("Force", self.force),
+            ("Integrate", self.integrate),
+        ]
+    }
 }
 
 /// `sum m v^2 / (D N - D)`, zero without degrees of freedom.

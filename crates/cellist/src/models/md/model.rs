@@ -33,7 +33,8 @@ impl<const D: usize> MdModel<D> {
     }
 }
 
-const REMEDY: &str =
+/// What to try when an md run blows up.
+pub const REMEDY: &str =
     "the forces grew without bound: try a smaller run.dt, or check the initial state for atoms too close together";
 
 fn pad<const D: usize>(v: [f64; D]) -> [f64; 3] {
@@ -115,11 +116,7 @@ impl<const D: usize> Model for MdModel<D> {
     }
 
     fn walls(&self) -> Vec<(usize, f64, f64)> {
-        let dom = self.system.domain();
-        (0..D)
-            .filter(|&a| !dom.is_periodic(a))
-            .map(|a| (a, dom.lo[a], dom.lo[a] + dom.length[a]))
-            .collect()
+        self.system.domain().walls()
     }
 
     fn remedy(&self) -> &'static str {
@@ -144,11 +141,7 @@ impl<const D: usize> Model for MdModel<D> {
     }
 
     fn stage_times(&self) -> Vec<(&'static str, Duration)> {
-        vec![
-            ("Neighbor", self.times.neighbor),
-            ("Force", self.times.force),
-            ("Integrate", self.times.integrate),
-        ]
+        self.times.stages()
     }
 
     fn speed(&self, loop_seconds: f64, steps: u64, threads: usize) -> String {
