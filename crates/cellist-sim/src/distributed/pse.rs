@@ -109,6 +109,15 @@ impl<const D: usize> DistributedPse<D> {
             &mut entries,
             SystemOperation::sum(),
         );
+        // the particles never move: the count over the ranks is checked once
+        let mut count = 0u64;
+        world.all_reduce_into(&(own.len() as u64), &mut count, SystemOperation::sum());
+        if count as usize != positions.len() {
+            return Err(format!(
+                "the ranks own {count} particles between them, not {}: a bug in cellist's decomposition",
+                positions.len()
+            ));
+        }
         let mut most = 0u64;
         world.all_reduce_into(
             &(rows.num_entries() as u64),
