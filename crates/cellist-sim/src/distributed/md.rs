@@ -26,7 +26,7 @@ use cellist::decomposition::Decomposition;
 use cellist::geometry::Domain;
 use cellist::interactions::{LennardJones, PairPotential};
 use cellist::models::md::{
-    blowup_of, check_positions, checked_atoms, dump_particles, load_atoms, ordered_forces,
+    blowup_of, check_positions, checked_atoms, dump_particles, lap, load_atoms, ordered_forces,
     save_atoms, AtomForce, Atoms, Integrator, MdError, PairTally, StageTimes, Thermo, REMEDY,
 };
 use cellist::models::{check, Blowup, Checked, Model, Particles};
@@ -375,12 +375,6 @@ fn atoms_of<const D: usize>(p: &LocalParticles) -> Atoms<D> {
         masses: (0..p.len()).map(|k| row(k)[3 * D]).collect(),
         types: (0..p.len()).map(|k| row(k)[3 * D + 1] as u32).collect(),
     }
-}
-
-fn lap(t: Instant, total: &mut Duration) -> Instant {
-    let now = Instant::now();
-    *total += now - t;
-    now
 }
 
 impl<const D: usize> Model for DistributedMd<D> {

@@ -152,26 +152,26 @@ impl LocalParticles {
     }
 }
 
-/// Sends `outgoing[r]` to rank `r` and receives `incoming[r]` values from rank
-/// `r` into `received`, in rank order (non-blocking both ways; no message for
-/// an empty block).
-fn swap_blocks<C: Communicator, T: Equivalence + Copy + Default>(
+/// Sends `outgoing[r]` to rank `r` and receives `width * incoming[r]` values
+/// from rank `r` into `received` (exactly as long as all of them), in rank
+/// order (non-blocking both ways; no message for an empty block).
+fn swap_blocks<C: Communicator, T: Equivalence>(
     world: &C,
     outgoing: &[Vec<T>],
     incoming: &[usize],
-    received: &mut Vec<T>,
+    width: usize,
+    received: &mut [T],
 ) {
-    received.clear();
-    received.resize(incoming.iter().sum(), T::default());
+    assert_eq!(received.len(), width * incoming.iter().sum::<usize>());
     mpi::request::scope(|scope| {
-        let mut requests = Vec::new();
-        let mut rest = &mut received[..];
+        let mut requests = Vec::with_capacity(2 * outgoing.len());
+        let mut rest = received;
         for (r, (o, &count)) in outgoing.iter().zip(incoming).enumerate() {
             let process = world.process_at_rank(r as i32);
             if !o.is_empty() {
                 requests.push(process.immediate_send(scope, &o[..]));
             }
-            let (block, tail) = rest.split_at_mut(count);
+            let (block, tail) = rest.split_at_mut(width * count);
             rest = tail;
             if count > 0 {
                 requests.push(process.immediate_receive_into(scope, block));
@@ -197,13 +197,14 @@ fn exchange<C: Communicator>(
     let incoming: Vec<usize> = incoming_counts.iter().map(|&c| c as usize).collect();
     let ids: Vec<Vec<u64>> = outgoing.iter().map(|o| o.ids.clone()).collect();
     let values: Vec<Vec<f64>> = outgoing.iter().map(|o| o.values.clone()).collect();
+    let total: usize = incoming.iter().sum();
     let mut arrived = LocalParticles {
+        ids: vec![0; total],
+        values: vec![0.0; total * width],
         width,
-        ..LocalParticles::default()
     };
-    swap_blocks(world, &ids, &incoming, &mut arrived.ids);
-    let incoming_values: Vec<usize> = incoming.iter().map(|&c| c * width).collect();
-    swap_blocks(world, &values, &incoming_values, &mut arrived.values);
+    swap_blocks(world, &ids, &incoming, 1, &mut arrived.ids);
+    swap_blocks(world, &values, &incoming, width, &mut arrived.values);
     arrived
 }
 
@@ -285,7 +286,6 @@ pub struct GhostPlan<const D: usize> {
     sends: Vec<Vec<(usize, [f64; D])>>,
     incoming: Vec<usize>,
     buffers: Vec<Vec<f64>>,
-    received: Vec<f64>,
 }
 
 impl<const D: usize> GhostPlan<D> {
@@ -310,7 +310,6 @@ impl<const D: usize> GhostPlan<D> {
             sends,
             incoming: incoming.iter().map(|&c| c as usize).collect(),
             buffers: vec![Vec::new(); ranks],
-            received: Vec::new(),
         }
     }
 
@@ -336,8 +335,8 @@ impl<const D: usize> GhostPlan<D> {
             .iter()
             .map(|s| s.iter().map(|&(k, _)| ids[k]).collect())
             .collect();
-        let mut received = Vec::new();
-        swap_blocks(world, &outgoing, &self.incoming, &mut received);
+        let mut received = vec![0; self.len()];
+        swap_blocks(world, &outgoing, &self.incoming, 1, &mut received);
         received
     }
 
@@ -378,9 +377,7 @@ impl<const D: usize> GhostPlan<D> {
                 fill(*k, shift, buffer);
             }
         }
-        let incoming: Vec<usize> = self.incoming.iter().map(|&c| c * width).collect();
-        swap_blocks(world, &self.buffers, &incoming, &mut self.received);
-        ghosts.copy_from_slice(&self.received);
+        swap_blocks(world, &self.buffers, &self.incoming, width, ghosts);
     }
 }
 

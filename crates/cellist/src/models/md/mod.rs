@@ -24,6 +24,7 @@ pub use model::{
     blowup_of, checked_atoms, dump_particles, load_atoms, save_atoms, MdModel, REMEDY,
 };
 pub use subdomain::{ordered_forces, AtomForce};
+
 pub use velocity::{create_velocities, VelocityDistribution};
 
 use crate::geometry::{norm2, Domain, GeometryError};
@@ -478,8 +479,8 @@ impl Thermo {
     }
 }
 
-/// Adds the time since `t` to `total` and returns now.
-fn lap(t: Instant, total: &mut Duration) -> Instant {
+/// Adds the time since `t` to `total` and returns now: a stage's timer.
+pub fn lap(t: Instant, total: &mut Duration) -> Instant {
     let now = Instant::now();
     *total += now - t;
     now
