@@ -2,10 +2,9 @@
 
 use crate::cli::NeighborsArgs;
 use crate::error::{positive, threads, CliError, CliResult};
-use cellist::neighbors::half_pairs;
-use cellist::{Boundary, CellList, Domain, Threads};
+use cellist::neighbors::{sorted_half_list, PairQuantities};
+use cellist::{CellList, Domain, Threads};
 use cellist_io::{read_points, write_pairs, AtomicFile, BoxInfo, Points};
-use rayon::slice::ParallelSliceMut;
 use std::io::Write;
 
 /// Runs the command.
@@ -29,15 +28,17 @@ fn list<const D: usize>(
     let domain = domain::<D>(args, points, file_box)?;
     let cells = CellList::build(&domain, cutoff, points)
         .map_err(|e| CliError::Input(format!("--cutoff {cutoff}: {e}")))?;
-    let mut pairs = half_pairs(&cells, cutoff, pool, |i, j, r2| (i, j, r2.sqrt()));
-    if !args.count {
-        pool.install(|| pairs.par_sort_unstable_by_key(|p| ((p.0 as u64) << 32) | p.1 as u64));
-    }
+    let quantities = PairQuantities {
+        distances: !args.count,
+        ..PairQuantities::default()
+    };
+    let pairs = sorted_half_list(&cells, points, cutoff, quantities, pool);
     let write = |out: &mut dyn Write| -> std::io::Result<()> {
         if args.count {
             writeln!(out, "{}", pairs.len())
         } else {
-            write_pairs(out, pairs.iter().copied())
+            let rows = pairs.i.iter().zip(&pairs.j).zip(&pairs.distances);
+            write_pairs(out, rows.map(|((&i, &j), &r)| (i as u32, j as u32, r)))
         }
     };
     match &args.output {
@@ -90,31 +91,13 @@ fn domain<const D: usize>(
             return Ok(Domain::open_around(points));
         }
     };
-    let boundary: [Boundary; D] = std::array::from_fn(|d| {
-        let periodic = if args.open {
-            false
-        } else {
-            args.periodic || file_periodic[d]
-        };
-        if periodic {
-            Boundary::Periodic
-        } else {
-            Boundary::Open
-        }
-    });
-    if boundary.iter().all(|&b| b == Boundary::Open) {
-        return Ok(Domain::open_around(points));
-    }
-    let mut domain = Domain::new(std::array::from_fn(|d| lengths[d]), boundary)
-        .map_err(|e| CliError::Input(format!("box: {e}")))?;
-    domain.lo = std::array::from_fn(|d| origin[d]);
-    // open axes of a partly periodic box span the points, wherever they are
-    let (lo, hi) = cellist::geometry::bounding_box(points);
-    for d in 0..D {
-        if boundary[d] == Boundary::Open && !points.is_empty() {
-            domain.lo[d] = lo[d];
-            domain.length[d] = (hi[d] - lo[d]).max(f64::MIN_POSITIVE);
-        }
-    }
-    Ok(domain)
+    let periodic: [bool; D] =
+        std::array::from_fn(|d| !args.open && (args.periodic || file_periodic[d]));
+    Domain::for_points(
+        points,
+        std::array::from_fn(|d| lengths[d]),
+        std::array::from_fn(|d| origin[d]),
+        periodic,
+    )
+    .map_err(|e| CliError::Input(format!("box: {e}")))
 }

@@ -111,6 +111,36 @@ impl<const D: usize> Domain<D> {
         }
     }
 
+    /// The box of sides `length` from `lo` for `points`, periodic on the axes
+    /// where `periodic` is true. Its open axes span the points wherever they
+    /// are (only the cell grid sees their extent); with no periodic axis it is
+    /// [`Domain::open_around`].
+    pub fn for_points(
+        points: &[[f64; D]],
+        length: [f64; D],
+        lo: [f64; D],
+        periodic: [bool; D],
+    ) -> Result<Self, GeometryError> {
+        if periodic.iter().all(|&p| !p) {
+            return Ok(Self::open_around(points));
+        }
+        let boundary = periodic.map(|p| {
+            if p {
+                Boundary::Periodic
+            } else {
+                Boundary::Open
+            }
+        });
+        let mut domain = Self::new(length, boundary)?;
+        domain.lo = lo;
+        let (low, high) = bounding_box(points);
+        for d in (0..D).filter(|&d| !periodic[d] && !points.is_empty()) {
+            domain.lo[d] = low[d];
+            domain.length[d] = (high[d] - low[d]).max(f64::MIN_POSITIVE);
+        }
+        Ok(domain)
+    }
+
     /// The walls of the non-periodic axes: `(axis, lo, lo + L)` for each.
     pub fn walls(&self) -> Vec<(usize, f64, f64)> {
         (0..D)

@@ -4,7 +4,7 @@
 
 use cellist::neighbors::{
     brute_force_pairs, gather_cells, gather_verlet, half_pairs, scatter_coloured,
-    scatter_verlet_serial, PairKernel,
+    scatter_verlet_serial, sorted_half_list, PairKernel, PairQuantities,
 };
 use cellist::{Boundary, CellList, Domain, StencilKind, Threads, VerletList};
 use proptest::prelude::*;
@@ -109,6 +109,47 @@ fn check_all_paths<const D: usize>(domain: &Domain<D>, cutoff: f64, points: &[[f
     fast_one.sort_by_key(|p| (p.0, p.1));
     let scale = points.iter().flatten().fold(0.0f64, |m, x| m.max(x.abs()));
     assert_same_pairs(&fast_one, &brute, scale);
+
+    // the sorted half list with every quantity: the same pairs, the same
+    // distances as the unsorted list, separations and shifts consistent with
+    // the input points, the same bits on 1 and 2 threads
+    let all = PairQuantities {
+        distances: true,
+        vectors: true,
+        shifts: true,
+    };
+    let sorted = sorted_half_list(&cells, points, cutoff, all, &one);
+    assert_eq!(sorted, sorted_half_list(&cells, points, cutoff, all, &two));
+    let listed: Vec<(u32, u32, u64)> = (0..sorted.len())
+        .map(|k| {
+            (
+                sorted.i[k] as u32,
+                sorted.j[k] as u32,
+                sorted.distances[k].to_bits(),
+            )
+        })
+        .collect();
+    let unsorted: Vec<(u32, u32, u64)> =
+        fast_one.iter().map(|p| (p.0, p.1, p.2.to_bits())).collect();
+    assert_eq!(listed, unsorted);
+    for k in 0..sorted.len() {
+        let (i, j) = (sorted.i[k] as usize, sorted.j[k] as usize);
+        let d = &sorted.vectors[k * D..(k + 1) * D];
+        let s = &sorted.shifts[k * D..(k + 1) * D];
+        let r2: f64 = d.iter().map(|x| x * x).sum();
+        assert!((r2.sqrt() - sorted.distances[k]).abs() <= 1e-12 * (1.0 + sorted.distances[k]));
+        for a in 0..D {
+            let unwrapped = points[j][a] - points[i][a] + s[a] as f64 * domain.length[a];
+            assert!(
+                (unwrapped - d[a]).abs() <= 1e-9 * (1.0 + scale),
+                "pair ({i}, {j}) axis {a}: d {} but x_j - x_i + S L = {unwrapped}",
+                d[a]
+            );
+            if !domain.is_periodic(a) {
+                assert_eq!(s[a], 0);
+            }
+        }
+    }
 
     // per-particle sums by every strategy
     let expected = brute_tally(&brute, points.len());

@@ -7,6 +7,7 @@ mod grid;
 mod ordered;
 mod pairs;
 mod parallel;
+mod sorted;
 mod traverse;
 mod verlet;
 
@@ -21,6 +22,7 @@ pub use parallel::{
     gather_cells, gather_verlet, scatter_coloured, scatter_half_rows, scatter_verlet_serial,
     LayerForces, LayerPlan, PairKernel, Summand,
 };
+pub use sorted::{sorted_half_list, PairQuantities, SortedPairs};
 pub use traverse::{
     for_each_anchored_pair, for_each_in_row, for_each_row_in_cell, scan, CutoffTest, ScanScratch,
 };
