@@ -222,68 +222,196 @@ impl<M: Model> Job<M> {
     /// `restored`, the checkpoint the model's state came from (whose step's
     /// outputs are already written). `quiet` hides the progress bar.
     pub fn run(
-        mut self,
+        self,
         restored: Option<&Checkpoint>,
-        mut observers: Vec<Box<dyn Observer<M>>>,
+        observers: Vec<Box<dyn Observer<M>>>,
         threads: &Threads,
         quiet: bool,
     ) -> SimResult<Report<M>> {
         let first = restored.map_or(0, |c| c.step);
         let last = self.steps;
-        let count = self.model.len();
         let bar = if quiet {
             ProgressBar::hidden()
         } else {
             progress_bar(last - first)
         };
-        let mut output = Duration::ZERO;
+        self.start(restored, observers, bar)?.run_to(last, threads)
+    }
+
+    /// The run under way at step 0, or at the step of `restored`: the observers
+    /// have seen step 0 of a new run, and the state is kept as the last good one.
+    pub fn start(
+        self,
+        restored: Option<&Checkpoint>,
+        mut observers: Vec<Box<dyn Observer<M>>>,
+        bar: ProgressBar,
+    ) -> SimResult<Live<M>> {
+        let first = restored.map_or(0, |c| c.step);
         if restored.is_none() {
-            for o in observers.iter_mut().filter(|o| o.due(0, last)) {
-                o.observe(&self.model, 0, last, &bar)?;
+            for o in observers.iter_mut().filter(|o| o.due(0, self.steps)) {
+                o.observe(&self.model, 0, self.steps, &bar)?;
             }
         }
-        let mut good = self.snapshot(first, &mut observers)?;
+        let good = snapshot(&self.model, first, &mut observers)?;
+        Ok(Live {
+            count: self.model.len(),
+            scenario_steps: self.steps,
+            job: self,
+            observers,
+            first,
+            step: first,
+            good,
+            loop_time: Duration::ZERO,
+            output_time: Duration::ZERO,
+            bar,
+        })
+    }
+}
+
+/// A run under way: the model at its current step with its observers, its last
+/// good state and its timers; [`Live::advance`] steps it on, as far as asked.
+pub struct Live<M: Model> {
+    job: Job<M>,
+    scenario_steps: u64,
+    observers: Vec<Box<dyn Observer<M>>>,
+    count: usize,
+    first: u64,
+    step: u64,
+    good: Snapshot,
+    loop_time: Duration,
+    output_time: Duration,
+    bar: ProgressBar,
+}
+
+impl<M: Model> Live<M> {
+    /// The model in its current state.
+    pub fn model(&self) -> &M {
+        &self.job.model
+    }
+
+    /// The current step.
+    pub fn step(&self) -> u64 {
+        self.step
+    }
+
+    /// The last step the run was built for.
+    pub fn scenario_steps(&self) -> u64 {
+        self.scenario_steps
+    }
+
+    /// The run's settings.
+    pub fn job(&self) -> &Job<M> {
+        &self.job
+    }
+
+    /// Steps on to step `to`, which becomes the run's last step (observers and
+    /// checkpoints always take the last step): the step, its check, the
+    /// observers whose trigger fires and the checkpoints due. A blow-up restores
+    /// the last good state (the current step goes back to it), writes its frame
+    /// and checkpoint, and is returned as the error.
+    pub fn advance(&mut self, to: u64, threads: &Threads) -> SimResult {
+        self.job.steps = to;
         let loop_start = Instant::now();
-        for step in first + 1..=last {
-            let checkpoint = self
+        let outcome = self.advance_timed(to, threads);
+        self.loop_time += loop_start.elapsed();
+        outcome
+    }
+
+    fn advance_timed(&mut self, last: u64, threads: &Threads) -> SimResult {
+        for step in self.step + 1..=last {
+            let job = &mut self.job;
+            let observers = &mut self.observers;
+            let checkpoint = job
                 .checkpoint
                 .as_ref()
                 .is_some_and(|c| step % c.every == 0 || step == last);
             let observe = observers.iter().any(|o| o.needs_observables(step, last))
-                || (self.model.observe_when_due()
+                || (job.model.observe_when_due()
                     && (checkpoint || observers.iter().any(|o| o.due(step, last))));
-            let stepped = self
+            let stepped = job
                 .model
                 .step(step, observe, threads)
-                .and_then(|()| check(&self.model, step, count));
+                .and_then(|()| check(&job.model, step, self.count));
             if let Err(blowup) = stepped {
-                bar.abandon();
-                return Err(self.blow_up(blowup, good, &mut observers, threads));
+                self.bar.abandon();
+                self.step = self.good.step;
+                return Err(job.blow_up(blowup, &self.good, observers, threads));
             }
+            self.step = step;
             let t = Instant::now();
-            let written = self.output(step, last, checkpoint, &mut observers, &bar, &mut good);
-            agreed(&self.model, written)?;
-            output += t.elapsed();
-            bar.inc(1);
+            let written = job.output(step, last, checkpoint, observers, &self.bar, &mut self.good);
+            agreed(&job.model, written)?;
+            self.output_time += t.elapsed();
+            self.bar.inc(1);
         }
-        bar.finish_and_clear();
-        let loop_time = loop_start.elapsed();
-        for o in &mut observers {
+        Ok(())
+    }
+
+    /// Steps on to the last step `last` ([`Live::advance`]), then finishes the
+    /// run ([`Live::finish`]).
+    pub fn run_to(mut self, last: u64, threads: &Threads) -> SimResult<Report<M>> {
+        self.advance(last, threads)?;
+        self.bar.finish_and_clear();
+        self.finish()
+    }
+
+    /// A checkpoint of the current state: the model's state, the physics keys
+    /// and the lengths of the growing output files (flushed).
+    pub fn checkpoint(&mut self) -> SimResult<Checkpoint> {
+        let now = snapshot(&self.job.model, self.step, &mut self.observers)?;
+        Ok(self.job.checkpoint_of(&now))
+    }
+
+    /// Completes the observers' files (plots, animations) and reports the run.
+    pub fn finish(mut self) -> SimResult<Report<M>> {
+        for o in &mut self.observers {
             o.finish()?;
         }
-        let thermo = observers
+        let thermo = self
+            .observers
             .iter_mut()
             .find_map(|o| o.take_thermo_rows())
             .unwrap_or_default();
         Ok(Report {
-            model: self.model,
-            first,
-            loop_time,
-            output_time: output,
+            model: self.job.model,
+            first: self.first,
+            loop_time: self.loop_time,
+            output_time: self.output_time,
             thermo,
         })
     }
 
+    /// Completes the observers' files (plots, animations) without ending the
+    /// run: what a Python session does when it is closed.
+    pub fn finish_outputs(&mut self) -> SimResult {
+        for o in &mut self.observers {
+            o.finish()?;
+        }
+        Ok(())
+    }
+}
+
+/// The state of `model` at `step` with the synced lengths of the observers'
+/// files.
+fn snapshot<M: Model>(
+    model: &M,
+    step: u64,
+    observers: &mut [Box<dyn Observer<M>>],
+) -> SimResult<Snapshot> {
+    let mut outputs = Vec::new();
+    for o in observers.iter_mut() {
+        outputs.extend(o.sync()?);
+    }
+    let mut state = State::default();
+    model.save(&mut state);
+    Ok(Snapshot {
+        step,
+        state,
+        outputs,
+    })
+}
+
+impl<M: Model> Job<M> {
     /// Runs the observers due at `step`, keeps the state as the last good one if
     /// one fired or a checkpoint is due, and writes the checkpoint.
     fn output(
@@ -301,7 +429,7 @@ impl<M: Model> Job<M> {
             fired = true;
         }
         if fired || checkpoint {
-            *good = self.snapshot(step, observers)?;
+            *good = snapshot(&self.model, step, observers)?;
         }
         if checkpoint && self.model.writes_output() {
             let file = self
@@ -315,30 +443,21 @@ impl<M: Model> Job<M> {
         Ok(())
     }
 
-    fn snapshot(&self, step: u64, observers: &mut [Box<dyn Observer<M>>]) -> SimResult<Snapshot> {
-        let mut outputs = Vec::new();
-        for o in observers.iter_mut() {
-            outputs.extend(o.sync()?);
-        }
-        let mut state = State::default();
-        self.model.save(&mut state);
-        Ok(Snapshot {
-            step,
-            state,
-            outputs,
-        })
-    }
-
     fn write_checkpoint(&self, file: &Path, good: &Snapshot) -> SimResult {
         let path = self.dir.join(file);
-        let c = Checkpoint {
+        write_checkpoint(&path, &self.checkpoint_of(good))
+            .map_err(SimError::output(path.display().to_string()))
+    }
+
+    /// The checkpoint of the state `good`.
+    fn checkpoint_of(&self, good: &Snapshot) -> Checkpoint {
+        Checkpoint {
             model: self.model.name().to_string(),
             step: good.step,
             physics: self.physics.clone(),
             outputs: good.outputs.clone(),
             state: good.state.clone(),
-        };
-        write_checkpoint(&path, &c).map_err(SimError::output(path.display().to_string()))
+        }
     }
 
     /// Restores the last good state, writes its frame and checkpoint, completes the
@@ -347,7 +466,7 @@ impl<M: Model> Job<M> {
     fn blow_up(
         &mut self,
         blowup: Blowup,
-        good: Snapshot,
+        good: &Snapshot,
         observers: &mut [Box<dyn Observer<M>>],
         threads: &Threads,
     ) -> SimError {
@@ -370,7 +489,7 @@ impl<M: Model> Job<M> {
                     .checkpoint
                     .as_ref()
                     .map_or_else(|| PathBuf::from("last.ckpt"), |c| c.file.clone());
-                match self.write_checkpoint(&file, &good) {
+                match self.write_checkpoint(&file, good) {
                     Ok(()) => written.push(self.dir.join(file).display().to_string()),
                     Err(e) => eprintln!("warning: {e}"),
                 }

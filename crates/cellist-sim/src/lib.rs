@@ -15,6 +15,7 @@ pub mod models;
 pub mod observers;
 pub mod progress;
 pub mod scenario;
+pub mod session;
 pub mod study;
 
 pub use error::{SimError, SimResult};
@@ -22,7 +23,8 @@ pub use scenario::Scenario;
 
 use cellist::models::{Field, Model, Particles};
 use cellist::Threads;
-use driver::{recorded, Job};
+use driver::{recorded, Job, Live};
+use indicatif::ProgressBar;
 use observers::OutputPlan;
 use std::cell::RefCell;
 use std::path::{Path, PathBuf};
@@ -153,13 +155,54 @@ pub fn run(request: &RunRequest, threads: &Threads) -> SimResult<RunSummary> {
 pub fn run_scenario(scenario: &Scenario, context: &RunContext) -> SimResult<RunSummary> {
     let model = scenario.model()?;
     match model.as_str() {
-        "md" => models::md::run(scenario, context),
-        "pse" => models::pse::run(scenario, context),
-        "gravity" => models::gravity::run(scenario, context),
-        "vortex" => models::vortex::run(scenario, context),
-        other => Err(scenario.error(format!(
-            "model '{other}' is unknown; this build runs: {MODELS}"
-        ))),
+        "md" => models::md::run(scenario, context, Execute),
+        "pse" => models::pse::run(scenario, context, Execute),
+        "gravity" => models::gravity::run(scenario, context, Execute),
+        "vortex" => models::vortex::run(scenario, context, Execute),
+        other => Err(unknown_model(scenario, other)),
+    }
+}
+
+/// The error of a scenario whose model this build does not run.
+fn unknown_model(scenario: &Scenario, model: &str) -> SimError {
+    scenario.error(format!(
+        "model '{model}' is unknown; this build runs: {MODELS}"
+    ))
+}
+
+/// What becomes of a model once its scenario has built it: run to the end
+/// (`cellist run`, [`Execute`]) or kept under way to be stepped on request (a
+/// Python session, [`session::Open`]).
+pub trait Launch {
+    /// What the launch gives back.
+    type Output;
+
+    /// Takes the built `job` with the outputs of `plan`, in `context`; the
+    /// set-up began at `started`.
+    fn launch<M: Model + 'static>(
+        self,
+        job: Job<M>,
+        plan: &OutputPlan,
+        context: &RunContext,
+        started: Instant,
+    ) -> SimResult<Self::Output>;
+}
+
+/// The launch of `cellist run`: the run to its last step, with the timings
+/// printed, summarised.
+pub struct Execute;
+
+impl Launch for Execute {
+    type Output = RunSummary;
+
+    fn launch<M: Model + 'static>(
+        self,
+        job: Job<M>,
+        plan: &OutputPlan,
+        context: &RunContext,
+        started: Instant,
+    ) -> SimResult<RunSummary> {
+        execute(job, plan, context, started)
     }
 }
 
@@ -167,7 +210,7 @@ pub fn run_scenario(scenario: &Scenario, context: &RunContext) -> SimResult<RunS
 /// given, checked before anything is written), prints the timings and the closing
 /// line, and returns the run's summary.
 pub(crate) fn execute<M: Model + 'static>(
-    mut job: Job<M>,
+    job: Job<M>,
     plan: &OutputPlan,
     context: &RunContext,
     started: Instant,
@@ -180,38 +223,15 @@ pub(crate) fn execute<M: Model + 'static>(
             ..RunSummary::of(&job.model, 0, context, threads)
         });
     }
-    let restart = context.restart;
-    let checkpoint = restart
-        .map(|path| {
-            driver::restore(
-                &mut job.model,
-                path,
-                &job.physics,
-                job.steps,
-                &job.dir,
-                threads,
-            )
-        })
-        .transpose();
-    let checkpoint = driver::agreed(&job.model, checkpoint)?;
-    let dir = job.dir.clone();
-    let first = checkpoint.as_ref().map_or(0, |c| c.step);
-    if let Some(path) = restart {
-        context.say(format!("restart: from step {first} of {}", path.display()));
-    }
-    let writer = job.model.writes_output();
-    let observers = if writer {
-        let mut plan = plan.clone();
-        plan.quiet = context.quiet;
-        std::fs::create_dir_all(&dir)
-            .map_err(SimError::output(format!("folder {}", dir.display())))
-            .and_then(|()| plan.observers(&job.model, &dir, recorded(checkpoint.as_ref())))
+    let (dir, last) = (job.dir.clone(), job.steps);
+    let bar = if context.quiet {
+        ProgressBar::hidden()
     } else {
-        Ok(Vec::new())
+        progress::progress_bar(0)
     };
-    let observers = driver::agreed(&job.model, observers)?;
-    let last = job.steps;
-    let report = job.run(checkpoint.as_ref(), observers, threads, context.quiet)?;
+    let live = begin(job, plan, context, bar.clone())?;
+    bar.set_length(last - live.step());
+    let report = live.run_to(last, threads)?;
     let model = &report.model;
     let steps = last - report.first;
     let stages = driver::stages(model, report.loop_time, report.output_time);
@@ -232,6 +252,49 @@ pub(crate) fn execute<M: Model + 'static>(
         thermo: report.thermo,
         ..RunSummary::of(model, last, context, threads)
     })
+}
+
+/// The run of `job` under way in `context`: its state replaced by the
+/// checkpoint's when restarting (checked before anything is written), its
+/// output folder made, its observers created (continuing the files the
+/// checkpoint recorded) and step 0 observed on a new run.
+pub(crate) fn begin<M: Model + 'static>(
+    mut job: Job<M>,
+    plan: &OutputPlan,
+    context: &RunContext,
+    bar: ProgressBar,
+) -> SimResult<Live<M>> {
+    let threads = context.threads;
+    let restart = context.restart;
+    let checkpoint = restart
+        .map(|path| {
+            driver::restore(
+                &mut job.model,
+                path,
+                &job.physics,
+                job.steps,
+                &job.dir,
+                threads,
+            )
+        })
+        .transpose();
+    let checkpoint = driver::agreed(&job.model, checkpoint)?;
+    let dir = job.dir.clone();
+    if let Some(path) = restart {
+        let first = checkpoint.as_ref().map_or(0, |c| c.step);
+        context.say(format!("restart: from step {first} of {}", path.display()));
+    }
+    let observers = if job.model.writes_output() {
+        let mut plan = plan.clone();
+        plan.quiet = context.quiet;
+        std::fs::create_dir_all(&dir)
+            .map_err(SimError::output(format!("folder {}", dir.display())))
+            .and_then(|()| plan.observers(&job.model, &dir, recorded(checkpoint.as_ref())))
+    } else {
+        Ok(Vec::new())
+    };
+    let observers = driver::agreed(&job.model, observers)?;
+    job.start(checkpoint.as_ref(), observers, bar)
 }
 
 impl RunSummary {

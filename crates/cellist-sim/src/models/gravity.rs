@@ -8,7 +8,7 @@ use crate::error::{SimError, SimResult};
 use crate::models::field_output::{check_picture_size, SnapshotKeys};
 use crate::observers::{BodyPlan, DumpFormat, DumpPlan, OutputPlan, PlotSpec, TableStyle};
 use crate::scenario::Scenario;
-use crate::{RunContext, RunSummary};
+use crate::{Launch, RunContext};
 use cellist::interactions::GravityLaw;
 use cellist::longrange::p3m::SPLIT_CELLS;
 use cellist::longrange::{MeshBoundary, MeshParams, TreeParams};
@@ -206,7 +206,11 @@ struct Pictures {
 }
 
 /// Runs a gravity scenario, from the checkpoint `restart` if given.
-pub fn run(scenario: &Scenario, context: &RunContext) -> SimResult<RunSummary> {
+pub fn run<L: Launch>(
+    scenario: &Scenario,
+    context: &RunContext,
+    launch: L,
+) -> SimResult<L::Output> {
     let keys: GravityScenario = scenario.parse()?;
     debug_assert_eq!(keys.model, "gravity");
     if !(keys.dimension == 2 || keys.dimension == 3) {
@@ -224,7 +228,7 @@ pub fn run(scenario: &Scenario, context: &RunContext) -> SimResult<RunSummary> {
             )));
         }
     }
-    run_setup(scenario, setup, context)
+    run_setup(scenario, setup, context, launch)
 }
 
 /// The solver of `keys` and its name for messages.
@@ -506,7 +510,12 @@ fn body_plan(setup: &Setup) -> Option<BodyPlan> {
     })
 }
 
-fn run_setup(scenario: &Scenario, setup: Setup, context: &RunContext) -> SimResult<RunSummary> {
+fn run_setup<L: Launch>(
+    scenario: &Scenario,
+    setup: Setup,
+    context: &RunContext,
+    launch: L,
+) -> SimResult<L::Output> {
     #[cfg(feature = "mpi")]
     let silent = crate::distributed::rank_context(context);
     #[cfg(feature = "mpi")]
@@ -605,7 +614,7 @@ fn run_setup(scenario: &Scenario, setup: Setup, context: &RunContext) -> SimResu
     };
     #[cfg(feature = "mpi")]
     if let Some(ring) = ring {
-        return crate::execute(spec.with(ring.wrap(model)), &plan, context, started);
+        return launch.launch(spec.with(ring.wrap(model)), &plan, context, started);
     }
-    crate::execute(spec.with(model), &plan, context, started)
+    launch.launch(spec.with(model), &plan, context, started)
 }

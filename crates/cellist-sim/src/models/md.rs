@@ -6,7 +6,7 @@ use crate::driver::{CheckpointKeys, JobSpec, LastFrame};
 use crate::error::{SimError, SimResult};
 use crate::observers::{DumpFormat, DumpPlan, OutputPlan, PlotSpec, TableStyle};
 use crate::scenario::Scenario;
-use crate::{RunContext, RunSummary};
+use crate::{Launch, RunContext};
 use cellist::geometry::{Boundary, Domain};
 use cellist::interactions::{LennardJones, PairPotential};
 use cellist::models::md::{
@@ -191,21 +191,26 @@ struct Setup<const D: usize> {
 }
 
 /// Runs an md scenario, from the checkpoint `restart` if given.
-pub fn run(scenario: &Scenario, context: &RunContext) -> SimResult<RunSummary> {
+pub fn run<L: Launch>(
+    scenario: &Scenario,
+    context: &RunContext,
+    launch: L,
+) -> SimResult<L::Output> {
     let keys: MdScenario = scenario.parse()?;
     debug_assert_eq!(keys.model, "md");
     match keys.dimension {
-        2 => run_in::<2>(scenario, &keys, context),
-        3 => run_in::<3>(scenario, &keys, context),
+        2 => run_in::<2, L>(scenario, &keys, context, launch),
+        3 => run_in::<3, L>(scenario, &keys, context, launch),
         d => Err(scenario.error(format!("dimension must be 2 or 3, got {d}"))),
     }
 }
 
-fn run_in<const D: usize>(
+fn run_in<const D: usize, L: Launch>(
     scenario: &Scenario,
     keys: &MdScenario,
     context: &RunContext,
-) -> SimResult<RunSummary> {
+    launch: L,
+) -> SimResult<L::Output> {
     let threads = context.threads;
     let mut setup = build::<D>(scenario, keys)?;
     let started = Instant::now();
@@ -233,7 +238,7 @@ fn run_in<const D: usize>(
             context.warn(note);
         }
         let job = job_spec(&setup, scenario, context)?.with(model);
-        return crate::execute(job, &output_plan(&setup), context, started);
+        return launch.launch(job, &output_plan(&setup), context, started);
     }
     let system = MdSystem::new(setup.domain, atoms, setup.potential, setup.skin, threads)
         .map_err(|e| scenario.error(e))?;
@@ -243,7 +248,7 @@ fn run_in<const D: usize>(
     }
     let model = MdModel::new(system, setup.integrator, setup.dt, setup.z_bounds);
     let job = job_spec(&setup, scenario, context)?.with(model);
-    crate::execute(job, &output_plan(&setup), context, started)
+    launch.launch(job, &output_plan(&setup), context, started)
 }
 
 /// The outputs of an md run: thermo table and plot, dumps.

@@ -7,7 +7,7 @@ use crate::error::SimResult;
 use crate::models::field_output::FieldScenario;
 use crate::observers::{ChartLabels, Every, FieldPlan, OutputPlan, PlotSpec, TableStyle};
 use crate::scenario::Scenario;
-use crate::{RunContext, RunSummary};
+use crate::{Launch, RunContext};
 use cellist::models::pse::{
     lattice, InitialField, Integrator, Method, PseModel, PseParams, PseSystem,
 };
@@ -94,12 +94,16 @@ struct Setup<const D: usize> {
 }
 
 /// Runs a pse scenario, from the checkpoint `restart` if given.
-pub fn run(scenario: &Scenario, context: &RunContext) -> SimResult<RunSummary> {
+pub fn run<L: Launch>(
+    scenario: &Scenario,
+    context: &RunContext,
+    launch: L,
+) -> SimResult<L::Output> {
     let keys: PseScenario = scenario.parse()?;
     debug_assert_eq!(keys.model, "pse");
     match keys.dimension {
-        2 => run_in::<2>(scenario, &keys, context),
-        3 => run_in::<3>(scenario, &keys, context),
+        2 => run_in::<2, L>(scenario, &keys, context, launch),
+        3 => run_in::<3, L>(scenario, &keys, context, launch),
         d => Err(scenario.error(format!("dimension must be 2 or 3, got {d}"))),
     }
 }
@@ -265,11 +269,12 @@ fn initial_field<const D: usize>(keys: &InitialKeys, side: f64) -> Result<Initia
     }
 }
 
-fn run_in<const D: usize>(
+fn run_in<const D: usize, L: Launch>(
     scenario: &Scenario,
     keys: &PseScenario,
     context: &RunContext,
-) -> SimResult<RunSummary> {
+    launch: L,
+) -> SimResult<L::Output> {
     #[cfg(feature = "mpi")]
     let silent = crate::distributed::rank_context(context);
     #[cfg(feature = "mpi")]
@@ -379,7 +384,7 @@ fn run_in<const D: usize>(
     if let Some(world) = crate::distributed::world_of_many() {
         let model = crate::distributed::pse::DistributedPse::new(world, model, threads)
             .map_err(|e| scenario.error(e))?;
-        return crate::execute(spec.with(model), &plan, context, started);
+        return launch.launch(spec.with(model), &plan, context, started);
     }
-    crate::execute(spec.with(model), &plan, context, started)
+    launch.launch(spec.with(model), &plan, context, started)
 }

@@ -8,7 +8,7 @@ use crate::error::SimResult;
 use crate::models::field_output::FieldScenario;
 use crate::observers::{ChartLabels, FieldPlan, OutputPlan, PlotSpec, TableStyle};
 use crate::scenario::Scenario;
-use crate::{RunContext, RunSummary};
+use crate::{Launch, RunContext};
 use cellist::longrange::{BlobKernel, TreeParams, VicBoundary, VicParams};
 use cellist::models::vortex::{
     seed, Extras, InitialVorticity, VelocityEngine, VelocitySolver, VortexModel, VortexParams,
@@ -379,7 +379,11 @@ fn solver(scenario: &Scenario, v: &VelocityKeys, center: [f64; 2]) -> SimResult<
 }
 
 /// Runs a vortex scenario, from the checkpoint `restart` if given.
-pub fn run(scenario: &Scenario, context: &RunContext) -> SimResult<RunSummary> {
+pub fn run<L: Launch>(
+    scenario: &Scenario,
+    context: &RunContext,
+    launch: L,
+) -> SimResult<L::Output> {
     let keys: VortexScenario = scenario.parse()?;
     debug_assert_eq!(keys.model, "vortex");
     #[cfg(feature = "mpi")]
@@ -586,7 +590,7 @@ pub fn run(scenario: &Scenario, context: &RunContext) -> SimResult<RunSummary> {
     };
     #[cfg(feature = "mpi")]
     if let Some(r) = ring {
-        return crate::execute(spec.with(r.wrap(model)), &plan, context, started);
+        return launch.launch(spec.with(r.wrap(model)), &plan, context, started);
     }
-    crate::execute(spec.with(model), &plan, context, started)
+    launch.launch(spec.with(model), &plan, context, started)
 }

@@ -1,0 +1,116 @@
+//! A run kept under way between calls: what the Python module's `Simulation`
+//! steps. The scenario builds the model as for `cellist run`, the same driver
+//! steps it ([`Live`]), and the same observers write its outputs; a session only
+//! decides how far to go at each call.
+
+use crate::driver::{Job, Live};
+use crate::error::{SimError, SimResult};
+use crate::observers::OutputPlan;
+use crate::scenario::Scenario;
+use crate::{begin, models, unknown_model, Launch, RunContext};
+use cellist::models::Model;
+use cellist::Threads;
+use cellist_io::checkpoint::{write_checkpoint, Checkpoint};
+use indicatif::ProgressBar;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// A model under way with its outputs, stepped on request.
+pub trait Session {
+    /// The model in its current state.
+    fn model(&self) -> &dyn Model;
+
+    /// The current step; the time is `step * dt`.
+    fn step(&self) -> u64;
+
+    /// The scenario's last step (`run.steps`).
+    fn scenario_steps(&self) -> u64;
+
+    /// The output folder.
+    fn out_dir(&self) -> &Path;
+
+    /// Steps on to step `to` with the observers, checks and checkpoints of
+    /// `cellist run`; `to` counts as the last step (observers and checkpoints
+    /// take it). A blow-up leaves the session at its last good state.
+    fn advance(&mut self, to: u64, threads: &Threads) -> SimResult;
+
+    /// The checkpoint of the current state.
+    fn checkpoint(&mut self) -> SimResult<Checkpoint>;
+
+    /// Writes the checkpoint of the current state to `path` (atomically).
+    fn save_checkpoint(&mut self, path: &Path) -> SimResult {
+        let c = self.checkpoint()?;
+        write_checkpoint(path, &c).map_err(SimError::output(path.display().to_string()))
+    }
+
+    /// Completes the output files that are made at the end (plots, animations).
+    fn finish_outputs(&mut self) -> SimResult;
+}
+
+impl<M: Model + 'static> Session for Live<M> {
+    fn model(&self) -> &dyn Model {
+        Live::<M>::model(self)
+    }
+
+    fn step(&self) -> u64 {
+        Live::<M>::step(self)
+    }
+
+    fn scenario_steps(&self) -> u64 {
+        Live::scenario_steps(self)
+    }
+
+    fn out_dir(&self) -> &Path {
+        &self.job().dir
+    }
+
+    fn advance(&mut self, to: u64, threads: &Threads) -> SimResult {
+        Live::advance(self, to, threads)
+    }
+
+    fn checkpoint(&mut self) -> SimResult<Checkpoint> {
+        Live::checkpoint(self)
+    }
+
+    fn finish_outputs(&mut self) -> SimResult {
+        Live::finish_outputs(self)
+    }
+}
+
+/// The launch of a session: the run begun (restart applied, observers made,
+/// step 0 observed) and kept.
+pub struct Open;
+
+impl Launch for Open {
+    type Output = Box<dyn Session>;
+
+    fn launch<M: Model + 'static>(
+        self,
+        job: Job<M>,
+        plan: &OutputPlan,
+        context: &RunContext,
+        _started: Instant,
+    ) -> SimResult<Box<dyn Session>> {
+        Ok(Box::new(begin(job, plan, context, ProgressBar::hidden())?))
+    }
+}
+
+/// Opens a session of `scenario` writing into `out_dir`, from the checkpoint
+/// `restart` if given, quietly: the set-up's warnings are returned with it.
+pub fn open(
+    scenario: &Scenario,
+    out_dir: PathBuf,
+    restart: Option<&Path>,
+    threads: &Threads,
+) -> SimResult<(Box<dyn Session>, Vec<String>)> {
+    let context = RunContext::new(out_dir, restart, threads).quiet();
+    let model = scenario.model()?;
+    let session = match model.as_str() {
+        "md" => models::md::run(scenario, &context, Open),
+        "pse" => models::pse::run(scenario, &context, Open),
+        "gravity" => models::gravity::run(scenario, &context, Open),
+        "vortex" => models::vortex::run(scenario, &context, Open),
+        other => Err(unknown_model(scenario, other)),
+    }?;
+    Ok((session, context.warnings.take()))
+}
