@@ -264,6 +264,7 @@ impl<M: Model> Job<M> {
             loop_time: Duration::ZERO,
             output_time: Duration::ZERO,
             bar,
+            blowup: None,
         })
     }
 }
@@ -281,6 +282,7 @@ pub struct Live<M: Model> {
     loop_time: Duration,
     output_time: Duration,
     bar: ProgressBar,
+    blowup: Option<Blowup>,
 }
 
 impl<M: Model> Live<M> {
@@ -292,6 +294,11 @@ impl<M: Model> Live<M> {
     /// The current step.
     pub fn step(&self) -> u64 {
         self.step
+    }
+
+    /// The last blow-up met, if any (the run went back to its last good state).
+    pub fn last_blowup(&self) -> Option<&Blowup> {
+        self.blowup.as_ref()
     }
 
     /// The last step the run was built for.
@@ -335,6 +342,7 @@ impl<M: Model> Live<M> {
             if let Err(blowup) = stepped {
                 self.bar.abandon();
                 self.step = self.good.step;
+                self.blowup = Some(blowup.clone());
                 return Err(job.blow_up(blowup, &self.good, observers, threads));
             }
             self.step = step;

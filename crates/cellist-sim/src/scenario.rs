@@ -48,6 +48,18 @@ impl Scenario {
         })
     }
 
+    /// A scenario given as text (not read from a file), called `origin` in
+    /// messages; relative input paths start from the working folder and its
+    /// default output folder is `out/<name>/`.
+    pub fn from_text(text: &str, origin: &str, name: &str) -> Self {
+        Scenario {
+            text: text.to_string(),
+            origin: origin.to_string(),
+            base_dir: PathBuf::new(),
+            name: name.to_string(),
+        }
+    }
+
     /// The same scenario with more `--set key=value` overrides applied.
     pub fn with_sets(&self, sets: &[String]) -> SimResult<Self> {
         Ok(Scenario {

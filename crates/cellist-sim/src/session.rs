@@ -8,7 +8,7 @@ use crate::error::{SimError, SimResult};
 use crate::observers::OutputPlan;
 use crate::scenario::Scenario;
 use crate::{begin, models, unknown_model, Launch, RunContext};
-use cellist::models::Model;
+use cellist::models::{Blowup, Model};
 use cellist::Threads;
 use cellist_io::checkpoint::{write_checkpoint, Checkpoint};
 use indicatif::ProgressBar;
@@ -33,6 +33,10 @@ pub trait Session {
     /// `cellist run`; `to` counts as the last step (observers and checkpoints
     /// take it). A blow-up leaves the session at its last good state.
     fn advance(&mut self, to: u64, threads: &Threads) -> SimResult;
+
+    /// The last blow-up met, if any: the session went back to its last good
+    /// state then.
+    fn last_blowup(&self) -> Option<&Blowup>;
 
     /// The checkpoint of the current state.
     fn checkpoint(&mut self) -> SimResult<Checkpoint>;
@@ -66,6 +70,10 @@ impl<M: Model + 'static> Session for Live<M> {
 
     fn advance(&mut self, to: u64, threads: &Threads) -> SimResult {
         Live::advance(self, to, threads)
+    }
+
+    fn last_blowup(&self) -> Option<&Blowup> {
+        Live::last_blowup(self)
     }
 
     fn checkpoint(&mut self) -> SimResult<Checkpoint> {

@@ -443,7 +443,11 @@ pub fn agree_blowup<C: Communicator>(
         let (quantity, value) = b.value.map_or((String::new(), String::new()), |(q, v)| {
             (q, format!("{:x}", v.to_bits()))
         });
-        format!("{}{SEP}{}{SEP}{quantity}{SEP}{value}", b.what, b.remedy)
+        let particle = b.particle.map_or(String::new(), |id| id.to_string());
+        format!(
+            "{}{SEP}{}{SEP}{quantity}{SEP}{value}{SEP}{particle}",
+            b.what, b.remedy
+        )
     });
     agree(world, encoded).map(|text| {
         let parts: Vec<&str> = text.split(SEP).collect();
@@ -453,6 +457,7 @@ pub fn agree_blowup<C: Communicator>(
         Blowup {
             step,
             what: parts[0].to_string(),
+            particle: parts.get(4).and_then(|p| p.parse().ok()),
             value,
             remedy: parts.get(1).copied().unwrap_or("").to_string(),
         }

@@ -19,6 +19,8 @@ pub struct Blowup {
     /// What happened, naming the particle ("atom 7 left the box through the
     /// non-periodic z boundary").
     pub what: String,
+    /// The id of the particle to blame, if one is.
+    pub particle: Option<u64>,
     /// The quantity and its value ("z = 12.5"), if one is to blame.
     pub value: Option<(String, f64)>,
     /// The likely cause and remedy ("try a smaller run.dt").
@@ -31,6 +33,7 @@ impl Blowup {
         Blowup {
             step,
             what: what.into(),
+            particle: None,
             value: None,
             remedy: remedy.into(),
         }
@@ -64,6 +67,9 @@ pub struct Checked<'a> {
 /// wants them written): the columns a model has are `Some` or non-empty.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Particles {
+    /// The dimension (2 or 3): the first `dimension` components of the vectors
+    /// count (the others are 0).
+    pub dimension: usize,
     /// The box's lower corner (z bounds of 2D systems included).
     pub lo: [f64; 3],
     /// The box's upper corner.
@@ -219,6 +225,7 @@ pub fn check(model: &dyn Model, step: u64, count: usize) -> Result<(), Blowup> {
     let blowup = |what: String, value: Option<(String, f64)>, remedy: &str| Blowup {
         step,
         what,
+        particle: None,
         value,
         remedy: remedy.to_string(),
     };
@@ -245,17 +252,20 @@ pub fn check(model: &dyn Model, step: u64, count: usize) -> Result<(), Blowup> {
                         .iter()
                         .find(|&&(a, lo, hi)| !(lo..=hi).contains(&x[a]))
                     {
-                        return Err(blowup(
-                            format!(
-                                "{} {} left the box through the non-periodic {} boundary",
-                                model.particle_word(),
-                                model.id_of(k),
-                                AXES[axis]
-                            ),
-                            Some((AXES[axis].to_string(), x[axis])),
-                            "a wall only stops the box from wrapping; keep the particles \
-                             inside (a smaller run.dt, or a periodic boundary)",
-                        ));
+                        return Err(Blowup {
+                            particle: Some(model.id_of(k)),
+                            ..blowup(
+                                format!(
+                                    "{} {} left the box through the non-periodic {} boundary",
+                                    model.particle_word(),
+                                    model.id_of(k),
+                                    AXES[axis]
+                                ),
+                                Some((AXES[axis].to_string(), x[axis])),
+                                "a wall only stops the box from wrapping; keep the particles \
+                                 inside (a smaller run.dt, or a periodic boundary)",
+                            )
+                        });
                     }
                 }
             }
@@ -274,19 +284,22 @@ pub fn check(model: &dyn Model, step: u64, count: usize) -> Result<(), Blowup> {
         } else {
             format!(" {}", at % n)
         };
-        return Err(blowup(
-            format!(
-                "{} {} has a non-finite {} (the run blew up)",
-                model.particle_word(),
-                model.id_of(at / n),
-                checked.quantity
-            ),
-            Some((
-                format!("{}{component}", checked.quantity),
-                checked.values[at],
-            )),
-            model.remedy(),
-        ));
+        return Err(Blowup {
+            particle: Some(model.id_of(at / n)),
+            ..blowup(
+                format!(
+                    "{} {} has a non-finite {} (the run blew up)",
+                    model.particle_word(),
+                    model.id_of(at / n),
+                    checked.quantity
+                ),
+                Some((
+                    format!("{}{component}", checked.quantity),
+                    checked.values[at],
+                )),
+                model.remedy(),
+            )
+        });
     }
     Ok(())
 }

@@ -244,3 +244,146 @@ fn visit_rows<const D: usize>(
         visit(slot, &row);
     }
 }
+
+/// The sorted half list of points that move between calls, kept with a skin:
+/// the pairs within `cutoff + skin` are found only when some point has moved
+/// more than `skin / 2` since the last search (or the count changed), and each
+/// call keeps those within `cutoff` now, `d = x_j - x_i + S L` with the image
+/// shifts `S` of the search. The Python module's `NeighborList`.
+#[derive(Clone, Debug)]
+pub struct SkinList<const D: usize> {
+    length: [f64; D],
+    lo: [f64; D],
+    periodic: [bool; D],
+    cutoff: f64,
+    skin: f64,
+    candidates: SortedPairs,
+    reference: Vec<[f64; D]>,
+    searches: u64,
+}
+
+impl<const D: usize> SkinList<D> {
+    /// The list of pairs within `cutoff` in the box of sides `length` from `lo`
+    /// with the periodic axes `periodic` (open axes span the points, see
+    /// [`Domain::for_points`]), searched with a margin `skin >= 0`.
+    pub fn new(
+        length: [f64; D],
+        lo: [f64; D],
+        periodic: [bool; D],
+        cutoff: f64,
+        skin: f64,
+    ) -> Self {
+        SkinList {
+            length,
+            lo,
+            periodic,
+            cutoff,
+            skin,
+            candidates: SortedPairs::default(),
+            reference: Vec::new(),
+            searches: 0,
+        }
+    }
+
+    /// Number of searches so far (cell list and pairs within `cutoff + skin`).
+    pub fn searches(&self) -> u64 {
+        self.searches
+    }
+
+    /// The pairs of `points` within the cutoff, sorted by `(i, j)`, with the
+    /// `quantities` asked for; searches anew first when needed.
+    pub fn update(
+        &mut self,
+        points: &[[f64; D]],
+        quantities: PairQuantities,
+        threads: &Threads,
+    ) -> Result<SortedPairs, crate::geometry::GeometryError> {
+        let moved = points.len() != self.reference.len()
+            || self.searches == 0
+            || super::verlet::moved_beyond_half_skin(points, &self.reference, self.skin);
+        if moved {
+            let domain = Domain::for_points(points, self.length, self.lo, self.periodic)?;
+            let reach = self.cutoff + self.skin;
+            let cells = CellList::build(&domain, reach, points)?;
+            let all = PairQuantities {
+                distances: false,
+                vectors: false,
+                shifts: true,
+            };
+            self.candidates = sorted_half_list(&cells, points, reach, all, threads);
+            self.reference.clear();
+            self.reference.extend_from_slice(points);
+            self.searches += 1;
+        }
+        Ok(self.within_cutoff(points, quantities))
+    }
+
+    /// The candidates within the cutoff at `points`.
+    fn within_cutoff(&self, points: &[[f64; D]], quantities: PairQuantities) -> SortedPairs {
+        let test = CutoffTest::new(self.cutoff);
+        let c = &self.candidates;
+        let mut out = SortedPairs::default();
+        for k in 0..c.len() {
+            let (i, j) = (c.i[k] as usize, c.j[k] as usize);
+            let shift = &c.shifts[k * D..(k + 1) * D];
+            let d: [f64; D] = std::array::from_fn(|a| {
+                (points[j][a] - points[i][a]) + shift[a] as f64 * self.length[a]
+            });
+            let r2 = crate::geometry::norm2(&d);
+            if !test.accepts(r2) {
+                continue;
+            }
+            out.i.push(c.i[k]);
+            out.j.push(c.j[k]);
+            if quantities.distances {
+                out.distances.push(r2.sqrt());
+            }
+            if quantities.vectors {
+                out.vectors.extend_from_slice(&d);
+            }
+            if quantities.shifts {
+                out.shifts.extend_from_slice(shift);
+            }
+        }
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::random::Rng;
+
+    #[test]
+    fn the_skin_list_follows_moving_points_with_few_searches() {
+        let side = 8.0;
+        let mut rng = Rng::new(7);
+        let mut points: Vec<[f64; 3]> = (0..400)
+            .map(|_| std::array::from_fn(|_| rng.uniform() * side))
+            .collect();
+        let threads = Threads::single();
+        let all = PairQuantities {
+            distances: true,
+            vectors: true,
+            shifts: true,
+        };
+        let mut list = SkinList::new([side; 3], [0.0; 3], [true, true, false], 1.5, 0.4);
+        for _ in 0..10 {
+            let kept = list.update(&points, all, &threads).unwrap();
+            let domain = Domain::for_points(&points, [side; 3], [0.0; 3], [true, true, false]);
+            let cells = CellList::build(&domain.unwrap(), 1.5, &points).unwrap();
+            let fresh = sorted_half_list(&cells, &points, 1.5, all, &threads);
+            assert_eq!((&kept.i, &kept.j), (&fresh.i, &fresh.j));
+            assert_eq!(kept.shifts, fresh.shifts);
+            for (a, b) in kept.distances.iter().zip(&fresh.distances) {
+                assert!((a - b).abs() < 1e-12);
+            }
+            for p in &mut points {
+                p[0] += 0.1 * (rng.uniform() - 0.5);
+                p[2] += 0.05 * (rng.uniform() - 0.5);
+            }
+        }
+        assert!(list.searches() < 10, "{} searches", list.searches());
+        assert!(list.searches() > 1, "the points moved beyond skin / 2");
+    }
+}

@@ -114,6 +114,7 @@ impl Model for BilliardsModel {
     fn particles(&self, _step: u64, _energies: bool) -> Option<Particles> {
         let s = &self.system;
         Some(Particles {
+            dimension: 2,
             lo: [0.0, 0.0, -0.5],
             hi: [s.table().side_f(), s.table().side_f(), 0.5],
             periodic: [false; 3],

@@ -134,6 +134,7 @@ impl Model for GravityModel {
         let b = self.system.bodies();
         let (lo, hi) = crate::geometry::bounding_box(&b.position);
         Some(Particles {
+            dimension: 3,
             lo,
             hi,
             periodic: [false; 3],

@@ -44,7 +44,7 @@ fn pad<const D: usize>(v: [f64; D]) -> [f64; 3] {
 /// The driver's [`Blowup`] of an md error at `step`: the atom, the quantity
 /// and the remedy.
 pub fn blowup_of(e: &MdError, step: u64) -> Blowup {
-    let (what, value) = match e {
+    let (what, value, particle) = match e {
         MdError::LeftBox {
             id,
             axis,
@@ -56,13 +56,19 @@ pub fn blowup_of(e: &MdError, step: u64) -> Blowup {
                 ["x", "y", "z"][*axis]
             ),
             Some((["x", "y", "z"][*axis].to_string(), *coordinate)),
+            Some(*id),
         ),
-        MdError::NotFinite { id, .. } => (format!("atom {id} has a non-finite position"), None),
-        other => (other.to_string(), None),
+        MdError::NotFinite { id, .. } => (
+            format!("atom {id} has a non-finite position"),
+            None,
+            Some(*id),
+        ),
+        other => (other.to_string(), None, None),
     };
     Blowup {
         step,
         what,
+        particle,
         value,
         remedy: REMEDY.into(),
     }
@@ -206,6 +212,7 @@ pub fn dump_particles<const D: usize>(
         periodic[a] = domain.is_periodic(a);
     }
     Particles {
+        dimension: D,
         lo,
         hi,
         periodic,

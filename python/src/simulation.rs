@@ -1,0 +1,555 @@
+//! `cellist.Simulation`: any scenario that `cellist run` runs, stepped from
+//! Python. The session (model, observers, checkpoints) lives on a worker
+//! thread of its own and is reached by messages, so that `run` can release the
+//! GIL: two simulations in two Python threads run at once.
+
+use crate::errors::{sim_error, value_error};
+use crate::threads::pool;
+use cellist::models::Blowup;
+use cellist_io::checkpoint::encode;
+use cellist_sim::session::{self, Session};
+use cellist_sim::Scenario;
+use numpy::{IntoPyArray, PyArrayMethods};
+use pyo3::exceptions::PyRuntimeError;
+use pyo3::prelude::*;
+use pyo3::types::{PyBytes, PyDict, PyTuple};
+use std::path::{Path, PathBuf};
+use std::sync::mpsc::{self, Sender};
+use std::sync::Mutex;
+use std::thread::JoinHandle;
+
+/// What the worker thread owns: the session and its threads.
+struct Engine {
+    session: Box<dyn Session>,
+    threads: cellist::Threads,
+}
+
+/// A request to the worker.
+type Task = Box<dyn FnOnce(&mut Engine) + Send>;
+
+/// A named per-particle array in user order: name, values, columns.
+type Named = (String, Vec<f64>, usize);
+
+/// What a scenario needs to be rebuilt (for pickling).
+#[derive(Clone)]
+struct Origin {
+    text: String,
+    origin: String,
+    name: String,
+    base_dir: PathBuf,
+}
+
+/// Simulation: a scenario of `cellist run` (md, pse, gravity, vortex) stepped from Python.
+///
+/// Build one with `Simulation.from_toml(path_or_text)` or
+/// `Simulation.restart(checkpoint, scenario)`; `run(steps)` steps it with the
+/// outputs of its scenario (thermo, dumps, fields, pictures, checkpoints) written
+/// into its output folder, exactly as `cellist run` writes them. Arrays come back
+/// as read-only float64 numpy arrays in the user's particle order, valid until the
+/// next step. Use it in a `with` block, or call `close()`, to complete the files
+/// made at the end (plots, animations).
+#[pyclass(module = "cellist", frozen)]
+pub struct Simulation {
+    tasks: Mutex<Option<Sender<Task>>>,
+    worker: Mutex<Option<JoinHandle<()>>>,
+    scenario: Origin,
+    out: PathBuf,
+    threads: usize,
+    model: String,
+    dt: f64,
+}
+
+impl Simulation {
+    /// Starts the worker thread, which opens the session (from `restart` if
+    /// given) and then serves requests; returns once the session is open.
+    fn start(
+        py: Python<'_>,
+        scenario: Origin,
+        out: Option<PathBuf>,
+        restart: Option<PathBuf>,
+        threads: Option<usize>,
+    ) -> PyResult<Self> {
+        let pool = pool(threads)?;
+        let count = pool.count();
+        let loaded = Scenario {
+            base_dir: scenario.base_dir.clone(),
+            ..Scenario::from_text(&scenario.text, &scenario.origin, &scenario.name)
+        };
+        let out = out.unwrap_or_else(|| Path::new("out").join(&loaded.name));
+        let (tasks, inbox) = mpsc::channel::<Task>();
+        let (ready_tx, ready) = mpsc::sync_channel(1);
+        let dir = out.clone();
+        let worker = std::thread::Builder::new()
+            .name("cellist-simulation".into())
+            .spawn(move || {
+                let opened = session::open(&loaded, dir, restart.as_deref(), &pool);
+                let (session, warnings) = match opened {
+                    Ok(opened) => opened,
+                    Err(e) => {
+                        let _ = ready_tx.send(Err(e));
+                        return;
+                    }
+                };
+                let facts = (
+                    session.model().name().to_string(),
+                    session.model().dt(),
+                    warnings,
+                );
+                let _ = ready_tx.send(Ok(facts));
+                let mut engine = Engine {
+                    session,
+                    threads: pool,
+                };
+                while let Ok(task) = inbox.recv() {
+                    task(&mut engine);
+                }
+                // closed or dropped: complete the end-of-run files
+                if let Err(e) = engine.session.finish_outputs() {
+                    eprintln!("warning: {e}");
+                }
+            })
+            .map_err(|e| {
+                PyRuntimeError::new_err(format!("cannot start the simulation's thread: {e}"))
+            })?;
+        let opened = py.detach(move || ready.recv());
+        let (model, dt, warnings) = match opened {
+            Ok(Ok(facts)) => facts,
+            Ok(Err(e)) => {
+                let _ = worker.join();
+                return Err(sim_error(py, e, None));
+            }
+            Err(_) => {
+                let _ = worker.join();
+                return Err(PyRuntimeError::new_err(
+                    "the simulation's thread stopped while opening the scenario (a bug in cellist)",
+                ));
+            }
+        };
+        let warn = py.import("warnings")?;
+        for w in warnings {
+            warn.call_method1("warn", (w,))?;
+        }
+        Ok(Simulation {
+            tasks: Mutex::new(Some(tasks)),
+            worker: Mutex::new(Some(worker)),
+            scenario,
+            out,
+            threads: count,
+            model,
+            dt,
+        })
+    }
+
+    /// Runs `f` on the worker with the GIL released and returns its result.
+    fn call<R: Send + 'static>(
+        &self,
+        py: Python<'_>,
+        f: impl FnOnce(&mut Engine) -> R + Send + 'static,
+    ) -> PyResult<R> {
+        let sender = self
+            .tasks
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .clone()
+            .ok_or_else(|| PyRuntimeError::new_err("the simulation is closed"))?;
+        let (reply, answer) = mpsc::sync_channel(1);
+        let task: Task = Box::new(move |engine| {
+            let _ = reply.send(f(engine));
+        });
+        sender
+            .send(task)
+            .map_err(|_| PyRuntimeError::new_err("the simulation's thread has stopped"))?;
+        py.detach(move || answer.recv()).map_err(|_| {
+            PyRuntimeError::new_err(
+                "the simulation's thread stopped during the call (a bug in cellist)",
+            )
+        })
+    }
+
+    /// The named arrays of the current state, converted to read-only numpy arrays.
+    fn arrays<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let named = self.call(py, |e| named_arrays(e.session.model(), e.session.step()))?;
+        let dict = PyDict::new(py);
+        for (name, values, columns) in named {
+            let rows = values.len() / columns.max(1);
+            let array = values.into_pyarray(py);
+            let array = if columns == 1 {
+                array.into_any()
+            } else {
+                array.reshape([rows, columns])?.into_any()
+            };
+            array.getattr("flags")?.setattr("writeable", false)?;
+            dict.set_item(name, array)?;
+        }
+        Ok(dict)
+    }
+
+    /// One named array, or an AttributeError naming those the model has.
+    fn array<'py>(&self, py: Python<'py>, name: &str) -> PyResult<Bound<'py, PyAny>> {
+        let all = self.arrays(py)?;
+        match all.get_item(name)? {
+            Some(a) => Ok(a),
+            None => {
+                let names: Vec<String> = all.keys().iter().map(|k| k.to_string()).collect();
+                Err(pyo3::exceptions::PyAttributeError::new_err(format!(
+                    "model '{}' has no array '{name}'; it has: {}",
+                    self.model,
+                    names.join(", ")
+                )))
+            }
+        }
+    }
+}
+
+/// The per-particle arrays of `model` at `step`, in the user's particle order:
+/// the particles' (positions, velocities, forces, masses, ...) or the field's
+/// (positions, the field values under their own name, the extra columns), and
+/// the model's own names for them (strengths, circulations).
+fn named_arrays(model: &dyn cellist::models::Model, step: u64) -> Vec<Named> {
+    let mut out: Vec<Named> = Vec::new();
+    let vectors = |v: &[[f64; 3]], d: usize| -> Vec<f64> {
+        v.iter().flat_map(|x| x[..d].iter().copied()).collect()
+    };
+    if let Some(p) = model.particles(step, false) {
+        let d = p.dimension;
+        out.push(("ids".into(), p.ids.iter().map(|&i| i as f64).collect(), 1));
+        if !p.types.is_empty() {
+            out.push((
+                "types".into(),
+                p.types.iter().map(|&t| t as f64).collect(),
+                1,
+            ));
+        }
+        out.push(("positions".into(), vectors(&p.positions, d), d));
+        out.push(("velocities".into(), vectors(&p.velocities, d), d));
+        if !p.forces.is_empty() {
+            out.push(("forces".into(), vectors(&p.forces, d), d));
+        }
+        if let Some(m) = p.masses {
+            out.push(("masses".into(), m, 1));
+        }
+        if let Some(a) = p.accelerations {
+            out.push(("accelerations".into(), vectors(&a, d), d));
+        }
+        if let Some(phi) = p.potentials {
+            out.push(("potentials".into(), phi, 1));
+        }
+    } else if let Some(f) = model.field() {
+        let d = f.dimension;
+        out.push(("positions".into(), vectors(&f.positions, d), d));
+        let volume = f.spacing.powi(d as i32);
+        if model.name() == "pse" {
+            // PSE's strength is the field value times the particle volume
+            out.push((
+                "strengths".into(),
+                f.values.iter().map(|v| v * volume).collect(),
+                1,
+            ));
+        }
+        out.push((f.value_name.to_string(), f.values, 1));
+        let extra = |name: &str| f.extra.iter().find(|(n, _)| *n == name).map(|(_, v)| v);
+        if let (Some(u), Some(v)) = (extra("u"), extra("v")) {
+            let velocities = u.iter().zip(v).flat_map(|(&a, &b)| [a, b]).collect();
+            out.push(("velocities".into(), velocities, 2));
+        }
+        if let Some(gamma) = extra("gamma") {
+            out.push(("circulations".into(), gamma.clone(), 1));
+        }
+        for (name, values) in &f.extra {
+            if !matches!(*name, "u" | "v" | "gamma") {
+                out.push((name.to_string(), values.clone(), 1));
+            }
+        }
+    }
+    out
+}
+
+/// Reads a scenario argument: a path to a TOML file, or the TOML text itself.
+fn scenario_of(path_or_text: &str) -> PyResult<Origin> {
+    let path = Path::new(path_or_text);
+    let looks_like_text = path_or_text.contains('\n') || path_or_text.contains('=');
+    if !looks_like_text {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| value_error(format!("{path_or_text}: cannot read: {e}")))?;
+        let name = path
+            .file_stem()
+            .map_or_else(|| "scenario".into(), |s| s.to_string_lossy().into_owned());
+        return Ok(Origin {
+            text,
+            origin: path_or_text.to_string(),
+            name,
+            base_dir: path.parent().map_or_else(PathBuf::new, Path::to_path_buf),
+        });
+    }
+    Ok(Origin {
+        text: path_or_text.to_string(),
+        origin: "the scenario text".into(),
+        name: "scenario".into(),
+        base_dir: PathBuf::new(),
+    })
+}
+
+#[pymethods]
+impl Simulation {
+    /// from_toml(path_or_text, threads=None, out=None)
+    /// --
+    ///
+    /// The simulation of a scenario: a path to a TOML file, or the TOML text.
+    /// threads: worker threads (default one per core; the results do not depend
+    /// on it). out: the output folder (default out/<scenario name>).
+    #[staticmethod]
+    #[pyo3(signature = (path_or_text, threads=None, out=None))]
+    fn from_toml(
+        py: Python<'_>,
+        path_or_text: &str,
+        threads: Option<usize>,
+        out: Option<PathBuf>,
+    ) -> PyResult<Self> {
+        let scenario = scenario_of(path_or_text)?;
+        Self::start(py, scenario, out, None, threads)
+    }
+
+    /// restart(path, scenario, threads=None, out=None)
+    /// --
+    ///
+    /// The simulation of `scenario` (a path or TOML text) continued from the
+    /// checkpoint at `path`, checked against it as `cellist run --restart` does.
+    #[staticmethod]
+    #[pyo3(signature = (path, scenario, threads=None, out=None))]
+    fn restart(
+        py: Python<'_>,
+        path: PathBuf,
+        scenario: &str,
+        threads: Option<usize>,
+        out: Option<PathBuf>,
+    ) -> PyResult<Self> {
+        let scenario = scenario_of(scenario)?;
+        Self::start(py, scenario, out, Some(path), threads)
+    }
+
+    /// run(steps=None)
+    /// --
+    ///
+    /// Runs `steps` more steps (default: on to the scenario's run.steps) with the
+    /// GIL released. Raises cellist.BlowUp if the run blows up; the simulation is
+    /// then back at its last good state.
+    #[pyo3(signature = (steps=None))]
+    fn run(&self, py: Python<'_>, steps: Option<u64>) -> PyResult<()> {
+        let outcome = self.call(py, move |e| {
+            let now = e.session.step();
+            let to = match steps {
+                Some(n) => now.saturating_add(n),
+                None => e.session.scenario_steps().max(now),
+            };
+            let result = e.session.advance(to, &e.threads);
+            let blowup: Option<Blowup> = e.session.last_blowup().cloned();
+            result.map_err(|err| (err, blowup))
+        })?;
+        outcome.map_err(|(err, blowup)| sim_error(py, err, blowup))
+    }
+
+    /// The current step.
+    #[getter]
+    fn step(&self, py: Python<'_>) -> PyResult<u64> {
+        self.call(py, |e| e.session.step())
+    }
+
+    /// The current time, step * dt.
+    #[getter]
+    fn time(&self, py: Python<'_>) -> PyResult<f64> {
+        Ok(self.step(py)? as f64 * self.dt)
+    }
+
+    /// The time step.
+    #[getter]
+    fn dt(&self) -> f64 {
+        self.dt
+    }
+
+    /// The model's name ("md", "pse", "gravity", "vortex").
+    #[getter]
+    fn model(&self) -> &str {
+        &self.model
+    }
+
+    /// The output folder.
+    #[getter]
+    fn out(&self) -> PathBuf {
+        self.out.clone()
+    }
+
+    /// The worker threads.
+    #[getter]
+    fn threads(&self) -> usize {
+        self.threads
+    }
+
+    /// Number of particles.
+    fn __len__(&self, py: Python<'_>) -> PyResult<usize> {
+        self.call(py, |e| e.session.model().len())
+    }
+
+    /// thermo()
+    /// --
+    ///
+    /// The thermo columns at the current step, as a dict (the columns of the
+    /// thermo table, `step` first).
+    fn thermo<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let (step, columns, values) = self.call(py, |e| {
+            let step = e.session.step();
+            let model = e.session.model();
+            (step, model.thermo_columns().to_vec(), model.thermo(step))
+        })?;
+        let dict = PyDict::new(py);
+        dict.set_item("step", step)?;
+        for (c, v) in columns.iter().zip(values) {
+            dict.set_item(*c, v)?;
+        }
+        Ok(dict)
+    }
+
+    /// arrays()
+    /// --
+    ///
+    /// Every per-particle array of the current state, by name, as read-only
+    /// float64 numpy arrays in the user's particle order.
+    #[pyo3(name = "arrays")]
+    fn all_arrays<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        self.arrays(py)
+    }
+
+    /// Positions, (N, dim), wrapped into a periodic box as in the dumps.
+    #[getter]
+    fn positions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        self.array(py, "positions")
+    }
+
+    /// Velocities, (N, dim).
+    #[getter]
+    fn velocities<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        self.array(py, "velocities")
+    }
+
+    /// Forces, (N, dim) (md).
+    #[getter]
+    fn forces<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        self.array(py, "forces")
+    }
+
+    /// Particle strengths (pse): the field value times the particle volume.
+    #[getter]
+    fn strengths<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        self.array(py, "strengths")
+    }
+
+    /// Circulations of the vortex particles (vortex).
+    #[getter]
+    fn circulations<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        self.array(py, "circulations")
+    }
+
+    /// save_checkpoint(path)
+    /// --
+    ///
+    /// Writes a checkpoint of the current state (atomically), which
+    /// `Simulation.restart` and `cellist run --restart` continue bit for bit.
+    fn save_checkpoint(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
+        self.call(py, move |e| e.session.save_checkpoint(&path))?
+            .map_err(|err| sim_error(py, err, None))
+    }
+
+    /// close()
+    /// --
+    ///
+    /// Completes the files made at the end of a run (plots, animations) and stops
+    /// the simulation's thread. Further calls raise RuntimeError.
+    fn close(&self, py: Python<'_>) -> PyResult<()> {
+        let finished = self.call(py, |e| e.session.finish_outputs());
+        let sender = self.tasks.lock().unwrap_or_else(|e| e.into_inner()).take();
+        drop(sender);
+        if let Some(worker) = self.worker.lock().unwrap_or_else(|e| e.into_inner()).take() {
+            let _ = py.detach(|| worker.join());
+        }
+        match finished {
+            Ok(result) => result.map_err(|err| sim_error(py, err, None)),
+            Err(_) => Ok(()), // already closed
+        }
+    }
+
+    fn __enter__(slf: Py<Self>) -> Py<Self> {
+        slf
+    }
+
+    fn __exit__(
+        &self,
+        py: Python<'_>,
+        _kind: Option<&Bound<'_, PyAny>>,
+        _value: Option<&Bound<'_, PyAny>>,
+        _traceback: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<bool> {
+        self.close(py)?;
+        Ok(false)
+    }
+
+    /// Pickling: the scenario and the checkpoint bytes of the current state; the
+    /// copy continues into the same output folder, as a restart would.
+    fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyTuple>> {
+        let checkpoint = self
+            .call(py, |e| e.session.checkpoint())?
+            .map_err(|err| sim_error(py, err, None))?;
+        let bytes = PyBytes::new(py, &encode(&checkpoint));
+        let rebuild = py.import("cellist._cellist")?.getattr("_unpickle")?;
+        let s = &self.scenario;
+        let args = (
+            s.text.clone(),
+            s.origin.clone(),
+            s.name.clone(),
+            s.base_dir.clone(),
+            self.out.clone(),
+            self.threads,
+            bytes,
+        );
+        PyTuple::new(py, [rebuild.into_any(), args.into_pyobject(py)?.into_any()])
+    }
+
+    fn __repr__(&self, py: Python<'_>) -> PyResult<String> {
+        let step = self.step(py)?;
+        Ok(format!(
+            "<cellist.Simulation model={} step={step} out={}>",
+            self.model,
+            self.out.display()
+        ))
+    }
+}
+
+/// Rebuilds a pickled simulation from its scenario and checkpoint bytes.
+#[pyfunction]
+#[allow(clippy::too_many_arguments)]
+pub fn _unpickle(
+    py: Python<'_>,
+    text: String,
+    origin: String,
+    name: String,
+    base_dir: PathBuf,
+    out: PathBuf,
+    threads: usize,
+    checkpoint: &[u8],
+) -> PyResult<Simulation> {
+    let mut file = tempfile::NamedTempFile::new()
+        .map_err(|e| PyRuntimeError::new_err(format!("cannot make a temporary file: {e}")))?;
+    std::io::Write::write_all(&mut file, checkpoint)
+        .map_err(|e| PyRuntimeError::new_err(format!("cannot write a temporary file: {e}")))?;
+    let scenario = Origin {
+        text,
+        origin,
+        name,
+        base_dir,
+    };
+    Simulation::start(
+        py,
+        scenario,
+        Some(out),
+        Some(file.path().to_path_buf()),
+        Some(threads),
+    )
+}
