@@ -7,7 +7,9 @@ use crate::errors::{sim_error, value_error};
 use crate::threads::pool;
 use cellist::models::Blowup;
 use cellist_io::checkpoint::encode;
+use cellist_io::GsdWriter;
 use cellist_sim::session::{self, Session};
+use cellist_sim::trajectory::TrajectoryFrame;
 use cellist_sim::Scenario;
 use numpy::{IntoPyArray, PyArrayMethods};
 use pyo3::exceptions::PyRuntimeError;
@@ -456,6 +458,44 @@ impl Simulation {
     fn save_checkpoint(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
         self.call(py, move |e| e.session.save_checkpoint(&path))?
             .map_err(|err| sim_error(py, err, None))
+    }
+
+    /// write_gsd(path)
+    /// --
+    ///
+    /// Appends the current state as one frame (HOOMD schema) to the GSD file at
+    /// `path`, made if missing: what `[output] gsd = { every, file }` writes.
+    fn write_gsd(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
+        self.call(py, move |e| {
+            let step = e.session.step();
+            let frame = TrajectoryFrame::of(e.session.model(), step)
+                .ok_or_else(|| "the model has neither particles nor a field".to_string())?;
+            let mut writer = match std::fs::metadata(&path) {
+                Ok(meta) => GsdWriter::resume(&path, meta.len()),
+                Err(_) => GsdWriter::create(&path),
+            }
+            .map_err(|e| format!("{}: {e}", path.display()))?;
+            frame
+                .write_gsd(&mut writer, step)
+                .map_err(|e| format!("cannot write {}: {e}", path.display()))
+        })?
+        .map_err(pyo3::exceptions::PyOSError::new_err)
+    }
+
+    /// write_vtp(path)
+    /// --
+    ///
+    /// Writes the current state as one VTK PolyData file (points and their
+    /// arrays) at `path`, for ParaView.
+    fn write_vtp(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
+        self.call(py, move |e| {
+            let frame = TrajectoryFrame::of(e.session.model(), e.session.step())
+                .ok_or_else(|| "the model has neither particles nor a field".to_string())?;
+            frame
+                .write_vtp(&path)
+                .map_err(|e| format!("cannot write {}: {e}", path.display()))
+        })?
+        .map_err(pyo3::exceptions::PyOSError::new_err)
     }
 
     /// close()

@@ -1,6 +1,6 @@
 //! File formats for cellist: point files (plain text, extended XYZ), pair lists,
-//! LAMMPS data files and dumps, checkpoints, and output files that appear whole or
-//! not at all or grow as a run goes.
+//! LAMMPS data files and dumps, GSD trajectories, VTK PolyData, checkpoints, and
+//! output files that appear whole or not at all or grow as a run goes.
 #![warn(missing_docs)]
 // Loops over the three axes index several per-axis arrays at once.
 #![allow(clippy::needless_range_loop)]
@@ -16,12 +16,14 @@ pub mod error;
 pub mod field_chart;
 pub mod field_csv;
 pub mod field_picture;
+pub mod gsd;
 pub mod lammps_data;
 pub mod output;
 pub mod plot;
 pub mod points;
 #[cfg(test)]
 mod test_png;
+pub mod vtk;
 
 pub use billiards::{
     parse_billiards_input, read_billiards_input, write_state, BilliardsInput, StateFormat,
@@ -39,6 +41,8 @@ pub use field_csv::{
     field_header, parse_field, read_field, read_field_of, write_field, write_field_columns,
 };
 pub use field_picture::FieldPainter;
+pub use gsd::{write_hoomd_frame, GsdData, GsdWriter, HoomdFrame};
 pub use lammps_data::{decode_data, parse_data, read_data, DataAtom, DataFile};
 pub use output::{format_g17, write_pairs, AtomicFile, StreamFile};
 pub use points::{read_points, BoxInfo, PointFile, Points};
+pub use vtk::{write_pvd, write_vtp};

@@ -415,6 +415,7 @@ pub fn run_quiet(path: &Path, threads: &Threads, dir: &Path) -> SimResult<RunSum
         field: None,
         bodies: None,
         quiet: true,
+        trajectories: Default::default(),
     };
     let context = RunContext::new(dir.to_path_buf(), None, threads).quiet();
     crate::execute(job, &plan, &context, std::time::Instant::now())

@@ -17,6 +17,7 @@ pub mod progress;
 pub mod scenario;
 pub mod session;
 pub mod study;
+pub mod trajectory;
 
 pub use error::{SimError, SimResult};
 pub use scenario::Scenario;

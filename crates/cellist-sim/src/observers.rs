@@ -6,6 +6,7 @@
 
 use crate::error::{SimError, SimResult};
 use crate::progress::print_above;
+use crate::trajectory::{GsdTrajectory, TrajectoryKeys, VtkSeries};
 use cellist::models::{Field, Model, Particles};
 use cellist_io::plot::{line_chart, Series};
 use cellist_io::{
@@ -843,6 +844,8 @@ pub struct OutputPlan {
     pub bodies: Option<BodyPlan>,
     /// No thermo table on the terminal (the file and the rows are kept).
     pub quiet: bool,
+    /// GSD and VTK trajectories.
+    pub trajectories: TrajectoryKeys,
 }
 
 impl OutputPlan {
@@ -878,6 +881,12 @@ impl OutputPlan {
         }
         if let Some(b) = &self.bodies {
             observers.push(Box::new(BodyPictures::new(b, dir, recorded)?));
+        }
+        if let Some(keys) = &self.trajectories.gsd {
+            observers.push(Box::new(GsdTrajectory::new(keys, dir, recorded)?));
+        }
+        if let Some(keys) = &self.trajectories.vtk {
+            observers.push(Box::new(VtkSeries::new(keys, model.dt(), dir)));
         }
         Ok(observers)
     }

@@ -6,6 +6,7 @@
 
 use crate::driver::CheckpointKeys;
 use crate::observers::Every;
+use crate::trajectory::{SeriesKeys, TrajectoryKeys};
 use cellist::models::pse::Integrator;
 use serde::Deserialize;
 use std::path::PathBuf;
@@ -87,6 +88,10 @@ pub struct FieldOutputKeys {
     pub picture_size: u32,
     /// Checkpoints.
     pub checkpoint: Option<CheckpointKeys>,
+    /// The GSD trajectory.
+    pub gsd: Option<SeriesKeys>,
+    /// The VTK series.
+    pub vtk: Option<SeriesKeys>,
 }
 
 impl Default for FieldOutputKeys {
@@ -98,6 +103,8 @@ impl Default for FieldOutputKeys {
             gif: None,
             picture_size: 512,
             checkpoint: None,
+            gsd: None,
+            vtk: None,
         }
     }
 }
@@ -143,12 +150,18 @@ pub struct Snapshots {
 }
 
 impl FieldOutputKeys {
-    /// Checks the checkpoint keys and the picture size.
+    /// Checks the checkpoint and trajectory keys and the picture size.
     pub fn check(&self) -> Result<(), String> {
         if let Some(c) = &self.checkpoint {
             c.check("output.checkpoint")?;
         }
+        self.trajectories()?;
         check_picture_size(self.picture_size)
+    }
+
+    /// The GSD and VTK trajectories asked for, checked.
+    pub fn trajectories(&self) -> Result<TrajectoryKeys, String> {
+        TrajectoryKeys::checked(self.gsd.clone(), self.vtk.clone())
     }
 
     /// The snapshots of a run of `steps` steps, files named `csv`, `png` and `gif`

@@ -8,6 +8,7 @@ use crate::error::{SimError, SimResult};
 use crate::models::field_output::{check_picture_size, SnapshotKeys};
 use crate::observers::{BodyPlan, DumpFormat, DumpPlan, OutputPlan, PlotSpec, TableStyle};
 use crate::scenario::Scenario;
+use crate::trajectory::{SeriesKeys, TrajectoryKeys};
 use crate::{Launch, RunContext};
 use cellist::interactions::GravityLaw;
 use cellist::longrange::p3m::SPLIT_CELLS;
@@ -138,6 +139,8 @@ struct OutputKeys {
     thermo_every: u64,
     dump: Option<DumpKeys>,
     checkpoint: Option<CheckpointKeys>,
+    gsd: Option<SeriesKeys>,
+    vtk: Option<SeriesKeys>,
     /// PNG snapshots of the bodies (default: `bodies.png` of the last step).
     png: Option<SnapshotKeys>,
     /// The GIF animation of the bodies (default none).
@@ -154,6 +157,8 @@ impl Default for OutputKeys {
             thermo_every: 10,
             dump: None,
             checkpoint: None,
+            gsd: None,
+            vtk: None,
             png: None,
             gif: None,
             picture_size: 512,
@@ -194,6 +199,7 @@ struct Setup {
     thermo_every: u64,
     dump: Option<DumpKeys>,
     checkpoint: Option<CheckpointKeys>,
+    trajectories: TrajectoryKeys,
     pictures: Pictures,
 }
 
@@ -464,6 +470,8 @@ fn build(scenario: &Scenario, keys: &GravityScenario, context: &RunContext) -> S
         thermo_every: keys.output.thermo_every,
         dump: keys.output.dump.clone(),
         checkpoint: keys.output.checkpoint.clone(),
+        trajectories: TrajectoryKeys::checked(keys.output.gsd.clone(), keys.output.vtk.clone())
+            .map_err(err)?,
         pictures: Pictures {
             png: keys.output.png.clone(),
             gif: keys.output.gif.clone(),
@@ -600,6 +608,7 @@ fn run_setup<L: Launch>(
         field: None,
         bodies: body_plan(&setup),
         quiet: false,
+        trajectories: setup.trajectories.clone(),
     };
     let model = GravityModel::new(system, setup.integrator, setup.dt);
     let spec = JobSpec {

@@ -6,6 +6,7 @@ use crate::driver::{CheckpointKeys, JobSpec, LastFrame};
 use crate::error::{SimError, SimResult};
 use crate::observers::{DumpFormat, DumpPlan, OutputPlan, PlotSpec, TableStyle};
 use crate::scenario::Scenario;
+use crate::trajectory::{SeriesKeys, TrajectoryKeys};
 use crate::{Launch, RunContext};
 use cellist::geometry::{Boundary, Domain};
 use cellist::interactions::{LennardJones, PairPotential};
@@ -138,6 +139,8 @@ struct OutputKeys {
     dump: Option<DumpKeys>,
     xyz: Option<XyzKeys>,
     checkpoint: Option<CheckpointKeys>,
+    gsd: Option<SeriesKeys>,
+    vtk: Option<SeriesKeys>,
 }
 
 impl Default for OutputKeys {
@@ -147,6 +150,8 @@ impl Default for OutputKeys {
             dump: None,
             xyz: None,
             checkpoint: None,
+            gsd: None,
+            vtk: None,
         }
     }
 }
@@ -185,6 +190,7 @@ struct Setup<const D: usize> {
     dump: Option<DumpKeys>,
     xyz: Option<XyzKeys>,
     checkpoint: Option<CheckpointKeys>,
+    trajectories: TrajectoryKeys,
     /// z bounds written in dumps of 2D systems.
     z_bounds: (f64, f64),
     notes: Vec<String>,
@@ -293,6 +299,7 @@ fn output_plan<const D: usize>(setup: &Setup<D>) -> OutputPlan {
         field: None,
         bodies: None,
         quiet: false,
+        trajectories: setup.trajectories.clone(),
     }
 }
 
@@ -464,6 +471,7 @@ fn build<const D: usize>(scenario: &Scenario, keys: &MdScenario) -> SimResult<Se
         dump: out.dump.clone(),
         xyz: out.xyz.clone(),
         checkpoint: out.checkpoint.clone(),
+        trajectories: TrajectoryKeys::checked(out.gsd.clone(), out.vtk.clone()).map_err(err)?,
         z_bounds,
         notes,
     })

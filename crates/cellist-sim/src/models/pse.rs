@@ -7,6 +7,7 @@ use crate::error::SimResult;
 use crate::models::field_output::FieldScenario;
 use crate::observers::{ChartLabels, Every, FieldPlan, OutputPlan, PlotSpec, TableStyle};
 use crate::scenario::Scenario;
+use crate::trajectory::TrajectoryKeys;
 use crate::{Launch, RunContext};
 use cellist::models::pse::{
     lattice, InitialField, Integrator, Method, PseModel, PseParams, PseSystem,
@@ -91,6 +92,7 @@ struct Setup<const D: usize> {
     gif: Option<Every>,
     picture_size: u32,
     checkpoint: Option<CheckpointKeys>,
+    trajectories: TrajectoryKeys,
 }
 
 /// Runs a pse scenario, from the checkpoint `restart` if given.
@@ -225,6 +227,7 @@ fn build<const D: usize>(scenario: &Scenario, keys: &PseScenario) -> SimResult<S
         gif: snapshots.gif,
         picture_size: out.picture_size,
         checkpoint: out.checkpoint.clone(),
+        trajectories: out.trajectories().map_err(err)?,
     })
 }
 
@@ -365,6 +368,7 @@ fn run_in<const D: usize, L: Launch>(
         }),
         bodies: None,
         quiet: false,
+        trajectories: setup.trajectories.clone(),
     };
     let model = PseModel::new(
         system,

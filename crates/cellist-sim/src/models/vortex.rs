@@ -579,6 +579,7 @@ pub fn run<L: Launch>(
         }),
         bodies: None,
         quiet: false,
+        trajectories: out.trajectories().map_err(err)?,
     };
     let model = VortexModel::new(system, integrator, run.dt, seeded.extras, view, threads);
     let spec = JobSpec {

@@ -1,0 +1,1333 @@
+//! GSD trajectory files (file layer 2.x: the format of HOOMD-blue, read by OVITO,
+//! freud, MDAnalysis and the `gsd` Python package), written a frame at a time, and
+//! frames of its `hoomd` schema.
+//!
+//! A GSD file (all numbers little-endian) holds a 256-byte header at offset 0, an
+//! index block of 32-byte entries (one per data chunk: frame, rows, location,
+//! columns, name id, type), a name list block (names ended by a 0 byte, the list
+//! ended by an empty name, the block a multiple of 64 bytes) and the chunks' bytes.
+//! Readers find a chunk by binary search over the whole index, so the entries are
+//! sorted by frame and, within a frame, by name id; the first entry whose location
+//! is 0 ends the index. A block that fills up is written again, twice as large, at
+//! the end of the file, and the header is pointed at the copy.
+
+use std::collections::HashMap;
+use std::fs::{File, OpenOptions};
+use std::io::{self, Read, Seek, SeekFrom, Write};
+use std::path::Path;
+
+const MAGIC: u64 = 0x65DF_65DF_65DF_65DF;
+const HEADER_BYTES: u64 = 256;
+const ENTRY_BYTES: u64 = 32;
+/// Name list blocks are a whole number of these.
+const NAME_UNIT: u64 = 64;
+const INITIAL_INDEX_ENTRIES: u64 = 128;
+const INITIAL_NAMELIST_BYTES: u64 = 1024;
+const CHARACTER: u8 = 11;
+/// Chunks of the `character` type need file layer 2.1.
+const VERSION_2_0: u32 = version(2, 0);
+const VERSION_2_1: u32 = version(2, 1);
+const HOOMD_SCHEMA_VERSION: u32 = version(1, 4);
+
+/// A version as GSD stores it: major in the high 16 bits, minor in the low.
+const fn version(major: u32, minor: u32) -> u32 {
+    (major << 16) | minor
+}
+
+/// The values of one chunk, in the element type the file records.
+#[derive(Clone, Copy, Debug)]
+pub enum GsdData<'a> {
+    /// `uint8`
+    U8(&'a [u8]),
+    /// `uint32`
+    U32(&'a [u32]),
+    /// `uint64`
+    U64(&'a [u64]),
+    /// `int8` (the `hoomd` schema stores type names so)
+    I8(&'a [i8]),
+    /// `int32`
+    I32(&'a [i32]),
+    /// `float` (32-bit)
+    F32(&'a [f32]),
+    /// `double`
+    F64(&'a [f64]),
+    /// `character`: a UTF-8 string, written as `len` rows of 1 column (the file
+    /// is then marked as file layer 2.1, which older readers refuse)
+    Chars(&'a [u8]),
+}
+
+impl GsdData<'_> {
+    fn type_code(&self) -> u8 {
+        match self {
+            GsdData::U8(_) => 1,
+            GsdData::U32(_) => 3,
+            GsdData::U64(_) => 4,
+            GsdData::I8(_) => 5,
+            GsdData::I32(_) => 7,
+            GsdData::F32(_) => 9,
+            GsdData::F64(_) => 10,
+            GsdData::Chars(_) => CHARACTER,
+        }
+    }
+
+    fn len(&self) -> usize {
+        match self {
+            GsdData::U8(v) | GsdData::Chars(v) => v.len(),
+            GsdData::U32(v) => v.len(),
+            GsdData::U64(v) => v.len(),
+            GsdData::I8(v) => v.len(),
+            GsdData::I32(v) => v.len(),
+            GsdData::F32(v) => v.len(),
+            GsdData::F64(v) => v.len(),
+        }
+    }
+
+    /// Appends the values' little-endian bytes to `out`.
+    fn append_le(&self, out: &mut Vec<u8>) {
+        match self {
+            GsdData::U8(v) | GsdData::Chars(v) => out.extend_from_slice(v),
+            GsdData::U32(v) => out.extend(v.iter().flat_map(|x| x.to_le_bytes())),
+            GsdData::U64(v) => out.extend(v.iter().flat_map(|x| x.to_le_bytes())),
+            GsdData::I8(v) => out.extend(v.iter().flat_map(|x| x.to_le_bytes())),
+            GsdData::I32(v) => out.extend(v.iter().flat_map(|x| x.to_le_bytes())),
+            GsdData::F32(v) => out.extend(v.iter().flat_map(|x| x.to_le_bytes())),
+            GsdData::F64(v) => out.extend(v.iter().flat_map(|x| x.to_le_bytes())),
+        }
+    }
+}
+
+/// Bytes per element of a GSD type code, `None` for codes GSD does not define.
+fn type_size(code: u8) -> Option<u64> {
+    match code {
+        1 | 5 | CHARACTER => Some(1),
+        2 | 6 => Some(2),
+        3 | 7 | 9 => Some(4),
+        4 | 8 | 10 => Some(8),
+        _ => None,
+    }
+}
+
+fn invalid_data(message: String) -> io::Error {
+    io::Error::new(io::ErrorKind::InvalidData, message)
+}
+
+fn invalid_input(message: String) -> io::Error {
+    io::Error::new(io::ErrorKind::InvalidInput, message)
+}
+
+/// The file header.
+#[derive(Clone, Debug, PartialEq)]
+struct Header {
+    index_location: u64,
+    index_allocated: u64,
+    namelist_location: u64,
+    /// In units of [`NAME_UNIT`] bytes.
+    namelist_allocated: u64,
+    schema_version: u32,
+    gsd_version: u32,
+    application: [u8; 64],
+    schema: [u8; 64],
+}
+
+/// `text` as a 0-terminated 64-byte field (cut to 63 bytes).
+fn name_field(text: &str) -> [u8; 64] {
+    let mut field = [0u8; 64];
+    let n = text.len().min(63);
+    field[..n].copy_from_slice(&text.as_bytes()[..n]);
+    field
+}
+
+fn u64_at(bytes: &[u8], at: usize) -> u64 {
+    u64::from_le_bytes(bytes[at..at + 8].try_into().expect("8 bytes"))
+}
+
+fn u32_at(bytes: &[u8], at: usize) -> u32 {
+    u32::from_le_bytes(bytes[at..at + 4].try_into().expect("4 bytes"))
+}
+
+impl Header {
+    fn encode(&self) -> [u8; HEADER_BYTES as usize] {
+        let mut b = [0u8; HEADER_BYTES as usize];
+        b[0..8].copy_from_slice(&MAGIC.to_le_bytes());
+        b[8..16].copy_from_slice(&self.index_location.to_le_bytes());
+        b[16..24].copy_from_slice(&self.index_allocated.to_le_bytes());
+        b[24..32].copy_from_slice(&self.namelist_location.to_le_bytes());
+        b[32..40].copy_from_slice(&self.namelist_allocated.to_le_bytes());
+        b[40..44].copy_from_slice(&self.schema_version.to_le_bytes());
+        b[44..48].copy_from_slice(&self.gsd_version.to_le_bytes());
+        b[48..112].copy_from_slice(&self.application);
+        b[112..176].copy_from_slice(&self.schema);
+        // 80 reserved bytes stay 0
+        b
+    }
+
+    /// Reads a header, refusing files that are not GSD files of file layer 2.x.
+    fn decode(b: &[u8; HEADER_BYTES as usize]) -> io::Result<Header> {
+        if u64_at(b, 0) != MAGIC {
+            return Err(invalid_data("not a GSD file (no GSD magic number)".into()));
+        }
+        let header = Header {
+            index_location: u64_at(b, 8),
+            index_allocated: u64_at(b, 16),
+            namelist_location: u64_at(b, 24),
+            namelist_allocated: u64_at(b, 32),
+            schema_version: u32_at(b, 40),
+            gsd_version: u32_at(b, 44),
+            application: b[48..112].try_into().expect("64 bytes"),
+            schema: b[112..176].try_into().expect("64 bytes"),
+        };
+        if header.gsd_version >> 16 != 2 {
+            return Err(invalid_data(format!(
+                "GSD file layer {}.{} is not supported (only 2.x)",
+                header.gsd_version >> 16,
+                header.gsd_version & 0xffff
+            )));
+        }
+        Ok(header)
+    }
+
+    fn index_bytes(&self) -> Option<u64> {
+        self.index_allocated.checked_mul(ENTRY_BYTES)
+    }
+
+    fn namelist_bytes(&self) -> Option<u64> {
+        self.namelist_allocated.checked_mul(NAME_UNIT)
+    }
+
+    /// Whether the index block lies within the first `length` bytes.
+    fn index_within(&self, length: u64) -> bool {
+        self.index_bytes()
+            .and_then(|n| self.index_location.checked_add(n))
+            .is_some_and(|end| end <= length)
+    }
+
+    /// Whether the name list block lies within the first `length` bytes.
+    fn namelist_within(&self, length: u64) -> bool {
+        self.namelist_bytes()
+            .and_then(|n| self.namelist_location.checked_add(n))
+            .is_some_and(|end| end <= length)
+    }
+}
+
+/// One index entry: where a chunk's bytes are and what they are.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Entry {
+    frame: u64,
+    rows: u64,
+    location: u64,
+    columns: u32,
+    id: u16,
+    kind: u8,
+    flags: u8,
+}
+
+impl Entry {
+    fn encode(&self) -> [u8; ENTRY_BYTES as usize] {
+        let mut b = [0u8; ENTRY_BYTES as usize];
+        b[0..8].copy_from_slice(&self.frame.to_le_bytes());
+        b[8..16].copy_from_slice(&self.rows.to_le_bytes());
+        b[16..24].copy_from_slice(&self.location.to_le_bytes());
+        b[24..28].copy_from_slice(&self.columns.to_le_bytes());
+        b[28..30].copy_from_slice(&self.id.to_le_bytes());
+        b[30] = self.kind;
+        b[31] = self.flags;
+        b
+    }
+
+    fn decode(b: &[u8]) -> Entry {
+        Entry {
+            frame: u64_at(b, 0),
+            rows: u64_at(b, 8),
+            location: u64_at(b, 16),
+            columns: u32_at(b, 24),
+            id: u16::from_le_bytes([b[28], b[29]]),
+            kind: b[30],
+            flags: b[31],
+        }
+    }
+
+    /// The chunk's size in bytes, `None` for an unknown type or an overflow.
+    fn bytes(&self) -> Option<u64> {
+        type_size(self.kind)?
+            .checked_mul(self.rows)?
+            .checked_mul(u64::from(self.columns))
+    }
+
+    /// Where the chunk's bytes end.
+    fn end(&self) -> Option<u64> {
+        self.location.checked_add(self.bytes()?)
+    }
+
+    /// Whether the chunk was in the file when it was `length` bytes long. An empty
+    /// chunk points at the start of its frame's data, which lies before the end
+    /// of the frame's first non-empty chunk, so the test holds for empty chunks too.
+    fn written_before(&self, length: u64) -> bool {
+        self.location < length && self.end().is_some_and(|end| end <= length)
+    }
+}
+
+fn write_at(file: &mut File, at: u64, bytes: &[u8]) -> io::Result<()> {
+    file.seek(SeekFrom::Start(at))?;
+    file.write_all(bytes)
+}
+
+fn read_at(file: &mut File, at: u64, len: u64) -> io::Result<Vec<u8>> {
+    let len = usize::try_from(len).map_err(|_| invalid_data("GSD block too large".into()))?;
+    let mut bytes = vec![0u8; len];
+    file.seek(SeekFrom::Start(at))?;
+    file.read_exact(&mut bytes)?;
+    Ok(bytes)
+}
+
+/// Writes `len` zero bytes at `at`.
+fn write_zeros(file: &mut File, at: u64, len: u64) -> io::Result<()> {
+    const STEP: u64 = 1 << 16;
+    let zeros = [0u8; STEP as usize];
+    file.seek(SeekFrom::Start(at))?;
+    let mut left = len;
+    while left > 0 {
+        let n = left.min(STEP);
+        file.write_all(&zeros[..n as usize])?;
+        left -= n;
+    }
+    Ok(())
+}
+
+/// Copies `len` bytes from `from` to `to` (the ranges must not overlap).
+fn copy_within(file: &mut File, from: u64, to: u64, len: u64) -> io::Result<()> {
+    const STEP: u64 = 1 << 20;
+    let mut done = 0;
+    while done < len {
+        let n = (len - done).min(STEP);
+        let bytes = read_at(file, from + done, n)?;
+        write_at(file, to + done, &bytes)?;
+        done += n;
+    }
+    Ok(())
+}
+
+/// Writes a GSD file a frame at a time: [`GsdWriter::write_chunk`] for each chunk
+/// of a frame, then [`GsdWriter::end_frame`], after which the file is a valid GSD
+/// file that holds the frame. Each chunk costs one write of its bytes plus, at the
+/// frame's end, its 32-byte index entry; the index and name list are copied only
+/// when they fill up, and then to blocks twice as large, so writing is amortised
+/// O(1) per chunk.
+///
+/// Readers find the frames once [`GsdWriter::end_frame`] returns: the bytes are
+/// handed to the operating system, not synced to the disk.
+pub struct GsdWriter {
+    file: File,
+    header: Header,
+    /// The names (each with its 0 terminator) in id order, committed or not.
+    names: Vec<u8>,
+    ids: HashMap<String, u16>,
+    /// How many bytes of `names` the file's name list holds.
+    committed_names: usize,
+    /// Index entries in the file.
+    entries: u64,
+    frames: u64,
+    /// Where the next bytes go: the end of what the writer has written.
+    end: u64,
+    /// The file's length when the last frame was committed.
+    committed_end: u64,
+    /// Entries of the frame being written.
+    pending: Vec<Entry>,
+    /// Where the current frame's data begins (empty chunks point there).
+    frame_start: Option<u64>,
+    scratch: Vec<u8>,
+}
+
+#[allow(clippy::len_without_is_empty)] // `len` is a file length, not a count
+impl GsdWriter {
+    /// Creates (or empties) `path` as a GSD file of the `hoomd` schema, version
+    /// 1.4, from application "cellist <version>", with no frames.
+    pub fn create(path: &Path) -> io::Result<Self> {
+        let mut file = OpenOptions::new()
+            .read(true)
+            .write(true)
+            .create(true)
+            .truncate(true)
+            .open(path)?;
+        let index_location = HEADER_BYTES;
+        let namelist_location = index_location + INITIAL_INDEX_ENTRIES * ENTRY_BYTES;
+        let end = namelist_location + INITIAL_NAMELIST_BYTES;
+        let header = Header {
+            index_location,
+            index_allocated: INITIAL_INDEX_ENTRIES,
+            namelist_location,
+            namelist_allocated: INITIAL_NAMELIST_BYTES / NAME_UNIT,
+            schema_version: HOOMD_SCHEMA_VERSION,
+            gsd_version: VERSION_2_0,
+            application: name_field(concat!("cellist ", env!("CARGO_PKG_VERSION"))),
+            schema: name_field("hoomd"),
+        };
+        write_zeros(&mut file, HEADER_BYTES, end - HEADER_BYTES)?;
+        write_at(&mut file, 0, &header.encode())?;
+        Ok(Self::with_state(file, header, Vec::new(), 0, 0, end))
+    }
+
+    fn with_state(
+        file: File,
+        header: Header,
+        names: Vec<String>,
+        entries: u64,
+        frames: u64,
+        end: u64,
+    ) -> Self {
+        let mut bytes = Vec::new();
+        let mut ids = HashMap::new();
+        for (id, name) in names.into_iter().enumerate() {
+            bytes.extend_from_slice(name.as_bytes());
+            bytes.push(0);
+            ids.insert(name, id as u16);
+        }
+        GsdWriter {
+            file,
+            header,
+            committed_names: bytes.len(),
+            names: bytes,
+            ids,
+            entries,
+            frames,
+            end,
+            committed_end: end,
+            pending: Vec::new(),
+            frame_start: None,
+            scratch: Vec::new(),
+        }
+    }
+
+    /// Continues a file that a checkpoint recorded at `length` bytes (what
+    /// [`GsdWriter::len`] returned then): keeps exactly the frames whose data lay
+    /// within those bytes, drops the frames written after, and appends from there.
+    /// This works however the index and name list moved after the checkpoint; the
+    /// file is a valid GSD file at every step, and a resume interrupted part way
+    /// can be done again with the same `length`.
+    ///
+    /// Fails with [`io::ErrorKind::InvalidData`] when the file is not a GSD 2.x
+    /// file, is corrupt, or is shorter than `length`; the file is untouched then.
+    pub fn resume(path: &Path, length: u64) -> io::Result<Self> {
+        let mut file = OpenOptions::new().read(true).write(true).open(path)?;
+        let found = file.metadata()?.len();
+        if found < length {
+            return Err(invalid_data(format!(
+                "{} has {found} bytes, fewer than the {length} it had at the checkpoint",
+                path.display()
+            )));
+        }
+        let header = read_header(&mut file, found)?;
+        if length < HEADER_BYTES {
+            return Err(invalid_data(format!(
+                "a GSD file cannot be {length} bytes long"
+            )));
+        }
+        let (names, names_used) = read_names(&mut file, &header)?;
+        let index = read_index(&mut file, &header, found, names.len())?;
+        let kept = kept_entries(&index, length);
+        let frames = index[..kept].last().map_or(0, |e| e.frame + 1);
+        let kept_names = index[..kept]
+            .iter()
+            .map(|e| usize::from(e.id) + 1)
+            .max()
+            .unwrap_or(0);
+        let names: Vec<String> = names.into_iter().take(kept_names).collect();
+        let plan = Trim {
+            header,
+            found,
+            length,
+            kept: &index[..kept],
+            old_entries: index.len() as u64,
+            names: &names,
+            old_names_used: names_used,
+        };
+        let (header, end) = plan.apply(&mut file)?;
+        Ok(Self::with_state(
+            file,
+            header,
+            names,
+            kept as u64,
+            frames,
+            end,
+        ))
+    }
+
+    /// Adds one chunk to the current frame: `rows` x `columns` values, row-major.
+    /// A name may appear once per frame. Chunks with no rows are allowed, but a
+    /// frame needs at least one chunk with data.
+    pub fn write_chunk(
+        &mut self,
+        name: &str,
+        rows: u64,
+        columns: u32,
+        data: GsdData,
+    ) -> io::Result<()> {
+        check_shape(name, rows, columns, data.len())?;
+        let id = self.name_id(name)?;
+        if self.pending.iter().any(|e| e.id == id) {
+            return Err(invalid_input(format!(
+                "GSD chunk {name} written twice in one frame"
+            )));
+        }
+        self.scratch.clear();
+        data.append_le(&mut self.scratch);
+        let start = *self.frame_start.get_or_insert(self.end);
+        let location = if self.scratch.is_empty() {
+            start
+        } else {
+            write_at(&mut self.file, self.end, &self.scratch)?;
+            let at = self.end;
+            self.end += self.scratch.len() as u64;
+            at
+        };
+        self.pending.push(Entry {
+            frame: self.frames,
+            rows,
+            location,
+            columns,
+            id,
+            kind: data.type_code(),
+            flags: 0,
+        });
+        Ok(())
+    }
+
+    /// The id of `name`, given a new one if the file has no such name yet.
+    fn name_id(&mut self, name: &str) -> io::Result<u16> {
+        if let Some(&id) = self.ids.get(name) {
+            return Ok(id);
+        }
+        if name.is_empty() || name.contains('\0') {
+            return Err(invalid_input(format!("bad GSD chunk name {name:?}")));
+        }
+        // GSD reserves id 65535 as "not found"
+        let id = u16::try_from(self.ids.len())
+            .ok()
+            .filter(|&id| id < u16::MAX)
+            .ok_or_else(|| invalid_input("a GSD file holds at most 65535 names".into()))?;
+        self.ids.insert(name.to_owned(), id);
+        self.names.extend_from_slice(name.as_bytes());
+        self.names.push(0);
+        Ok(id)
+    }
+
+    /// Commits the current frame: when this returns, the file is a valid GSD file
+    /// holding it (new names, index entries and header written and flushed).
+    pub fn end_frame(&mut self) -> io::Result<()> {
+        if !self.pending.iter().any(|e| e.rows > 0) {
+            return Err(invalid_input(
+                "a GSD frame needs at least one chunk with data".into(),
+            ));
+        }
+        self.pending.sort_by_key(|e| e.id);
+        let mut header = self.header.clone();
+        let mut end = self.end;
+        self.commit_names(&mut header, &mut end)?;
+        self.commit_entries(&mut header, &mut end)?;
+        if self.pending.iter().any(|e| e.kind == CHARACTER) {
+            header.gsd_version = header.gsd_version.max(VERSION_2_1);
+        }
+        write_at(&mut self.file, 0, &header.encode())?;
+        self.file.flush()?;
+        self.header = header;
+        self.end = end;
+        self.committed_end = end;
+        self.entries += self.pending.len() as u64;
+        self.frames += 1;
+        self.committed_names = self.names.len();
+        self.pending.clear();
+        self.frame_start = None;
+        Ok(())
+    }
+
+    /// Writes the names new in this frame: into the free end of the name list
+    /// block, or, when they do not fit, all names into a new block twice as large
+    /// (or more) at `end`, which the header is then pointed at.
+    fn commit_names(&mut self, header: &mut Header, end: &mut u64) -> io::Result<()> {
+        if self.committed_names == self.names.len() {
+            return Ok(());
+        }
+        let capacity = header.namelist_bytes().unwrap_or(0);
+        let used = self.names.len() as u64;
+        if used <= capacity {
+            let at = header.namelist_location + self.committed_names as u64;
+            return write_at(&mut self.file, at, &self.names[self.committed_names..]);
+        }
+        let mut size = capacity.max(NAME_UNIT);
+        while size <= used {
+            size *= 2;
+        }
+        let mut block = self.names.clone();
+        block.resize(size as usize, 0);
+        write_at(&mut self.file, *end, &block)?;
+        header.namelist_location = *end;
+        header.namelist_allocated = size / NAME_UNIT;
+        *end += size;
+        // point at the new names before any index entry uses one
+        write_at(&mut self.file, 0, &header.encode())
+    }
+
+    /// Writes the frame's index entries after those in the file: into the index
+    /// block, or, when it is full, into a new block twice as large (or more) at
+    /// `end` holding a copy of the old entries, which the header is then pointed at.
+    fn commit_entries(&mut self, header: &mut Header, end: &mut u64) -> io::Result<()> {
+        let bytes: Vec<u8> = self.pending.iter().flat_map(|e| e.encode()).collect();
+        let needed = self.entries + self.pending.len() as u64;
+        if needed <= header.index_allocated {
+            let at = header.index_location + self.entries * ENTRY_BYTES;
+            return write_at(&mut self.file, at, &bytes);
+        }
+        let mut allocated = header.index_allocated.max(1);
+        while allocated < needed {
+            allocated *= 2;
+        }
+        let at = *end;
+        let old = self.entries * ENTRY_BYTES;
+        copy_within(&mut self.file, header.index_location, at, old)?;
+        write_at(&mut self.file, at + old, &bytes)?;
+        let used = needed * ENTRY_BYTES;
+        write_zeros(&mut self.file, at + used, allocated * ENTRY_BYTES - used)?;
+        header.index_location = at;
+        header.index_allocated = allocated;
+        *end = at + allocated * ENTRY_BYTES;
+        write_at(&mut self.file, 0, &header.encode())
+    }
+
+    /// Frames committed.
+    pub fn frames(&self) -> u64 {
+        self.frames
+    }
+
+    /// The file's length when the last frame was committed: what a checkpoint
+    /// records and [`GsdWriter::resume`] continues from.
+    pub fn len(&self) -> u64 {
+        self.committed_end
+    }
+}
+
+/// Checks that `values` values fill `rows` x `columns`.
+fn check_shape(name: &str, rows: u64, columns: u32, values: usize) -> io::Result<()> {
+    if columns == 0 {
+        return Err(invalid_input(format!("GSD chunk {name} has 0 columns")));
+    }
+    if rows.checked_mul(u64::from(columns)) != Some(values as u64) {
+        return Err(invalid_input(format!(
+            "GSD chunk {name}: {values} values do not fill {rows} x {columns}"
+        )));
+    }
+    Ok(())
+}
+
+/// Reads and checks the header of a file of `found` bytes: both blocks must lie
+/// within the file.
+fn read_header(file: &mut File, found: u64) -> io::Result<Header> {
+    if found < HEADER_BYTES {
+        return Err(invalid_data(format!(
+            "not a GSD file ({found} bytes, shorter than a GSD header)"
+        )));
+    }
+    let bytes = read_at(file, 0, HEADER_BYTES)?;
+    let header = Header::decode(bytes[..].try_into().expect("header bytes"))?;
+    if !header.index_within(found) || !header.namelist_within(found) {
+        return Err(invalid_data(
+            "corrupt GSD file: index or name list beyond the end of the file".into(),
+        ));
+    }
+    Ok(header)
+}
+
+/// Reads the name list: the names in id order and the bytes they use.
+fn read_names(file: &mut File, header: &Header) -> io::Result<(Vec<String>, u64)> {
+    let size = header.namelist_bytes().unwrap_or(0);
+    let block = read_at(file, header.namelist_location, size)?;
+    if block.last().is_some_and(|&b| b != 0) {
+        return Err(invalid_data(
+            "corrupt GSD file: name list not 0-terminated".into(),
+        ));
+    }
+    let mut names = Vec::new();
+    let mut used = 0;
+    for name in block.split(|&b| b == 0) {
+        if name.is_empty() {
+            break;
+        }
+        let name = String::from_utf8(name.to_vec())
+            .map_err(|_| invalid_data("GSD chunk name is not UTF-8".into()))?;
+        used += name.len() as u64 + 1;
+        names.push(name);
+    }
+    Ok((names, used))
+}
+
+/// Reads the index entries up to the first with location 0, checking each as
+/// the GSD reader does: known type and zero flags, a known name, data within the
+/// file, frames that never decrease.
+fn read_index(
+    file: &mut File,
+    header: &Header,
+    found: u64,
+    names: usize,
+) -> io::Result<Vec<Entry>> {
+    let block = read_at(
+        file,
+        header.index_location,
+        header.index_bytes().unwrap_or(0),
+    )?;
+    let mut entries: Vec<Entry> = Vec::new();
+    for bytes in block.chunks_exact(ENTRY_BYTES as usize) {
+        let entry = Entry::decode(bytes);
+        if entry.location == 0 {
+            break;
+        }
+        let fits = entry.end().is_some_and(|end| end <= found);
+        let ordered = entries.last().is_none_or(|e| e.frame <= entry.frame);
+        if !fits || entry.flags != 0 || usize::from(entry.id) >= names || !ordered {
+            return Err(invalid_data(format!(
+                "corrupt GSD file: bad index entry {}",
+                entries.len()
+            )));
+        }
+        entries.push(entry);
+    }
+    Ok(entries)
+}
+
+/// How many entries, from the start, belong to whole frames whose chunks all lay
+/// within the first `length` bytes.
+fn kept_entries(index: &[Entry], length: u64) -> usize {
+    let mut kept = 0;
+    while kept < index.len() {
+        let frame = index[kept].frame;
+        let size = index[kept..]
+            .iter()
+            .take_while(|e| e.frame == frame)
+            .count();
+        if !index[kept..kept + size]
+            .iter()
+            .all(|e| e.written_before(length))
+        {
+            break;
+        }
+        kept += size;
+    }
+    kept
+}
+
+/// Cutting a GSD file back to the frames it held at `length` bytes.
+struct Trim<'a> {
+    header: Header,
+    found: u64,
+    length: u64,
+    kept: &'a [Entry],
+    old_entries: u64,
+    names: &'a [String],
+    old_names_used: u64,
+}
+
+impl Trim<'_> {
+    /// Rewrites the file to hold the kept frames and names only, ending right
+    /// after them; returns the new header and the file's length. Blocks that lie
+    /// within `length` are cleared in place past the kept part; blocks that lie
+    /// beyond are rewritten, first past everything (so that the header never
+    /// points at bytes about to be overwritten) and then from `length`. Every step
+    /// leaves a valid file.
+    fn apply(&self, file: &mut File) -> io::Result<(Header, u64)> {
+        let mut header = self.header.clone();
+        let kept = self.kept.len() as u64;
+        let index_stays = header.index_within(self.length);
+        let names_stay = header.namelist_within(self.length);
+        if index_stays {
+            let at = header.index_location + kept * ENTRY_BYTES;
+            write_zeros(file, at, (self.old_entries - kept) * ENTRY_BYTES)?;
+        }
+        let names_block = (!names_stay).then(|| self.names_block());
+        let index_block = (!index_stays).then(|| self.index_block());
+        let moved = names_block.as_ref().map_or(0, Vec::len) as u64
+            + index_block.as_ref().map_or(0, Vec::len) as u64;
+        let mut end = self.length;
+        if moved > 0 {
+            let spare = self.found.max(self.length + moved);
+            let blocks = (names_block.as_deref(), index_block.as_deref());
+            place_blocks(file, &mut header, spare, blocks)?;
+            place_blocks(file, &mut header, self.length, blocks)?;
+            end += moved;
+        }
+        if names_stay {
+            let kept_used: u64 = self.names.iter().map(|n| n.len() as u64 + 1).sum();
+            let at = header.namelist_location + kept_used;
+            write_zeros(file, at, self.old_names_used - kept_used)?;
+        }
+        file.set_len(end)?;
+        file.flush()?;
+        Ok((header, end))
+    }
+
+    /// The kept names in a block the size of the old one.
+    fn names_block(&self) -> Vec<u8> {
+        let mut block = Vec::new();
+        for name in self.names {
+            block.extend_from_slice(name.as_bytes());
+            block.push(0);
+        }
+        block.resize(self.header.namelist_bytes().unwrap_or(0) as usize, 0);
+        block
+    }
+
+    /// The kept entries in a block the size of the old one.
+    fn index_block(&self) -> Vec<u8> {
+        let mut block: Vec<u8> = self.kept.iter().flat_map(|e| e.encode()).collect();
+        block.resize(self.header.index_bytes().unwrap_or(0) as usize, 0);
+        block
+    }
+}
+
+/// Writes the given name list and index blocks one after the other at `at`,
+/// then the header pointing at them.
+fn place_blocks(
+    file: &mut File,
+    header: &mut Header,
+    at: u64,
+    (names, index): (Option<&[u8]>, Option<&[u8]>),
+) -> io::Result<()> {
+    let mut pos = at;
+    if let Some(block) = names {
+        write_at(file, pos, block)?;
+        header.namelist_location = pos;
+        pos += block.len() as u64;
+    }
+    if let Some(block) = index {
+        write_at(file, pos, block)?;
+        header.index_location = pos;
+    }
+    write_at(file, 0, &header.encode())
+}
+
+/// One frame of the `hoomd` schema (version 1.4): an orthorhombic box and
+/// per-particle data. Positions are given in the caller's box `[lo, lo + L)`;
+/// HOOMD boxes are centred at the origin, so they are written shifted by
+/// `-(lo + L/2)`.
+#[derive(Clone, Copy, Debug)]
+pub struct HoomdFrame<'a> {
+    /// Time step (`configuration/step`).
+    pub step: u64,
+    /// 2 or 3. In 2D the box's `Lz` and every position's z are written as 0, as
+    /// HOOMD expects of 2D boxes.
+    pub dimensions: u8,
+    /// Box lengths `Lx, Ly, Lz` (tilts are 0).
+    pub box_lengths: [f64; 3],
+    /// The box's lower corner in the caller's coordinates.
+    pub lo: [f64; 3],
+    /// Positions, in `[lo, lo + L)`.
+    pub positions: &'a [[f64; 3]],
+    /// Velocities, if known (`particles/velocity`).
+    pub velocities: Option<&'a [[f64; 3]]>,
+    /// Masses, if not all 1 (`particles/mass`).
+    pub masses: Option<&'a [f64]>,
+    /// Type of each particle as an index into `types`, if not all 0.
+    pub typeid: Option<&'a [u32]>,
+    /// Type names, e.g. `["A"]` (`particles/types`); empty means HOOMD's default
+    /// `["A"]`.
+    pub types: &'a [String],
+    /// Per-particle model quantities: name, values (N x columns, row-major) and
+    /// columns, written as float64 chunks `log/particles/<name>`.
+    pub extra: &'a [(&'a str, &'a [f64], u32)],
+}
+
+/// Writes `frame`'s chunks (every chunk it has, in every frame) and commits the
+/// frame. Floating-point particle data are stored as float32, as schema 1.4 has
+/// them; the extra quantities as float64.
+pub fn write_hoomd_frame(w: &mut GsdWriter, frame: &HoomdFrame) -> io::Result<()> {
+    check_frame(frame)?;
+    let n = frame.positions.len() as u64;
+    let n32 = n as u32;
+    w.write_chunk("configuration/step", 1, 1, GsdData::U64(&[frame.step]))?;
+    w.write_chunk(
+        "configuration/dimensions",
+        1,
+        1,
+        GsdData::U8(&[frame.dimensions]),
+    )?;
+    w.write_chunk("configuration/box", 6, 1, GsdData::F32(&hoomd_box(frame)))?;
+    w.write_chunk("particles/N", 1, 1, GsdData::U32(&[n32]))?;
+    if !frame.types.is_empty() {
+        let (table, width) = type_table(frame.types);
+        let rows = frame.types.len() as u64;
+        w.write_chunk("particles/types", rows, width, GsdData::I8(&table))?;
+    }
+    if let Some(typeid) = frame.typeid {
+        w.write_chunk("particles/typeid", n, 1, GsdData::U32(typeid))?;
+    }
+    if let Some(masses) = frame.masses {
+        let masses: Vec<f32> = masses.iter().map(|&m| m as f32).collect();
+        w.write_chunk("particles/mass", n, 1, GsdData::F32(&masses))?;
+    }
+    let positions = centred_positions(frame);
+    w.write_chunk("particles/position", n, 3, GsdData::F32(&positions))?;
+    if let Some(velocities) = frame.velocities {
+        let velocities: Vec<f32> = velocities
+            .as_flattened()
+            .iter()
+            .map(|&v| v as f32)
+            .collect();
+        w.write_chunk("particles/velocity", n, 3, GsdData::F32(&velocities))?;
+    }
+    for &(name, values, columns) in frame.extra {
+        let name = format!("log/particles/{name}");
+        w.write_chunk(&name, n, columns, GsdData::F64(values))?;
+    }
+    w.end_frame()
+}
+
+/// Checks a frame's sizes and ids.
+fn check_frame(frame: &HoomdFrame) -> io::Result<()> {
+    let n = frame.positions.len();
+    if !matches!(frame.dimensions, 2 | 3) {
+        return Err(invalid_input(format!(
+            "HOOMD frames have 2 or 3 dimensions, not {}",
+            frame.dimensions
+        )));
+    }
+    if u32::try_from(n).is_err() {
+        return Err(invalid_input(format!("{n} particles: too many for HOOMD")));
+    }
+    let sizes = [
+        ("velocities", frame.velocities.map(<[_]>::len)),
+        ("masses", frame.masses.map(<[_]>::len)),
+        ("typeid", frame.typeid.map(<[_]>::len)),
+    ];
+    for (what, len) in sizes {
+        if len.is_some_and(|len| len != n) {
+            return Err(invalid_input(format!(
+                "{} {what} for {n} particles",
+                len.unwrap_or(0)
+            )));
+        }
+    }
+    let types = frame.types.len().max(1);
+    if let Some(bad) = frame
+        .typeid
+        .into_iter()
+        .flatten()
+        .find(|&&t| t as usize >= types)
+    {
+        return Err(invalid_input(format!(
+            "type id {bad} but only {types} types"
+        )));
+    }
+    if let Some(bad) = frame.types.iter().find(|t| t.contains('\0')) {
+        return Err(invalid_input(format!("bad type name {bad:?}")));
+    }
+    for &(name, values, columns) in frame.extra {
+        check_shape(name, n as u64, columns, values.len())?;
+    }
+    Ok(())
+}
+
+/// `configuration/box`: `[Lx, Ly, Lz, xy, xz, yz]`, `Lz` 0 in 2D.
+fn hoomd_box(frame: &HoomdFrame) -> [f32; 6] {
+    let [lx, ly, lz] = frame.box_lengths;
+    let lz = if frame.dimensions == 2 { 0.0 } else { lz };
+    [lx as f32, ly as f32, lz as f32, 0.0, 0.0, 0.0]
+}
+
+/// Positions shifted to the centred box, row-major, as float32.
+fn centred_positions(frame: &HoomdFrame) -> Vec<f32> {
+    let mut out = Vec::with_capacity(3 * frame.positions.len());
+    for p in frame.positions {
+        for k in 0..3 {
+            if k == 2 && frame.dimensions == 2 {
+                out.push(0.0);
+                continue;
+            }
+            let half = frame.box_lengths[k] / 2.0;
+            out.push(to_f32_inside(p[k] - frame.lo[k] - half, half));
+        }
+    }
+    out
+}
+
+/// `c` as float32, except that a `c` inside the box that rounds up onto its upper
+/// face `half` becomes the float32 just below the face: HOOMD boxes are half-open,
+/// `[-L/2, L/2)`. Coordinates outside the box are left as they are.
+fn to_f32_inside(c: f64, half: f64) -> f32 {
+    let rounded = c as f32;
+    let face = half as f32;
+    if c < half && rounded >= face && face > 0.0 && face.is_finite() {
+        f32::from_bits(face.to_bits() - 1)
+    } else {
+        rounded
+    }
+}
+
+/// Type names as the schema stores them: one row per name, each 0-padded to the
+/// longest name plus a 0 terminator.
+fn type_table(types: &[String]) -> (Vec<i8>, u32) {
+    let width = types.iter().map(String::len).max().unwrap_or(0) + 1;
+    let mut table = vec![0i8; width * types.len()];
+    for (row, name) in types.iter().enumerate() {
+        for (k, &b) in name.as_bytes().iter().enumerate() {
+            table[row * width + k] = b as i8;
+        }
+    }
+    (table, width as u32)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A GSD file read back and checked the way the GSD C reader checks one.
+    struct Parsed {
+        header: Header,
+        names: Vec<String>,
+        index: Vec<Entry>,
+        bytes: Vec<u8>,
+    }
+
+    fn read(path: &Path) -> Parsed {
+        let bytes = std::fs::read(path).unwrap();
+        let size = bytes.len() as u64;
+        let header = Header::decode((&bytes[..256]).try_into().unwrap()).unwrap();
+        assert!(header.index_within(size) && header.namelist_within(size));
+        let nl = header.namelist_location as usize;
+        let names_block = &bytes[nl..nl + header.namelist_bytes().unwrap() as usize];
+        assert_eq!(*names_block.last().unwrap(), 0, "name list 0-terminated");
+        let names: Vec<String> = names_block
+            .split(|&b| b == 0)
+            .take_while(|n| !n.is_empty())
+            .map(|n| String::from_utf8(n.to_vec()).unwrap())
+            .collect();
+        let il = header.index_location as usize;
+        let block = &bytes[il..il + header.index_bytes().unwrap() as usize];
+        let all: Vec<Entry> = block.chunks_exact(32).map(Entry::decode).collect();
+        let used = all.iter().take_while(|e| e.location != 0).count();
+        assert!(
+            all[used..].iter().all(|e| e.encode() == [0; 32]),
+            "zeros after the index"
+        );
+        let index = all[..used].to_vec();
+        for pair in index.windows(2) {
+            assert!(
+                (pair[0].frame, pair[0].id) < (pair[1].frame, pair[1].id),
+                "sorted"
+            );
+        }
+        for e in &index {
+            assert!(e.end().unwrap() <= size && e.location != 0);
+            assert!(e.frame < header.index_allocated);
+            assert!((e.id as usize) < names.len());
+            assert_eq!(e.flags, 0);
+        }
+        Parsed {
+            header,
+            names,
+            index,
+            bytes,
+        }
+    }
+
+    impl Parsed {
+        fn frames(&self) -> u64 {
+            self.index.last().map_or(0, |e| e.frame + 1)
+        }
+
+        /// The entry and bytes of chunk `name` in `frame`, by binary search as the
+        /// GSD reader finds it.
+        fn chunk(&self, frame: u64, name: &str) -> Option<(Entry, &[u8])> {
+            let id = self.names.iter().position(|n| n == name)? as u16;
+            let i = self
+                .index
+                .binary_search_by_key(&(frame, id), |e| (e.frame, e.id))
+                .ok()?;
+            let e = self.index[i];
+            let at = e.location as usize;
+            Some((e, &self.bytes[at..at + e.bytes().unwrap() as usize]))
+        }
+
+        fn f32s(&self, frame: u64, name: &str) -> Vec<f32> {
+            let (_, b) = self.chunk(frame, name).unwrap();
+            b.chunks_exact(4)
+                .map(|c| f32::from_le_bytes(c.try_into().unwrap()))
+                .collect()
+        }
+
+        fn f64s(&self, frame: u64, name: &str) -> Vec<f64> {
+            let (_, b) = self.chunk(frame, name).unwrap();
+            b.chunks_exact(8)
+                .map(|c| f64::from_le_bytes(c.try_into().unwrap()))
+                .collect()
+        }
+
+        fn u64s(&self, frame: u64, name: &str) -> Vec<u64> {
+            let (_, b) = self.chunk(frame, name).unwrap();
+            b.chunks_exact(8)
+                .map(|c| u64::from_le_bytes(c.try_into().unwrap()))
+                .collect()
+        }
+    }
+
+    fn types() -> Vec<String> {
+        vec!["A".to_string(), "Big".to_string()]
+    }
+
+    /// A frame of two particles in the box [1, 11) x [0, 4) x [-1, 1).
+    fn write_frame(w: &mut GsdWriter, step: u64, shift: f64) {
+        write_frame_with(w, step, shift, None);
+    }
+
+    /// [`write_frame`], with one more per-particle quantity if `more` names one.
+    fn write_frame_with(w: &mut GsdWriter, step: u64, shift: f64, more: Option<&str>) {
+        let positions = [[1.0 + shift, 0.5, -1.0], [10.5, 3.0 + shift, 0.25]];
+        let velocities = [[1.0, 2.0, 3.0], [-1.0, -2.0, -3.0 + shift]];
+        let energy = [0.1 + shift, 0.2];
+        let stress = [1.0, 2.0, 3.0, 4.0, 5.0, 6.0 + shift];
+        let mut extra: Vec<(&str, &[f64], u32)> =
+            vec![("energy", &energy, 1), ("stress", &stress, 3)];
+        if let Some(name) = more {
+            extra.push((name, &energy, 1));
+        }
+        let types = types();
+        let frame = HoomdFrame {
+            step,
+            dimensions: 3,
+            box_lengths: [10.0, 4.0, 2.0],
+            lo: [1.0, 0.0, -1.0],
+            positions: &positions,
+            velocities: Some(&velocities),
+            masses: Some(&[1.0, 2.5]),
+            typeid: Some(&[0, 1]),
+            types: &types,
+            extra: &extra,
+        };
+        write_hoomd_frame(w, &frame).unwrap();
+    }
+
+    fn check_frame_values(r: &Parsed, frame: u64, step: u64, shift: f64) {
+        assert_eq!(r.u64s(frame, "configuration/step"), [step]);
+        assert_eq!(
+            r.f32s(frame, "configuration/box"),
+            [10.0, 4.0, 2.0, 0.0, 0.0, 0.0]
+        );
+        let x = (1.0 + shift - 1.0 - 5.0) as f32;
+        let y = (3.0 + shift - 2.0) as f32;
+        assert_eq!(
+            r.f32s(frame, "particles/position"),
+            [x, -1.5, -1.0, 4.5, y, 0.25]
+        );
+        assert_eq!(r.f32s(frame, "particles/mass"), [1.0, 2.5]);
+        assert_eq!(r.f64s(frame, "log/particles/energy"), [0.1 + shift, 0.2]);
+        let (e, _) = r.chunk(frame, "log/particles/stress").unwrap();
+        assert_eq!((e.rows, e.columns, e.kind), (2, 3, 10));
+        let (e, types) = r.chunk(frame, "particles/types").unwrap();
+        assert_eq!((e.rows, e.columns, e.kind), (2, 4, 5));
+        assert_eq!(types, b"A\0\0\0Big\0");
+        let (e, n) = r.chunk(frame, "particles/N").unwrap();
+        assert_eq!((e.kind, n), (3, &2u32.to_le_bytes()[..]));
+    }
+
+    #[test]
+    fn writes_frames_a_reader_finds() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("t.gsd");
+        let mut w = GsdWriter::create(&path).unwrap();
+        assert_eq!(read(&path).frames(), 0);
+        write_frame(&mut w, 100, 0.0);
+        write_frame(&mut w, 200, 0.5);
+        assert_eq!(w.frames(), 2);
+        assert_eq!(w.len(), std::fs::metadata(&path).unwrap().len());
+        let r = read(&path);
+        assert_eq!(r.header.gsd_version, 0x0002_0000);
+        assert_eq!(r.header.schema_version, 0x0001_0004);
+        assert_eq!(&r.header.schema[..6], b"hoomd\0");
+        assert!(r.header.application.starts_with(b"cellist "));
+        assert_eq!(r.frames(), 2);
+        check_frame_values(&r, 0, 100, 0.0);
+        check_frame_values(&r, 1, 200, 0.5);
+    }
+
+    #[test]
+    fn resume_drops_later_frames() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("t.gsd");
+        let mut w = GsdWriter::create(&path).unwrap();
+        write_frame(&mut w, 100, 0.0);
+        let length = w.len();
+        write_frame(&mut w, 200, 0.5);
+        drop(w);
+        let mut w = GsdWriter::resume(&path, length).unwrap();
+        assert_eq!(w.frames(), 1);
+        assert_eq!(read(&path).frames(), 1);
+        write_frame(&mut w, 150, 0.25);
+        let r = read(&path);
+        assert_eq!(r.frames(), 2);
+        check_frame_values(&r, 0, 100, 0.0);
+        check_frame_values(&r, 1, 150, 0.25);
+    }
+
+    /// Frames with ten chunks each, one name longer than the first name list.
+    fn write_many(w: &mut GsdWriter, frames: u64, long_name: &str) {
+        for f in 0..frames {
+            let step = w.frames() * 10;
+            w.write_chunk("configuration/step", 1, 1, GsdData::U64(&[step]))
+                .unwrap();
+            for k in 0..8u32 {
+                let v = [f as f64, k as f64];
+                w.write_chunk(&format!("log/q{k}"), 2, 1, GsdData::F64(&v))
+                    .unwrap();
+            }
+            w.write_chunk(long_name, 0, 1, GsdData::U8(&[])).unwrap();
+            w.end_frame().unwrap();
+        }
+    }
+
+    #[test]
+    fn resume_after_the_index_and_names_moved() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("t.gsd");
+        let mut w = GsdWriter::create(&path).unwrap();
+        write_many(&mut w, 3, "short");
+        let length = w.len();
+        let header_then = read(&path).header;
+        write_many(&mut w, 40, &"x".repeat(2000));
+        let r = read(&path);
+        assert_eq!(r.frames(), 43);
+        assert!(r.header.index_location >= length && r.header.namelist_location >= length);
+        assert_eq!(r.header.index_allocated, 512);
+        drop(w);
+
+        for _ in 0..2 {
+            // a second resume from the same checkpoint finds the same frames
+            let w = GsdWriter::resume(&path, length).unwrap();
+            assert_eq!(w.frames(), 3);
+            let r = read(&path);
+            assert_eq!(r.frames(), 3);
+            assert_eq!(r.index.len(), 30);
+            assert_eq!(r.names.len(), 10);
+            assert_eq!(r.header.index_allocated, 512);
+            assert_ne!(r.header, header_then);
+        }
+        let mut w = GsdWriter::resume(&path, length).unwrap();
+        write_many(&mut w, 2, "other");
+        let r = read(&path);
+        assert_eq!(r.frames(), 5);
+        assert_eq!(r.u64s(4, "configuration/step"), [40]);
+        assert_eq!(r.f64s(4, "log/q7"), [1.0, 7.0]);
+        let (e, data) = r.chunk(4, "other").unwrap();
+        assert_eq!((e.rows, data.len()), (0, 0));
+        assert!(r.chunk(3, &"x".repeat(2000)).is_none());
+    }
+
+    #[test]
+    fn resume_in_place_clears_dropped_entries() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("t.gsd");
+        let mut w = GsdWriter::create(&path).unwrap();
+        let start = w.len();
+        write_many(&mut w, 2, "a");
+        let length = w.len();
+        write_many(&mut w, 3, "b");
+        drop(w);
+        let w = GsdWriter::resume(&path, length).unwrap();
+        assert_eq!((w.frames(), w.len()), (2, length));
+        let r = read(&path);
+        assert_eq!((r.frames(), r.index.len(), r.names.len()), (2, 20, 10));
+        assert_eq!(r.bytes.len() as u64, length);
+        let w = GsdWriter::resume(&path, start).unwrap();
+        assert_eq!((w.frames(), w.len()), (0, start));
+        let r = read(&path);
+        assert_eq!((r.frames(), r.names.len()), (0, 0));
+    }
+
+    #[test]
+    fn resume_refuses_short_and_foreign_files() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("t.gsd");
+        let mut w = GsdWriter::create(&path).unwrap();
+        write_many(&mut w, 2, "a");
+        let length = w.len();
+        drop(w);
+        let kind = |p: &Path, n| GsdWriter::resume(p, n).err().map(|e| e.kind());
+        assert_eq!(kind(&path, length + 1), Some(io::ErrorKind::InvalidData));
+        assert_eq!(kind(&path, 100), Some(io::ErrorKind::InvalidData));
+        assert_eq!(std::fs::metadata(&path).unwrap().len(), length);
+
+        let bytes = std::fs::read(&path).unwrap();
+        std::fs::write(&path, &bytes[..length as usize - 8]).unwrap();
+        assert_eq!(kind(&path, 300), Some(io::ErrorKind::InvalidData));
+        let foreign = dir.path().join("foreign");
+        std::fs::write(&foreign, vec![7u8; 6000]).unwrap();
+        assert_eq!(kind(&foreign, 5000), Some(io::ErrorKind::InvalidData));
+        std::fs::write(&foreign, b"short").unwrap();
+        assert_eq!(kind(&foreign, 3), Some(io::ErrorKind::InvalidData));
+        let mut v1 = bytes.clone();
+        v1[44..48].copy_from_slice(&0x0001_0000u32.to_le_bytes());
+        std::fs::write(&foreign, &v1).unwrap();
+        assert_eq!(kind(&foreign, length), Some(io::ErrorKind::InvalidData));
+    }
+
+    #[test]
+    fn refuses_bad_chunks_and_empty_frames() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut w = GsdWriter::create(&dir.path().join("t.gsd")).unwrap();
+        let kind = |r: io::Result<()>| r.err().map(|e| e.kind());
+        let bad = Some(io::ErrorKind::InvalidInput);
+        assert_eq!(kind(w.write_chunk("a", 2, 2, GsdData::U8(&[1, 2, 3]))), bad);
+        assert_eq!(kind(w.write_chunk("a", 0, 0, GsdData::U8(&[]))), bad);
+        assert_eq!(kind(w.write_chunk("", 1, 1, GsdData::U8(&[1]))), bad);
+        w.write_chunk("empty", 0, 3, GsdData::F32(&[])).unwrap();
+        assert_eq!(kind(w.end_frame()), bad);
+        assert_eq!(kind(w.write_chunk("empty", 0, 3, GsdData::F32(&[]))), bad);
+        w.write_chunk("text", 2, 1, GsdData::Chars(b"hi")).unwrap();
+        w.end_frame().unwrap();
+        assert_eq!(w.frames(), 1);
+        let r = read(&dir.path().join("t.gsd"));
+        assert_eq!(r.header.gsd_version, 0x0002_0001);
+        assert_eq!(r.chunk(0, "text").unwrap().1, b"hi");
+        assert_eq!(r.chunk(0, "empty").unwrap().0.rows, 0);
+    }
+
+    #[test]
+    fn positions_stay_below_the_upper_face() {
+        let just_below = 0.5 - 1e-12;
+        assert_eq!(just_below as f32, 0.5);
+        let face = f32::from_bits(0.5f32.to_bits() - 1);
+        assert_eq!(to_f32_inside(just_below, 0.5), face);
+        assert_eq!(to_f32_inside(-0.5, 0.5), -0.5);
+        assert_eq!(to_f32_inside(0.25, 0.5), 0.25);
+        // outside the box: left alone
+        assert_eq!(to_f32_inside(0.5, 0.5), 0.5);
+        assert_eq!(to_f32_inside(3.75, 0.5), 3.75);
+    }
+
+    /// Writes a file for checking with the `gsd` Python package:
+    /// `CELLIST_GSD_OUT=/tmp/x.gsd cargo test -p cellist-io --lib gsd -- --ignored`.
+    /// Frames of `write_frame`: steps 100, 200 (shifts 0, 0.5); then 20 frames with
+    /// one more, long-named quantity that move the index and the name list; then a
+    /// resume at the length after step 200, and steps 300, 400, ..., 2200 (shift
+    /// 0.25 k for step 300 + 100 k): 22 frames.
+    #[test]
+    #[ignore]
+    fn file_for_the_python_reader() {
+        let Some(path) = std::env::var_os("CELLIST_GSD_OUT") else {
+            return;
+        };
+        let path = Path::new(&path);
+        let mut w = GsdWriter::create(path).unwrap();
+        write_frame(&mut w, 100, 0.0);
+        write_frame(&mut w, 200, 0.5);
+        let length = w.len();
+        let long = "x".repeat(1100);
+        for k in 0..20 {
+            write_frame_with(&mut w, 1000 + k, 0.0, Some(&long));
+        }
+        drop(w);
+        let mut w = GsdWriter::resume(path, length).unwrap();
+        for k in 0..20 {
+            write_frame(&mut w, 300 + 100 * k, 0.25 * k as f64);
+        }
+        assert_eq!(w.frames(), 22);
+        let r = read(path);
+        // 2 x 11 + 20 x 12 entries grew the index to 512, which the resume kept
+        assert_eq!(r.header.index_allocated, 512);
+        assert!(!r.names.contains(&long));
+    }
+}
