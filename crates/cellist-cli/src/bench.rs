@@ -7,7 +7,7 @@ use cellist::models::md::{
     create_velocities, lattice, Atoms, Integrator, LatticeKind, MdSystem, StageTimes,
     VelocityDistribution,
 };
-use cellist::neighbors::half_pairs;
+use cellist::neighbors::{half_pairs, sorted_half_list};
 use cellist::random::Rng;
 use cellist::{CellList, Domain, Threads};
 use cellist_sim::study::median;
@@ -46,13 +46,14 @@ pub fn neighbors(args: &BenchNeighborsArgs) -> CliResult {
     let ns_per_pair = seconds * 1e9 / pairs.max(1) as f64;
     if args.json {
         let obj = serde_json::json!({
-            "n": args.n, "dim": args.dim, "threads": args.threads, "pairs": pairs,
+            "n": args.n, "dim": args.dim, "threads": args.threads, "sorted": args.sorted, "pairs": pairs,
             "seconds": seconds, "ns_per_pair": ns_per_pair,
         });
         println!("{obj}");
     } else {
         println!(
-            "neighbors: n {} dim {} threads {}: median {:.4} s over {} runs, {} pairs, {:.2} ns/pair",
+            "neighbors{}: n {} dim {} threads {}: median {:.4} s over {} runs, {} pairs, {:.2} ns/pair",
+            if args.sorted { " (sorted)" } else { "" },
             args.n, args.dim, args.threads, seconds, args.repeat, pairs, ns_per_pair
         );
     }
@@ -71,10 +72,15 @@ fn time_half_list<const D: usize>(
         let start = Instant::now();
         let cells = CellList::build(&domain, args.cutoff, &points)
             .map_err(|e| CliError::Input(format!("--cutoff {}: {e}", args.cutoff)))?;
-        let pairs = half_pairs(&cells, args.cutoff, pool, |i, j, _| [i, j]);
-        times.push(start.elapsed().as_secs_f64());
-        count = pairs.len();
-        drop(pairs);
+        count = if args.sorted {
+            let pairs = sorted_half_list(&cells, &points, args.cutoff, Default::default(), pool);
+            times.push(start.elapsed().as_secs_f64());
+            pairs.len()
+        } else {
+            let pairs = half_pairs(&cells, args.cutoff, pool, |i, j, _| [i, j]);
+            times.push(start.elapsed().as_secs_f64());
+            pairs.len()
+        };
     }
     Ok((median(&times), count))
 }

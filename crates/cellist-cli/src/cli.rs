@@ -730,5 +730,9 @@ pub struct BenchNeighborsArgs {
     pub repeat: usize,
     /// Print one JSON object instead of text.
     #[arg(long)]
+    /// Time the sorted half list instead (sorted by (i, j), int64 indices), as
+    /// `cellist neighbors` prints it and the Python module's `neighbors` returns it.
+    #[arg(long)]
+    pub sorted: bool,
     pub json: bool,
 }

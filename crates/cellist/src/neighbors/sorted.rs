@@ -2,16 +2,16 @@
 //! quantities vesin returns: what `cellist neighbors` prints and what the Python
 //! module's `neighbors` returns.
 //!
-//! The rows are found in cell order, so that the search streams through memory,
-//! and written in input order: a first pass counts each particle's neighbours
-//! `j > i` (its row length), the prefix sums place every row, and a second pass
-//! writes each row sorted by `j` into its place. No global sort, no copy of the
-//! result, and the same bits for any thread count.
+//! The rows are found in cell order, so that the search streams through memory:
+//! each particle's neighbours `j > i` over the full stencil, sorted by `j`, are
+//! appended to a buffer of its chunk of cells. The prefix sums of the row
+//! lengths, in input order, then place every row, and each row is copied once
+//! into its place. No global sort, and the same bits for any thread count.
 
 use super::cell_list::CellList;
 use super::grid::{StencilKind, StencilRun};
 use super::traverse::{for_each_in_row, CutoffTest, ScanScratch};
-use crate::geometry::Domain;
+use crate::geometry::{norm2, Domain};
 use crate::threads::{DisjointSlice, Threads};
 use rayon::prelude::*;
 
@@ -25,6 +25,13 @@ pub struct PairQuantities {
     /// The integer image shifts `S` with `x_j - x_i + S L = d` per axis (0 on
     /// open axes).
     pub shifts: bool,
+}
+
+impl PairQuantities {
+    /// True when any quantity needs the separation vectors.
+    fn geometry(&self) -> bool {
+        self.distances || self.vectors || self.shifts
+    }
 }
 
 /// The half list in the layout of vesin and numpy: pair `k` is `(i[k], j[k])`
@@ -55,12 +62,14 @@ impl SortedPairs {
     }
 }
 
-/// One neighbour of a row while the row is sorted: input index, separation.
-#[derive(Clone, Copy)]
-struct Entry<const D: usize> {
-    j: u32,
-    d: [f64; D],
-    r2: f64,
+/// The rows of one chunk of cells, slot after slot: the neighbours `j > i`
+/// sorted by `j` and, when asked for, their separations.
+#[derive(Default)]
+struct ChunkRows<const D: usize> {
+    first_slot: usize,
+    lengths: Vec<u32>,
+    js: Vec<u32>,
+    separations: Vec<[f64; D]>,
 }
 
 /// Every pair `(i, j)`, `i < j` in input numbering, with `|x_j - x_i| < cutoff`
@@ -88,21 +97,18 @@ pub fn sorted_half_list<const D: usize>(
     let test = CutoffTest::new(cutoff);
     let order = cells.order();
     let n = cells.len();
-    // pass 1: row lengths, in slot order, then placed in input order
-    let mut by_slot = vec![0u32; n];
-    for_each_chunk(cells, threads, &mut by_slot, |home, lengths, first| {
-        visit_rows(cells, home, &test, |slot, row| {
-            lengths[slot - first] = row.len() as u32;
-        });
-    });
+    let geometry = quantities.geometry();
+    let chunks = find_rows(cells, &test, geometry, threads);
+    // each row's place, in input order
     let mut start = vec![0usize; n + 1];
-    for (slot, &length) in by_slot.iter().enumerate() {
-        start[order[slot] as usize + 1] = length as usize;
+    for chunk in &chunks {
+        for (k, &length) in chunk.lengths.iter().enumerate() {
+            start[order[chunk.first_slot + k] as usize + 1] = length as usize;
+        }
     }
     for k in 0..n {
         start[k + 1] += start[k];
     }
-    drop(by_slot);
     let total = start[n];
     let mut out = SortedPairs {
         i: vec![0; total],
@@ -111,47 +117,62 @@ pub fn sorted_half_list<const D: usize>(
         vectors: vec![0.0; if quantities.vectors { total * D } else { 0 }],
         shifts: vec![0; if quantities.shifts { total * D } else { 0 }],
     };
-    // pass 2: every row written, sorted by j, into its own range of each array
     let is = DisjointSlice::new(&mut out.i);
     let js = DisjointSlice::new(&mut out.j);
     let rs = DisjointSlice::new(&mut out.distances);
     let ds = DisjointSlice::new(&mut out.vectors);
     let ss = DisjointSlice::new(&mut out.shifts);
     let domain = cells.domain();
-    let mut unused: Vec<()> = vec![(); n];
-    for_each_chunk(cells, threads, &mut unused, |home, _, _| {
-        visit_rows(cells, home, &test, |slot, row| {
-            let i = order[slot] as usize;
+    let place = |chunk: &ChunkRows<D>| {
+        let mut at = 0;
+        for (k, &length) in chunk.lengths.iter().enumerate() {
+            let i = order[chunk.first_slot + k] as usize;
+            let row = at..at + length as usize;
+            at = row.end;
             let place = start[i]..start[i + 1];
-            debug_assert_eq!(place.len(), row.len());
-            // SAFETY: the rows partition 0..total (prefix sums of the row lengths),
-            // and row `i` is visited by exactly one task, once.
+            // SAFETY: the rows partition 0..total (prefix sums of the row
+            // lengths), and row `i` belongs to exactly one chunk, which places it
+            // once.
             unsafe {
                 is.range(place.clone()).fill(i as i64);
-                for (slot_j, e) in js.range(place.clone()).iter_mut().zip(row.iter()) {
-                    *slot_j = e.j as i64;
+                for (slot, &j) in js
+                    .range(place.clone())
+                    .iter_mut()
+                    .zip(&chunk.js[row.clone()])
+                {
+                    *slot = j as i64;
                 }
+                if !geometry {
+                    continue;
+                }
+                let seps = &chunk.separations[row.clone()];
                 if quantities.distances {
-                    for (r, e) in rs.range(place.clone()).iter_mut().zip(row.iter()) {
-                        *r = e.r2.sqrt();
+                    for (r, d) in rs.range(place.clone()).iter_mut().zip(seps) {
+                        *r = norm2(d).sqrt();
                     }
                 }
                 if quantities.vectors {
                     let v = ds.range(place.start * D..place.end * D);
-                    for (d, e) in v.chunks_exact_mut(D).zip(row.iter()) {
-                        d.copy_from_slice(&e.d);
+                    for (slot, d) in v.chunks_exact_mut(D).zip(seps) {
+                        slot.copy_from_slice(d);
                     }
                 }
                 if quantities.shifts {
                     let s = ss.range(place.start * D..place.end * D);
-                    for (s, e) in s.chunks_exact_mut(D).zip(row.iter()) {
-                        let shift = image_shift(domain, &points[i], &points[e.j as usize], &e.d);
-                        s.copy_from_slice(&shift);
+                    let rows = s.chunks_exact_mut(D).zip(&chunk.js[row.clone()]).zip(seps);
+                    for ((slot, &j), d) in rows {
+                        let shift = image_shift(domain, &points[i], &points[j as usize], d);
+                        slot.copy_from_slice(&shift);
                     }
                 }
             }
-        });
-    });
+        }
+    };
+    if threads.count() == 1 {
+        chunks.iter().for_each(place);
+    } else {
+        threads.install(|| chunks.par_iter().for_each(place));
+    }
     out
 }
 
@@ -171,50 +192,44 @@ fn image_shift<const D: usize>(
     })
 }
 
-/// Runs `work(home, part, first)` for every home cell, on chunks of cells in
-/// parallel; `part` is the piece of the slot-ordered `values` that the chunk's
-/// slots own, starting at slot `first`.
-fn for_each_chunk<const D: usize, T: Send>(
+/// The rows of every particle, chunk of cells by chunk of cells (in parallel),
+/// the chunks in cell order; separations kept when `geometry` is asked for.
+fn find_rows<const D: usize>(
     cells: &CellList<D>,
+    test: &CutoffTest,
+    geometry: bool,
     threads: &Threads,
-    values: &mut [T],
-    work: impl Fn(usize, &mut [T], usize) + Sync,
-) {
+) -> Vec<ChunkRows<D>> {
     let num_cells = cells.grid().num_cells();
-    if threads.count() == 1 {
-        for home in 0..num_cells {
-            work(home, values, 0);
+    let rows = |homes: std::ops::Range<usize>| {
+        let first_slot = if homes.is_empty() {
+            0
+        } else {
+            cells.cell_range(homes.start).start
+        };
+        let mut chunk = ChunkRows {
+            first_slot,
+            ..ChunkRows::default()
+        };
+        for home in homes {
+            rows_of_cell(cells, home, test, geometry, &mut chunk);
         }
-        return;
+        chunk
+    };
+    if threads.count() == 1 {
+        return vec![rows(0..num_cells)];
     }
-    // the chunks' slot ranges, in order, split the slot array without overlap
-    let ranges: Vec<std::ops::Range<usize>> = Threads::chunks(num_cells).collect();
-    let mut parts = Vec::with_capacity(ranges.len());
-    let mut rest = values;
-    let mut first = 0;
-    for cells_range in &ranges {
-        let end = cells.cell_range(cells_range.end - 1).end;
-        let (part, tail) = rest.split_at_mut(end - first);
-        parts.push((cells_range.clone(), part, first));
-        rest = tail;
-        first = end;
-    }
-    threads.install(|| {
-        parts.into_par_iter().for_each(|(homes, part, first)| {
-            for home in homes {
-                work(home, part, first);
-            }
-        })
-    });
+    threads.install(|| Threads::chunks(num_cells).map(rows).collect())
 }
 
-/// For every particle of cell `home`, its row of neighbours `j > i` (input
-/// numbering) over the full stencil, sorted by `j`, as `visit(slot, row)`.
-fn visit_rows<const D: usize>(
+/// Appends to `chunk` the row of every particle of cell `home`: its neighbours
+/// `j > i` (input numbering) over the full stencil, sorted by `j`.
+fn rows_of_cell<const D: usize>(
     cells: &CellList<D>,
     home: usize,
     test: &CutoffTest,
-    mut visit: impl FnMut(usize, &[Entry<D>]),
+    geometry: bool,
+    chunk: &mut ChunkRows<D>,
 ) {
     let order = cells.order();
     let mut runs = [StencilRun::<D>::default(); 27];
@@ -222,10 +237,13 @@ fn visit_rows<const D: usize>(
         .grid()
         .stencil_runs(home, StencilKind::Full, &mut runs);
     let mut scratch = ScanScratch::default();
-    let mut row: Vec<Entry<D>> = Vec::with_capacity(64);
+    // (j << 32 | position in the row found): sorting these sorts the row by j
+    let mut keys: Vec<u64> = Vec::with_capacity(64);
+    let mut found: Vec<[f64; D]> = Vec::with_capacity(64);
     for slot in cells.cell_range(home) {
         let i = order[slot];
-        row.clear();
+        keys.clear();
+        found.clear();
         for_each_in_row(
             cells,
             slot,
@@ -233,15 +251,24 @@ fn visit_rows<const D: usize>(
             StencilKind::Full,
             test,
             &mut scratch,
-            |other, _, d, r2| {
+            |other, _, d, _| {
                 let j = order[other];
                 if j > i {
-                    row.push(Entry { j, d: *d, r2 });
+                    keys.push(((j as u64) << 32) | keys.len() as u64);
+                    if geometry {
+                        found.push(*d);
+                    }
                 }
             },
         );
-        row.sort_unstable_by_key(|e| e.j);
-        visit(slot, &row);
+        keys.sort_unstable();
+        chunk.lengths.push(keys.len() as u32);
+        chunk.js.extend(keys.iter().map(|k| (k >> 32) as u32));
+        if geometry {
+            chunk
+                .separations
+                .extend(keys.iter().map(|k| found[(k & 0xffff_ffff) as usize]));
+        }
     }
 }
 
@@ -329,7 +356,7 @@ impl<const D: usize> SkinList<D> {
             let d: [f64; D] = std::array::from_fn(|a| {
                 (points[j][a] - points[i][a]) + shift[a] as f64 * self.length[a]
             });
-            let r2 = crate::geometry::norm2(&d);
+            let r2 = norm2(&d);
             if !test.accepts(r2) {
                 continue;
             }
