@@ -728,11 +728,11 @@ pub struct BenchNeighborsArgs {
     /// Timed repetitions; the median is reported.
     #[arg(long, default_value_t = 5)]
     pub repeat: usize,
-    /// Print one JSON object instead of text.
-    #[arg(long)]
     /// Time the sorted half list instead (sorted by (i, j), int64 indices), as
     /// `cellist neighbors` prints it and the Python module's `neighbors` returns it.
     #[arg(long)]
     pub sorted: bool,
+    /// Print one JSON object instead of text.
+    #[arg(long)]
     pub json: bool,
 }
