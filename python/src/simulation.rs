@@ -345,9 +345,12 @@ impl Simulation {
             };
             let result = e.session.advance(to, &e.threads);
             let blowup: Option<Blowup> = e.session.last_blowup().cloned();
-            result.map_err(|err| (err, blowup))
+            result.map_err(|err| Box::new((err, blowup)))
         })?;
-        outcome.map_err(|(err, blowup)| sim_error(py, err, blowup))
+        outcome.map_err(|failure| {
+            let (err, blowup) = *failure;
+            sim_error(py, err, blowup)
+        })
     }
 
     /// The current step.
