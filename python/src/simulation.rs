@@ -471,8 +471,8 @@ impl Simulation {
     fn write_gsd(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
         self.call(py, move |e| {
             let step = e.session.step();
-            let frame = TrajectoryFrame::of(e.session.model(), step)
-                .ok_or_else(|| "the model has neither particles nor a field".to_string())?;
+            let frame = TrajectoryFrame::required(e.session.model(), step, "GSD")
+                .map_err(|e| e.to_string())?;
             let mut writer = match std::fs::metadata(&path) {
                 Ok(meta) => GsdWriter::resume(&path, meta.len()),
                 Err(_) => GsdWriter::create(&path),
@@ -492,8 +492,8 @@ impl Simulation {
     /// arrays) at `path`, for ParaView.
     fn write_vtp(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
         self.call(py, move |e| {
-            let frame = TrajectoryFrame::of(e.session.model(), e.session.step())
-                .ok_or_else(|| "the model has neither particles nor a field".to_string())?;
+            let frame = TrajectoryFrame::required(e.session.model(), e.session.step(), "VTK")
+                .map_err(|e| e.to_string())?;
             frame
                 .write_vtp(&path)
                 .map_err(|e| format!("cannot write {}: {e}", path.display()))

@@ -46,11 +46,16 @@ fn default_checkpoint_file() -> PathBuf {
 impl CheckpointKeys {
     /// Refuses `every = 0`.
     pub fn check(&self, key: &str) -> Result<(), String> {
-        if self.every == 0 {
-            Err(format!("{key}.every must be >= 1"))
-        } else {
-            Ok(())
-        }
+        check_every(self.every, key)
+    }
+}
+
+/// Refuses `key.every = 0`: outputs every `every >= 1` steps.
+pub fn check_every(every: u64, key: &str) -> Result<(), String> {
+    if every == 0 {
+        Err(format!("{key}.every must be >= 1"))
+    } else {
+        Ok(())
     }
 }
 

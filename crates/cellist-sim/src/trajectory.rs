@@ -9,6 +9,7 @@
 //! vtk = { every = 100, file = "traj.pvd" }   # traj_00000100.vtp, ... beside it
 //! ```
 
+use crate::driver::check_every;
 use crate::error::{SimError, SimResult};
 use crate::observers::{Observer, Recorded};
 use cellist::models::{Field, Model, Particles};
@@ -29,11 +30,7 @@ pub struct SeriesKeys {
 impl SeriesKeys {
     /// Refuses `every = 0`.
     pub fn check(&self, key: &str) -> Result<(), String> {
-        if self.every == 0 {
-            Err(format!("{key}.every must be >= 1"))
-        } else {
-            Ok(())
-        }
+        check_every(self.every, key)
     }
 }
 
@@ -94,6 +91,17 @@ impl TrajectoryFrame {
             Some(p) => Some(Self::of_particles(p)),
             None => model.field().map(Self::of_field),
         }
+    }
+
+    /// [`TrajectoryFrame::of`], or the error naming the model that has nothing
+    /// to write as `format`.
+    pub fn required(model: &dyn Model, step: u64, format: &str) -> SimResult<Self> {
+        Self::of(model, step).ok_or_else(|| {
+            SimError::Input(format!(
+                "model {} has neither particles nor a field to write as {format}",
+                model.name()
+            ))
+        })
     }
 
     fn of_particles(p: Particles) -> Self {
@@ -247,12 +255,7 @@ impl<M: Model> Observer<M> for GsdTrajectory {
     }
 
     fn observe(&mut self, model: &M, step: u64, _last: u64, _bar: &ProgressBar) -> SimResult {
-        let Some(frame) = TrajectoryFrame::of(model, step) else {
-            return Err(SimError::Input(format!(
-                "model {} has neither particles nor a field to write as GSD",
-                model.name()
-            )));
-        };
+        let frame = TrajectoryFrame::required(model, step, "GSD")?;
         frame
             .write_gsd(&mut self.writer, step)
             .map_err(SimError::output(self.path.display().to_string()))
@@ -324,12 +327,7 @@ impl<M: Model> Observer<M> for VtkSeries {
     }
 
     fn observe(&mut self, model: &M, step: u64, _last: u64, _bar: &ProgressBar) -> SimResult {
-        let Some(frame) = TrajectoryFrame::of(model, step) else {
-            return Err(SimError::Input(format!(
-                "model {} has neither particles nor a field to write as VTK",
-                model.name()
-            )));
-        };
+        let frame = TrajectoryFrame::required(model, step, "VTK")?;
         let path = self.dir.join(self.frame_name(step));
         frame
             .write_vtp(&path)
