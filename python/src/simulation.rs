@@ -11,7 +11,7 @@ use cellist_io::GsdWriter;
 use cellist_sim::session::{self, Session};
 use cellist_sim::trajectory::TrajectoryFrame;
 use cellist_sim::Scenario;
-use numpy::{IntoPyArray, PyArrayMethods};
+use numpy::{AllowTypeChange, IntoPyArray, PyArrayLike2, PyArrayMethods, PyUntypedArrayMethods};
 use pyo3::exceptions::PyRuntimeError;
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict, PyTuple};
@@ -184,6 +184,27 @@ impl Simulation {
             dict.set_item(name, array)?;
         }
         Ok(dict)
+    }
+
+    /// Replaces the array `name` by `values` (all finite), where the model allows it.
+    fn set_array(
+        &self,
+        py: Python<'_>,
+        name: &'static str,
+        values: PyArrayLike2<'_, f64, AllowTypeChange>,
+    ) -> PyResult<()> {
+        let flat: Vec<f64> = values.as_array().iter().copied().collect();
+        if let Some(bad) = flat.iter().position(|v| !v.is_finite()) {
+            let columns = values.shape()[1].max(1);
+            return Err(value_error(format!(
+                "{name}[{}, {}] is {}: every value must be finite",
+                bad / columns,
+                bad % columns,
+                flat[bad]
+            )));
+        }
+        self.call(py, move |e| e.session.set_array(name, &flat, &e.threads))?
+            .map_err(|err| sim_error(py, err, None))
     }
 
     /// One named array, or an AttributeError naming those the model has.
@@ -451,6 +472,33 @@ impl Simulation {
     #[getter]
     fn circulations<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         self.array(py, "circulations")
+    }
+
+    /// set_positions(values)
+    /// --
+    ///
+    /// Replaces the positions, an (N, dim) array in the order of `positions`,
+    /// where the model allows it (md); the model is set up anew from them (the
+    /// checks of a new run, the neighbour list, the forces).
+    fn set_positions(
+        &self,
+        py: Python<'_>,
+        values: PyArrayLike2<'_, f64, AllowTypeChange>,
+    ) -> PyResult<()> {
+        self.set_array(py, "positions", values)
+    }
+
+    /// set_velocities(values)
+    /// --
+    ///
+    /// Replaces the velocities, an (N, dim) array in the order of `velocities`,
+    /// where the model allows it (md).
+    fn set_velocities(
+        &self,
+        py: Python<'_>,
+        values: PyArrayLike2<'_, f64, AllowTypeChange>,
+    ) -> PyResult<()> {
+        self.set_array(py, "velocities", values)
     }
 
     /// save_checkpoint(path)

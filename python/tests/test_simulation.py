@@ -169,3 +169,24 @@ def test_other_models_expose_their_arrays(tmp_path, cli):
 def cellist_examples():
     from conftest import ROOT
     return ROOT / "examples"
+
+
+def test_set_positions_and_velocities_where_the_model_allows_it(tmp_path):
+    with cellist.Simulation.from_toml(md_scenario(steps=20), threads=1, out=tmp_path) as sim:
+        sim.run(5)
+        moved = sim.positions * 0.999  # inside the box, so not wrapped
+        sim.set_positions(moved)
+        np.testing.assert_array_equal(sim.positions, moved)
+        sim.set_velocities(np.zeros((len(sim), 3)))
+        assert sim.thermo()["ke"] == 0.0
+        assert np.abs(sim.forces).sum() > 0  # recomputed for the new positions
+        sim.run(5)
+        assert sim.thermo()["ke"] > 0.0
+        with pytest.raises(ValueError, match=r"give an \(256, 3\) array"):
+            sim.set_positions(np.zeros((10, 3)))
+        with pytest.raises(ValueError, match="must be finite"):
+            sim.set_velocities(np.full((256, 3), np.nan))
+    gravity = cellist_examples() / "gravity-two-body.toml"
+    with cellist.Simulation.from_toml(str(gravity), threads=1, out=tmp_path / "g") as sim:
+        with pytest.raises(ValueError, match="model gravity does not allow setting its positions"):
+            sim.set_positions(sim.positions)

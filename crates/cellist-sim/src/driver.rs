@@ -368,6 +368,18 @@ impl<M: Model> Live<M> {
         self.finish()
     }
 
+    /// Replaces the model's per-particle array `name` by `values` (in the
+    /// order of its particles), where the model allows it; the new state is
+    /// the last good one.
+    pub fn set_array(&mut self, name: &str, values: &[f64], threads: &Threads) -> SimResult {
+        let model = &mut self.job.model;
+        model
+            .set_array(name, values, threads)
+            .map_err(SimError::Input)?;
+        self.good = snapshot(&self.job.model, self.step, &mut self.observers)?;
+        Ok(())
+    }
+
     /// A checkpoint of the current state: the model's state, the physics keys
     /// and the lengths of the growing output files (flushed).
     pub fn checkpoint(&mut self) -> SimResult<Checkpoint> {

@@ -38,6 +38,10 @@ pub trait Session {
     /// state then.
     fn last_blowup(&self) -> Option<&Blowup>;
 
+    /// Replaces the per-particle array `name` by `values`, where the model
+    /// allows it ([`Model::set_array`]).
+    fn set_array(&mut self, name: &str, values: &[f64], threads: &Threads) -> SimResult;
+
     /// The checkpoint of the current state.
     fn checkpoint(&mut self) -> SimResult<Checkpoint>;
 
@@ -74,6 +78,10 @@ impl<M: Model + 'static> Session for Live<M> {
 
     fn last_blowup(&self) -> Option<&Blowup> {
         Live::last_blowup(self)
+    }
+
+    fn set_array(&mut self, name: &str, values: &[f64], threads: &Threads) -> SimResult {
+        Live::set_array(self, name, values, threads)
     }
 
     fn checkpoint(&mut self) -> SimResult<Checkpoint> {

@@ -216,6 +216,18 @@ pub trait Model {
 
     /// Replaces the state by a saved one (of a model built from the same scenario).
     fn restore(&mut self, state: &State, threads: &Threads) -> Result<(), StateError>;
+
+    /// Replaces the per-particle array `name` ("positions", "velocities") by
+    /// `values`, `dimension` numbers per particle in the order of
+    /// [`Model::particles`], and recomputes what depends on it. Models that
+    /// allow none refuse, naming themselves.
+    fn set_array(&mut self, name: &str, values: &[f64], threads: &Threads) -> Result<(), String> {
+        let _ = (values, threads);
+        Err(format!(
+            "model {} does not allow setting its {name}",
+            self.name()
+        ))
+    }
 }
 
 /// The first non-finite value of `model`'s checked arrays, or a position outside its

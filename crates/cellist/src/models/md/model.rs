@@ -170,6 +170,41 @@ impl<const D: usize> Model for MdModel<D> {
         );
     }
 
+    /// Positions or velocities in id order; the system is set up anew (the
+    /// checks of a new run, the neighbour list, the forces).
+    fn set_array(&mut self, name: &str, values: &[f64], threads: &Threads) -> Result<(), String> {
+        let system = &self.system;
+        let n = system.atoms().len();
+        if values.len() != n * D {
+            return Err(format!(
+                "{name}: {} numbers for {n} atoms in {D}D; give an ({n}, {D}) array",
+                values.len()
+            ));
+        }
+        let mut atoms = system.atoms().select(&system.atoms().slots_by_id());
+        let target = match name {
+            "positions" => &mut atoms.positions,
+            "velocities" => &mut atoms.velocities,
+            other => {
+                return Err(format!(
+                    "model md allows setting positions and velocities, not {other}"
+                ))
+            }
+        };
+        for (x, row) in target.iter_mut().zip(values.chunks_exact(D)) {
+            x.copy_from_slice(row);
+        }
+        self.system = MdSystem::new(
+            *system.domain(),
+            atoms,
+            *system.potential(),
+            system.skin(),
+            threads,
+        )
+        .map_err(|e| format!("{name}: {e}"))?;
+        Ok(())
+    }
+
     fn restore(&mut self, state: &State, threads: &Threads) -> Result<(), StateError> {
         let (atoms, reference, rebuilds) = load_atoms(state, self.len())?;
         self.system
