@@ -10,11 +10,12 @@ use cellist_io::checkpoint::encode;
 use cellist_io::GsdWriter;
 use cellist_sim::session::{self, Session};
 use cellist_sim::trajectory::TrajectoryFrame;
-use cellist_sim::Scenario;
+use cellist_sim::{Scenario, SimResult};
 use numpy::{AllowTypeChange, IntoPyArray, PyArrayLike2, PyArrayMethods, PyUntypedArrayMethods};
 use pyo3::exceptions::PyRuntimeError;
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict, PyTuple};
+use std::panic::AssertUnwindSafe;
 use std::path::{Path, PathBuf};
 use std::sync::mpsc::{self, Sender};
 use std::sync::Mutex;
@@ -46,14 +47,15 @@ struct Origin {
 /// Build one with `Simulation.from_toml(path_or_text)` or
 /// `Simulation.restart(checkpoint, scenario)`; `run(steps)` steps it with the
 /// outputs of its scenario (thermo, dumps, fields, pictures, checkpoints) written
-/// into its output folder, exactly as `cellist run` writes them. Arrays come back
-/// as read-only float64 numpy arrays in the user's particle order, valid until the
-/// next step. Use it in a `with` block, or call `close()`, to complete the files
-/// made at the end (plots, animations).
+/// into its output folder, as `cellist run` writes them, except that the last
+/// step of every `run` call counts as a last step (a thermo row, a checkpoint if
+/// asked for). Arrays come back as read-only float64 numpy arrays in the user's
+/// particle order: copies, which stay valid. Use it in a `with` block, or call
+/// `close()`, to complete the files made at the end (plots, animations).
 #[pyclass(module = "cellist", frozen)]
 pub struct Simulation {
     tasks: Mutex<Option<Sender<Task>>>,
-    worker: Mutex<Option<JoinHandle<()>>>,
+    worker: Mutex<Option<JoinHandle<SimResult>>>,
     scenario: Origin,
     out: PathBuf,
     threads: usize,
@@ -77,7 +79,7 @@ impl Simulation {
             base_dir: scenario.base_dir.clone(),
             ..Scenario::from_text(&scenario.text, &scenario.origin, &scenario.name)
         };
-        let out = out.unwrap_or_else(|| Path::new("out").join(&loaded.name));
+        let out = absolute(&out.unwrap_or_else(|| Path::new("out").join(&loaded.name)))?;
         let (tasks, inbox) = mpsc::channel::<Task>();
         let (ready_tx, ready) = mpsc::sync_channel(1);
         let dir = out.clone();
@@ -89,7 +91,7 @@ impl Simulation {
                     Ok(opened) => opened,
                     Err(e) => {
                         let _ = ready_tx.send(Err(e));
-                        return;
+                        return Ok(());
                     }
                 };
                 let facts = (
@@ -103,12 +105,12 @@ impl Simulation {
                     threads: pool,
                 };
                 while let Ok(task) = inbox.recv() {
-                    task(&mut engine);
+                    // a panic is a bug: the caller's reply channel closes and it
+                    // raises RuntimeError; the worker goes on serving (close)
+                    let _ = std::panic::catch_unwind(AssertUnwindSafe(|| task(&mut engine)));
                 }
                 // closed or dropped: complete the end-of-run files
-                if let Err(e) = engine.session.finish_outputs() {
-                    eprintln!("warning: {e}");
-                }
+                engine.session.finish_outputs()
             })
             .map_err(|e| {
                 PyRuntimeError::new_err(format!("cannot start the simulation's thread: {e}"))
@@ -260,14 +262,8 @@ fn named_arrays(model: &dyn cellist::models::Model, step: u64) -> Vec<Named> {
     } else if let Some(f) = model.field() {
         let d = f.dimension;
         out.push(("positions".into(), vectors(&f.positions, d), d));
-        let volume = f.spacing.powi(d as i32);
-        if model.name() == "pse" {
-            // PSE's strength is the field value times the particle volume
-            out.push((
-                "strengths".into(),
-                f.values.iter().map(|v| v * volume).collect(),
-                1,
-            ));
+        if let Some(strengths) = f.strengths {
+            out.push(("strengths".into(), strengths, 1));
         }
         out.push((f.value_name.to_string(), f.values, 1));
         let extra = |name: &str| f.extra.iter().find(|(n, _)| *n == name).map(|(_, v)| v);
@@ -287,29 +283,43 @@ fn named_arrays(model: &dyn cellist::models::Model, step: u64) -> Vec<Named> {
     out
 }
 
-/// Reads a scenario argument: a path to a TOML file, or the TOML text itself.
-fn scenario_of(path_or_text: &str) -> PyResult<Origin> {
-    let path = Path::new(path_or_text);
-    let looks_like_text = path_or_text.contains('\n') || path_or_text.contains('=');
-    if !looks_like_text {
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| value_error(format!("{path_or_text}: cannot read: {e}")))?;
-        let name = path
-            .file_stem()
-            .map_or_else(|| "scenario".into(), |s| s.to_string_lossy().into_owned());
+/// Reads a scenario argument: a path (str or os.PathLike) to a TOML file, or
+/// the TOML text itself (a str that is not an existing file and holds a newline
+/// or an `=`).
+fn scenario_of(arg: &Bound<'_, PyAny>) -> PyResult<Origin> {
+    let text: Option<String> = arg.extract::<String>().ok();
+    let is_text = text
+        .as_deref()
+        .is_some_and(|t| !Path::new(t).is_file() && (t.contains('\n') || t.contains('=')));
+    if is_text {
         return Ok(Origin {
-            text,
-            origin: path_or_text.to_string(),
-            name,
-            base_dir: path.parent().map_or_else(PathBuf::new, Path::to_path_buf),
+            text: text.unwrap_or_default(),
+            origin: "the scenario text".into(),
+            name: "scenario".into(),
+            base_dir: absolute(Path::new(""))?,
         });
     }
+    let path: PathBuf = arg.extract().map_err(|_| {
+        value_error("the scenario must be a path (str or os.PathLike) or the TOML text (str)")
+    })?;
+    let loaded = Scenario::load(Some(&path), &[]).map_err(|e| value_error(e.to_string()))?;
     Ok(Origin {
-        text: path_or_text.to_string(),
-        origin: "the scenario text".into(),
-        name: "scenario".into(),
-        base_dir: PathBuf::new(),
+        text: loaded.text,
+        origin: loaded.origin,
+        name: loaded.name,
+        base_dir: absolute(&loaded.base_dir)?,
     })
+}
+
+/// `path` made absolute against the working folder, so that a pickled or
+/// restarted simulation finds its inputs and outputs wherever it is rebuilt.
+fn absolute(path: &Path) -> PyResult<PathBuf> {
+    std::path::absolute(if path.as_os_str().is_empty() {
+        Path::new(".")
+    } else {
+        path
+    })
+    .map_err(|e| value_error(format!("{}: {e}", path.display())))
 }
 
 #[pymethods]
@@ -324,7 +334,7 @@ impl Simulation {
     #[pyo3(signature = (path_or_text, threads=None, out=None))]
     fn from_toml(
         py: Python<'_>,
-        path_or_text: &str,
+        path_or_text: &Bound<'_, PyAny>,
         threads: Option<usize>,
         out: Option<PathBuf>,
     ) -> PyResult<Self> {
@@ -332,22 +342,22 @@ impl Simulation {
         Self::start(py, scenario, out, None, threads)
     }
 
-    /// restart(path, scenario, threads=None, out=None)
+    /// restart(checkpoint, scenario, threads=None, out=None)
     /// --
     ///
     /// The simulation of `scenario` (a path or TOML text) continued from the
-    /// checkpoint at `path`, checked against it as `cellist run --restart` does.
+    /// file `checkpoint`, checked against it as `cellist run --restart` does.
     #[staticmethod]
-    #[pyo3(signature = (path, scenario, threads=None, out=None))]
+    #[pyo3(signature = (checkpoint, scenario, threads=None, out=None))]
     fn restart(
         py: Python<'_>,
-        path: PathBuf,
-        scenario: &str,
+        checkpoint: PathBuf,
+        scenario: &Bound<'_, PyAny>,
         threads: Option<usize>,
         out: Option<PathBuf>,
     ) -> PyResult<Self> {
         let scenario = scenario_of(scenario)?;
-        Self::start(py, scenario, out, Some(path), threads)
+        Self::start(py, scenario, out, Some(checkpoint), threads)
     }
 
     /// run(steps=None)
@@ -522,8 +532,8 @@ impl Simulation {
             let frame = TrajectoryFrame::required(e.session.model(), step, "GSD")
                 .map_err(|e| e.to_string())?;
             let mut writer = match std::fs::metadata(&path) {
-                Ok(meta) => GsdWriter::resume(&path, meta.len()),
-                Err(_) => GsdWriter::create(&path),
+                Ok(meta) if meta.len() > 0 => GsdWriter::resume(&path, meta.len()),
+                _ => GsdWriter::create(&path),
             }
             .map_err(|e| format!("{}: {e}", path.display()))?;
             frame
@@ -555,15 +565,17 @@ impl Simulation {
     /// Completes the files made at the end of a run (plots, animations) and stops
     /// the simulation's thread. Further calls raise RuntimeError.
     fn close(&self, py: Python<'_>) -> PyResult<()> {
-        let finished = self.call(py, |e| e.session.finish_outputs());
         let sender = self.tasks.lock().unwrap_or_else(|e| e.into_inner()).take();
         drop(sender);
-        if let Some(worker) = self.worker.lock().unwrap_or_else(|e| e.into_inner()).take() {
-            let _ = py.detach(|| worker.join());
-        }
-        match finished {
-            Ok(result) => result.map_err(|err| sim_error(py, err, None)),
-            Err(_) => Ok(()), // already closed
+        let worker = self.worker.lock().unwrap_or_else(|e| e.into_inner()).take();
+        let Some(worker) = worker else {
+            return Ok(()); // already closed
+        };
+        match py.detach(move || worker.join()) {
+            Ok(finished) => finished.map_err(|err| sim_error(py, err, None)),
+            Err(_) => Err(PyRuntimeError::new_err(
+                "the simulation's thread failed while completing its files (a bug in cellist)",
+            )),
         }
     }
 
@@ -582,8 +594,9 @@ impl Simulation {
         Ok(false)
     }
 
-    /// Pickling: the scenario and the checkpoint bytes of the current state; the
-    /// copy continues into the same output folder, as a restart would.
+    /// Pickling: the scenario and the checkpoint bytes of the current state. The
+    /// copy continues the run in a folder of its own beside this one's
+    /// (`<out>-copy`, `<out>-copy2`, ...), with fresh output files.
     fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyTuple>> {
         let checkpoint = self
             .call(py, |e| e.session.checkpoint())?
@@ -639,8 +652,23 @@ pub fn _unpickle(
     Simulation::start(
         py,
         scenario,
-        Some(out),
+        Some(fresh_folder(&out)),
         Some(file.path().to_path_buf()),
         Some(threads),
     )
+}
+
+/// The first of `out-copy`, `out-copy2`, ... that does not exist: an unpickled
+/// simulation writes there, so that it and the original never share a file.
+fn fresh_folder(out: &Path) -> PathBuf {
+    let name = out
+        .file_name()
+        .map_or_else(|| "out".into(), |n| n.to_string_lossy().into_owned());
+    (1..)
+        .map(|k| {
+            let suffix = if k == 1 { String::new() } else { k.to_string() };
+            out.with_file_name(format!("{name}-copy{suffix}"))
+        })
+        .find(|candidate| !candidate.exists())
+        .expect("an unused folder name")
 }

@@ -42,6 +42,8 @@ def test_a_pickled_simulation_continues_to_the_same_bits(tmp_path):
     sim.run(20)
     copy = pickle.loads(pickle.dumps(sim))
     assert copy.step == 20 and copy.model == "md"
+    assert copy.out == tmp_path / "a-copy"  # never the original's files
+    assert copy.thermo() == sim.thermo()
     sim.run(30)
     copy.run(30)
     assert sim.positions.tobytes() == copy.positions.tobytes()
@@ -190,3 +192,64 @@ def test_set_positions_and_velocities_where_the_model_allows_it(tmp_path):
     with cellist.Simulation.from_toml(str(gravity), threads=1, out=tmp_path / "g") as sim:
         with pytest.raises(ValueError, match="model gravity does not allow setting its positions"):
             sim.set_positions(sim.positions)
+
+
+def test_a_billiards_scenario_gives_the_golden_bits(tmp_path):
+    """The collision benchmark's sample input run as a scenario: the final state
+    equals the golden one bit for bit."""
+    from conftest import ROOT
+    data = ROOT.parent / "shared" / "testdata" / "billiards"
+    if not data.exists():
+        pytest.skip("../shared/testdata/billiards is not beside the project")
+    scenario = f'model = "billiards"\ninput = "{data / "inputs" / "sample.in"}"\n'
+    with cellist.Simulation.from_toml(scenario + "[output]\nthermo_every = 5\n", threads=2,
+                                      out=tmp_path) as sim:
+        assert sim.model == "billiards"
+        sim.run()
+        positions, velocities = sim.positions, sim.velocities
+        energy = sim.thermo()["energy"]
+    golden = [line.split() for line in
+              (data / "golden" / "inputs__sample.final.bits").read_text().splitlines()
+              if line.strip()] if (data / "golden" / "inputs__sample.final.bits").exists() else None
+    if golden is None:
+        golden_path = next(data.glob("golden/*sample*.final.bits"))
+        golden = [line.split() for line in golden_path.read_text().splitlines() if line.strip()]
+    bits = lambda x: format(np.float64(x).view(np.uint64), "016x")
+    assert len(golden) == len(positions)
+    for row, x, v in zip(golden, positions, velocities):
+        assert [bits(x[0]), bits(x[1]), bits(v[0]), bits(v[1])] == row[2:6]
+    assert energy > 0
+
+
+def test_thermo_after_a_restart_an_unpickling_and_a_blow_up(tmp_path):
+    text = md_scenario(steps=30)
+    sim = cellist.Simulation.from_toml(text, threads=1, out=tmp_path / "a")
+    sim.run()
+    sim.run(10)  # past run.steps
+    sim.save_checkpoint(tmp_path / "at40.ckpt")
+    expected = sim.thermo()
+    copy = pickle.loads(pickle.dumps(sim))
+    assert copy.step == 40
+    again = cellist.Simulation.restart(tmp_path / "at40.ckpt", text, out=tmp_path / "b")
+    for other in (copy, again):
+        got = other.thermo()
+        assert got["step"] == 40
+        for key in ("temp", "ke"):
+            assert got[key] == expected[key]
+        for key in ("pe", "etotal", "press"):
+            assert got[key] == pytest.approx(expected[key], rel=1e-12)
+        other.close()
+    sim.close()
+    vortex = (cellist_examples() / "vortex-pair.toml").read_text().replace(
+        "spacing = 0.01", "spacing = 0.03")
+    with cellist.Simulation.from_toml(vortex, threads=1, out=tmp_path / "v") as v:
+        v.run(4)
+        row = v.thermo()
+        restored = pickle.loads(pickle.dumps(v))
+        assert restored.thermo() == row
+        restored.close()
+    blown = md_scenario(steps=200).replace("dt = 0.005", "dt = 0.5")
+    with cellist.Simulation.from_toml(blown, threads=1, out=tmp_path / "c") as sim:
+        with pytest.raises(cellist.BlowUp):
+            sim.run()
+        assert all(np.isfinite(v) for v in sim.thermo().values())

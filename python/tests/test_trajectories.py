@@ -42,9 +42,13 @@ def test_a_restart_continues_the_gsd_file(tmp_path):
     with cellist.Simulation.from_toml(MD_GSD, threads=1, out=tmp_path / "whole") as sim:
         sim.run()
     first = cellist.Simulation.from_toml(MD_GSD, threads=1, out=tmp_path / "parts")
-    first.run(25)  # checkpoint at step 20, frames up to 20 (and the run's own last, 25)
+    first.run(20)
+    first.save_checkpoint(tmp_path / "at20.ckpt")
+    first.run(10)  # frame 30 written, then cut by the restart from step 20
     first.close()
-    again = cellist.Simulation.restart(tmp_path / "parts" / "state.ckpt", MD_GSD, threads=1,
+    with gsd.hoomd.open(tmp_path / "parts" / "traj.gsd") as traj:
+        assert len(traj) == 4
+    again = cellist.Simulation.restart(tmp_path / "at20.ckpt", MD_GSD, threads=1,
                                        out=tmp_path / "parts")
     again.run()
     again.close()
@@ -92,4 +96,10 @@ def test_bad_trajectory_keys_are_refused(tmp_path):
         cellist.Simulation.from_toml(bad, out=tmp_path)
     bad = md_scenario(steps=5) + 'vtk = { every = 1, file = "t.vtp" }\n'
     with pytest.raises(ValueError, match=r"output.vtk.file must end in .pvd"):
+        cellist.Simulation.from_toml(bad, out=tmp_path)
+
+
+def test_trajectory_files_stay_in_the_output_folder(tmp_path):
+    bad = md_scenario(steps=5) + 'vtk = { every = 1, file = "sub/t.pvd" }\n'
+    with pytest.raises(ValueError, match="must be a file name in the output folder"):
         cellist.Simulation.from_toml(bad, out=tmp_path)

@@ -45,10 +45,13 @@ pub fn neighbors(args: &BenchNeighborsArgs) -> CliResult {
     };
     let ns_per_pair = seconds * 1e9 / pairs.max(1) as f64;
     if args.json {
-        let obj = serde_json::json!({
-            "n": args.n, "dim": args.dim, "threads": args.threads, "sorted": args.sorted, "pairs": pairs,
+        let mut obj = serde_json::json!({
+            "n": args.n, "dim": args.dim, "threads": args.threads, "pairs": pairs,
             "seconds": seconds, "ns_per_pair": ns_per_pair,
         });
+        if args.sorted {
+            obj["sorted"] = true.into();
+        }
         println!("{obj}");
     } else {
         println!(

@@ -2,7 +2,7 @@
 
 use crate::cli::NeighborsArgs;
 use crate::error::{positive, threads, CliError, CliResult};
-use cellist::neighbors::{sorted_half_list, PairQuantities};
+use cellist::neighbors::{half_pairs, sorted_half_list, PairQuantities};
 use cellist::{CellList, Domain, Threads};
 use cellist_io::{read_points, write_pairs, AtomicFile, BoxInfo, Points};
 use std::io::Write;
@@ -28,15 +28,17 @@ fn list<const D: usize>(
     let domain = domain::<D>(args, points, file_box)?;
     let cells = CellList::build(&domain, cutoff, points)
         .map_err(|e| CliError::Input(format!("--cutoff {cutoff}: {e}")))?;
-    let quantities = PairQuantities {
-        distances: !args.count,
-        ..PairQuantities::default()
-    };
-    let pairs = sorted_half_list(&cells, points, cutoff, quantities, pool);
     let write = |out: &mut dyn Write| -> std::io::Result<()> {
         if args.count {
+            // the count alone: no list in memory
+            let pairs = half_pairs(&cells, cutoff, pool, |_, _, _| ());
             writeln!(out, "{}", pairs.len())
         } else {
+            let quantities = PairQuantities {
+                distances: true,
+                ..PairQuantities::default()
+            };
+            let pairs = sorted_half_list(&cells, points, cutoff, quantities, pool);
             let rows = pairs.i.iter().zip(&pairs.j).zip(&pairs.distances);
             write_pairs(out, rows.map(|((&i, &j), &r)| (i as u32, j as u32, r)))
         }

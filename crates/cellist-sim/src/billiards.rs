@@ -32,7 +32,11 @@ pub fn load(
 }
 
 /// [`load`] without printing the input's warnings (they stay in the input).
-fn read(path: &Path, max_sweeps: u64, cells: CellShape) -> SimResult<(BilliardsInput, Billiards)> {
+pub(crate) fn read(
+    path: &Path,
+    max_sweeps: u64,
+    cells: CellShape,
+) -> SimResult<(BilliardsInput, Billiards)> {
     let input = read_billiards_input(path)?;
     let table = Table {
         side: input.side,
@@ -97,6 +101,27 @@ fn physics(input: &BilliardsInput) -> Vec<(String, String)> {
         ("input.radius".into(), input.radius.to_string()),
         ("input.side".into(), input.side.to_string()),
     ]
+}
+
+/// The run of `input`'s `system` to its S steps, writing to `dir`, with its
+/// physics (for restarts) and its last frame (a LAMMPS dump of the discs).
+pub(crate) fn billiards_job(
+    input: &BilliardsInput,
+    system: Billiards,
+    dir: PathBuf,
+    checkpoint: Option<CheckpointKeys>,
+) -> Job<BilliardsModel> {
+    Job {
+        model: BilliardsModel::new(system, input.ids.clone()),
+        steps: input.steps,
+        dir,
+        checkpoint,
+        physics: physics(input),
+        last_frame: LastFrame::Dump {
+            file: "last.lammpstrj",
+            columns: DUMP_COLUMNS[..8].iter().map(|c| c.to_string()).collect(),
+        },
+    }
 }
 
 /// Every step's state in the benchmark's format (`--viz`).
@@ -391,17 +416,7 @@ fn write_final(run: &BilliardsRun, steps: u64, model: &BilliardsModel) -> SimRes
 /// once first and prints its warnings then).
 pub fn run_quiet(path: &Path, threads: &Threads, dir: &Path) -> SimResult<RunSummary> {
     let (input, system) = read(path, DEFAULT_MAX_SWEEPS, CellShape::Square)?;
-    let job = Job {
-        model: BilliardsModel::new(system, input.ids.clone()),
-        steps: input.steps,
-        dir: dir.to_path_buf(),
-        checkpoint: None,
-        physics: physics(&input),
-        last_frame: LastFrame::Dump {
-            file: "last.lammpstrj",
-            columns: DUMP_COLUMNS[..8].iter().map(|c| c.to_string()).collect(),
-        },
-    };
+    let job = billiards_job(&input, system, dir.to_path_buf(), None);
     let plan = OutputPlan {
         thermo_every: 0,
         table: TableStyle {

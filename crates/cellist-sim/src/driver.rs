@@ -311,11 +311,6 @@ impl<M: Model> Live<M> {
         self.scenario_steps
     }
 
-    /// The run's settings.
-    pub fn job(&self) -> &Job<M> {
-        &self.job
-    }
-
     /// Steps on to step `to`, which becomes the run's last step (observers and
     /// checkpoints always take the last step): the step, its check, the
     /// observers whose trigger fires and the checkpoints due. A blow-up restores
@@ -389,9 +384,7 @@ impl<M: Model> Live<M> {
 
     /// Completes the observers' files (plots, animations) and reports the run.
     pub fn finish(mut self) -> SimResult<Report<M>> {
-        for o in &mut self.observers {
-            o.finish()?;
-        }
+        self.finish_outputs()?;
         let thermo = self
             .observers
             .iter_mut()

@@ -34,7 +34,7 @@ use std::time::{Duration, Instant};
 /// The models `cellist run` runs, for messages.
 const MODELS: &str =
     "md (Lennard-Jones molecular dynamics), pse (diffusion by particle strength exchange), \
-     gravity (self-gravitating bodies), vortex (2D viscous vortex particles)";
+     gravity (self-gravitating bodies), vortex (2D viscous vortex particles), billiards (the hard-disk collision benchmark)";
 
 /// What `cellist run` asks for.
 pub struct RunRequest<'a> {
@@ -154,21 +154,26 @@ pub fn run(request: &RunRequest, threads: &Threads) -> SimResult<RunSummary> {
 
 /// Runs a loaded scenario in `context`.
 pub fn run_scenario(scenario: &Scenario, context: &RunContext) -> SimResult<RunSummary> {
-    let model = scenario.model()?;
-    match model.as_str() {
-        "md" => models::md::run(scenario, context, Execute),
-        "pse" => models::pse::run(scenario, context, Execute),
-        "gravity" => models::gravity::run(scenario, context, Execute),
-        "vortex" => models::vortex::run(scenario, context, Execute),
-        other => Err(unknown_model(scenario, other)),
-    }
+    launch_scenario(scenario, context, Execute)
 }
 
-/// The error of a scenario whose model this build does not run.
-fn unknown_model(scenario: &Scenario, model: &str) -> SimError {
-    scenario.error(format!(
-        "model '{model}' is unknown; this build runs: {MODELS}"
-    ))
+/// Builds the model `scenario` names and hands its run to `launch`.
+pub(crate) fn launch_scenario<L: Launch>(
+    scenario: &Scenario,
+    context: &RunContext,
+    launch: L,
+) -> SimResult<L::Output> {
+    let model = scenario.model()?;
+    match model.as_str() {
+        "md" => models::md::run(scenario, context, launch),
+        "pse" => models::pse::run(scenario, context, launch),
+        "gravity" => models::gravity::run(scenario, context, launch),
+        "vortex" => models::vortex::run(scenario, context, launch),
+        "billiards" => models::billiards::run(scenario, context, launch),
+        other => Err(scenario.error(format!(
+            "model '{other}' is unknown; this build runs: {MODELS}"
+        ))),
+    }
 }
 
 /// What becomes of a model once its scenario has built it: run to the end
@@ -230,7 +235,7 @@ pub(crate) fn execute<M: Model + 'static>(
     } else {
         progress::progress_bar(0)
     };
-    let live = begin(job, plan, context, bar.clone())?;
+    let live = begin(job, plan, context, last, bar.clone())?;
     bar.set_length(last - live.step());
     let report = live.run_to(last, threads)?;
     let model = &report.model;
@@ -256,28 +261,21 @@ pub(crate) fn execute<M: Model + 'static>(
 }
 
 /// The run of `job` under way in `context`: its state replaced by the
-/// checkpoint's when restarting (checked before anything is written), its
-/// output folder made, its observers created (continuing the files the
-/// checkpoint recorded) and step 0 observed on a new run.
+/// checkpoint's when restarting (checked before anything is written; the
+/// checkpoint's step at most `last`), its output folder made, its observers
+/// created (continuing the files the checkpoint recorded) and step 0 observed
+/// on a new run.
 pub(crate) fn begin<M: Model + 'static>(
     mut job: Job<M>,
     plan: &OutputPlan,
     context: &RunContext,
+    last: u64,
     bar: ProgressBar,
 ) -> SimResult<Live<M>> {
     let threads = context.threads;
     let restart = context.restart;
     let checkpoint = restart
-        .map(|path| {
-            driver::restore(
-                &mut job.model,
-                path,
-                &job.physics,
-                job.steps,
-                &job.dir,
-                threads,
-            )
-        })
+        .map(|path| driver::restore(&mut job.model, path, &job.physics, last, &job.dir, threads))
         .transpose();
     let checkpoint = driver::agreed(&job.model, checkpoint)?;
     let dir = job.dir.clone();

@@ -7,7 +7,7 @@ use crate::driver::{Job, Live};
 use crate::error::{SimError, SimResult};
 use crate::observers::OutputPlan;
 use crate::scenario::Scenario;
-use crate::{begin, models, unknown_model, Launch, RunContext};
+use crate::{begin, launch_scenario, Launch, RunContext};
 use cellist::models::{Blowup, Model};
 use cellist::Threads;
 use cellist_io::checkpoint::{write_checkpoint, Checkpoint};
@@ -25,9 +25,6 @@ pub trait Session {
 
     /// The scenario's last step (`run.steps`).
     fn scenario_steps(&self) -> u64;
-
-    /// The output folder.
-    fn out_dir(&self) -> &Path;
 
     /// Steps on to step `to` with the observers, checks and checkpoints of
     /// `cellist run`; `to` counts as the last step (observers and checkpoints
@@ -68,10 +65,6 @@ impl<M: Model + 'static> Session for Live<M> {
         Live::scenario_steps(self)
     }
 
-    fn out_dir(&self) -> &Path {
-        &self.job().dir
-    }
-
     fn advance(&mut self, to: u64, threads: &Threads) -> SimResult {
         Live::advance(self, to, threads)
     }
@@ -107,7 +100,15 @@ impl Launch for Open {
         context: &RunContext,
         _started: Instant,
     ) -> SimResult<Box<dyn Session>> {
-        Ok(Box::new(begin(job, plan, context, ProgressBar::hidden())?))
+        // a session may have run past the scenario's last step: any
+        // checkpoint step is accepted
+        Ok(Box::new(begin(
+            job,
+            plan,
+            context,
+            u64::MAX,
+            ProgressBar::hidden(),
+        )?))
     }
 }
 
@@ -120,13 +121,6 @@ pub fn open(
     threads: &Threads,
 ) -> SimResult<(Box<dyn Session>, Vec<String>)> {
     let context = RunContext::new(out_dir, restart, threads).quiet();
-    let model = scenario.model()?;
-    let session = match model.as_str() {
-        "md" => models::md::run(scenario, &context, Open),
-        "pse" => models::pse::run(scenario, &context, Open),
-        "gravity" => models::gravity::run(scenario, &context, Open),
-        "vortex" => models::vortex::run(scenario, &context, Open),
-        other => Err(unknown_model(scenario, other)),
-    }?;
+    let session = launch_scenario(scenario, &context, Open)?;
     Ok((session, context.warnings.take()))
 }

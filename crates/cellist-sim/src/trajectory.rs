@@ -45,11 +45,17 @@ pub struct TrajectoryKeys {
 
 impl TrajectoryKeys {
     /// The keys `gsd` and `vtk`, checked (`every >= 1`, a `.gsd` and a `.pvd`
-    /// file name).
+    /// file name without a folder).
     pub fn checked(gsd: Option<SeriesKeys>, vtk: Option<SeriesKeys>) -> Result<Self, String> {
         for (keys, key, extension) in [(&gsd, "output.gsd", "gsd"), (&vtk, "output.vtk", "pvd")] {
             if let Some(k) = keys {
                 k.check(key)?;
+                if k.file.components().count() != 1 {
+                    return Err(format!(
+                        "{key}.file must be a file name in the output folder, got {}",
+                        k.file.display()
+                    ));
+                }
                 if k.file.extension().and_then(|e| e.to_str()) != Some(extension) {
                     return Err(format!(
                         "{key}.file must end in .{extension}, got {}",

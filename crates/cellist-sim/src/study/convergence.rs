@@ -588,6 +588,7 @@ mod tests {
                 positions,
                 values,
                 value_name: "omega",
+                strengths: None,
                 extra: Vec::new(),
                 origin: [0.0; 3],
                 periodic: true,

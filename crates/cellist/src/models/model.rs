@@ -108,6 +108,9 @@ pub struct Field {
     pub values: Vec<f64>,
     /// The values' column name in field files ("phi").
     pub value_name: &'static str,
+    /// The particles' strengths, where the model defines them apart from the
+    /// values (pse: `omega_p = phi_p V_p`), in input order.
+    pub strengths: Option<Vec<f64>>,
     /// Further per-particle columns for field files, after the values.
     pub extra: Vec<(&'static str, Vec<f64>)>,
     /// The lower corner of the (cubic) box the pictures show.

@@ -28,9 +28,9 @@ pub struct PairQuantities {
 }
 
 impl PairQuantities {
-    /// True when any quantity needs the separation vectors.
-    fn geometry(&self) -> bool {
-        self.distances || self.vectors || self.shifts
+    /// True when a quantity needs the separation vectors.
+    fn separations(&self) -> bool {
+        self.vectors || self.shifts
     }
 }
 
@@ -63,12 +63,13 @@ impl SortedPairs {
 }
 
 /// The rows of one chunk of cells, slot after slot: the neighbours `j > i`
-/// sorted by `j` and, when asked for, their separations.
+/// sorted by `j` and, when asked for, their squared distances and separations.
 #[derive(Default)]
 struct ChunkRows<const D: usize> {
     first_slot: usize,
     lengths: Vec<u32>,
     js: Vec<u32>,
+    r2s: Vec<f64>,
     separations: Vec<[f64; D]>,
 }
 
@@ -97,8 +98,7 @@ pub fn sorted_half_list<const D: usize>(
     let test = CutoffTest::new(cutoff);
     let order = cells.order();
     let n = cells.len();
-    let geometry = quantities.geometry();
-    let chunks = find_rows(cells, &test, geometry, threads);
+    let chunks = find_rows(cells, &test, quantities, threads);
     // each row's place, in input order
     let mut start = vec![0usize; n + 1];
     for chunk in &chunks {
@@ -142,15 +142,16 @@ pub fn sorted_half_list<const D: usize>(
                 {
                     *slot = j as i64;
                 }
-                if !geometry {
+                if quantities.distances {
+                    let r2s = &chunk.r2s[row.clone()];
+                    for (r, r2) in rs.range(place.clone()).iter_mut().zip(r2s) {
+                        *r = r2.sqrt();
+                    }
+                }
+                if !quantities.separations() {
                     continue;
                 }
                 let seps = &chunk.separations[row.clone()];
-                if quantities.distances {
-                    for (r, d) in rs.range(place.clone()).iter_mut().zip(seps) {
-                        *r = norm2(d).sqrt();
-                    }
-                }
                 if quantities.vectors {
                     let v = ds.range(place.start * D..place.end * D);
                     for (slot, d) in v.chunks_exact_mut(D).zip(seps) {
@@ -193,11 +194,12 @@ fn image_shift<const D: usize>(
 }
 
 /// The rows of every particle, chunk of cells by chunk of cells (in parallel),
-/// the chunks in cell order; separations kept when `geometry` is asked for.
+/// the chunks in cell order; squared distances and separations kept when the
+/// `quantities` need them.
 fn find_rows<const D: usize>(
     cells: &CellList<D>,
     test: &CutoffTest,
-    geometry: bool,
+    quantities: PairQuantities,
     threads: &Threads,
 ) -> Vec<ChunkRows<D>> {
     let num_cells = cells.grid().num_cells();
@@ -212,7 +214,7 @@ fn find_rows<const D: usize>(
             ..ChunkRows::default()
         };
         for home in homes {
-            rows_of_cell(cells, home, test, geometry, &mut chunk);
+            rows_of_cell(cells, home, test, quantities, &mut chunk);
         }
         chunk
     };
@@ -228,9 +230,10 @@ fn rows_of_cell<const D: usize>(
     cells: &CellList<D>,
     home: usize,
     test: &CutoffTest,
-    geometry: bool,
+    quantities: PairQuantities,
     chunk: &mut ChunkRows<D>,
 ) {
+    let (keep_r2, keep_separations) = (quantities.distances, quantities.separations());
     let order = cells.order();
     let mut runs = [StencilRun::<D>::default(); 27];
     let count = cells
@@ -240,10 +243,12 @@ fn rows_of_cell<const D: usize>(
     // (j << 32 | position in the row found): sorting these sorts the row by j
     let mut keys: Vec<u64> = Vec::with_capacity(64);
     let mut found: Vec<[f64; D]> = Vec::with_capacity(64);
+    let mut found_r2: Vec<f64> = Vec::with_capacity(64);
     for slot in cells.cell_range(home) {
         let i = order[slot];
         keys.clear();
         found.clear();
+        found_r2.clear();
         for_each_in_row(
             cells,
             slot,
@@ -251,11 +256,14 @@ fn rows_of_cell<const D: usize>(
             StencilKind::Full,
             test,
             &mut scratch,
-            |other, _, d, _| {
+            |other, _, d, r2| {
                 let j = order[other];
                 if j > i {
                     keys.push(((j as u64) << 32) | keys.len() as u64);
-                    if geometry {
+                    if keep_r2 {
+                        found_r2.push(r2);
+                    }
+                    if keep_separations {
                         found.push(*d);
                     }
                 }
@@ -264,10 +272,14 @@ fn rows_of_cell<const D: usize>(
         keys.sort_unstable();
         chunk.lengths.push(keys.len() as u32);
         chunk.js.extend(keys.iter().map(|k| (k >> 32) as u32));
-        if geometry {
+        let found_at = |k: &u64| (k & 0xffff_ffff) as usize;
+        if keep_r2 {
+            chunk.r2s.extend(keys.iter().map(|k| found_r2[found_at(k)]));
+        }
+        if keep_separations {
             chunk
                 .separations
-                .extend(keys.iter().map(|k| found[(k & 0xffff_ffff) as usize]));
+                .extend(keys.iter().map(|k| found[found_at(k)]));
         }
     }
 }

@@ -349,8 +349,13 @@ impl<const D: usize> MdSystem<D> {
         self.list.rebuild(&self.cells, threads);
         self.layers = LayerPlan::new(&self.cells);
         self.tallies = vec![PairTally::default(); self.layers.num_layers()];
-        self.totals = None;
         self.rebuilds = rebuilds;
+        // the energy and virial of the restored state, for its thermo; the
+        // saved forces are kept (they continue the run bit for bit)
+        let saved = std::mem::take(&mut self.atoms.forces);
+        self.atoms.forces = vec![[0.0; D]; saved.len()];
+        self.compute_forces(true, threads);
+        self.atoms.forces = saved;
         Ok(())
     }
 

@@ -122,6 +122,13 @@ impl<const D: usize> Model for PseModel<D> {
         Some(Field {
             dimension: D,
             positions: self.system.positions().iter().map(pad).collect(),
+            strengths: Some(
+                self.system
+                    .phi()
+                    .iter()
+                    .map(|p| p * self.system.volume())
+                    .collect(),
+            ),
             values: self.system.phi(),
             value_name: "phi",
             extra: Vec::new(),

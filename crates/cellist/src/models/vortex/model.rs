@@ -267,6 +267,7 @@ impl Model for VortexModel {
             positions: s.positions().iter().map(|x| [x[0], x[1], 0.0]).collect(),
             values: s.gamma().iter().map(|g| g / h2).collect(),
             value_name: "omega",
+            strengths: None,
             extra: vec![
                 ("gamma", s.gamma().to_vec()),
                 ("u", s.velocity().iter().map(|u| u[0]).collect()),
@@ -304,6 +305,7 @@ impl Model for VortexModel {
         state.put_vectors("positions", self.system.positions());
         state.put_f64s("gamma", self.system.gamma().iter().copied());
         state.put_f64s("scalars", [self.system.dropped(), self.angle, self.scale]);
+        state.put_f64s("observed", self.observed.iter().copied());
     }
 
     fn restore(&mut self, state: &State, threads: &Threads) -> Result<(), StateError> {
@@ -312,6 +314,10 @@ impl Model for VortexModel {
         let scalars = state.f64s_of("scalars", 3)?;
         self.angle = scalars[1];
         self.scale = scalars[2];
+        // the thermo of the saved step (checkpoints before it was saved have none)
+        if let Ok(observed) = state.f64s("observed") {
+            self.observed = observed;
+        }
         self.system
             .set_particles(positions, gamma, scalars[0], threads)
             .map_err(|e| StateError(e.to_string()))?;
