@@ -209,11 +209,7 @@ def test_a_billiards_scenario_gives_the_golden_bits(tmp_path):
         positions, velocities = sim.positions, sim.velocities
         energy = sim.thermo()["energy"]
     golden = [line.split() for line in
-              (data / "golden" / "inputs__sample.final.bits").read_text().splitlines()
-              if line.strip()] if (data / "golden" / "inputs__sample.final.bits").exists() else None
-    if golden is None:
-        golden_path = next(data.glob("golden/*sample*.final.bits"))
-        golden = [line.split() for line in golden_path.read_text().splitlines() if line.strip()]
+              (data / "golden" / "sample.final.bits").read_text().splitlines() if line.strip()]
     bits = lambda x: format(np.float64(x).view(np.uint64), "016x")
     assert len(golden) == len(positions)
     for row, x, v in zip(golden, positions, velocities):

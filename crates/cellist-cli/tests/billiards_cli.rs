@@ -817,3 +817,83 @@ fn sweep_refuses_bad_flags_naming_them_and_writes_nothing() {
     assert!(text(&out.stdout).is_empty(), "nothing timed");
     assert!(!out_dir.exists());
 }
+
+#[test]
+fn a_billiards_scenario_runs_the_input_to_the_golden_bits() {
+    let Some(data) = shared_testdata("billiards") else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let input = data.join("inputs/small/random10.in");
+    let header: Vec<u64> = std::fs::read_to_string(&input)
+        .unwrap()
+        .lines()
+        .take(4)
+        .map(|l| l.trim().parse::<f64>().unwrap() as u64)
+        .collect();
+    let steps = header[3];
+    let scenario = dir.path().join("discs.toml");
+    std::fs::write(
+        &scenario,
+        format!(
+            "model = \"billiards\"\ninput = \"{}\"\n[run]\ncells = \"hex\"\n[output]\n\
+             dump = {{ every = {steps}, file = \"discs.lammpstrj\" }}\n",
+            input.display()
+        ),
+    )
+    .unwrap();
+    let out = dir.path().join("out");
+    let run = cellist(&[
+        "run",
+        scenario.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--threads",
+        "2",
+    ]);
+    assert!(run.status.success(), "{}", text(&run.stderr));
+    // the dump's last frame, at %.17g, read back to the same doubles
+    let dump = std::fs::read_to_string(out.join("discs.lammpstrj")).unwrap();
+    let lines: Vec<&str> = dump.lines().collect();
+    let last = lines
+        .iter()
+        .rposition(|l| l.starts_with("ITEM: TIMESTEP"))
+        .unwrap();
+    assert_eq!(lines[last + 1].trim(), steps.to_string());
+    let mut state: Vec<(u64, [u64; 4])> = lines[last + 9..]
+        .iter()
+        .map(|l| {
+            let f: Vec<&str> = l.split_whitespace().collect();
+            let bits = |k: usize| f[k].parse::<f64>().unwrap().to_bits();
+            (f[0].parse().unwrap(), [bits(2), bits(3), bits(5), bits(6)])
+        })
+        .collect();
+    state.sort_unstable();
+    let golden = std::fs::read_to_string(data.join("golden/small__random10.final.bits")).unwrap();
+    let golden: Vec<(u64, [u64; 4])> = golden
+        .lines()
+        .map(|l| {
+            let f: Vec<&str> = l.split_whitespace().collect();
+            let bits = |k: usize| u64::from_str_radix(f[k], 16).unwrap();
+            (f[1].parse().unwrap(), [bits(2), bits(3), bits(4), bits(5)])
+        })
+        .collect();
+    assert_eq!(state.len(), golden.len());
+    assert_eq!(state, golden);
+    let thermo = std::fs::read_to_string(out.join("thermo.csv")).unwrap();
+    assert!(thermo.starts_with("step,energy"), "{thermo}");
+    let bad = cellist(&[
+        "run",
+        scenario.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--set",
+        "run.cells=\"round\"",
+    ]);
+    assert!(!bad.status.success());
+    assert!(
+        text(&bad.stderr).contains("run.cells 'round' is unknown"),
+        "{}",
+        text(&bad.stderr)
+    );
+}
