@@ -278,6 +278,18 @@ impl NeighborList {
             )));
         }
         let (letters, wanted) = parse_quantities(quantities)?;
+        if let Some(sides) = &r#box {
+            // the sides are checked against the points' dimension at update
+            match sides.len() {
+                2 => drop(box_sides::<2>(Some(sides.clone()))?),
+                3 => drop(box_sides::<3>(Some(sides.clone()))?),
+                n => {
+                    return Err(value_error(format!(
+                        "box has {n} sides; give 2 or 3 (an orthorhombic box from the origin)"
+                    )))
+                }
+            }
+        }
         Ok(NeighborList {
             cutoff,
             skin,

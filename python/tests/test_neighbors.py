@@ -126,3 +126,24 @@ def test_neighbor_list_keeps_its_search_while_points_move_little():
         np.testing.assert_allclose(d, rd, rtol=0, atol=1e-12)
         points = points + rng.uniform(-0.04, 0.04, size=points.shape)
     assert 1 < nl.searches < 12
+
+
+def test_neighbor_list_in_2d_with_open_axes_and_every_quantity():
+    rng = np.random.default_rng(4)
+    points = rng.uniform(0.0, 12.0, size=(800, 2))
+    nl = cellist.NeighborList(1.2, skin=0.3, box=[12.0, 12.0], periodic=[True, False],
+                              quantities="ijdDS")
+    for _ in range(4):
+        got = nl.update(points)
+        want = cellist.neighbors(points, 1.2, box=[12.0, 12.0], periodic=[True, False],
+                                 quantities="ijdDS")
+        np.testing.assert_array_equal(got[0], want[0])
+        np.testing.assert_array_equal(got[1], want[1])
+        np.testing.assert_allclose(got[2], want[2], rtol=0, atol=1e-12)
+        np.testing.assert_allclose(got[3], want[3], rtol=0, atol=1e-12)
+        np.testing.assert_array_equal(got[4], want[4])
+        points = points + rng.uniform(-0.05, 0.05, size=points.shape)
+    with pytest.raises(ValueError, match="box sides must be finite and > 0"):
+        cellist.NeighborList(1.0, box=[1.0, -2.0])
+    with pytest.raises(ValueError, match="skin must be finite and >= 0"):
+        cellist.NeighborList(1.0, skin=-0.1)

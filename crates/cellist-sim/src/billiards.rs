@@ -103,6 +103,19 @@ fn physics(input: &BilliardsInput) -> Vec<(String, String)> {
     ]
 }
 
+/// The terminal table of the discs' energy.
+pub(crate) const ENERGY_TABLE: TableStyle = TableStyle {
+    width: 16,
+    precision: 8,
+    exponent: true,
+    shown: 1,
+};
+
+/// The dump columns of discs: id, type, x y z, vx vy vz.
+pub(crate) fn disc_columns() -> Vec<String> {
+    DUMP_COLUMNS[..8].iter().map(|c| c.to_string()).collect()
+}
+
 /// The run of `input`'s `system` to its S steps, writing to `dir`, with its
 /// physics (for restarts) and its last frame (a LAMMPS dump of the discs).
 pub(crate) fn billiards_job(
@@ -119,7 +132,7 @@ pub(crate) fn billiards_job(
         physics: physics(input),
         last_frame: LastFrame::Dump {
             file: "last.lammpstrj",
-            columns: DUMP_COLUMNS[..8].iter().map(|c| c.to_string()).collect(),
+            columns: disc_columns(),
         },
     }
 }
@@ -344,7 +357,7 @@ pub fn run(run: &BilliardsRun, threads: &Threads) -> SimResult {
         physics: physics(&input),
         last_frame: LastFrame::Dump {
             file: "last.lammpstrj",
-            columns: DUMP_COLUMNS[..8].iter().map(|c| c.to_string()).collect(),
+            columns: disc_columns(),
         },
     };
     let checkpoint = run
@@ -419,12 +432,7 @@ pub fn run_quiet(path: &Path, threads: &Threads, dir: &Path) -> SimResult<RunSum
     let job = billiards_job(&input, system, dir.to_path_buf(), None);
     let plan = OutputPlan {
         thermo_every: 0,
-        table: TableStyle {
-            width: 16,
-            precision: 8,
-            exponent: true,
-            shown: 1,
-        },
+        table: ENERGY_TABLE,
         plot: None,
         dumps: Vec::new(),
         field: None,

@@ -16,15 +16,14 @@
 //! checkpoint = { every = 50 }
 //! ```
 
-use crate::billiards::{billiards_job, read};
+use crate::billiards::{billiards_job, disc_columns, read, ENERGY_TABLE};
 use crate::driver::CheckpointKeys;
 use crate::error::SimResult;
-use crate::observers::{DumpFormat, DumpPlan, OutputPlan, TableStyle};
+use crate::observers::{DumpFormat, DumpPlan, OutputPlan};
 use crate::scenario::Scenario;
 use crate::trajectory::{SeriesKeys, TrajectoryKeys};
 use crate::{Launch, RunContext};
 use cellist::models::billiards::{CellShape, DEFAULT_MAX_SWEEPS};
-use cellist_io::DUMP_COLUMNS;
 use serde::Deserialize;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -123,12 +122,7 @@ pub fn run<L: Launch>(
     ));
     let plan = OutputPlan {
         thermo_every: out.thermo_every,
-        table: TableStyle {
-            width: 16,
-            precision: 8,
-            exponent: true,
-            shown: 1,
-        },
+        table: ENERGY_TABLE,
         plot: None,
         dumps: out
             .dump
@@ -136,7 +130,7 @@ pub fn run<L: Launch>(
             .map(|d| DumpPlan {
                 every: d.every,
                 file: d.file.clone(),
-                columns: DUMP_COLUMNS[..8].iter().map(|c| c.to_string()).collect(),
+                columns: disc_columns(),
                 format: DumpFormat::Lammps,
             })
             .collect(),
