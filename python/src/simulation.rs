@@ -27,6 +27,9 @@ struct Engine {
     threads: cellist::Threads,
 }
 
+/// The wall time a `run` call works between looks at Python's signals.
+const SLICE: std::time::Duration = std::time::Duration::from_millis(200);
+
 /// A request to the worker.
 type Task = Box<dyn FnOnce(&mut Engine) + Send>;
 
@@ -364,24 +367,41 @@ impl Simulation {
     /// --
     ///
     /// Runs `steps` more steps (default: on to the scenario's run.steps) with the
-    /// GIL released. Raises cellist.BlowUp if the run blows up; the simulation is
-    /// then back at its last good state.
+    /// GIL released. Ctrl-C stops it within a fraction of a second, at a step
+    /// (KeyboardInterrupt). Raises cellist.BlowUp if the run blows up; the
+    /// simulation is then back at its last good state.
     #[pyo3(signature = (steps=None))]
     fn run(&self, py: Python<'_>, steps: Option<u64>) -> PyResult<()> {
-        let outcome = self.call(py, move |e| {
+        let target = self.call(py, move |e| {
             let now = e.session.step();
-            let to = match steps {
+            match steps {
                 Some(n) => now.saturating_add(n),
                 None => e.session.scenario_steps().max(now),
-            };
-            let result = e.session.advance(to, &e.threads);
-            let blowup: Option<Blowup> = e.session.last_blowup().cloned();
-            result.map_err(|err| Box::new((err, blowup)))
+            }
         })?;
-        outcome.map_err(|failure| {
-            let (err, blowup) = *failure;
-            sim_error(py, err, blowup)
-        })
+        // slices of about SLICE of wall time, so that Ctrl-C (a Python signal)
+        // is seen between them; the run's last step is `target` throughout
+        loop {
+            let slice = self.call(py, move |e| {
+                let started = std::time::Instant::now();
+                while e.session.step() < target && started.elapsed() < SLICE {
+                    let next = e.session.step() + 1;
+                    if let Err(err) = e.session.advance(next, target, &e.threads) {
+                        let blowup: Option<Blowup> = e.session.last_blowup().cloned();
+                        return Err(Box::new((err, blowup)));
+                    }
+                }
+                Ok(e.session.step() >= target)
+            })?;
+            match slice {
+                Ok(true) => return Ok(()),
+                Ok(false) => py.check_signals()?,
+                Err(failure) => {
+                    let (err, blowup) = *failure;
+                    return Err(sim_error(py, err, blowup));
+                }
+            }
+        }
     }
 
     /// The current step.

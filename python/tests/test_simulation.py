@@ -249,3 +249,18 @@ def test_thermo_after_a_restart_an_unpickling_and_a_blow_up(tmp_path):
         with pytest.raises(cellist.BlowUp):
             sim.run()
         assert all(np.isfinite(v) for v in sim.thermo().values())
+
+
+def test_ctrl_c_stops_a_run_at_a_step(tmp_path):
+    import _thread
+    sim = cellist.Simulation.from_toml(md_scenario(steps=10), threads=1, out=tmp_path)
+    timer = threading.Timer(0.3, _thread.interrupt_main)
+    timer.start()
+    with pytest.raises(KeyboardInterrupt):
+        sim.run(10_000_000)
+    timer.join()
+    stopped = sim.step
+    assert 0 < stopped < 10_000_000
+    sim.run(5)
+    assert sim.step == stopped + 5
+    sim.close()

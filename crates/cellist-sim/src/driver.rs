@@ -311,21 +311,22 @@ impl<M: Model> Live<M> {
         self.scenario_steps
     }
 
-    /// Steps on to step `to`, which becomes the run's last step (observers and
-    /// checkpoints always take the last step): the step, its check, the
-    /// observers whose trigger fires and the checkpoints due. A blow-up restores
-    /// the last good state (the current step goes back to it), writes its frame
-    /// and checkpoint, and is returned as the error.
-    pub fn advance(&mut self, to: u64, threads: &Threads) -> SimResult {
-        self.job.steps = to;
+    /// Steps on to step `to` of a run whose last step is `last >= to`
+    /// (observers and checkpoints always take the last step): each step, its
+    /// check, the observers whose trigger fires and the checkpoints due. A
+    /// blow-up restores the last good state (the current step goes back to it),
+    /// writes its frame and checkpoint, and is returned as the error.
+    pub fn advance(&mut self, to: u64, last: u64, threads: &Threads) -> SimResult {
+        debug_assert!(to <= last);
+        self.job.steps = last;
         let loop_start = Instant::now();
-        let outcome = self.advance_timed(to, threads);
+        let outcome = self.advance_timed(to, last, threads);
         self.loop_time += loop_start.elapsed();
         outcome
     }
 
-    fn advance_timed(&mut self, last: u64, threads: &Threads) -> SimResult {
-        for step in self.step + 1..=last {
+    fn advance_timed(&mut self, to: u64, last: u64, threads: &Threads) -> SimResult {
+        for step in self.step + 1..=to {
             let job = &mut self.job;
             let observers = &mut self.observers;
             let checkpoint = job
@@ -358,7 +359,7 @@ impl<M: Model> Live<M> {
     /// Steps on to the last step `last` ([`Live::advance`]), then finishes the
     /// run ([`Live::finish`]).
     pub fn run_to(mut self, last: u64, threads: &Threads) -> SimResult<Report<M>> {
-        self.advance(last, threads)?;
+        self.advance(last, last, threads)?;
         self.bar.finish_and_clear();
         self.finish()
     }

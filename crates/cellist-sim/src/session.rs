@@ -26,10 +26,11 @@ pub trait Session {
     /// The scenario's last step (`run.steps`).
     fn scenario_steps(&self) -> u64;
 
-    /// Steps on to step `to` with the observers, checks and checkpoints of
-    /// `cellist run`; `to` counts as the last step (observers and checkpoints
-    /// take it). A blow-up leaves the session at its last good state.
-    fn advance(&mut self, to: u64, threads: &Threads) -> SimResult;
+    /// Steps on to step `to` of a run whose last step is `last >= to`, with the
+    /// observers, checks and checkpoints of `cellist run` (observers and
+    /// checkpoints take the last step). A blow-up leaves the session at its
+    /// last good state.
+    fn advance(&mut self, to: u64, last: u64, threads: &Threads) -> SimResult;
 
     /// The last blow-up met, if any: the session went back to its last good
     /// state then.
@@ -65,8 +66,8 @@ impl<M: Model + 'static> Session for Live<M> {
         Live::scenario_steps(self)
     }
 
-    fn advance(&mut self, to: u64, threads: &Threads) -> SimResult {
-        Live::advance(self, to, threads)
+    fn advance(&mut self, to: u64, last: u64, threads: &Threads) -> SimResult {
+        Live::advance(self, to, last, threads)
     }
 
     fn last_blowup(&self) -> Option<&Blowup> {
