@@ -159,6 +159,7 @@ def test_other_models_expose_their_arrays(tmp_path, cli):
                                       out=tmp_path / "gravity") as sim:
         sim.run(5)
         assert set(sim.arrays()) >= {"positions", "velocities", "masses", "accelerations"}
+        assert sim.positions.shape == (len(sim), 2)  # dimension = 2: the plane z = 0
         with pytest.raises(AttributeError, match="has no array 'circulations'"):
             sim.circulations
     with cellist.Simulation.from_toml(str(examples / "pse-sine.toml"), threads=1,

@@ -187,6 +187,7 @@ fn dump_columns() -> Vec<String> {
 
 /// Everything a run needs, checked.
 struct Setup {
+    dimension: usize,
     law: GravityLaw,
     bodies: Bodies,
     initial: String,
@@ -458,6 +459,7 @@ fn build(scenario: &Scenario, keys: &GravityScenario, context: &RunContext) -> S
         }
     }
     Ok(Setup {
+        dimension: keys.dimension as usize,
         law,
         bodies,
         initial,
@@ -610,7 +612,8 @@ fn run_setup<L: Launch>(
         quiet: false,
         trajectories: setup.trajectories.clone(),
     };
-    let model = GravityModel::new(system, setup.integrator, setup.dt);
+    let mut model = GravityModel::new(system, setup.integrator, setup.dt);
+    model.dimension = setup.dimension;
     let spec = JobSpec {
         steps: setup.steps,
         dir: out_dir.to_path_buf(),

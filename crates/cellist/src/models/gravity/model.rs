@@ -15,6 +15,8 @@ pub struct GravityModel {
     pub integrator: Integrator,
     /// The time step.
     pub dt: f64,
+    /// 2 for bodies in the plane z = 0 (a 2D scenario), else 3.
+    pub dimension: usize,
     e0: f64,
     step_time: Duration,
 }
@@ -27,6 +29,7 @@ impl GravityModel {
             system,
             integrator,
             dt,
+            dimension: 3,
             step_time: Duration::ZERO,
         }
     }
@@ -134,7 +137,7 @@ impl Model for GravityModel {
         let b = self.system.bodies();
         let (lo, hi) = crate::geometry::bounding_box(&b.position);
         Some(Particles {
-            dimension: 3,
+            dimension: self.dimension,
             lo,
             hi,
             periodic: [false; 3],
