@@ -3,7 +3,9 @@
 
 use crate::errors::value_error;
 use crate::threads::pool;
-use cellist::neighbors::{sorted_half_list, PairQuantities, SkinList, SortedPairs};
+use cellist::neighbors::{
+    half_list_as_found, sorted_half_list, PairArrays, PairQuantities, SkinList,
+};
 use cellist::{CellList, Domain, Threads};
 use numpy::{AllowTypeChange, IntoPyArray, PyArrayLike2, PyArrayMethods, PyUntypedArrayMethods};
 use pyo3::prelude::*;
@@ -132,7 +134,7 @@ fn point_data<'a>(
 fn to_python<'py, const D: usize>(
     py: Python<'py>,
     letters: &[char],
-    mut pairs: SortedPairs,
+    mut pairs: PairArrays,
 ) -> PyResult<Bound<'py, PyAny>> {
     let n = pairs.len();
     let mut out: Vec<Bound<'py, PyAny>> = Vec::with_capacity(letters.len());
@@ -161,7 +163,7 @@ fn to_python<'py, const D: usize>(
     }
 }
 
-/// neighbors(points, cutoff, box=None, periodic=None, quantities="ij", threads=None)
+/// neighbors(points, cutoff, box=None, periodic=None, quantities="ij", threads=None, sorted=True)
 /// --
 ///
 /// The half neighbour list of `points` within `cutoff`: every pair i < j with
@@ -179,8 +181,12 @@ fn to_python<'py, const D: usize>(
 ///     give a tuple in that order.
 /// threads: worker threads (default: the machine's cores). The result does not
 ///     depend on it.
+/// sorted: False returns the same pairs in the order the cell list finds them
+///     (fixed by the data, still i < j in each pair), as vesin's sorted=False:
+///     about 2-3x faster for large random inputs.
 #[pyfunction]
-#[pyo3(signature = (points, cutoff, r#box=None, periodic=None, quantities="ij", threads=None))]
+#[pyo3(signature = (points, cutoff, r#box=None, periodic=None, quantities="ij", threads=None, sorted=true))]
+#[allow(clippy::too_many_arguments)]
 pub fn neighbors<'py>(
     py: Python<'py>,
     points: PyArrayLike2<'py, f64, AllowTypeChange>,
@@ -189,6 +195,7 @@ pub fn neighbors<'py>(
     periodic: Option<&Bound<'py, PyAny>>,
     quantities: &str,
     threads: Option<usize>,
+    sorted: bool,
 ) -> PyResult<Bound<'py, PyAny>> {
     if !(cutoff.is_finite() && cutoff > 0.0) {
         return Err(value_error(format!(
@@ -203,31 +210,37 @@ pub fn neighbors<'py>(
         let p = flat.as_chunks::<2>().0;
         let length = box_sides::<2>(r#box)?;
         let periodic = periodic_axes::<2>(periodic, has_box)?;
-        let pairs = py.detach(|| search(p, length, periodic, cutoff, wanted, &pool))?;
+        let pairs = py.detach(|| search(p, length, periodic, cutoff, wanted, sorted, &pool))?;
         to_python::<2>(py, &letters, pairs)
     } else {
         let p = flat.as_chunks::<3>().0;
         let length = box_sides::<3>(r#box)?;
         let periodic = periodic_axes::<3>(periodic, has_box)?;
-        let pairs = py.detach(|| search(p, length, periodic, cutoff, wanted, &pool))?;
+        let pairs = py.detach(|| search(p, length, periodic, cutoff, wanted, sorted, &pool))?;
         to_python::<3>(py, &letters, pairs)
     }
 }
 
-/// The sorted half list of `points` in the box `length` with `periodic` axes.
+/// The half list of `points` in the box `length` with `periodic` axes, sorted
+/// by `(i, j)` or as found.
 fn search<const D: usize>(
     points: &[[f64; D]],
     length: [f64; D],
     periodic: [bool; D],
     cutoff: f64,
     wanted: PairQuantities,
+    sorted: bool,
     pool: &Threads,
-) -> PyResult<SortedPairs> {
+) -> PyResult<PairArrays> {
     let domain = Domain::for_points(points, length, [0.0; D], periodic)
         .map_err(|e| value_error(format!("box: {e}")))?;
     let cells = CellList::build(&domain, cutoff, points)
         .map_err(|e| value_error(format!("cutoff {cutoff}: {e}")))?;
-    Ok(sorted_half_list(&cells, points, cutoff, wanted, pool))
+    Ok(if sorted {
+        sorted_half_list(&cells, points, cutoff, wanted, pool)
+    } else {
+        half_list_as_found(&cells, points, cutoff, wanted, pool)
+    })
 }
 
 /// The lists of one dimension.

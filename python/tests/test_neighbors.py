@@ -147,3 +147,18 @@ def test_neighbor_list_in_2d_with_open_axes_and_every_quantity():
         cellist.NeighborList(1.0, box=[1.0, -2.0])
     with pytest.raises(ValueError, match="skin must be finite and >= 0"):
         cellist.NeighborList(1.0, skin=-0.1)
+
+
+@pytest.mark.parametrize("dim,periodic", [(3, [True, False, True]), (2, [True, True])])
+def test_the_list_as_found_holds_the_same_pairs(dim, periodic):
+    rng = np.random.default_rng(21)
+    box = [7.0] * dim
+    points = rng.uniform(0.0, 7.0, size=(600, dim))
+    want = cellist.neighbors(points, 1.6, box=box, periodic=periodic, quantities="ijdDS")
+    for threads in (1, 2):
+        got = cellist.neighbors(points, 1.6, box=box, periodic=periodic, quantities="ijdDS",
+                                threads=threads, sorted=False)
+        assert np.all(got[0] < got[1])
+        order = np.lexsort((got[1], got[0]))
+        for a, b in zip(got, want):
+            np.testing.assert_array_equal(a[order], b)

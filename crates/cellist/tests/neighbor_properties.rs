@@ -3,8 +3,8 @@
 //! cell faces and box faces, points outside the box; 1 and 2 threads.
 
 use cellist::neighbors::{
-    brute_force_pairs, gather_cells, gather_verlet, half_pairs, scatter_coloured,
-    scatter_verlet_serial, sorted_half_list, PairKernel, PairQuantities,
+    brute_force_pairs, gather_cells, gather_verlet, half_list_as_found, half_pairs,
+    scatter_coloured, scatter_verlet_serial, sorted_half_list, PairKernel, PairQuantities,
 };
 use cellist::{Boundary, CellList, Domain, StencilKind, Threads, VerletList};
 use proptest::prelude::*;
@@ -132,6 +132,25 @@ fn check_all_paths<const D: usize>(domain: &Domain<D>, cutoff: f64, points: &[[f
     let unsorted: Vec<(u32, u32, u64)> =
         fast_one.iter().map(|p| (p.0, p.1, p.2.to_bits())).collect();
     assert_eq!(listed, unsorted);
+    // the list as found: the same pairs and quantities in cell order, the same
+    // bits on 1 and 2 threads
+    let found = half_list_as_found(&cells, points, cutoff, all, &one);
+    assert_eq!(found, half_list_as_found(&cells, points, cutoff, all, &two));
+    let mut by_pair: Vec<usize> = (0..found.len()).collect();
+    by_pair.sort_by_key(|&k| (found.i[k], found.j[k]));
+    assert_eq!(by_pair.len(), sorted.len());
+    for (k, &f) in by_pair.iter().enumerate() {
+        assert_eq!((found.i[f], found.j[f]), (sorted.i[k], sorted.j[k]));
+        assert_eq!(found.distances[f].to_bits(), sorted.distances[k].to_bits());
+        assert_eq!(
+            found.vectors[f * D..(f + 1) * D],
+            sorted.vectors[k * D..(k + 1) * D]
+        );
+        assert_eq!(
+            found.shifts[f * D..(f + 1) * D],
+            sorted.shifts[k * D..(k + 1) * D]
+        );
+    }
     for k in 0..sorted.len() {
         let (i, j) = (sorted.i[k] as usize, sorted.j[k] as usize);
         let d = &sorted.vectors[k * D..(k + 1) * D];

@@ -10,8 +10,10 @@
 
 use super::cell_list::CellList;
 use super::grid::{StencilKind, StencilRun};
-use super::traverse::{for_each_in_row, CutoffTest, ScanScratch};
+use super::pairs::expected_pairs;
+use super::traverse::{for_each_in_row, for_each_row_in_cell, CutoffTest, ScanScratch};
 use crate::geometry::{norm2, Domain};
+use crate::memory::large_vec;
 use crate::threads::{DisjointSlice, Threads};
 use rayon::prelude::*;
 
@@ -35,9 +37,10 @@ impl PairQuantities {
 }
 
 /// The half list in the layout of vesin and numpy: pair `k` is `(i[k], j[k])`
-/// with `i < j`, sorted by `i` then `j`; the quantities not asked for are empty.
+/// with `i < j` (sorted by `i` then `j` from [`sorted_half_list`], in cell order
+/// from [`half_list_as_found`]); the quantities not asked for are empty.
 #[derive(Clone, Debug, Default, PartialEq)]
-pub struct SortedPairs {
+pub struct PairArrays {
     /// First indices (input numbering).
     pub i: Vec<i64>,
     /// Second indices, `j > i`.
@@ -50,7 +53,20 @@ pub struct SortedPairs {
     pub shifts: Vec<i32>,
 }
 
-impl SortedPairs {
+impl PairArrays {
+    /// Empty arrays with room for `pairs` pairs of the `quantities` asked for
+    /// (large buffers advised to use huge pages).
+    fn with_capacity<const D: usize>(pairs: usize, quantities: PairQuantities) -> Self {
+        let room = |wanted: bool, per_pair: usize| if wanted { pairs * per_pair } else { 0 };
+        PairArrays {
+            i: large_vec(pairs),
+            j: large_vec(pairs),
+            distances: large_vec(room(quantities.distances, 1)),
+            vectors: large_vec(room(quantities.vectors, D)),
+            shifts: large_vec(room(quantities.shifts, D)),
+        }
+    }
+
     /// Number of pairs.
     pub fn len(&self) -> usize {
         self.i.len()
@@ -88,7 +104,7 @@ pub fn sorted_half_list<const D: usize>(
     cutoff: f64,
     quantities: PairQuantities,
     threads: &Threads,
-) -> SortedPairs {
+) -> PairArrays {
     assert!(
         cutoff <= cells.cutoff(),
         "cutoff {cutoff} above the cell list's {}",
@@ -110,7 +126,7 @@ pub fn sorted_half_list<const D: usize>(
         start[k + 1] += start[k];
     }
     let total = start[n];
-    let mut out = SortedPairs {
+    let mut out = PairArrays {
         i: vec![0; total],
         j: vec![0; total],
         distances: vec![0.0; if quantities.distances { total } else { 0 }],
@@ -173,6 +189,79 @@ pub fn sorted_half_list<const D: usize>(
         chunks.iter().for_each(place);
     } else {
         threads.install(|| chunks.par_iter().for_each(place));
+    }
+    out
+}
+
+/// The same pairs and quantities as [`sorted_half_list`], in the order the half
+/// stencil finds them (cell order, fixed by the data): no row sort and no
+/// placement, so about the cost of the bare pair search. What vesin returns
+/// with `sorted=False`.
+pub fn half_list_as_found<const D: usize>(
+    cells: &CellList<D>,
+    points: &[[f64; D]],
+    cutoff: f64,
+    quantities: PairQuantities,
+    threads: &Threads,
+) -> PairArrays {
+    assert!(
+        cutoff <= cells.cutoff(),
+        "cutoff {cutoff} above the cell list's {}",
+        cells.cutoff()
+    );
+    assert_eq!(points.len(), cells.len(), "one point per particle");
+    let test = CutoffTest::new(cutoff);
+    let order = cells.order();
+    let domain = cells.domain();
+    let fill = |homes: std::ops::Range<usize>, out: &mut PairArrays| {
+        for home in homes {
+            for_each_row_in_cell(cells, home, StencilKind::Half, &test, |i, j, _, d, r2| {
+                let (a, b) = (order[i], order[j]);
+                let (first, second, d) = if a < b {
+                    (a, b, *d)
+                } else {
+                    (b, a, d.map(|x| -x))
+                };
+                out.i.push(first as i64);
+                out.j.push(second as i64);
+                if quantities.distances {
+                    out.distances.push(r2.sqrt());
+                }
+                if quantities.vectors {
+                    out.vectors.extend_from_slice(&d);
+                }
+                if quantities.shifts {
+                    let (xi, xj) = (&points[first as usize], &points[second as usize]);
+                    out.shifts.extend(image_shift(domain, xi, xj, &d));
+                }
+            });
+        }
+    };
+    let num_cells = cells.grid().num_cells();
+    let guess = expected_pairs(cells, cutoff);
+    if threads.count() == 1 {
+        let mut out = PairArrays::with_capacity::<D>(guess, quantities);
+        fill(0..num_cells, &mut out);
+        return out;
+    }
+    let parts: Vec<PairArrays> = threads.install(|| {
+        Threads::chunks(num_cells)
+            .map(|homes| {
+                let share = guess * homes.len() / num_cells.max(1);
+                let mut out = PairArrays::with_capacity::<D>(share, quantities);
+                fill(homes, &mut out);
+                out
+            })
+            .collect()
+    });
+    let total = parts.iter().map(PairArrays::len).sum();
+    let mut out = PairArrays::with_capacity::<D>(total, quantities);
+    for part in parts {
+        out.i.extend_from_slice(&part.i);
+        out.j.extend_from_slice(&part.j);
+        out.distances.extend_from_slice(&part.distances);
+        out.vectors.extend_from_slice(&part.vectors);
+        out.shifts.extend_from_slice(&part.shifts);
     }
     out
 }
@@ -296,7 +385,7 @@ pub struct SkinList<const D: usize> {
     periodic: [bool; D],
     cutoff: f64,
     skin: f64,
-    candidates: SortedPairs,
+    candidates: PairArrays,
     reference: Vec<[f64; D]>,
     searches: u64,
 }
@@ -318,7 +407,7 @@ impl<const D: usize> SkinList<D> {
             periodic,
             cutoff,
             skin,
-            candidates: SortedPairs::default(),
+            candidates: PairArrays::default(),
             reference: Vec::new(),
             searches: 0,
         }
@@ -336,7 +425,7 @@ impl<const D: usize> SkinList<D> {
         points: &[[f64; D]],
         quantities: PairQuantities,
         threads: &Threads,
-    ) -> Result<SortedPairs, crate::geometry::GeometryError> {
+    ) -> Result<PairArrays, crate::geometry::GeometryError> {
         let moved = points.len() != self.reference.len()
             || self.searches == 0
             || super::verlet::moved_beyond_half_skin(points, &self.reference, self.skin);
@@ -358,10 +447,10 @@ impl<const D: usize> SkinList<D> {
     }
 
     /// The candidates within the cutoff at `points`.
-    fn within_cutoff(&self, points: &[[f64; D]], quantities: PairQuantities) -> SortedPairs {
+    fn within_cutoff(&self, points: &[[f64; D]], quantities: PairQuantities) -> PairArrays {
         let test = CutoffTest::new(self.cutoff);
         let c = &self.candidates;
-        let mut out = SortedPairs::default();
+        let mut out = PairArrays::default();
         for k in 0..c.len() {
             let (i, j) = (c.i[k] as usize, c.j[k] as usize);
             let shift = &c.shifts[k * D..(k + 1) * D];
