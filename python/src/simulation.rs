@@ -7,10 +7,9 @@ use crate::errors::{sim_error, value_error};
 use crate::threads::pool;
 use cellist::models::Blowup;
 use cellist_io::checkpoint::encode;
-use cellist_io::GsdWriter;
 use cellist_sim::session::{self, Session};
 use cellist_sim::trajectory::TrajectoryFrame;
-use cellist_sim::{Scenario, SimResult};
+use cellist_sim::{Scenario, SimError, SimResult};
 use numpy::{AllowTypeChange, IntoPyArray, PyArrayLike2, PyArrayMethods, PyUntypedArrayMethods};
 use pyo3::exceptions::PyRuntimeError;
 use pyo3::prelude::*;
@@ -210,6 +209,21 @@ impl Simulation {
         }
         self.call(py, move |e| e.session.set_array(name, &flat, &e.threads))?
             .map_err(|err| sim_error(py, err, None))
+    }
+
+    /// Writes the current state's frame as `format` with `write(frame, step)`.
+    fn write_frame(
+        &self,
+        py: Python<'_>,
+        format: &'static str,
+        write: impl FnOnce(&TrajectoryFrame, u64) -> SimResult + Send + 'static,
+    ) -> PyResult<()> {
+        self.call(py, move |e| {
+            let step = e.session.step();
+            TrajectoryFrame::required(e.session.model(), step, format)
+                .and_then(|frame| write(&frame, step))
+        })?
+        .map_err(|err| sim_error(py, err, None))
     }
 
     /// One named array, or an AttributeError naming those the model has.
@@ -547,20 +561,7 @@ impl Simulation {
     /// Appends the current state as one frame (HOOMD schema) to the GSD file at
     /// `path`, made if missing: what `[output] gsd = { every, file }` writes.
     fn write_gsd(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
-        self.call(py, move |e| {
-            let step = e.session.step();
-            let frame = TrajectoryFrame::required(e.session.model(), step, "GSD")
-                .map_err(|e| e.to_string())?;
-            let mut writer = match std::fs::metadata(&path) {
-                Ok(meta) if meta.len() > 0 => GsdWriter::resume(&path, meta.len()),
-                _ => GsdWriter::create(&path),
-            }
-            .map_err(|e| format!("{}: {e}", path.display()))?;
-            frame
-                .write_gsd(&mut writer, step)
-                .map_err(|e| format!("cannot write {}: {e}", path.display()))
-        })?
-        .map_err(pyo3::exceptions::PyOSError::new_err)
+        self.write_frame(py, "GSD", move |frame, step| frame.append_gsd(&path, step))
     }
 
     /// write_vtp(path)
@@ -569,14 +570,11 @@ impl Simulation {
     /// Writes the current state as one VTK PolyData file (points and their
     /// arrays) at `path`, for ParaView.
     fn write_vtp(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
-        self.call(py, move |e| {
-            let frame = TrajectoryFrame::required(e.session.model(), e.session.step(), "VTK")
-                .map_err(|e| e.to_string())?;
+        self.write_frame(py, "VTK", move |frame, _| {
             frame
                 .write_vtp(&path)
-                .map_err(|e| format!("cannot write {}: {e}", path.display()))
-        })?
-        .map_err(pyo3::exceptions::PyOSError::new_err)
+                .map_err(SimError::output(path.display().to_string()))
+        })
     }
 
     /// close()

@@ -193,6 +193,23 @@ impl TrajectoryFrame {
         )
     }
 
+    /// Appends this frame of `step` to the GSD file `path`, made if missing or
+    /// empty.
+    pub fn append_gsd(&self, path: &Path, step: u64) -> SimResult {
+        let what = path.display().to_string();
+        let length = std::fs::metadata(path).map_or(0, |m| m.len());
+        let (dir, name) = (
+            path.parent().unwrap_or(Path::new("")),
+            path.file_name()
+                .map_or_else(String::new, |n| n.to_string_lossy().into_owned()),
+        );
+        let recorded = [(name.clone(), length)];
+        let recorded: Recorded = if length > 0 { &recorded } else { &[] };
+        let mut writer = open_gsd(dir, &name, recorded)?;
+        self.write_gsd(&mut writer, step)
+            .map_err(SimError::output(what))
+    }
+
     /// Writes this frame as the VTK PolyData file `path`.
     pub fn write_vtp(&self, path: &Path) -> std::io::Result<()> {
         let velocities: Option<Vec<f64>> = self

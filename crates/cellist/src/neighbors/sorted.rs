@@ -105,13 +105,7 @@ pub fn sorted_half_list<const D: usize>(
     quantities: PairQuantities,
     threads: &Threads,
 ) -> PairArrays {
-    assert!(
-        cutoff <= cells.cutoff(),
-        "cutoff {cutoff} above the cell list's {}",
-        cells.cutoff()
-    );
-    assert_eq!(points.len(), cells.len(), "one point per particle");
-    let test = CutoffTest::new(cutoff);
+    let test = checked_test(cells, points, cutoff);
     let order = cells.order();
     let n = cells.len();
     let chunks = find_rows(cells, &test, quantities, threads);
@@ -204,13 +198,7 @@ pub fn half_list_as_found<const D: usize>(
     quantities: PairQuantities,
     threads: &Threads,
 ) -> PairArrays {
-    assert!(
-        cutoff <= cells.cutoff(),
-        "cutoff {cutoff} above the cell list's {}",
-        cells.cutoff()
-    );
-    assert_eq!(points.len(), cells.len(), "one point per particle");
-    let test = CutoffTest::new(cutoff);
+    let test = checked_test(cells, points, cutoff);
     let order = cells.order();
     let domain = cells.domain();
     let fill = |homes: std::ops::Range<usize>, out: &mut PairArrays| {
@@ -264,6 +252,25 @@ pub fn half_list_as_found<const D: usize>(
         out.shifts.extend_from_slice(&part.shifts);
     }
     out
+}
+
+/// The cutoff test of a list of `points` binned in `cells`.
+///
+/// # Panics
+/// If `cutoff` exceeds the cutoff the cell list was built for, or `points` is
+/// not the cell list's particle count.
+fn checked_test<const D: usize>(
+    cells: &CellList<D>,
+    points: &[[f64; D]],
+    cutoff: f64,
+) -> CutoffTest {
+    assert!(
+        cutoff <= cells.cutoff(),
+        "cutoff {cutoff} above the cell list's {}",
+        cells.cutoff()
+    );
+    assert_eq!(points.len(), cells.len(), "one point per particle");
+    CutoffTest::new(cutoff)
 }
 
 /// `S_a = round((d_a - (x_{j,a} - x_{i,a})) / L_a)` on periodic axes, 0 on open ones.
