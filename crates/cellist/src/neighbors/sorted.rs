@@ -67,6 +67,44 @@ impl PairArrays {
         }
     }
 
+    /// Appends the pair of the particles numbered `a` and `b` (either order)
+    /// at separation `d = x_b - x_a` (minimum image) and `r2 = |d|^2`, as
+    /// `(min, max)` with the separation from the first to the second; the
+    /// `quantities` only when `QUANTITIES`. Inlined into the search loop, so
+    /// that the pair costs no call.
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn push_found<const D: usize, const QUANTITIES: bool>(
+        &mut self,
+        a: u32,
+        b: u32,
+        d: &[f64; D],
+        r2: f64,
+        quantities: PairQuantities,
+        domain: &Domain<D>,
+        points: &[[f64; D]],
+    ) {
+        let (first, second) = (a.min(b), a.max(b));
+        self.i.push(first as i64);
+        self.j.push(second as i64);
+        if !QUANTITIES {
+            return;
+        }
+        if quantities.distances {
+            self.distances.push(r2.sqrt());
+        }
+        if quantities.separations() {
+            let d = if a < b { *d } else { d.map(|x| -x) };
+            if quantities.vectors {
+                self.vectors.extend_from_slice(&d);
+            }
+            if quantities.shifts {
+                let (xi, xj) = (&points[first as usize], &points[second as usize]);
+                self.shifts.extend(image_shift(domain, xi, xj, &d));
+            }
+        }
+    }
+
     /// Number of pairs.
     pub fn len(&self) -> usize {
         self.i.len()
@@ -198,30 +236,32 @@ pub fn half_list_as_found<const D: usize>(
     quantities: PairQuantities,
     threads: &Threads,
 ) -> PairArrays {
+    // the bare index list gets its own loop, small enough to be inlined whole
+    if quantities == PairQuantities::default() {
+        as_found::<D, false>(cells, points, cutoff, quantities, threads)
+    } else {
+        as_found::<D, true>(cells, points, cutoff, quantities, threads)
+    }
+}
+
+/// [`half_list_as_found`], with the quantities other than `i` and `j` left out
+/// at compile time unless `QUANTITIES`.
+fn as_found<const D: usize, const QUANTITIES: bool>(
+    cells: &CellList<D>,
+    points: &[[f64; D]],
+    cutoff: f64,
+    quantities: PairQuantities,
+    threads: &Threads,
+) -> PairArrays {
     let test = checked_test(cells, points, cutoff);
     let order = cells.order();
     let domain = cells.domain();
     let fill = |homes: std::ops::Range<usize>, out: &mut PairArrays| {
         for home in homes {
             for_each_row_in_cell(cells, home, StencilKind::Half, &test, |i, j, _, d, r2| {
-                let (a, b) = (order[i], order[j]);
-                let (first, second, d) = if a < b {
-                    (a, b, *d)
-                } else {
-                    (b, a, d.map(|x| -x))
-                };
-                out.i.push(first as i64);
-                out.j.push(second as i64);
-                if quantities.distances {
-                    out.distances.push(r2.sqrt());
-                }
-                if quantities.vectors {
-                    out.vectors.extend_from_slice(&d);
-                }
-                if quantities.shifts {
-                    let (xi, xj) = (&points[first as usize], &points[second as usize]);
-                    out.shifts.extend(image_shift(domain, xi, xj, &d));
-                }
+                out.push_found::<D, QUANTITIES>(
+                    order[i], order[j], d, r2, quantities, domain, points,
+                );
             });
         }
     };
