@@ -4,10 +4,10 @@ use crate::cli::{BenchLjArgs, BenchNeighborsArgs};
 use crate::error::{positive, threads, CliError, CliResult};
 use cellist::interactions::LennardJones;
 use cellist::models::md::{
-    create_velocities, lattice, Atoms, Integrator, LatticeKind, MdSystem, StageTimes,
+    create_velocities, late_note, lattice, Atoms, Integrator, LatticeKind, MdSystem, StageTimes,
     VelocityDistribution,
 };
-use cellist::neighbors::{half_pairs, sorted_half_list};
+use cellist::neighbors::{half_list_as_found, half_pairs, sorted_half_list, RebuildRule};
 use cellist::random::Rng;
 use cellist::{CellList, Domain, Threads};
 use cellist_sim::study::median;
@@ -52,11 +52,18 @@ pub fn neighbors(args: &BenchNeighborsArgs) -> CliResult {
         if args.sorted {
             obj["sorted"] = true.into();
         }
+        if args.as_found {
+            obj["as_found"] = true.into();
+        }
         println!("{obj}");
     } else {
         println!(
             "neighbors{}: n {} dim {} threads {}: median {:.4} s over {} runs, {} pairs, {:.2} ns/pair",
-            if args.sorted { " (sorted)" } else { "" },
+            match (args.sorted, args.as_found) {
+                (true, _) => " (sorted)",
+                (_, true) => " (as found, int64)",
+                _ => "",
+            },
             args.n, args.dim, args.threads, seconds, args.repeat, pairs, ns_per_pair
         );
     }
@@ -75,8 +82,13 @@ fn time_half_list<const D: usize>(
         let start = Instant::now();
         let cells = CellList::build(&domain, args.cutoff, &points)
             .map_err(|e| CliError::Input(format!("--cutoff {}: {e}", args.cutoff)))?;
-        count = if args.sorted {
-            let pairs = sorted_half_list(&cells, &points, args.cutoff, Default::default(), pool);
+        count = if args.sorted || args.as_found {
+            let list = if args.sorted {
+                sorted_half_list
+            } else {
+                half_list_as_found
+            };
+            let pairs = list(&cells, &points, args.cutoff, Default::default(), pool);
             times.push(start.elapsed().as_secs_f64());
             pairs.len()
         } else {
@@ -86,6 +98,15 @@ fn time_half_list<const D: usize>(
         };
     }
     Ok((median(&times), count))
+}
+
+/// The peak resident set of this process (`VmHWM` of `/proc/self/status`), in
+/// bytes; None where the file is not there (not Linux).
+fn peak_resident_bytes() -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib * 1024)
 }
 
 /// `cellist bench lj`: the loop time of the LAMMPS melt, as LAMMPS reports it (set-up
@@ -112,11 +133,16 @@ pub fn lj(args: &BenchLjArgs) -> CliResult {
     create_velocities(&mut atoms, 3.0, 87287, VelocityDistribution::Uniform);
     let lj = LennardJones::new(1.0, 1.0, 2.5, false)
         .map_err(|e| CliError::Internal(format!("melt potential: {e}")))?;
+    let rule = RebuildRule {
+        every: args.every,
+        check: !args.no_check,
+    };
     let mut samples = Vec::with_capacity(args.repeat);
     let mut last = None;
     for _ in 0..args.repeat {
         let mut system = MdSystem::new(domain, atoms.clone(), lj, 0.3, &pool)
             .map_err(|e| CliError::Internal(format!("melt set-up: {e}")))?;
+        system.set_rebuild_rule(rule);
         let mut times = StageTimes::default();
         let start = Instant::now();
         for step in 1..=args.steps {
@@ -132,9 +158,11 @@ pub fn lj(args: &BenchLjArgs) -> CliResult {
                 .map_err(|e| CliError::Internal(format!("the melt blew up: {e}")))?;
         }
         samples.push(start.elapsed().as_secs_f64());
-        last = Some((system.rebuilds(), times));
+        last = Some((system.list_counts(), times));
     }
-    let (rebuilds, times) = last.expect("at least one repetition");
+    let (counts, times) = last.expect("at least one repetition");
+    let rebuilds = counts.rebuilds;
+    let peak_rss = peak_resident_bytes();
     let seconds = median(&samples);
     let atoms_n = atoms.len();
     let us = seconds * 1e6 / (atoms_n as f64 * args.steps.max(1) as f64);
@@ -143,13 +171,28 @@ pub fn lj(args: &BenchLjArgs) -> CliResult {
             "atoms": atoms_n, "steps": args.steps, "threads": args.threads,
             "loop_seconds": seconds, "us_per_atom_step": us, "rebuilds": rebuilds,
             "force_seconds": times.force.as_secs_f64(), "neighbor_seconds": times.neighbor.as_secs_f64(),
+            "every": rule.every, "check": rule.check, "late_builds": counts.late_builds,
+            "peak_rss_bytes": peak_rss,
+            "peak_rss_bytes_per_atom": peak_rss.map(|b| b as f64 / atoms_n as f64),
         });
         println!("{obj}");
     } else {
+        let memory = peak_rss.map_or(String::new(), |b| {
+            format!(
+                ", peak resident memory {:.1} MB ({:.0} bytes/atom)",
+                b as f64 / 1e6,
+                b as f64 / atoms_n as f64
+            )
+        });
         println!(
-            "lj: {atoms_n} atoms, {} steps, {} thread(s): loop time {seconds:.4} s (median of {}), \
-             {us:.4} us/atom-step, {rebuilds} rebuilds",
-            args.steps, args.threads, args.repeat
+            "lj: {atoms_n} atoms, {} steps, {} thread(s), list every {} check {}: loop time {seconds:.4} s \
+             (median of {}), {us:.4} us/atom-step, {rebuilds} rebuilds{}{memory}",
+            args.steps,
+            args.threads,
+            rule.every,
+            if rule.check { "yes" } else { "no" },
+            args.repeat,
+            late_note(counts.late_builds),
         );
     }
     Ok(())

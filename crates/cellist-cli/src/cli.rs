@@ -699,6 +699,15 @@ pub struct BenchLjArgs {
     /// Timed repetitions (each from the same start); the median is reported.
     #[arg(long, default_value_t = 3)]
     pub repeat: usize,
+    /// Look at the neighbour list every N steps since its last build (LAMMPS's
+    /// `neigh_modify every N`; LAMMPS's bench/in.lj and GROMACS's nstlist use 20).
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u64).range(1..))]
+    pub every: u64,
+    /// Rebuild every `--every` steps without the skin/2 test (LAMMPS's
+    /// `check no`); by default the list is rebuilt only when some atom moved
+    /// more than skin/2.
+    #[arg(long)]
+    pub no_check: bool,
     /// Print one JSON object instead of text.
     #[arg(long)]
     pub json: bool,
@@ -732,6 +741,10 @@ pub struct BenchNeighborsArgs {
     /// `cellist neighbors` prints it and the Python module's `neighbors` returns it.
     #[arg(long)]
     pub sorted: bool,
+    /// Time the half list in the order the cells find it instead (int64 index
+    /// arrays), as the Python module's `neighbors(..., sorted=False)` returns it.
+    #[arg(long, conflicts_with = "sorted")]
+    pub as_found: bool,
     /// Print one JSON object instead of text.
     #[arg(long)]
     pub json: bool,

@@ -71,6 +71,14 @@ fn md_velocity_verlet_restarts_bit_for_bit() {
 }
 
 #[test]
+fn md_with_its_list_rebuilt_every_n_steps_restarts_bit_for_bit() {
+    // the checkpoint at step 30 falls 2 steps after a build (every 7): the
+    // restart must rebuild on steps 35, 42, ... as the whole run does
+    let scenario = format!("{MD_3D}[neighbor]\nevery = 7\ncheck = false\n");
+    restart_matches("md3-every", &scenario, 30);
+}
+
+#[test]
 fn md_langevin_in_2d_restarts_bit_for_bit() {
     let scenario = "model = \"md\"\ndimension = 2\n[system]\nlattice = { kind = \"hex\", density = 0.7, cells = [12, 7] }\n\
         velocity = { temperature = 0.8, seed = 1 }\n[pair]\nstyle = \"lj/cut\"\ncutoff = 2.5\nshift = true\n\

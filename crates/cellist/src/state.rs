@@ -82,6 +82,11 @@ impl State {
         Ok(&section.data)
     }
 
+    /// True when the state holds a section `name`.
+    pub fn has(&self, name: &str) -> bool {
+        self.sections.iter().any(|s| s.name == name)
+    }
+
     /// Section `name` as floats.
     pub fn f64s(&self, name: &str) -> Result<Vec<f64>, StateError> {
         Ok(self

@@ -6,6 +6,7 @@
 use cellist::geometry::{norm2, Boundary, Domain};
 use cellist::interactions::{LennardJones, PairPotential};
 use cellist::models::md::{lattice, Atoms, Integrator, LatticeKind, MdSystem, StageTimes};
+use cellist::neighbors::RebuildRule;
 use cellist::random::Rng;
 use cellist::Threads;
 use proptest::prelude::*;
@@ -261,4 +262,85 @@ fn energy_errors_order_the_integrators() {
         vv < 1e-3 && vv < se && se < eu,
         "vv {vv}, symplectic Euler {se}, Euler {eu}"
     );
+}
+
+/// The fcc melt of `cells^3` cells at temperature `t`, run `steps` steps of dt
+/// 0.005 with the list rebuilt by `rule`: the atoms in id order and the list's
+/// counters.
+fn melt_with_rule(
+    cells: usize,
+    t: f64,
+    steps: u64,
+    rule: RebuildRule,
+) -> (Atoms<3>, cellist::models::md::ListCounts) {
+    let (domain, pts) = lattice(LatticeKind::Fcc, 0.8442, [cells; 3]).unwrap();
+    let lj = LennardJones::new(1.0, 1.0, 2.5, false).unwrap();
+    let mut atoms = Atoms::at_rest(pts, 1.0);
+    cellist::models::md::create_velocities(
+        &mut atoms,
+        t,
+        87287,
+        cellist::models::md::VelocityDistribution::Uniform,
+    );
+    let threads = Threads::single();
+    let mut sys = MdSystem::new(domain, atoms, lj, 0.3, &threads).unwrap();
+    sys.set_rebuild_rule(rule);
+    let mut times = StageTimes::default();
+    for step in 1..=steps {
+        sys.step(
+            &Integrator::VelocityVerlet,
+            0.005,
+            step,
+            step == steps,
+            &threads,
+            &mut times,
+        )
+        .unwrap();
+    }
+    let atoms = sys.atoms().select(&sys.atoms().slots_by_id());
+    (atoms, sys.list_counts())
+}
+
+#[test]
+fn a_list_rebuilt_every_n_steps_without_the_check_follows_the_checked_run_while_the_skin_holds() {
+    // cold: no atom crosses skin/2 in 10 steps, so every pair within the cutoff
+    // is on both lists and only the order of the sums differs
+    let (checked, counts) = melt_with_rule(5, 0.05, 60, RebuildRule::default());
+    assert_eq!(counts.late_builds, 0);
+    let every_10 = RebuildRule {
+        every: 10,
+        check: false,
+    };
+    let (sparse, counts) = melt_with_rule(5, 0.05, 60, every_10);
+    assert_eq!(counts.rebuilds, 6, "rebuilt on steps 10, 20, ..., 60");
+    assert_eq!(counts.since_build, 0);
+    assert_eq!(
+        counts.late_builds, 0,
+        "no atom moved skin/2 in 10 cold steps"
+    );
+    // the runs wrap positions into the box at different steps: compare them
+    // under the minimum image
+    let side = 5.0 * (4.0f64 / 0.8442).cbrt();
+    for (a, b) in checked.positions.iter().zip(&sparse.positions) {
+        for k in 0..3 {
+            let d = a[k] - b[k];
+            let d = d - side * (d / side).round();
+            assert!(d.abs() < 1e-9, "{a:?} against {b:?}");
+        }
+    }
+}
+
+#[test]
+fn a_hot_melt_looked_at_too_rarely_reports_late_builds() {
+    let rule = RebuildRule {
+        every: 25,
+        check: true,
+    };
+    let (_, counts) = melt_with_rule(4, 3.0, 60, rule);
+    assert_eq!(
+        counts.rebuilds, 2,
+        "looked at on steps 25 and 50, rebuilt both times"
+    );
+    assert_eq!(counts.since_build, 10);
+    assert_eq!(counts.late_builds, 2);
 }

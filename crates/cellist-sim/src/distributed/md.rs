@@ -26,11 +26,12 @@ use cellist::decomposition::Decomposition;
 use cellist::geometry::Domain;
 use cellist::interactions::{LennardJones, PairPotential};
 use cellist::models::md::{
-    blowup_of, check_positions, checked_atoms, dump_particles, lap, load_atoms, ordered_forces,
-    save_atoms, AtomForce, Atoms, Integrator, MdError, PairTally, StageTimes, Thermo, REMEDY,
+    blowup_of, check_positions, checked_atoms, dump_particles, lap, late_note, load_atoms,
+    ordered_forces, save_atoms, AtomForce, Atoms, Integrator, ListCounts, MdError, PairTally,
+    StageTimes, Thermo, REMEDY,
 };
 use cellist::models::{check, Blowup, Checked, Model, Particles};
-use cellist::neighbors::{CellGrid, OrderedRows};
+use cellist::neighbors::{CellGrid, OrderedRows, Rebuild, RebuildRule};
 use cellist::state::{State, StateError};
 use cellist::Threads;
 use mpi::collective::SystemOperation;
@@ -56,6 +57,7 @@ pub struct DistributedMd<const D: usize> {
     decomposition: Decomposition<D>,
     potential: LennardJones,
     skin: f64,
+    rule: RebuildRule,
     integrator: Integrator,
     dt: f64,
     z_bounds: (f64, f64),
@@ -69,7 +71,7 @@ pub struct DistributedMd<const D: usize> {
     gathered: Option<Gathered<D>>,
     /// Set by a restore: the next step rebuilds whatever the skin test says.
     stale: bool,
-    rebuilds: u64,
+    counts: ListCounts,
     times: StageTimes,
     communication: Duration,
     imbalance_sum: f64,
@@ -91,6 +93,7 @@ impl<const D: usize> DistributedMd<D> {
         atoms: Atoms<D>,
         potential: LennardJones,
         skin: f64,
+        rule: RebuildRule,
         integrator: Integrator,
         dt: f64,
         z_bounds: (f64, f64),
@@ -116,6 +119,7 @@ impl<const D: usize> DistributedMd<D> {
             decomposition,
             potential,
             skin,
+            rule,
             integrator,
             dt,
             z_bounds,
@@ -127,7 +131,7 @@ impl<const D: usize> DistributedMd<D> {
             computed: Vec::new(),
             gathered: None,
             stale: false,
-            rebuilds: 0,
+            counts: ListCounts::default(),
             times: StageTimes::default(),
             communication: Duration::ZERO,
             imbalance_sum: 0.0,
@@ -352,9 +356,9 @@ impl<const D: usize> DistributedMd<D> {
     }
 
     /// `max` over the ranks of each flag.
-    fn any(&mut self, flags: [u8; 2]) -> [bool; 2] {
+    fn any<const K: usize>(&mut self, flags: [u8; K]) -> [bool; K] {
         let t = Instant::now();
-        let mut all = [0u8; 2];
+        let mut all = [0u8; K];
         self.world
             .all_reduce_into(&flags[..], &mut all[..], SystemOperation::max());
         self.communication += t.elapsed();
@@ -420,13 +424,24 @@ impl<const D: usize> Model for DistributedMd<D> {
             .err()
             .map(|e| blowup_of(&e, step));
         self.agree_blowup(step, local)?;
-        let moved = self.stale || self.rows.needs_rebuild(&self.atoms.positions);
-        let [rebuild, observe] = self.any([u8::from(moved), u8::from(observe)]);
+        self.counts.since_build += 1;
+        let (rows, positions) = (&self.rows, &self.atoms.positions);
+        let (wanted, late) = match self
+            .rule
+            .decide(self.counts.since_build, || rows.needs_rebuild(positions))
+        {
+            Rebuild::No => (self.stale, false),
+            Rebuild::Yes { late } => (true, late),
+        };
+        let [rebuild, observe, late] =
+            self.any([u8::from(wanted), u8::from(observe), u8::from(late)]);
+        self.counts.late_builds += u64::from(late);
         let t = lap(t, &mut self.times.neighbor);
         if rebuild {
             self.redistribute(threads)
                 .map_err(|b| Blowup { step, ..b })?;
-            self.rebuilds += 1;
+            self.counts.rebuilds += 1;
+            self.counts.since_build = 0;
         } else {
             let n = self.atoms.len();
             self.points[..n].copy_from_slice(&self.atoms.positions);
@@ -523,11 +538,12 @@ impl<const D: usize> Model for DistributedMd<D> {
         let ghosts = self.ghosts_sum / rebuilds;
         format!(
             "Loop time of {loop_seconds:.4} s on {ranks} ranks x {threads} thread(s) for {steps} \
-             steps with {n} atoms: {per:.4} us/atom-step, {} neighbour-list rebuilds\n\
+             steps with {n} atoms: {per:.4} us/atom-step, {} neighbour-list rebuilds{}\n\
              Communication {:.4} s on rank 0 ({:.1}% of the loop; inside the sections below); \
              load imbalance {imbalance:.3} (largest over mean atoms per rank, mean over the rebuilds); \
              rank 0 holds {ghosts:.0} ghosts for {} own atoms ({:.0} bytes of positions received per step)",
-            self.rebuilds,
+            self.counts.rebuilds,
+            late_note(self.counts.late_builds),
             self.communication.as_secs_f64(),
             100.0 * self.communication.as_secs_f64() / loop_seconds.max(1e-300),
             self.atoms.len(),
@@ -540,7 +556,7 @@ impl<const D: usize> Model for DistributedMd<D> {
     /// ranks); nothing on the other ranks.
     fn save(&self, state: &mut State) {
         if let Some(g) = &self.gathered {
-            save_atoms(state, &g.atoms, &g.reference, self.rebuilds);
+            save_atoms(state, &g.atoms, &g.reference, self.counts);
         }
     }
 
@@ -549,7 +565,7 @@ impl<const D: usize> Model for DistributedMd<D> {
     /// collective: a rank that fails returns its error alone.
     fn restore(&mut self, state: &State, _threads: &Threads) -> Result<(), StateError> {
         let n = self.total;
-        let (all, reference, rebuilds) = load_atoms::<D>(state, n)?;
+        let (all, reference, counts) = load_atoms::<D>(state, n)?;
         if all.positions.iter().flatten().any(|c| !c.is_finite()) {
             return Err(StateError("a saved position is not finite".into()));
         }
@@ -558,7 +574,7 @@ impl<const D: usize> Model for DistributedMd<D> {
             .filter(|&k| self.decomposition.owner(&all.positions[k]) == rank)
             .collect();
         self.atoms = all.select(&mine);
-        self.rebuilds = rebuilds;
+        self.counts = counts;
         self.stale = true;
         self.gathered = (rank == 0).then(|| {
             let by_id = all.slots_by_id();

@@ -14,6 +14,7 @@ use cellist::models::md::{
     create_velocities, lattice, Atoms, Integrator, Langevin, LatticeKind, MdModel, MdSystem,
     VelocityDistribution,
 };
+use cellist::neighbors::RebuildRule;
 use cellist_io::{read_data, DUMP_COLUMNS};
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
@@ -97,11 +98,20 @@ impl Default for PairKeys {
 #[serde(deny_unknown_fields, default)]
 struct NeighborKeys {
     skin: f64,
+    /// LAMMPS's `neigh_modify every N`: steps between two looks at the list.
+    every: u64,
+    /// LAMMPS's `neigh_modify check yes|no`: rebuild only past the skin test.
+    check: bool,
 }
 
 impl Default for NeighborKeys {
     fn default() -> Self {
-        NeighborKeys { skin: 0.3 }
+        let rule = RebuildRule::default();
+        NeighborKeys {
+            skin: 0.3,
+            every: rule.every,
+            check: rule.check,
+        }
     }
 }
 
@@ -182,6 +192,7 @@ struct Setup<const D: usize> {
     atoms: Atoms<D>,
     potential: LennardJones,
     skin: f64,
+    rebuild: RebuildRule,
     integrator: Integrator,
     integrator_name: String,
     dt: f64,
@@ -230,6 +241,7 @@ fn run_in<const D: usize, L: Launch>(
             atoms,
             setup.potential,
             setup.skin,
+            setup.rebuild,
             setup.integrator,
             setup.dt,
             setup.z_bounds,
@@ -246,8 +258,9 @@ fn run_in<const D: usize, L: Launch>(
         let job = job_spec(&setup, scenario, context)?.with(model);
         return launch.launch(job, &output_plan(&setup), context, started);
     }
-    let system = MdSystem::new(setup.domain, atoms, setup.potential, setup.skin, threads)
+    let mut system = MdSystem::new(setup.domain, atoms, setup.potential, setup.skin, threads)
         .map_err(|e| scenario.error(e))?;
+    system.set_rebuild_rule(setup.rebuild);
     print_header(&setup, system.atoms().len(), context);
     for note in &setup.notes {
         context.warn(note);
@@ -397,6 +410,15 @@ fn build<const D: usize>(scenario: &Scenario, keys: &MdScenario) -> SimResult<Se
     if !(skin.is_finite() && skin >= 0.0) {
         return Err(err(format!("neighbor.skin must be >= 0, got {skin}")));
     }
+    if keys.neighbor.every == 0 {
+        return Err(err(
+            "neighbor.every must be >= 1 (the list is looked at every N steps)".into(),
+        ));
+    }
+    let rebuild = RebuildRule {
+        every: keys.neighbor.every,
+        check: keys.neighbor.check,
+    };
     for a in 0..D {
         let l = domain.length[a];
         if domain.is_periodic(a) && l < 2.0 * pair.cutoff {
@@ -463,6 +485,7 @@ fn build<const D: usize>(scenario: &Scenario, keys: &MdScenario) -> SimResult<Se
         atoms,
         potential,
         skin,
+        rebuild,
         integrator,
         integrator_name: run.integrator.clone(),
         dt: run.dt,
@@ -569,7 +592,7 @@ fn print_header<const D: usize>(setup: &Setup<D>, atoms: usize, context: &RunCon
         })
         .collect();
     context.say(format!(
-        "md: {} atoms in {D}D, box {} ({}), lj/cut eps {} sigma {} cutoff {}{}, skin {}",
+        "md: {} atoms in {D}D, box {} ({}), lj/cut eps {} sigma {} cutoff {}{}, skin {}{}",
         atoms,
         sides.join(" x "),
         flags.join(" "),
@@ -581,7 +604,16 @@ fn print_header<const D: usize>(setup: &Setup<D>, atoms: usize, context: &RunCon
         } else {
             ""
         },
-        setup.skin
+        setup.skin,
+        if setup.rebuild == RebuildRule::default() {
+            String::new()
+        } else {
+            format!(
+                ", list looked at every {} steps, check {}",
+                setup.rebuild.every,
+                if setup.rebuild.check { "yes" } else { "no" }
+            )
+        }
     ));
     context.say(format!(
         "run: {} steps of dt {} with {}, {} thread(s); results in {}",

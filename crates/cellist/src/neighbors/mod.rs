@@ -7,6 +7,7 @@ mod grid;
 mod ordered;
 mod pairs;
 mod parallel;
+mod rebuild;
 mod sorted;
 mod traverse;
 mod verlet;
@@ -22,6 +23,7 @@ pub use parallel::{
     gather_cells, gather_verlet, scatter_coloured, scatter_half_rows, scatter_verlet_serial,
     LayerForces, LayerPlan, PairKernel, Summand,
 };
+pub use rebuild::{Rebuild, RebuildRule};
 pub use sorted::{half_list_as_found, sorted_half_list, PairArrays, PairQuantities, SkinList};
 pub use traverse::{
     for_each_anchored_pair, for_each_in_row, for_each_row_in_cell, scan, CutoffTest, ScanScratch,

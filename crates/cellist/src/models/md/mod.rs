@@ -21,7 +21,7 @@ pub use atoms::Atoms;
 pub use integrate::{Integrator, Langevin};
 pub use lattice::{lattice, LatticeKind};
 pub use model::{
-    blowup_of, checked_atoms, dump_particles, load_atoms, save_atoms, MdModel, REMEDY,
+    blowup_of, checked_atoms, dump_particles, late_note, load_atoms, save_atoms, MdModel, REMEDY,
 };
 pub use subdomain::{ordered_forces, AtomForce};
 
@@ -29,7 +29,9 @@ pub use velocity::{create_velocities, VelocityDistribution};
 
 use crate::geometry::{norm2, Domain, GeometryError};
 use crate::interactions::{LennardJones, PairPotential};
-use crate::neighbors::{scatter_half_rows, CellList, LayerPlan, StencilKind, VerletList};
+use crate::neighbors::{
+    scatter_half_rows, CellList, LayerPlan, Rebuild, RebuildRule, StencilKind, VerletList,
+};
 use crate::threads::Threads;
 use std::fmt;
 use std::time::{Duration, Instant};
@@ -176,6 +178,18 @@ fn twice_kinetic<const D: usize>(atoms: &Atoms<D>) -> f64 {
         .sum()
 }
 
+/// The Verlet list's counters that a checkpoint keeps, so that a restart
+/// rebuilds on the same steps as the run it continues.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ListCounts {
+    /// Rebuilds since set-up.
+    pub rebuilds: u64,
+    /// Steps since the last build.
+    pub since_build: u64,
+    /// Late rebuilds since set-up ([`MdSystem::late_builds`]).
+    pub late_builds: u64,
+}
+
 /// A molecular-dynamics system: box, atoms, pair potential and its neighbour list.
 pub struct MdSystem<const D: usize> {
     domain: Domain<D>,
@@ -189,7 +203,10 @@ pub struct MdSystem<const D: usize> {
     halo: Vec<[f64; D]>,
     totals: Option<PairTally>,
     scratch: Atoms<D>,
+    rule: RebuildRule,
+    since_build: u64,
     rebuilds: u64,
+    late_builds: u64,
 }
 
 impl<const D: usize> MdSystem<D> {
@@ -224,7 +241,10 @@ impl<const D: usize> MdSystem<D> {
             skin,
             totals: None,
             scratch: Atoms::default(),
+            rule: RebuildRule::default(),
+            since_build: 0,
             rebuilds: 0,
+            late_builds: 0,
         };
         system.adopt_cell_order();
         system.tallies = vec![PairTally::default(); system.layers.num_layers()];
@@ -258,6 +278,36 @@ impl<const D: usize> MdSystem<D> {
         self.rebuilds
     }
 
+    /// When the Verlet list is rebuilt (every step on the skin test unless set).
+    pub fn rebuild_rule(&self) -> RebuildRule {
+        self.rule
+    }
+
+    /// Sets when the Verlet list is rebuilt, from the next step on.
+    pub fn set_rebuild_rule(&mut self, rule: RebuildRule) {
+        assert!(
+            rule.every >= 1,
+            "the list must be looked at every N >= 1 steps"
+        );
+        self.rule = rule;
+    }
+
+    /// The list's counters, for a checkpoint.
+    pub fn list_counts(&self) -> ListCounts {
+        ListCounts {
+            rebuilds: self.rebuilds,
+            since_build: self.since_build,
+            late_builds: self.late_builds,
+        }
+    }
+
+    /// Rebuilds since set-up at which some atom had moved more than skin/2
+    /// while the list was not looked at on every step: pairs may have been
+    /// missed before them (LAMMPS's dangerous builds; always 0 with every 1).
+    pub fn late_builds(&self) -> u64 {
+        self.late_builds
+    }
+
     /// Entries in the current half Verlet list.
     pub fn list_entries(&self) -> usize {
         self.list.num_entries()
@@ -278,7 +328,13 @@ impl<const D: usize> MdSystem<D> {
         integrator.first_half(&mut self.atoms, dt);
         let t = lap(t, &mut times.integrate);
         check_positions(&self.domain, &self.atoms, step)?;
-        if self.list.needs_rebuild(&self.atoms.positions) {
+        self.since_build += 1;
+        let (list, positions) = (&self.list, &self.atoms.positions);
+        if let Rebuild::Yes { late } = self
+            .rule
+            .decide(self.since_build, || list.needs_rebuild(positions))
+        {
+            self.late_builds += u64::from(late);
             self.rebuild(threads);
         }
         let t = lap(t, &mut times.neighbor);
@@ -296,6 +352,7 @@ impl<const D: usize> MdSystem<D> {
         self.list.rebuild(&self.cells, threads);
         self.layers = LayerPlan::new(&self.cells);
         self.rebuilds += 1;
+        self.since_build = 0;
     }
 
     /// The positions the Verlet list was built at (slot order, wrapped).
@@ -311,12 +368,12 @@ impl<const D: usize> MdSystem<D> {
     /// the slot order [`MdSystem::atoms`] had (the counting sort then leaves them
     /// in place), and the same pairs in another order when they come from a
     /// distributed run (sorted by id). Forces are kept as given (those of the
-    /// saved step).
+    /// saved step); `counts` are the saved run's list counters.
     pub fn restore(
         &mut self,
         mut atoms: Atoms<D>,
         reference: &[[f64; D]],
-        rebuilds: u64,
+        counts: ListCounts,
         threads: &Threads,
     ) -> Result<(), String> {
         let n = atoms.len();
@@ -349,7 +406,9 @@ impl<const D: usize> MdSystem<D> {
         self.list.rebuild(&self.cells, threads);
         self.layers = LayerPlan::new(&self.cells);
         self.tallies = vec![PairTally::default(); self.layers.num_layers()];
-        self.rebuilds = rebuilds;
+        self.rebuilds = counts.rebuilds;
+        self.since_build = counts.since_build;
+        self.late_builds = counts.late_builds;
         // the energy and virial of the restored state, for its thermo; the
         // saved forces are kept (they continue the run bit for bit)
         let saved = std::mem::take(&mut self.atoms.forces);

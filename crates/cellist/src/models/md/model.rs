@@ -1,6 +1,6 @@
 //! Molecular dynamics behind the driver's [`Model`] interface.
 
-use super::{Atoms, Integrator, MdError, MdSystem, StageTimes};
+use super::{Atoms, Integrator, ListCounts, MdError, MdSystem, StageTimes};
 use crate::geometry::Domain;
 use crate::models::{Blowup, Checked, Model, Particles};
 use crate::state::{State, StateError};
@@ -155,8 +155,9 @@ impl<const D: usize> Model for MdModel<D> {
         let per = loop_seconds * 1e6 / (n as f64 * steps.max(1) as f64);
         format!(
             "Loop time of {loop_seconds:.4} s on {threads} thread(s) for {steps} steps with {n} atoms: \
-             {per:.4} us/atom-step, {} neighbour-list rebuilds",
-            self.system.rebuilds()
+             {per:.4} us/atom-step, {} neighbour-list rebuilds{}",
+            self.system.rebuilds(),
+            late_note(self.system.late_builds())
         )
     }
 
@@ -166,7 +167,7 @@ impl<const D: usize> Model for MdModel<D> {
             state,
             system.atoms(),
             system.list_reference(),
-            system.rebuilds(),
+            system.list_counts(),
         );
     }
 
@@ -194,6 +195,7 @@ impl<const D: usize> Model for MdModel<D> {
         for (x, row) in target.iter_mut().zip(values.chunks_exact(D)) {
             x.copy_from_slice(row);
         }
+        let rule = system.rebuild_rule();
         self.system = MdSystem::new(
             *system.domain(),
             atoms,
@@ -202,13 +204,14 @@ impl<const D: usize> Model for MdModel<D> {
             threads,
         )
         .map_err(|e| format!("{name}: {e}"))?;
+        self.system.set_rebuild_rule(rule);
         Ok(())
     }
 
     fn restore(&mut self, state: &State, threads: &Threads) -> Result<(), StateError> {
-        let (atoms, reference, rebuilds) = load_atoms(state, self.len())?;
+        let (atoms, reference, counts) = load_atoms(state, self.len())?;
         self.system
-            .restore(atoms, &reference, rebuilds, threads)
+            .restore(atoms, &reference, counts, threads)
             .map_err(StateError)
     }
 }
@@ -267,14 +270,26 @@ pub fn dump_particles<const D: usize>(
     }
 }
 
+/// What a run summary says of `late` rebuilds ([`MdSystem::late_builds`]):
+/// nothing when there were none.
+pub fn late_note(late: u64) -> String {
+    if late == 0 {
+        return String::new();
+    }
+    format!(
+        " ({late} late: an atom had moved more than skin/2 before the list was looked at, \
+         so pairs may have been missed; lower neighbor.every)"
+    )
+}
+
 /// Writes the atoms, each one's position at the last neighbour-list rebuild
-/// (`reference`, the skin/2 test's) and the rebuild count: an md checkpoint's
-/// state, the same whether one process or several ranks wrote it.
+/// (`reference`, the skin/2 test's) and the list's counters: an md
+/// checkpoint's state, the same whether one process or several ranks wrote it.
 pub fn save_atoms<const D: usize>(
     state: &mut State,
     atoms: &Atoms<D>,
     reference: &[[f64; D]],
-    rebuilds: u64,
+    counts: ListCounts,
 ) {
     state.put_u64s("ids", atoms.ids.iter().copied());
     state.put_u64s("types", atoms.types.iter().map(|&t| t as u64));
@@ -283,14 +298,17 @@ pub fn save_atoms<const D: usize>(
     state.put_vectors("velocities", &atoms.velocities);
     state.put_vectors("forces", &atoms.forces);
     state.put_vectors("list_reference", reference);
-    state.put_u64s("rebuilds", [rebuilds]);
+    state.put_u64s("rebuilds", [counts.rebuilds]);
+    state.put_u64s("list_counts", [counts.since_build, counts.late_builds]);
 }
 
-/// Reads what [`save_atoms`] wrote for `n` atoms.
+/// Reads what [`save_atoms`] wrote for `n` atoms (a checkpoint written before
+/// the list counted its steps since a build restarts with 0 of them: it was
+/// written by a run that looked at its list on every step).
 pub fn load_atoms<const D: usize>(
     state: &State,
     n: usize,
-) -> Result<(Atoms<D>, Vec<[f64; D]>, u64), StateError> {
+) -> Result<(Atoms<D>, Vec<[f64; D]>, ListCounts), StateError> {
     let types = state
         .u64s_of("types", n)?
         .iter()
@@ -306,9 +324,16 @@ pub fn load_atoms<const D: usize>(
         velocities: state.vectors("velocities", n)?,
         forces: state.vectors("forces", n)?,
     };
-    Ok((
-        atoms,
-        state.vectors("list_reference", n)?,
-        state.u64("rebuilds")?,
-    ))
+    let [since_build, late_builds] = if state.has("list_counts") {
+        let counts = state.u64s_of("list_counts", 2)?;
+        [counts[0], counts[1]]
+    } else {
+        [0, 0]
+    };
+    let counts = ListCounts {
+        rebuilds: state.u64("rebuilds")?,
+        since_build,
+        late_builds,
+    };
+    Ok((atoms, state.vectors("list_reference", n)?, counts))
 }
