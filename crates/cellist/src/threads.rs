@@ -53,16 +53,6 @@ impl Threads {
     }
 }
 
-/// Concatenates the parts in order (copying them in parallel).
-pub fn concat_in_order<T: Copy + Send + Sync>(parts: Vec<Vec<T>>) -> Vec<T> {
-    if parts.len() == 1 {
-        return parts.into_iter().next().unwrap_or_default();
-    }
-    let mut out = Vec::new();
-    concat_into(&mut out, &parts);
-    out
-}
-
 /// Replaces the contents of `out` by the parts in order (copied in parallel),
 /// reusing its memory when it has room.
 pub fn concat_into<T: Copy + Send + Sync, P: AsRef<[T]> + Sync>(out: &mut Vec<T>, parts: &[P]) {
@@ -88,6 +78,94 @@ pub fn concat_into<T: Copy + Send + Sync, P: AsRef<[T]> + Sync>(out: &mut Vec<T>
         });
     // SAFETY: the slots cover out[0..total] exactly and every one was written above.
     unsafe { out.set_len(total) };
+}
+
+/// Where one task of [`collect_in_order`] appends: its stretch of the result,
+/// then, past the stretch's estimated length, a spill vector of its own.
+pub struct Stretch<'a, T> {
+    room: &'a mut [MaybeUninit<T>],
+    len: usize,
+    spill: Vec<T>,
+}
+
+impl<T> Stretch<'_, T> {
+    /// Appends `value` after the task's earlier values.
+    #[inline(always)]
+    pub fn push(&mut self, value: T) {
+        match self.room.get_mut(self.len) {
+            Some(slot) => {
+                slot.write(value);
+                self.len += 1;
+            }
+            None => self.spill.push(value),
+        }
+    }
+}
+
+/// One vector filled by `estimates.len()` tasks in parallel, task `k` appending
+/// through `fill(k, stretch)`: the values of task 0, then task 1's, and so on,
+/// whatever the thread count. Task `k` writes straight into its own stretch of
+/// the result, `estimates[k]` long, starting after the estimates of the tasks
+/// before it: each value is written once, by the thread that computed it, which
+/// also takes the page faults of its stretch. The stretches are then closed up
+/// (each moved down behind the one before). A task that outgrows its estimate
+/// spills the rest into a vector of its own, and the result is then assembled
+/// by one more copy.
+pub fn collect_in_order<T: Copy + Send + Sync>(
+    estimates: &[usize],
+    threads: &Threads,
+    fill: impl Fn(usize, &mut Stretch<T>) + Sync,
+) -> Vec<T> {
+    let total: usize = estimates.iter().sum();
+    let mut out = crate::memory::large_vec::<T>(total);
+    let mut rooms = Vec::with_capacity(estimates.len());
+    let mut rest = &mut out.spare_capacity_mut()[..total];
+    for &estimate in estimates {
+        let (head, tail) = rest.split_at_mut(estimate);
+        rooms.push(head);
+        rest = tail;
+    }
+    let run = |(k, room): (usize, &mut [MaybeUninit<T>])| {
+        let mut stretch = Stretch {
+            room,
+            len: 0,
+            spill: Vec::new(),
+        };
+        fill(k, &mut stretch);
+        (stretch.len, stretch.spill)
+    };
+    let done: Vec<(usize, Vec<T>)> = if rooms.len() == 1 {
+        rooms.into_iter().enumerate().map(run).collect()
+    } else {
+        threads.install(|| rooms.into_par_iter().enumerate().map(run).collect())
+    };
+    let starts = estimates.iter().scan(0, |at, &e| {
+        let start = *at;
+        *at += e;
+        Some(start)
+    });
+    let base = out.as_mut_ptr();
+    if done.iter().all(|(_, spill)| spill.is_empty()) {
+        let mut end = 0;
+        for (start, &(len, _)) in starts.zip(&done) {
+            // SAFETY: `base[start..start + len]` was written by its task, and
+            // `end <= start` (every earlier task wrote at most its estimate), so
+            // both ranges lie in the allocation; `copy` allows them to overlap.
+            unsafe { std::ptr::copy(base.add(start), base.add(end), len) };
+            end += len;
+        }
+        // SAFETY: `out[..end]` holds the stretches, closed up above.
+        unsafe { out.set_len(end) };
+        return out;
+    }
+    let length = done.iter().map(|(len, spill)| len + spill.len()).sum();
+    let mut whole = crate::memory::large_vec(length);
+    for (start, (len, spill)) in starts.zip(&done) {
+        // SAFETY: `base[start..start + len]` was written by its task.
+        whole.extend_from_slice(unsafe { std::slice::from_raw_parts(base.add(start), *len) });
+        whole.extend_from_slice(spill);
+    }
+    whole
 }
 
 /// A mutable slice shared by threads that promise to touch disjoint elements.
@@ -206,11 +284,38 @@ mod tests {
         }
     }
 
+    proptest::proptest! {
+        /// Whatever the estimates (short, exact, long or zero) and the thread
+        /// count, the tasks' values come out in task order.
+        #[test]
+        fn collected_values_are_the_tasks_values_in_order(
+            lengths in proptest::collection::vec(0usize..300, 1..7),
+            slack in proptest::collection::vec(-50i64..50, 7),
+            threads in 1usize..4,
+        ) {
+            let estimates: Vec<usize> = lengths
+                .iter()
+                .zip(&slack)
+                .map(|(&l, &s)| (l as i64 + s).max(0) as usize)
+                .collect();
+            let value = |k: usize, v: usize| (k * 1000 + v) as u32;
+            let pool = Threads::new(threads).unwrap();
+            let got = collect_in_order(&estimates, &pool, |k, out| {
+                for v in 0..lengths[k] {
+                    out.push(value(k, v));
+                }
+            });
+            let want: Vec<u32> = lengths
+                .iter()
+                .enumerate()
+                .flat_map(|(k, &l)| (0..l).map(move |v| value(k, v)))
+                .collect();
+            proptest::prop_assert_eq!(got, want);
+        }
+    }
+
     #[test]
     fn concat_keeps_order() {
-        let parts = vec![vec![1, 2], vec![], vec![3], vec![4, 5, 6]];
-        assert_eq!(concat_in_order(parts), vec![1, 2, 3, 4, 5, 6]);
-        assert_eq!(concat_in_order::<u8>(vec![]), Vec::<u8>::new());
         let mut out = vec![9; 100];
         concat_into(&mut out, &[vec![7], vec![8, 9]]);
         assert_eq!(out, vec![7, 8, 9]);

@@ -4,9 +4,7 @@
 use super::cell_list::CellList;
 use super::grid::StencilKind;
 use super::traverse::{for_each_row_in_cell, CutoffTest};
-use crate::memory::large_vec;
-use crate::threads::{concat_in_order, Threads};
-use rayon::prelude::*;
+use crate::threads::{collect_in_order, Threads};
 
 /// Every pair `(i, j)`, `i < j` in input numbering, with `|x_j - x_i| < cutoff`
 /// (minimum image on periodic axes), as `make(i, j, r^2)`, in an order fixed by
@@ -27,34 +25,64 @@ pub fn half_pairs<const D: usize, T: Copy + Send + Sync>(
     );
     let test = CutoffTest::new(cutoff);
     let order = cells.order();
-    let rows = |range: std::ops::Range<usize>, out: &mut Vec<T>| {
-        for home in range {
+    let runs = balanced_cell_runs(cells, tasks_for(threads));
+    let guess = expected_pairs(cells, cutoff);
+    let estimates: Vec<usize> = runs
+        .iter()
+        .map(|homes| share_of(guess, cells, homes))
+        .collect();
+    collect_in_order(&estimates, threads, |k, out| {
+        for home in runs[k].clone() {
             for_each_row_in_cell(cells, home, StencilKind::Half, &test, |i, j, _, _, r2| {
                 let (a, b) = (order[i], order[j]);
                 out.push(make(a.min(b), a.max(b), r2));
             });
         }
-    };
-    let num_cells = cells.grid().num_cells();
-    let guess = expected_pairs(cells, cutoff);
-    if threads.count() == 1 {
-        // one thread: append in cell order straight into the result, no copy
-        let mut out = large_vec(guess);
-        rows(0..num_cells, &mut out);
-        return out;
-    }
-    threads.install(|| {
-        let parts: Vec<Vec<T>> = Threads::chunks(num_cells)
-            .map(|range| {
-                let slots =
-                    cells.cell_range(range.start).start..cells.cell_range(range.end - 1).end;
-                let mut out = Vec::with_capacity(guess * slots.len() / cells.len().max(1));
-                rows(range, &mut out);
-                out
-            })
-            .collect();
-        concat_in_order(parts)
     })
+}
+
+/// Tasks of a pair search split into runs of cells: one on one thread, else a
+/// few per thread, so that a thread slowed down by others on its core does
+/// not hold up the rest.
+pub(crate) fn tasks_for(threads: &Threads) -> usize {
+    const TASKS_PER_THREAD: usize = 2;
+    match threads.count() {
+        1 => 1,
+        n => TASKS_PER_THREAD * n,
+    }
+}
+
+/// `parts` runs of consecutive cells (in cell order, covering every cell)
+/// holding about equal numbers of particles.
+pub(crate) fn balanced_cell_runs<const D: usize>(
+    cells: &CellList<D>,
+    parts: usize,
+) -> Vec<std::ops::Range<usize>> {
+    let starts = cells.cell_start();
+    let num_cells = starts.len() - 1;
+    let n = cells.len();
+    let parts = parts.clamp(1, num_cells.max(1));
+    let bounds: Vec<usize> = (0..=parts)
+        .map(|k| match k {
+            0 => 0,
+            k if k == parts => num_cells,
+            k => starts[..num_cells].partition_point(|&s| (s as usize) < n * k / parts),
+        })
+        .collect();
+    bounds.windows(2).map(|w| w[0]..w[1].max(w[0])).collect()
+}
+
+/// The part of `pairs` expected from the particles of cells `homes`.
+pub(crate) fn share_of<const D: usize>(
+    pairs: usize,
+    cells: &CellList<D>,
+    homes: &std::ops::Range<usize>,
+) -> usize {
+    if homes.is_empty() {
+        return 0;
+    }
+    let slots = cells.cell_range(homes.start).start..cells.cell_range(homes.end - 1).end;
+    (pairs as u128 * slots.len() as u128 / cells.len().max(1) as u128) as usize
 }
 
 /// A capacity hint: the half-list size of uniformly spread particles,
