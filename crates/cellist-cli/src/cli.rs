@@ -272,7 +272,8 @@ pub enum BenchCommand {
     /// vesin's NeighborList.compute(quantities="ij") does.
     Neighbors(BenchNeighborsArgs),
     /// The LAMMPS Lennard-Jones melt (bench/in.lj): fcc 0.8442, T 3.0, cutoff 2.5,
-    /// skin 0.3, dt 0.005, NVE, list rebuilt when an atom moved more than skin/2.
+    /// skin 0.3, dt 0.005, NVE, list rebuilt when an atom moved more than skin/2
+    /// (or every N steps: --every 20 --no-check is LAMMPS's and GROMACS's setting).
     Lj(BenchLjArgs),
     /// Run a collision-benchmark input (.in) start to end, without output.
     Billiards(BenchBilliardsArgs),
