@@ -127,10 +127,15 @@ pub fn lj(args: &BenchLjArgs) -> CliResult {
     }
     let pool = threads(Some(args.threads))?;
     let n = args.atoms_per_side;
-    let (domain, points) = lattice(LatticeKind::Fcc, 0.8442, [n; 3])
-        .map_err(|e| CliError::Internal(format!("melt lattice: {e}")))?;
-    let mut atoms = Atoms::at_rest(points, 1.0);
-    create_velocities(&mut atoms, 3.0, 87287, VelocityDistribution::Uniform);
+    // the start is made anew for every repetition rather than kept as a copy,
+    // so that the peak memory is the run's own
+    let melt_start = || {
+        let (domain, points) = lattice(LatticeKind::Fcc, 0.8442, [n; 3])
+            .map_err(|e| CliError::Internal(format!("melt lattice: {e}")))?;
+        let mut atoms = Atoms::at_rest(points, 1.0);
+        create_velocities(&mut atoms, 3.0, 87287, VelocityDistribution::Uniform);
+        Ok::<_, CliError>((domain, atoms))
+    };
     let lj = LennardJones::new(1.0, 1.0, 2.5, false)
         .map_err(|e| CliError::Internal(format!("melt potential: {e}")))?;
     let rule = RebuildRule {
@@ -139,8 +144,11 @@ pub fn lj(args: &BenchLjArgs) -> CliResult {
     };
     let mut samples = Vec::with_capacity(args.repeat);
     let mut last = None;
+    let mut atoms_n = 0;
     for _ in 0..args.repeat {
-        let mut system = MdSystem::new(domain, atoms.clone(), lj, 0.3, &pool)
+        let (domain, atoms) = melt_start()?;
+        atoms_n = atoms.len();
+        let mut system = MdSystem::new(domain, atoms, lj, 0.3, &pool)
             .map_err(|e| CliError::Internal(format!("melt set-up: {e}")))?;
         system.set_rebuild_rule(rule);
         let mut times = StageTimes::default();
@@ -164,7 +172,6 @@ pub fn lj(args: &BenchLjArgs) -> CliResult {
     let rebuilds = counts.rebuilds;
     let peak_rss = peak_resident_bytes();
     let seconds = median(&samples);
-    let atoms_n = atoms.len();
     let us = seconds * 1e6 / (atoms_n as f64 * args.steps.max(1) as f64);
     if args.json {
         let obj = serde_json::json!({

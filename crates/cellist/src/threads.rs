@@ -116,8 +116,24 @@ pub fn collect_in_order<T: Copy + Send + Sync>(
     threads: &Threads,
     fill: impl Fn(usize, &mut Stretch<T>) + Sync,
 ) -> Vec<T> {
+    let mut out = Vec::new();
+    collect_in_order_into(&mut out, estimates, threads, fill);
+    out
+}
+
+/// [`collect_in_order`] into `out`, whose contents are replaced; its memory is
+/// reused when it has room for the estimates.
+pub fn collect_in_order_into<T: Copy + Send + Sync>(
+    out: &mut Vec<T>,
+    estimates: &[usize],
+    threads: &Threads,
+    fill: impl Fn(usize, &mut Stretch<T>) + Sync,
+) {
     let total: usize = estimates.iter().sum();
-    let mut out = crate::memory::large_vec::<T>(total);
+    out.clear();
+    if out.capacity() < total {
+        *out = crate::memory::large_vec::<T>(total);
+    }
     let mut rooms = Vec::with_capacity(estimates.len());
     let mut rest = &mut out.spare_capacity_mut()[..total];
     for &estimate in estimates {
@@ -156,7 +172,7 @@ pub fn collect_in_order<T: Copy + Send + Sync>(
         }
         // SAFETY: `out[..end]` holds the stretches, closed up above.
         unsafe { out.set_len(end) };
-        return out;
+        return;
     }
     let length = done.iter().map(|(len, spill)| len + spill.len()).sum();
     let mut whole = crate::memory::large_vec(length);
@@ -165,7 +181,7 @@ pub fn collect_in_order<T: Copy + Send + Sync>(
         whole.extend_from_slice(unsafe { std::slice::from_raw_parts(base.add(start), *len) });
         whole.extend_from_slice(spill);
     }
-    whole
+    *out = whole;
 }
 
 /// A mutable slice shared by threads that promise to touch disjoint elements.
@@ -300,17 +316,22 @@ mod tests {
                 .collect();
             let value = |k: usize, v: usize| (k * 1000 + v) as u32;
             let pool = Threads::new(threads).unwrap();
-            let got = collect_in_order(&estimates, &pool, |k, out| {
+            let fill = |k: usize, out: &mut Stretch<u32>| {
                 for v in 0..lengths[k] {
                     out.push(value(k, v));
                 }
-            });
+            };
+            let got = collect_in_order(&estimates, &pool, fill);
+            // into a vector with room and old contents
+            let mut reused = vec![7u32; 2000];
+            collect_in_order_into(&mut reused, &estimates, &pool, fill);
             let want: Vec<u32> = lengths
                 .iter()
                 .enumerate()
                 .flat_map(|(k, &l)| (0..l).map(move |v| value(k, v)))
                 .collect();
-            proptest::prop_assert_eq!(got, want);
+            proptest::prop_assert_eq!(&got, &want);
+            proptest::prop_assert_eq!(reused, want);
         }
     }
 

@@ -249,7 +249,7 @@ fn check_verlet_after_moves<const D: usize>(
         .iter()
         .map(|x| std::array::from_fn(|a| x[a] + (2.0 * rng.uniform() - 1.0) * step))
         .collect();
-    assert!(!full.needs_rebuild(&moved));
+    assert!(!full.needs_rebuild(wide, &moved));
     let slots: Vec<u32> = (0..moved.len() as u32).collect();
     let kernel = TallyKernel { ids: &slots };
     let expected = brute_tally(&brute_force_pairs(domain, cutoff, &moved), moved.len());
@@ -268,7 +268,7 @@ fn check_verlet_after_moves<const D: usize>(
     if let Some(built) = wide.positions().first() {
         let mut far = moved.clone();
         far[0] = std::array::from_fn(|a| built[a] + if a == 0 { 0.51 * skin } else { 0.0 });
-        assert_eq!(full.needs_rebuild(&far), skin > 0.0);
+        assert_eq!(full.needs_rebuild(wide, &far), skin > 0.0);
     }
 }
 

@@ -26,7 +26,6 @@ pub struct CellList<const D: usize> {
     columns: [Vec<f64>; D],
     anchors_by_colour: Vec<Vec<u32>>,
     // scratch, kept so that rebinning does not allocate
-    wrapped: Vec<[f64; D]>,
     cell_ids: Vec<u32>,
     cursor: Vec<u32>,
 }
@@ -52,7 +51,6 @@ impl<const D: usize> CellList<D> {
             order: Vec::new(),
             positions: Vec::new(),
             columns: std::array::from_fn(|_| Vec::new()),
-            wrapped: Vec::new(),
             cell_ids: Vec::new(),
             cursor: Vec::new(),
         };
@@ -65,12 +63,14 @@ impl<const D: usize> CellList<D> {
     pub fn rebin(&mut self, points: &[[f64; D]]) {
         let n = points.len();
         let cells = self.grid.num_cells();
-        self.wrapped.clear();
-        self.wrapped
-            .extend(points.iter().map(|p| self.domain.wrap(*p)));
+        // positions are wrapped twice (here and when they are put in slot order)
+        // rather than kept wrapped: a copy of the positions less
         self.cell_ids.clear();
-        self.cell_ids
-            .extend(self.wrapped.iter().map(|p| self.grid.cell_of(p) as u32));
+        self.cell_ids.extend(
+            points
+                .iter()
+                .map(|p| self.grid.cell_of(&self.domain.wrap(*p)) as u32),
+        );
 
         // histogram, shifted by one so that the prefix sum is exclusive
         self.cell_start.clear();
@@ -93,8 +93,11 @@ impl<const D: usize> CellList<D> {
             *slot += 1;
         }
         self.positions.clear();
-        self.positions
-            .extend(self.order.iter().map(|&i| self.wrapped[i as usize]));
+        self.positions.extend(
+            self.order
+                .iter()
+                .map(|&i| self.domain.wrap(points[i as usize])),
+        );
         for (a, column) in self.columns.iter_mut().enumerate() {
             column.clear();
             column.extend(self.positions.iter().map(|x| x[a]));
@@ -149,8 +152,24 @@ impl<const D: usize> CellList<D> {
 
     /// The same positions as one array per axis (structure of arrays), for the
     /// vectorised distance loops.
+    ///
+    /// # Panics
+    /// If the columns were released ([`CellList::release_columns`]) and the
+    /// list not rebinned since.
     pub fn columns(&self) -> &[Vec<f64>; D] {
+        assert!(
+            self.columns.iter().all(|c| c.len() == self.order.len()),
+            "the cell list's columns were released: rebin before searching"
+        );
         &self.columns
+    }
+
+    /// Frees the per-axis columns until the next [`CellList::rebin`], which
+    /// makes them anew: for a holder that keeps the list between two searches
+    /// only for its order and positions (the md system between two Verlet
+    /// builds), one copy of the positions less in memory.
+    pub fn release_columns(&mut self) {
+        self.columns = std::array::from_fn(|_| Vec::new());
     }
 
     /// Anchor cells by colour, for coloured passes (see [`CellGrid::colour_of`]).

@@ -3,18 +3,17 @@
 
 use super::cell_list::CellList;
 use super::grid::StencilKind;
-use super::pairs::expected_pairs;
+use super::pairs::{balanced_cell_runs, expected_pairs, share_of, tasks_for};
 use super::traverse::{for_each_row_in_cell, CutoffTest};
 use crate::geometry::norm2;
-use crate::threads::{concat_into, Threads};
-use rayon::prelude::*;
+use crate::threads::{collect_in_order_into, DisjointSlice, Threads};
 
 /// A neighbour list in compressed-sparse-row form over the sorted slots of a
 /// [`CellList`].
 ///
-/// Row `i` is `neighbors[start[i]..start[i + 1]]`; entry `k` of a row is the slot `j`
-/// of a neighbour, seen at the image `x_j + shift(images[k])` (zero shift except across
-/// periodic faces). A half list holds each pair once (for Newton's third law), a full
+/// Row `i` is `entries[start[i]..start[i + 1]]`; an entry packs the slot `j` of a
+/// neighbour (low [`SLOT_BITS`] bits) and the image code `c` it is seen at
+/// (`x_j + shift(c)`, zero shift except across periodic faces), 4 bytes per entry. A half list holds each pair once (for Newton's third law), a full
 /// list holds it in both rows. The list stays valid while no particle has moved more
 /// than `skin / 2` from where it was at the build: two particles then approach by at
 /// most `skin`, so every pair now within `cutoff` was within `cutoff + skin`.
@@ -25,20 +24,28 @@ pub struct VerletList<const D: usize> {
     test: CutoffTest,
     skin: f64,
     start: Vec<usize>,
-    neighbors: Vec<u32>,
-    images: Vec<u8>,
+    entries: Vec<u32>,
     image_shifts: Vec<[f64; D]>,
-    reference: Vec<[f64; D]>,
-    chunks: Vec<ChunkRows>,
 }
 
-/// The rows of one chunk of home cells, as found by one task of a build; kept
-/// between builds for their memory.
-#[derive(Clone, Debug, Default)]
-struct ChunkRows {
-    lengths: Vec<u32>,
-    neighbors: Vec<u32>,
-    images: Vec<u8>,
+/// Bits of a list entry that hold the neighbour's slot; the image code (below
+/// 27) takes the 5 above them. A list holds at most `2^27` particles.
+pub const SLOT_BITS: u32 = 27;
+
+/// The entry of neighbour slot `j` seen at image code `image`.
+#[inline(always)]
+fn pack(j: usize, image: u8) -> u32 {
+    debug_assert!(j < 1 << SLOT_BITS && image < 32);
+    j as u32 | (image as u32) << SLOT_BITS
+}
+
+/// The neighbour slot and image code of a list entry.
+#[inline(always)]
+pub fn unpack(entry: u32) -> (usize, u8) {
+    (
+        (entry & ((1 << SLOT_BITS) - 1)) as usize,
+        (entry >> SLOT_BITS) as u8,
+    )
 }
 
 impl<const D: usize> VerletList<D> {
@@ -59,11 +66,8 @@ impl<const D: usize> VerletList<D> {
             test: CutoffTest::new(cutoff),
             skin,
             start: Vec::new(),
-            neighbors: Vec::new(),
-            images: Vec::new(),
+            entries: Vec::new(),
             image_shifts: Vec::new(),
-            reference: Vec::new(),
-            chunks: Vec::new(),
         };
         list.rebuild(cells, threads);
         list
@@ -79,62 +83,42 @@ impl<const D: usize> VerletList<D> {
             "cutoff + skin {reach} above the cell list's {}",
             cells.cutoff()
         );
+        assert!(
+            cells.len() <= 1 << SLOT_BITS,
+            "a Verlet list holds at most 2^{SLOT_BITS} particles, got {}",
+            cells.len()
+        );
         let test = CutoffTest::new(reach);
         let kind = self.kind;
         let grid = cells.grid();
-        let per_slot = match kind {
-            StencilKind::Half => 1.0,
-            StencilKind::Full => 2.0,
-        } * expected_pairs(cells, reach) as f64
-            / cells.len().max(1) as f64;
-        let ranges = Threads::chunks(grid.num_cells());
-        self.chunks.resize_with(ranges.len(), ChunkRows::default);
-        threads.install(|| {
-            ranges
-                .zip(self.chunks.par_iter_mut())
-                .for_each(|(range, chunk)| {
-                    let first_slot = cells.cell_range(range.start).start;
-                    let last_slot = cells.cell_range(range.end - 1).end;
-                    chunk.lengths.clear();
-                    chunk.lengths.resize(last_slot - first_slot, 0);
-                    chunk.neighbors.clear();
-                    chunk.images.clear();
-                    let capacity = (per_slot * (last_slot - first_slot) as f64) as usize;
-                    chunk.neighbors.reserve(capacity);
-                    chunk.images.reserve(capacity);
-                    for home in range {
-                        for_each_row_in_cell(cells, home, kind, &test, |i, j, image, _, _| {
-                            chunk.lengths[i - first_slot] += 1;
-                            chunk.neighbors.push(j as u32);
-                            chunk.images.push(image);
-                        });
-                    }
-                });
-        });
+        let entries = match kind {
+            StencilKind::Half => 1,
+            StencilKind::Full => 2,
+        } * expected_pairs(cells, reach);
+        let runs = balanced_cell_runs(cells, tasks_for(threads));
+        let estimates: Vec<usize> = runs
+            .iter()
+            .map(|homes| share_of(entries, cells, homes))
+            .collect();
+        // row lengths first, shifted by one so that the prefix sum gives the starts
         self.start.clear();
-        self.start.push(0);
-        let mut total = 0usize;
-        for &l in self.chunks.iter().flat_map(|c| &c.lengths) {
-            total += l as usize;
-            self.start.push(total);
-        }
-        let neighbor_parts: Vec<&[u32]> = self.chunks.iter().map(|c| &c.neighbors[..]).collect();
-        let image_parts: Vec<&[u8]> = self.chunks.iter().map(|c| &c.images[..]).collect();
-        threads.install(|| {
-            concat_into(&mut self.neighbors, &neighbor_parts);
-            concat_into(&mut self.images, &image_parts);
+        self.start.resize(cells.len() + 1, 0);
+        let lengths = DisjointSlice::new(&mut self.start[1..]);
+        collect_in_order_into(&mut self.entries, &estimates, threads, |k, out| {
+            for home in runs[k].clone() {
+                for_each_row_in_cell(cells, home, kind, &test, |i, j, image, _, _| {
+                    // SAFETY: slot `i` is in cell `home`, which one task visits.
+                    unsafe { *lengths.get_unchecked(i) += 1 };
+                    out.push(pack(j, image));
+                });
+            }
         });
+        for i in 0..cells.len() {
+            self.start[i + 1] += self.start[i];
+        }
         self.image_shifts.clear();
         self.image_shifts
             .extend((0..3u8.pow(D as u32)).map(|c| grid.image_shift(c)));
-        self.reference.clear();
-        self.reference.extend_from_slice(cells.positions());
-    }
-
-    /// The positions of the last build (slot order, wrapped): the reference of the
-    /// skin/2 test.
-    pub fn reference(&self) -> &[[f64; D]] {
-        &self.reference
     }
 
     /// Half or full.
@@ -164,14 +148,13 @@ impl<const D: usize> VerletList<D> {
 
     /// Total number of entries.
     pub fn num_entries(&self) -> usize {
-        self.neighbors.len()
+        self.entries.len()
     }
 
-    /// Row `i`: neighbour slots and their image codes.
+    /// Row `i`: its entries, each a neighbour slot and image code ([`unpack`]).
     #[inline]
-    pub fn row(&self, i: usize) -> (&[u32], &[u8]) {
-        let r = self.start[i]..self.start[i + 1];
-        (&self.neighbors[r.clone()], &self.images[r])
+    pub fn row(&self, i: usize) -> &[u32] {
+        &self.entries[self.start[i]..self.start[i + 1]]
     }
 
     /// The shift vector of an image code.
@@ -190,9 +173,8 @@ impl<const D: usize> VerletList<D> {
         mut visit: impl FnMut(usize, &[f64; D], f64),
     ) {
         let xi = &positions[i];
-        let (js, images) = self.row(i);
-        for (&j, &image) in js.iter().zip(images) {
-            let j = j as usize;
+        for &entry in self.row(i) {
+            let (j, image) = unpack(entry);
             let shift = self.image_shift(image);
             let xj = &positions[j];
             let d: [f64; D] = std::array::from_fn(|a| (xj[a] - xi[a]) + shift[a]);
@@ -206,8 +188,10 @@ impl<const D: usize> VerletList<D> {
     /// True when some particle has moved more than `skin / 2` since the build,
     /// `max_i |x_i - x_i^build| > skin / 2`: the cheap test, O(N), no neighbour search.
     /// `positions` are in slot order and not wrapped since the build.
-    pub fn needs_rebuild(&self, positions: &[[f64; D]]) -> bool {
-        moved_beyond_half_skin(positions, &self.reference, self.skin)
+    /// `cells` is the cell list the list was built from, not rebinned since: its
+    /// positions (wrapped, slot order) are where the particles were at the build.
+    pub fn needs_rebuild(&self, cells: &CellList<D>, positions: &[[f64; D]]) -> bool {
+        moved_beyond_half_skin(positions, cells.positions(), self.skin)
     }
 }
 

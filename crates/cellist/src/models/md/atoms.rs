@@ -57,19 +57,48 @@ impl<const D: usize> Atoms<D> {
         assert!(self.is_consistent(), "per-atom arrays of different lengths");
     }
 
-    /// Reorders every array except the positions: `self[k] = old[order[k]]`, using
-    /// `scratch` as the buffer (no allocation once it has grown).
-    pub(crate) fn permute_except_positions(&mut self, order: &[u32], scratch: &mut Self) {
-        fn apply<T: Copy>(values: &mut Vec<T>, order: &[u32], buffer: &mut Vec<T>) {
+    /// Reorders every array except the positions: `self[k] = old[order[k]]`,
+    /// through the two buffers of `scratch` (no allocation once they have grown).
+    pub(crate) fn permute_except_positions(
+        &mut self,
+        order: &[u32],
+        scratch: &mut PermuteScratch<D>,
+    ) {
+        fn apply<T: Copy, W: Copy>(
+            values: &mut [T],
+            order: &[u32],
+            buffer: &mut Vec<W>,
+            to: impl Fn(T) -> W,
+            from: impl Fn(W) -> T,
+        ) {
+            assert_eq!(values.len(), order.len(), "one slot per atom");
             buffer.clear();
-            buffer.extend(order.iter().map(|&k| values[k as usize]));
-            std::mem::swap(values, buffer);
+            buffer.extend(order.iter().map(|&k| to(values[k as usize])));
+            for (value, &word) in values.iter_mut().zip(buffer.iter()) {
+                *value = from(word);
+            }
         }
-        apply(&mut self.ids, order, &mut scratch.ids);
-        apply(&mut self.types, order, &mut scratch.types);
-        apply(&mut self.masses, order, &mut scratch.masses);
-        apply(&mut self.velocities, order, &mut scratch.velocities);
-        apply(&mut self.forces, order, &mut scratch.forces);
+        let same = |x| x;
+        apply(&mut self.ids, order, &mut scratch.words, same, same);
+        apply(&mut self.types, order, &mut scratch.words, u64::from, |w| {
+            w as u32
+        });
+        apply(
+            &mut self.masses,
+            order,
+            &mut scratch.words,
+            f64::to_bits,
+            f64::from_bits,
+        );
+        let same = |x| x;
+        apply(
+            &mut self.velocities,
+            order,
+            &mut scratch.vectors,
+            same,
+            same,
+        );
+        apply(&mut self.forces, order, &mut scratch.vectors, same, same);
     }
 
     /// The atoms at `indices`, in that order: `out[k] = self[indices[k]]`.
@@ -93,4 +122,13 @@ impl<const D: usize> Atoms<D> {
         slots.sort_unstable_by_key(|&k| self.ids[k]);
         slots
     }
+}
+
+/// The buffers [`Atoms::permute_except_positions`] reorders through: one array
+/// of vectors and one of 64-bit words (ids, types and the bits of masses),
+/// 8 (D + 1) bytes per atom instead of a second copy of every array.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct PermuteScratch<const D: usize> {
+    pub(crate) vectors: Vec<[f64; D]>,
+    pub(crate) words: Vec<u64>,
 }

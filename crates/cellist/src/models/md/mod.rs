@@ -18,6 +18,7 @@ mod subdomain;
 mod velocity;
 
 pub use atoms::Atoms;
+use atoms::PermuteScratch;
 pub use integrate::{Integrator, Langevin};
 pub use lattice::{lattice, LatticeKind};
 pub use model::{
@@ -30,7 +31,7 @@ pub use velocity::{create_velocities, VelocityDistribution};
 use crate::geometry::{norm2, Domain, GeometryError};
 use crate::interactions::{LennardJones, PairPotential};
 use crate::neighbors::{
-    scatter_half_rows, CellList, LayerPlan, Rebuild, RebuildRule, StencilKind, VerletList,
+    scatter_half_rows, unpack, CellList, LayerPlan, Rebuild, RebuildRule, StencilKind, VerletList,
 };
 use crate::threads::Threads;
 use std::fmt;
@@ -202,7 +203,7 @@ pub struct MdSystem<const D: usize> {
     tallies: Vec<PairTally>,
     halo: Vec<[f64; D]>,
     totals: Option<PairTally>,
-    scratch: Atoms<D>,
+    scratch: PermuteScratch<D>,
     rule: RebuildRule,
     since_build: u64,
     rebuilds: u64,
@@ -240,12 +241,13 @@ impl<const D: usize> MdSystem<D> {
             potential,
             skin,
             totals: None,
-            scratch: Atoms::default(),
+            scratch: PermuteScratch::default(),
             rule: RebuildRule::default(),
             since_build: 0,
             rebuilds: 0,
             late_builds: 0,
         };
+        system.cells.release_columns();
         system.adopt_cell_order();
         system.tallies = vec![PairTally::default(); system.layers.num_layers()];
         system.check_overlaps()?;
@@ -329,10 +331,10 @@ impl<const D: usize> MdSystem<D> {
         let t = lap(t, &mut times.integrate);
         check_positions(&self.domain, &self.atoms, step)?;
         self.since_build += 1;
-        let (list, positions) = (&self.list, &self.atoms.positions);
+        let (list, cells, positions) = (&self.list, &self.cells, &self.atoms.positions);
         if let Rebuild::Yes { late } = self
             .rule
-            .decide(self.since_build, || list.needs_rebuild(positions))
+            .decide(self.since_build, || list.needs_rebuild(cells, positions))
         {
             self.late_builds += u64::from(late);
             self.rebuild(threads);
@@ -350,6 +352,7 @@ impl<const D: usize> MdSystem<D> {
         self.cells.rebin(&self.atoms.positions);
         self.adopt_cell_order();
         self.list.rebuild(&self.cells, threads);
+        self.cells.release_columns();
         self.layers = LayerPlan::new(&self.cells);
         self.rebuilds += 1;
         self.since_build = 0;
@@ -357,7 +360,7 @@ impl<const D: usize> MdSystem<D> {
 
     /// The positions the Verlet list was built at (slot order, wrapped).
     pub fn list_reference(&self) -> &[[f64; D]] {
-        self.list.reference()
+        self.cells.positions()
     }
 
     /// Replaces the atoms by a saved set whose Verlet list was built at
@@ -399,11 +402,12 @@ impl<const D: usize> MdSystem<D> {
         if order.iter().enumerate().any(|(k, &o)| o as usize != k) {
             atoms.permute_except_positions(order, &mut self.scratch);
             self.cells
-                .permute(&atoms.positions, &mut self.scratch.positions);
-            std::mem::swap(&mut atoms.positions, &mut self.scratch.positions);
+                .permute(&atoms.positions, &mut self.scratch.vectors);
+            std::mem::swap(&mut atoms.positions, &mut self.scratch.vectors);
         }
         self.atoms = atoms;
         self.list.rebuild(&self.cells, threads);
+        self.cells.release_columns();
         self.layers = LayerPlan::new(&self.cells);
         self.tallies = vec![PairTally::default(); self.layers.num_layers()];
         self.rebuilds = counts.rebuilds;
@@ -494,9 +498,8 @@ impl<const D: usize> MdSystem<D> {
         let cutoff2 = self.potential.cutoff2();
         for i in 0..self.list.len() {
             let xi = self.atoms.positions[i];
-            let (js, images) = self.list.row(i);
-            for (&j, &image) in js.iter().zip(images) {
-                let j = j as usize;
+            for &entry in self.list.row(i) {
+                let (j, image) = unpack(entry);
                 let s = self.list.image_shift(image);
                 let xj = &self.atoms.positions[j];
                 let d: [f64; D] = std::array::from_fn(|a| xi[a] - (xj[a] + s[a]));
@@ -665,22 +668,22 @@ impl<const D: usize, P: PairPotential> PairArgs<'_, D, P> {
                 for i in rows {
                     let xi = positions[i];
                     let mut fi = [0.0; D];
-                    let (js, images) = list.row(i);
-                    for (jb, ib) in js.chunks(PAIR_BLOCK).zip(images.chunks(PAIR_BLOCK)) {
-                        for (k, (&j, &image)) in jb.iter().zip(ib).enumerate() {
-                            let xj = &positions[j as usize];
+                    for block in list.row(i).chunks(PAIR_BLOCK) {
+                        for (k, &entry) in block.iter().enumerate() {
+                            let (j, image) = unpack(entry);
+                            let xj = &positions[j];
                             let s = list.image_shift(image);
                             for a in 0..D {
                                 b.d[a][k] = xi[a] - (xj[a] + s[a]);
                             }
                         }
                         b.compute(potential, cutoff2);
-                        for (k, &j) in jb.iter().enumerate() {
+                        for (k, &entry) in block.iter().enumerate() {
                             let fij: [f64; D] = std::array::from_fn(|a| b.f[a][k]);
                             for a in 0..D {
                                 fi[a] += fij[a];
                             }
-                            f.sub(j as usize, &fij);
+                            f.sub(unpack(entry).0, &fij);
                             if ENERGY && b.r2[k] < cutoff2 {
                                 tally.energy += b.energy[k];
                                 tally.virial += b.f_over_r[k] * b.r2[k];

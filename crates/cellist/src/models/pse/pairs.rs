@@ -9,7 +9,7 @@
 
 use super::kernel::PairWeight;
 use crate::geometry::Domain;
-use crate::neighbors::{scatter_half_rows, CellList, LayerPlan, StencilKind, VerletList};
+use crate::neighbors::{scatter_half_rows, unpack, CellList, LayerPlan, StencilKind, VerletList};
 use crate::threads::{tournament, DisjointSlice, Threads};
 use rayon::prelude::*;
 use std::ops::Range;
@@ -247,19 +247,19 @@ impl<const D: usize> ListPairs<D> {
                 for i in rows {
                     let (xi, phii) = (positions[i], phi[i]);
                     let mut acc = 0.0;
-                    let (js, images) = list.row(i);
-                    for (jb, ib) in js.chunks(BLOCK).zip(images.chunks(BLOCK)) {
-                        for (k, (&j, &image)) in jb.iter().zip(ib).enumerate() {
-                            let (xj, s) = (&positions[j as usize], list.image_shift(image));
+                    for block in list.row(i).chunks(BLOCK) {
+                        for (k, &entry) in block.iter().enumerate() {
+                            let (j, image) = unpack(entry);
+                            let (xj, s) = (&positions[j], list.image_shift(image));
                             for a in 0..D {
                                 pb.d[a][k] = (xj[a] + s[a]) - xi[a];
                             }
-                            pb.dphi[k] = phi[j as usize] - phii;
+                            pb.dphi[k] = phi[j] - phii;
                         }
                         pb.evaluate(weight, summed);
-                        for (k, &j) in jb.iter().enumerate() {
+                        for (k, &entry) in block.iter().enumerate() {
                             acc += pb.value[k];
-                            sums.add(j as usize, &(sign * pb.value[k]));
+                            sums.add(unpack(entry).0, &(sign * pb.value[k]));
                         }
                     }
                     sums.add(i, &acc);
