@@ -272,6 +272,22 @@ fn distributed_runs_match_the_plain_run(
     Ok(())
 }
 
+/// The md `scenario` with `[neighbor] every = 10, check = false`, distributed
+/// and plain (in a folder of its own): the ranks rebuild on the steps the plain
+/// run does.
+fn every_ten_without_check(dir: &Path, scenario: &str) -> Result<(), String> {
+    let folder = dir.join("every-ten");
+    std::fs::create_dir_all(&folder).map_err(|e| e.to_string())?;
+    let text = std::fs::read_to_string(scenario).map_err(|e| e.to_string())?;
+    let path = folder.join("melt.toml");
+    std::fs::write(
+        &path,
+        format!("{text}[neighbor]\nevery = 10\ncheck = false\n"),
+    )
+    .map_err(|e| e.to_string())?;
+    distributed_runs_match_the_plain_run(&folder, "md", &path.display().to_string(), "melt.dump")
+}
+
 /// A checkpoint of `scenario` written at step 50 of 100 on 4 ranks, continued
 /// in one process and on 2 ranks: `file` within 1e-10 of the uninterrupted run.
 fn four_rank_checkpoint_continues(
@@ -366,6 +382,10 @@ fn main() {
         (
             "md on 1 to 4 ranks: the dumps of the plain run within 1e-10",
             distributed_runs_match_the_plain_run(dir.path(), "md", &melt, "melt.dump"),
+        ),
+        (
+            "md, its list rebuilt every 10 steps without the check, on 1 to 4 ranks: the dumps of the plain run within 1e-10",
+            every_ten_without_check(dir.path(), &melt),
         ),
         (
             "pse on 1 to 4 ranks: the fields of the plain run within 1e-10",

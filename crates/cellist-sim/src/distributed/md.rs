@@ -426,11 +426,15 @@ impl<const D: usize> Model for DistributedMd<D> {
         self.agree_blowup(step, local)?;
         self.counts.since_build += 1;
         let (rows, positions) = (&self.rows, &self.atoms.positions);
-        let (wanted, late) = match self
-            .rule
-            .decide(self.counts.since_build, || rows.needs_rebuild(positions))
-        {
-            Rebuild::No => (self.stale, false),
+        // after a restore the rows are not this rank's atoms': rebuild, untested
+        let decision = if self.stale {
+            Rebuild::Yes { late: false }
+        } else {
+            self.rule
+                .decide(self.counts.since_build, || rows.needs_rebuild(positions))
+        };
+        let (wanted, late) = match decision {
+            Rebuild::No => (false, false),
             Rebuild::Yes { late } => (true, late),
         };
         let [rebuild, observe, late] =
