@@ -424,14 +424,13 @@ impl<const D: usize> Model for DistributedMd<D> {
             .err()
             .map(|e| blowup_of(&e, step));
         self.agree_blowup(step, local)?;
-        self.counts.since_build += 1;
+        let since = self.counts.step();
         let (rows, positions) = (&self.rows, &self.atoms.positions);
         // after a restore the rows are not this rank's atoms': rebuild, untested
         let decision = if self.stale {
             Rebuild::Yes { late: false }
         } else {
-            self.rule
-                .decide(self.counts.since_build, || rows.needs_rebuild(positions))
+            self.rule.decide(since, || rows.needs_rebuild(positions))
         };
         let (wanted, late) = match decision {
             Rebuild::No => (false, false),
@@ -439,13 +438,11 @@ impl<const D: usize> Model for DistributedMd<D> {
         };
         let [rebuild, observe, late] =
             self.any([u8::from(wanted), u8::from(observe), u8::from(late)]);
-        self.counts.late_builds += u64::from(late);
         let t = lap(t, &mut self.times.neighbor);
         if rebuild {
             self.redistribute(threads)
                 .map_err(|b| Blowup { step, ..b })?;
-            self.counts.rebuilds += 1;
-            self.counts.since_build = 0;
+            self.counts.built(late);
         } else {
             let n = self.atoms.len();
             self.points[..n].copy_from_slice(&self.atoms.positions);

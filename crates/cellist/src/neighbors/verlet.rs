@@ -13,7 +13,8 @@ use crate::threads::{collect_in_order_into, DisjointSlice, Threads};
 ///
 /// Row `i` is `entries[start[i]..start[i + 1]]`; an entry packs the slot `j` of a
 /// neighbour (low [`SLOT_BITS`] bits) and the image code `c` it is seen at
-/// (`x_j + shift(c)`, zero shift except across periodic faces), 4 bytes per entry. A half list holds each pair once (for Newton's third law), a full
+/// (`x_j + shift(c)`, zero shift except across periodic faces), 4 bytes per
+/// entry. A half list holds each pair once (for Newton's third law), a full
 /// list holds it in both rows. The list stays valid while no particle has moved more
 /// than `skin / 2` from where it was at the build: two particles then approach by at
 /// most `skin`, so every pair now within `cutoff` was within `cutoff + skin`.

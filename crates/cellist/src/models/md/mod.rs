@@ -191,6 +191,21 @@ pub struct ListCounts {
     pub late_builds: u64,
 }
 
+impl ListCounts {
+    /// Counts one more step since the last build; returns the steps since it.
+    pub fn step(&mut self) -> u64 {
+        self.since_build += 1;
+        self.since_build
+    }
+
+    /// Counts a build, `late` as [`RebuildRule::decide`] said.
+    pub fn built(&mut self, late: bool) {
+        self.rebuilds += 1;
+        self.late_builds += u64::from(late);
+        self.since_build = 0;
+    }
+}
+
 /// A molecular-dynamics system: box, atoms, pair potential and its neighbour list.
 pub struct MdSystem<const D: usize> {
     domain: Domain<D>,
@@ -205,9 +220,7 @@ pub struct MdSystem<const D: usize> {
     totals: Option<PairTally>,
     scratch: PermuteScratch<D>,
     rule: RebuildRule,
-    since_build: u64,
-    rebuilds: u64,
-    late_builds: u64,
+    counts: ListCounts,
 }
 
 impl<const D: usize> MdSystem<D> {
@@ -243,9 +256,7 @@ impl<const D: usize> MdSystem<D> {
             totals: None,
             scratch: PermuteScratch::default(),
             rule: RebuildRule::default(),
-            since_build: 0,
-            rebuilds: 0,
-            late_builds: 0,
+            counts: ListCounts::default(),
         };
         system.cells.release_columns();
         system.adopt_cell_order();
@@ -277,7 +288,7 @@ impl<const D: usize> MdSystem<D> {
 
     /// Neighbour-list rebuilds since set-up.
     pub fn rebuilds(&self) -> u64 {
-        self.rebuilds
+        self.counts.rebuilds
     }
 
     /// When the Verlet list is rebuilt (every step on the skin test unless set).
@@ -296,18 +307,14 @@ impl<const D: usize> MdSystem<D> {
 
     /// The list's counters, for a checkpoint.
     pub fn list_counts(&self) -> ListCounts {
-        ListCounts {
-            rebuilds: self.rebuilds,
-            since_build: self.since_build,
-            late_builds: self.late_builds,
-        }
+        self.counts
     }
 
     /// Rebuilds since set-up at which some atom had moved more than skin/2
     /// while the list was not looked at on every step: pairs may have been
     /// missed before them (LAMMPS's dangerous builds; always 0 with every 1).
     pub fn late_builds(&self) -> u64 {
-        self.late_builds
+        self.counts.late_builds
     }
 
     /// Entries in the current half Verlet list.
@@ -330,14 +337,14 @@ impl<const D: usize> MdSystem<D> {
         integrator.first_half(&mut self.atoms, dt);
         let t = lap(t, &mut times.integrate);
         check_positions(&self.domain, &self.atoms, step)?;
-        self.since_build += 1;
+        let since = self.counts.step();
         let (list, cells, positions) = (&self.list, &self.cells, &self.atoms.positions);
         if let Rebuild::Yes { late } = self
             .rule
-            .decide(self.since_build, || list.needs_rebuild(cells, positions))
+            .decide(since, || list.needs_rebuild(cells, positions))
         {
-            self.late_builds += u64::from(late);
             self.rebuild(threads);
+            self.counts.built(late);
         }
         let t = lap(t, &mut times.neighbor);
         self.compute_forces(energy, threads);
@@ -354,8 +361,6 @@ impl<const D: usize> MdSystem<D> {
         self.list.rebuild(&self.cells, threads);
         self.cells.release_columns();
         self.layers = LayerPlan::new(&self.cells);
-        self.rebuilds += 1;
-        self.since_build = 0;
     }
 
     /// The positions the Verlet list was built at (slot order, wrapped).
@@ -410,9 +415,7 @@ impl<const D: usize> MdSystem<D> {
         self.cells.release_columns();
         self.layers = LayerPlan::new(&self.cells);
         self.tallies = vec![PairTally::default(); self.layers.num_layers()];
-        self.rebuilds = counts.rebuilds;
-        self.since_build = counts.since_build;
-        self.late_builds = counts.late_builds;
+        self.counts = counts;
         // the energy and virial of the restored state, for its thermo; the
         // saved forces are kept (they continue the run bit for bit)
         let saved = std::mem::take(&mut self.atoms.forces);
