@@ -255,29 +255,33 @@ pub fn previous_path(path: &Path) -> PathBuf {
     PathBuf::from(name)
 }
 
-/// Writes `c` to `path` atomically: the whole file under a temporary name in the
-/// same folder, synced; the checkpoint already at `path` (if any) renamed to
-/// `path.prev`; the new file renamed to `path`; the folder synced. At every moment
-/// a complete checkpoint exists under `path` or `path.prev`.
+/// `path` with `.partial` appended: where a checkpoint is written before it is
+/// renamed into place. A run killed while writing leaves it behind; the next
+/// checkpoint written to `path` replaces it.
+pub fn partial_path(path: &Path) -> PathBuf {
+    let mut name = path.as_os_str().to_owned();
+    name.push(".partial");
+    PathBuf::from(name)
+}
+
+/// Writes `c` to `path` atomically: the whole file under `path.partial`, synced;
+/// the checkpoint already at `path` (if any) renamed to `path.prev`; the new file
+/// renamed to `path`; the folder synced. At every moment a complete checkpoint
+/// exists under `path` or `path.prev`.
 pub fn write_checkpoint(path: &Path, c: &Checkpoint) -> io::Result<()> {
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
         _ => PathBuf::from("."),
     };
-    let mut temp = tempfile::NamedTempFile::new_in(&dir)?;
-    // a temporary file is private (0600); a checkpoint is an ordinary output
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::PermissionsExt;
-        temp.as_file()
-            .set_permissions(std::fs::Permissions::from_mode(0o644))?;
-    }
-    temp.write_all(&encode(c))?;
-    temp.as_file().sync_all()?;
+    let partial = partial_path(path);
+    let mut file = std::fs::File::create(&partial)?;
+    file.write_all(&encode(c))?;
+    file.sync_all()?;
+    drop(file);
     if path.exists() {
         std::fs::rename(path, previous_path(path))?;
     }
-    temp.persist(path).map_err(|e| e.error)?;
+    std::fs::rename(&partial, path)?;
     std::fs::File::open(&dir)?.sync_all()
 }
 
@@ -357,5 +361,16 @@ mod tests {
         assert_eq!(read_checkpoint(&path).unwrap().step, 43);
         assert_eq!(read_checkpoint(&previous_path(&path)).unwrap().step, 42);
         assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 2);
+    }
+
+    #[test]
+    fn a_write_cut_short_is_replaced_by_the_next_one() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("state.ckpt");
+        std::fs::write(partial_path(&path), b"half a checkpoint").unwrap();
+        write_checkpoint(&path, &sample()).unwrap();
+        assert_eq!(read_checkpoint(&path).unwrap().step, 42);
+        assert!(!partial_path(&path).exists());
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
     }
 }
