@@ -234,7 +234,7 @@ fn search<const D: usize>(
 ) -> PyResult<PairArrays> {
     let domain = Domain::for_points(points, length, [0.0; D], periodic)
         .map_err(|e| value_error(format!("box: {e}")))?;
-    let cells = CellList::build(&domain, cutoff, points)
+    let cells = CellList::build_in(&domain, cutoff, points, pool)
         .map_err(|e| value_error(format!("cutoff {cutoff}: {e}")))?;
     Ok(if sorted {
         sorted_half_list(&cells, points, cutoff, wanted, pool)

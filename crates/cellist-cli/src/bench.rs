@@ -80,7 +80,7 @@ fn time_half_list<const D: usize>(
     let mut count = 0;
     for _ in 0..args.repeat {
         let start = Instant::now();
-        let cells = CellList::build(&domain, args.cutoff, &points)
+        let cells = CellList::build_in(&domain, args.cutoff, &points, pool)
             .map_err(|e| CliError::Input(format!("--cutoff {}: {e}", args.cutoff)))?;
         count = if args.sorted || args.as_found {
             let list = if args.sorted {

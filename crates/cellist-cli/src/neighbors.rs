@@ -26,7 +26,7 @@ fn list<const D: usize>(
     pool: &Threads,
 ) -> CliResult {
     let domain = domain::<D>(args, points, file_box)?;
-    let cells = CellList::build(&domain, cutoff, points)
+    let cells = CellList::build_in(&domain, cutoff, points, pool)
         .map_err(|e| CliError::Input(format!("--cutoff {cutoff}: {e}")))?;
     let write = |out: &mut dyn Write| -> std::io::Result<()> {
         if args.count {

@@ -184,6 +184,118 @@ pub fn collect_in_order_into<T: Copy + Send + Sync>(
     *out = whole;
 }
 
+/// The index ranges of `n` items split into `parts` nearly equal, consecutive
+/// pieces (at least one piece).
+pub fn part_ranges(n: usize, parts: usize) -> Vec<std::ops::Range<usize>> {
+    let parts = parts.max(1);
+    (0..parts)
+        .map(|p| n * p / parts..n * (p + 1) / parts)
+        .collect()
+}
+
+/// `f(p)` for every part `p` in `0..parts`, in parallel on `threads` (in this
+/// thread without them, or with one part), results in part order.
+pub fn map_parts<R: Send>(
+    threads: Option<&Threads>,
+    parts: usize,
+    f: impl Fn(usize) -> R + Sync + Send,
+) -> Vec<R> {
+    match threads {
+        Some(pool) if parts > 1 => pool.install(|| (0..parts).into_par_iter().map(f).collect()),
+        _ => (0..parts).map(f).collect(),
+    }
+}
+
+/// The number of parts a pass over data is split into: one per thread.
+pub fn parts_for(threads: Option<&Threads>) -> usize {
+    threads.map_or(1, Threads::count)
+}
+
+/// Replaces the contents of `out` by `value(0), ..., value(n - 1)`, computed in
+/// parts on `threads`; each value is written once, by the thread that computed
+/// it. The result does not depend on the thread count.
+pub fn fill_indexed<T: Copy + Send + Sync>(
+    out: &mut Vec<T>,
+    n: usize,
+    threads: Option<&Threads>,
+    value: impl Fn(usize) -> T + Sync + Send,
+) {
+    out.clear();
+    out.reserve(n);
+    let ranges = part_ranges(n, parts_for(threads));
+    let room = DisjointSlice::new(&mut out.spare_capacity_mut()[..n]);
+    map_parts(threads, ranges.len(), |p| {
+        // SAFETY: the parts' ranges are disjoint
+        let slots = unsafe { room.range(ranges[p].clone()) };
+        for (slot, k) in slots.iter_mut().zip(ranges[p].clone()) {
+            slot.write(value(k));
+        }
+    });
+    // SAFETY: the ranges cover 0..n, and every slot was written above
+    unsafe { out.set_len(n) };
+}
+
+/// A stable counting sort of the indices `0..keys.len()` by key (`keys[i] <
+/// buckets`), in parts on `threads`: `start` gets the `buckets + 1` bucket
+/// offsets (exclusive prefix sums of the counts), `order` the indices bucket by
+/// bucket, ascending within a bucket. `counts` is scratch (one row of counts per
+/// part). Part `p` counts its own range of keys; bucket `c`'s slots for part `p`
+/// then begin at `start[c]` plus the counts of `c` in the parts before `p`, so
+/// every part scatters into slots of its own and the result is the same for any
+/// thread count.
+pub fn counting_sort(
+    keys: &[u32],
+    buckets: usize,
+    threads: Option<&Threads>,
+    start: &mut Vec<u32>,
+    order: &mut Vec<u32>,
+    counts: &mut Vec<u32>,
+) {
+    let n = keys.len();
+    assert!(n < u32::MAX as usize, "at most 2^32 - 1 items to sort");
+    let ranges = part_ranges(n, parts_for(threads));
+    let parts = ranges.len();
+    counts.clear();
+    counts.resize(parts * buckets, 0);
+    let rows = DisjointSlice::new(counts);
+    map_parts(threads, parts, |p| {
+        // SAFETY: each part counts into its own row
+        let row = unsafe { rows.range(p * buckets..(p + 1) * buckets) };
+        for &key in &keys[ranges[p].clone()] {
+            row[key as usize] += 1;
+        }
+    });
+    // bucket by bucket, part by part: the counts become each part's first slot
+    start.clear();
+    start.resize(buckets + 1, 0);
+    let mut at = 0u32;
+    for c in 0..buckets {
+        start[c] = at;
+        for p in 0..parts {
+            let count = counts[p * buckets + c];
+            counts[p * buckets + c] = at;
+            at += count;
+        }
+    }
+    start[buckets] = at;
+    order.clear();
+    order.reserve(n);
+    let slots = DisjointSlice::new(&mut order.spare_capacity_mut()[..n]);
+    let cursors = DisjointSlice::new(counts);
+    map_parts(threads, parts, |p| {
+        // SAFETY: each part moves its own row of cursors, and the slots a part
+        // writes are its own (see above)
+        let cursor = unsafe { cursors.range(p * buckets..(p + 1) * buckets) };
+        for i in ranges[p].clone() {
+            let slot = &mut cursor[keys[i] as usize];
+            unsafe { slots.get(*slot as usize) }.write(i as u32);
+            *slot += 1;
+        }
+    });
+    // SAFETY: the slots of all parts are exactly 0..n, each written once
+    unsafe { order.set_len(n) };
+}
+
 /// A mutable slice shared by threads that promise to touch disjoint elements.
 ///
 /// This is how coloured passes write without locks or atomics: the colouring proves
@@ -301,6 +413,34 @@ mod tests {
     }
 
     proptest::proptest! {
+        /// The parallel counting sort equals a stable sort by key, with its
+        /// bucket offsets, on no thread pool and on pools of 1 to 3 threads.
+        #[test]
+        fn counting_sort_is_a_stable_sort_by_key(
+            keys in proptest::collection::vec(0u32..40, 0..500),
+            extra in 0usize..5,
+        ) {
+            let buckets = 40 + extra;
+            let mut want: Vec<u32> = (0..keys.len() as u32).collect();
+            want.sort_by_key(|&i| keys[i as usize]);
+            let want_start: Vec<u32> = (0..=buckets as u32)
+                .map(|c| keys.iter().filter(|&&k| k < c).count() as u32)
+                .collect();
+            let pools: Vec<Threads> = (1..=3).map(|t| Threads::new(t).unwrap()).collect();
+            let mut runs: Vec<Option<&Threads>> = vec![None];
+            runs.extend(pools.iter().map(Some));
+            for threads in runs {
+                let (mut start, mut order, mut counts) = (vec![7], vec![9; 3], Vec::new());
+                counting_sort(&keys, buckets, threads, &mut start, &mut order, &mut counts);
+                proptest::prop_assert_eq!(&order, &want);
+                proptest::prop_assert_eq!(&start, &want_start);
+                let mut filled = vec![1.5];
+                fill_indexed(&mut filled, keys.len(), threads, |k| keys[k] as f64 * 0.5);
+                let direct: Vec<f64> = keys.iter().map(|&k| k as f64 * 0.5).collect();
+                proptest::prop_assert_eq!(filled, direct);
+            }
+        }
+
         /// Whatever the estimates (short, exact, long or zero) and the thread
         /// count, the tasks' values come out in task order.
         #[test]

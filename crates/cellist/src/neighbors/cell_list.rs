@@ -2,6 +2,7 @@
 
 use super::grid::CellGrid;
 use crate::geometry::{Domain, GeometryError};
+use crate::threads::{counting_sort, fill_indexed, Threads};
 use std::ops::Range;
 
 /// Particles binned into the cells of a [`CellGrid`] and stored contiguously per cell.
@@ -27,7 +28,7 @@ pub struct CellList<const D: usize> {
     anchors_by_colour: Vec<Vec<u32>>,
     // scratch, kept so that rebinning does not allocate
     cell_ids: Vec<u32>,
-    cursor: Vec<u32>,
+    counts: Vec<u32>,
 }
 
 impl<const D: usize> CellList<D> {
@@ -36,6 +37,26 @@ impl<const D: usize> CellList<D> {
         domain: &Domain<D>,
         cutoff: f64,
         points: &[[f64; D]],
+    ) -> Result<Self, GeometryError> {
+        Self::build_on(domain, cutoff, points, None)
+    }
+
+    /// [`CellList::build`], the sort in parallel on `threads` (the same list
+    /// for any thread count).
+    pub fn build_in(
+        domain: &Domain<D>,
+        cutoff: f64,
+        points: &[[f64; D]],
+        threads: &Threads,
+    ) -> Result<Self, GeometryError> {
+        Self::build_on(domain, cutoff, points, Some(threads))
+    }
+
+    fn build_on(
+        domain: &Domain<D>,
+        cutoff: f64,
+        points: &[[f64; D]],
+        threads: Option<&Threads>,
     ) -> Result<Self, GeometryError> {
         assert!(
             points.len() < u32::MAX as usize,
@@ -52,55 +73,49 @@ impl<const D: usize> CellList<D> {
             positions: Vec::new(),
             columns: std::array::from_fn(|_| Vec::new()),
             cell_ids: Vec::new(),
-            cursor: Vec::new(),
+            counts: Vec::new(),
         };
-        list.rebin(points);
+        list.sort(points, threads);
         Ok(list)
     }
 
     /// Sorts new positions into the same grid, reusing every buffer (no allocation once
     /// the buffers have grown to the particle count).
     pub fn rebin(&mut self, points: &[[f64; D]]) {
-        let n = points.len();
-        let cells = self.grid.num_cells();
+        self.sort(points, None);
+    }
+
+    /// [`CellList::rebin`] in parallel on `threads` (the same list for any
+    /// thread count).
+    pub fn rebin_in(&mut self, points: &[[f64; D]], threads: &Threads) {
+        self.sort(points, Some(threads));
+    }
+
+    /// Steps 1-4 of the build, each pass split in parts over `threads`
+    /// ([`counting_sort`]), then the wrapped positions and their columns in
+    /// slot order.
+    fn sort(&mut self, points: &[[f64; D]], threads: Option<&Threads>) {
         // positions are wrapped twice (here and when they are put in slot order)
         // rather than kept wrapped: a copy of the positions less
-        self.cell_ids.clear();
-        self.cell_ids.extend(
-            points
-                .iter()
-                .map(|p| self.grid.cell_of(&self.domain.wrap(*p)) as u32),
+        let (grid, domain) = (&self.grid, &self.domain);
+        fill_indexed(&mut self.cell_ids, points.len(), threads, |i| {
+            grid.cell_of(&domain.wrap(points[i])) as u32
+        });
+        counting_sort(
+            &self.cell_ids,
+            grid.num_cells(),
+            threads,
+            &mut self.cell_start,
+            &mut self.order,
+            &mut self.counts,
         );
-
-        // histogram, shifted by one so that the prefix sum is exclusive
-        self.cell_start.clear();
-        self.cell_start.resize(cells + 1, 0);
-        for &c in &self.cell_ids {
-            self.cell_start[c as usize + 1] += 1;
-        }
-        for c in 0..cells {
-            self.cell_start[c + 1] += self.cell_start[c];
-        }
-
-        // scatter: the cursor of cell c runs from cell_start[c]
-        self.cursor.clear();
-        self.cursor.extend_from_slice(&self.cell_start[..cells]);
-        self.order.clear();
-        self.order.resize(n, 0);
-        for (i, &c) in self.cell_ids.iter().enumerate() {
-            let slot = &mut self.cursor[c as usize];
-            self.order[*slot as usize] = i as u32;
-            *slot += 1;
-        }
-        self.positions.clear();
-        self.positions.extend(
-            self.order
-                .iter()
-                .map(|&i| self.domain.wrap(points[i as usize])),
-        );
+        let order = &self.order;
+        fill_indexed(&mut self.positions, order.len(), threads, |k| {
+            domain.wrap(points[order[k] as usize])
+        });
+        let positions = &self.positions;
         for (a, column) in self.columns.iter_mut().enumerate() {
-            column.clear();
-            column.extend(self.positions.iter().map(|x| x[a]));
+            fill_indexed(column, positions.len(), threads, |k| positions[k][a]);
         }
     }
 

@@ -73,7 +73,7 @@ impl<const D: usize> OrderedRows<D> {
         by_rank.sort_unstable_by_key(|&k| (ids[k as usize], k));
         let ranked: Vec<[f64; D]> = by_rank.iter().map(|&k| points[k as usize]).collect();
         let reach = cutoff + skin;
-        let cells = CellList::build(&Domain::open_around(&ranked), reach, &ranked)?;
+        let cells = CellList::build_in(&Domain::open_around(&ranked), reach, &ranked, threads)?;
         let test = CutoffTest::new(reach);
         let order = cells.order();
         let grid = cells.grid();

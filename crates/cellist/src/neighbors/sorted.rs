@@ -479,7 +479,7 @@ impl<const D: usize> SkinList<D> {
         if moved {
             let domain = Domain::for_points(points, self.length, self.lo, self.periodic)?;
             let reach = self.cutoff + self.skin;
-            let cells = CellList::build(&domain, reach, points)?;
+            let cells = CellList::build_in(&domain, reach, points, threads)?;
             let all = PairQuantities {
                 distances: false,
                 vectors: false,

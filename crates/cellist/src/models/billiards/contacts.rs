@@ -7,7 +7,9 @@
 //! spans their bounding box.
 
 use super::rules::Separation;
-use crate::threads::Threads;
+use crate::threads::{
+    concat_into, counting_sort, fill_indexed, map_parts, part_ranges, DisjointSlice, Threads,
+};
 use rayon::prelude::*;
 
 /// One overlapping pair: vector positions `a < b` and their frozen separation.
@@ -70,11 +72,14 @@ pub struct ContactGrid {
     dims: [usize; 2],
     cell_of: Vec<u32>,
     start: Vec<u32>,
-    cursor: Vec<u32>,
     sorted: Vec<u32>,
     sorted_x: Vec<f64>,
     sorted_y: Vec<f64>,
     rows: Vec<Vec<Contact>>,
+    found: Vec<Contact>,
+    keys: Vec<u32>,
+    by_row: Vec<u32>,
+    counts: Vec<u32>,
     offsets: Vec<u32>,
 }
 
@@ -99,7 +104,7 @@ impl ContactGrid {
         if limit.is_nan() || limit < 0.0 {
             return;
         }
-        self.bin(x, y, limit);
+        self.bin(x, y, limit, threads);
         if n < 2 {
             return;
         }
@@ -117,34 +122,44 @@ impl ContactGrid {
                 }
             });
         });
-        // then place the pairs row by row in the order of a, each row sorted by b
-        self.offsets.clear();
-        self.offsets.resize(n + 1, 0);
-        for c in rows.iter().flatten() {
-            self.offsets[c.a as usize + 1] += 1;
-        }
-        for a in 0..n {
-            self.offsets[a + 1] += self.offsets[a];
-        }
-        out.resize(self.offsets[n] as usize, Contact::default());
-        self.cursor.clear();
-        self.cursor.extend_from_slice(&self.offsets[..n]);
-        for c in rows.iter().flatten() {
-            out[self.cursor[c.a as usize] as usize] = *c;
-            self.cursor[c.a as usize] += 1;
-        }
-        for a in 0..n {
-            let row = &mut out[self.offsets[a] as usize..self.offsets[a + 1] as usize];
-            // a handful per disc: insertion sort by b
-            for k in 1..row.len() {
-                let mut j = k;
-                while j > 0 && row[j - 1].b > row[j].b {
-                    row.swap(j - 1, j);
-                    j -= 1;
+        // then place the pairs row by row in the order of a (a counting sort,
+        // stable), each row sorted by b; both in parts over the threads
+        concat_into(&mut self.found, &rows);
+        self.rows = rows;
+        let found = &self.found;
+        fill_indexed(&mut self.keys, found.len(), Some(threads), |k| found[k].a);
+        counting_sort(
+            &self.keys,
+            n,
+            Some(threads),
+            &mut self.offsets,
+            &mut self.by_row,
+            &mut self.counts,
+        );
+        let by_row = &self.by_row;
+        fill_indexed(out, found.len(), Some(threads), |k| {
+            found[by_row[k] as usize]
+        });
+        let offsets = &self.offsets;
+        let parts = part_ranges(n, threads.count());
+        let placed = DisjointSlice::new(out);
+        map_parts(Some(threads), parts.len(), |p| {
+            let discs = parts[p].clone();
+            let first = offsets[discs.start] as usize;
+            // SAFETY: the parts' discs, hence their rows, are disjoint
+            let part = unsafe { placed.range(first..offsets[discs.end] as usize) };
+            for a in discs {
+                let row = &mut part[offsets[a] as usize - first..offsets[a + 1] as usize - first];
+                // a handful per disc: insertion sort by b
+                for k in 1..row.len() {
+                    let mut j = k;
+                    while j > 0 && row[j - 1].b > row[j].b {
+                        row.swap(j - 1, j);
+                        j -= 1;
+                    }
                 }
             }
-        }
-        self.rows = rows;
+        });
     }
 
     /// Lays the cells out as `shape` (squares by default). The pairs found are the
@@ -176,12 +191,21 @@ impl ContactGrid {
     /// Sizes the cells (rows just taller than `sqrt(limit)`, so that a pair within
     /// the limit is never two rows apart, squares as wide, bricks twice as wide;
     /// no more rows or columns than about `2 sqrt(n)`) and sorts the discs by cell.
-    fn bin(&mut self, x: &[f64], y: &[f64], limit: f64) {
+    fn bin(&mut self, x: &[f64], y: &[f64], limit: f64, threads: &Threads) {
         let n = x.len();
+        let parts = part_ranges(n, threads.count());
+        let bounds = map_parts(Some(threads), parts.len(), |p| {
+            let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+            for (&px, &py) in x[parts[p].clone()].iter().zip(&y[parts[p].clone()]) {
+                lo = [lo[0].min(px), lo[1].min(py)];
+                hi = [hi[0].max(px), hi[1].max(py)];
+            }
+            (lo, hi)
+        });
         let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
-        for (&px, &py) in x.iter().zip(y) {
-            lo = [lo[0].min(px), lo[1].min(py)];
-            hi = [hi[0].max(px), hi[1].max(py)];
+        for (part_lo, part_hi) in bounds {
+            lo = [lo[0].min(part_lo[0]), lo[1].min(part_lo[1])];
+            hi = [hi[0].max(part_hi[0]), hi[1].max(part_hi[1])];
         }
         if let Some((region_lo, region_hi)) = self.region {
             // discs beyond the region share its border cells: clamping keeps
@@ -218,43 +242,31 @@ impl ContactGrid {
         self.size = size;
         self.dims = dims;
         let mut cell_of = std::mem::take(&mut self.cell_of);
-        cell_of.clear();
+        let grid = &*self;
         match self.shape {
-            CellShape::Square => cell_of.extend(
-                x.iter()
-                    .zip(y)
-                    .map(|(&px, &py)| self.cell_at::<false>(px, py) as u32),
-            ),
-            CellShape::Hex => cell_of.extend(
-                x.iter()
-                    .zip(y)
-                    .map(|(&px, &py)| self.cell_at::<true>(px, py) as u32),
-            ),
+            CellShape::Square => fill_indexed(&mut cell_of, n, Some(threads), |k| {
+                grid.cell_at::<false>(x[k], y[k]) as u32
+            }),
+            CellShape::Hex => fill_indexed(&mut cell_of, n, Some(threads), |k| {
+                grid.cell_at::<true>(x[k], y[k]) as u32
+            }),
         }
         self.cell_of = cell_of;
-        let cells = dims[0] * dims[1];
-        self.start.clear();
-        self.start.resize(cells + 1, 0);
-        for &s in &self.cell_of {
-            self.start[s as usize + 1] += 1;
-        }
-        for s in 0..cells {
-            self.start[s + 1] += self.start[s];
-        }
-        self.sorted.clear();
-        self.sorted.resize(n, 0);
-        self.cursor.clear();
-        self.cursor.extend_from_slice(&self.start[..cells]);
-        for (k, &s) in self.cell_of.iter().enumerate() {
-            self.sorted[self.cursor[s as usize] as usize] = k as u32;
-            self.cursor[s as usize] += 1;
-        }
-        self.sorted_x.clear();
-        self.sorted_x
-            .extend(self.sorted.iter().map(|&k| x[k as usize]));
-        self.sorted_y.clear();
-        self.sorted_y
-            .extend(self.sorted.iter().map(|&k| y[k as usize]));
+        counting_sort(
+            &self.cell_of,
+            dims[0] * dims[1],
+            Some(threads),
+            &mut self.start,
+            &mut self.sorted,
+            &mut self.counts,
+        );
+        let sorted = &self.sorted;
+        fill_indexed(&mut self.sorted_x, n, Some(threads), |k| {
+            x[sorted[k] as usize]
+        });
+        fill_indexed(&mut self.sorted_y, n, Some(threads), |k| {
+            y[sorted[k] as usize]
+        });
     }
 
     /// The cell of a point: row `floor((y - y0) / h)`, column `floor((x - x0) / w)`,

@@ -242,7 +242,7 @@ impl<const D: usize> MdSystem<D> {
         let reach = potential.cutoff() + skin;
         domain.check_cutoff(reach)?;
         check_positions(&domain, &atoms, 0)?;
-        let cells = CellList::build(&domain, reach, &atoms.positions)?;
+        let cells = CellList::build_in(&domain, reach, &atoms.positions, threads)?;
         let mut system = MdSystem {
             domain,
             list: VerletList::build(&cells, StencilKind::Half, potential.cutoff(), skin, threads),
@@ -356,7 +356,7 @@ impl<const D: usize> MdSystem<D> {
 
     /// Wraps the positions, sorts the atoms by cell and rebuilds the Verlet list.
     fn rebuild(&mut self, threads: &Threads) {
-        self.cells.rebin(&self.atoms.positions);
+        self.cells.rebin_in(&self.atoms.positions, threads);
         self.adopt_cell_order();
         self.list.rebuild(&self.cells, threads);
         self.cells.release_columns();
@@ -395,7 +395,7 @@ impl<const D: usize> MdSystem<D> {
         if reference.iter().flatten().any(|c| !c.is_finite()) {
             return Err("a saved reference position is not finite".into());
         }
-        self.cells.rebin(reference);
+        self.cells.rebin_in(reference, threads);
         let order = self.cells.order();
         let wrapped = order
             .iter()

@@ -223,7 +223,8 @@ impl<const D: usize> PseSystem<D> {
                     ));
                 }
                 let cutoff = cutoff_factor * params.epsilon;
-                let cells = CellList::build(&domain, cutoff, points).map_err(PseError::Geometry)?;
+                let cells = CellList::build_in(&domain, cutoff, points, threads)
+                    .map_err(PseError::Geometry)?;
                 let pairs = ListPairs::new(&cells, cutoff, threads);
                 (
                     cells.positions().to_vec(),
@@ -519,7 +520,7 @@ pub fn moving_rate<const D: usize>(
     out: &mut [f64],
     threads: &Threads,
 ) -> Result<(), GeometryError> {
-    let cells = CellList::build(domain, cutoff, positions)?;
+    let cells = CellList::build_in(domain, cutoff, positions, threads)?;
     let mut pairs = ListPairs::new(&cells, cutoff, threads);
     let mut slot_phi = Vec::with_capacity(phi.len());
     cells.permute(phi, &mut slot_phi);
