@@ -252,6 +252,30 @@ pub fn counting_sort(
     counts: &mut Vec<u32>,
 ) {
     let n = keys.len();
+    order.clear();
+    order.reserve(n);
+    let slots = DisjointSlice::new(&mut order.spare_capacity_mut()[..n]);
+    counting_sort_with(keys, buckets, threads, start, counts, |i, slot| {
+        // SAFETY: every slot is given to one index
+        unsafe { slots.get(slot) }.write(i as u32);
+    });
+    // SAFETY: the slots given out are exactly 0..n, each once
+    unsafe { order.set_len(n) };
+}
+
+/// [`counting_sort`] without the `order` array: `place(i, slot)` is called
+/// once for every index `i`, with the slot the sort gives it, so that callers
+/// move their own data into place. Calls for different indices may run on
+/// different threads at once; each slot is given once.
+pub fn counting_sort_with(
+    keys: &[u32],
+    buckets: usize,
+    threads: Option<&Threads>,
+    start: &mut Vec<u32>,
+    counts: &mut Vec<u32>,
+    place: impl Fn(usize, usize) + Sync + Send,
+) {
+    let n = keys.len();
     assert!(n < u32::MAX as usize, "at most 2^32 - 1 items to sort");
     let ranges = part_ranges(n, parts_for(threads));
     let parts = ranges.len();
@@ -278,22 +302,17 @@ pub fn counting_sort(
         }
     }
     start[buckets] = at;
-    order.clear();
-    order.reserve(n);
-    let slots = DisjointSlice::new(&mut order.spare_capacity_mut()[..n]);
     let cursors = DisjointSlice::new(counts);
     map_parts(threads, parts, |p| {
-        // SAFETY: each part moves its own row of cursors, and the slots a part
-        // writes are its own (see above)
+        // SAFETY: each part moves its own row of cursors; the slots a part
+        // gives out are its own (see above)
         let cursor = unsafe { cursors.range(p * buckets..(p + 1) * buckets) };
         for i in ranges[p].clone() {
             let slot = &mut cursor[keys[i] as usize];
-            unsafe { slots.get(*slot as usize) }.write(i as u32);
+            place(i, *slot as usize);
             *slot += 1;
         }
     });
-    // SAFETY: the slots of all parts are exactly 0..n, each written once
-    unsafe { order.set_len(n) };
 }
 
 /// A mutable slice shared by threads that promise to touch disjoint elements.

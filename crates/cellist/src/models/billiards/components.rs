@@ -16,7 +16,9 @@
 use super::contacts::Contact;
 use super::rules::{collide_four, Separation, Walls};
 use crate::simd::F64x4;
-use crate::threads::{DisjointSlice, Threads};
+use crate::threads::{
+    counting_sort_with, fill_indexed, map_parts, part_ranges, DisjointSlice, Threads,
+};
 use rayon::prelude::*;
 
 /// The pairs of all components by positions within their component's block,
@@ -47,7 +49,10 @@ pub(super) struct Components {
     member_start: Vec<u32>,
     members: Vec<u32>,
     depth: Vec<u32>,
+    levels: Vec<u32>,
     run: Vec<u32>,
+    keys: Vec<u32>,
+    counts: Vec<u32>,
     run_base: Vec<u32>,
     run_start: Vec<u32>,
     pairs: LocalPairs,
@@ -72,6 +77,7 @@ impl Components {
         contacts: &[Contact],
         walls: &[(u32, Walls)],
         nearby: &[u32],
+        threads: &Threads,
     ) {
         // one pass in canonical order: union-find, and each pair's level (one more
         // than the highest level among the earlier pairs sharing a disc with it;
@@ -79,14 +85,14 @@ impl Components {
         self.sets.reset(n);
         self.depth.clear();
         self.depth.resize(n, 0);
-        self.run.clear();
+        self.levels.clear();
         for c in contacts {
             self.sets.union(c.a, c.b);
             let (a, b) = (c.a as usize, c.b as usize);
             let level = self.depth[a].max(self.depth[b]);
             self.depth[a] = level + 1;
             self.depth[b] = level + 1;
-            self.run.push(level);
+            self.levels.push(level);
         }
         self.label.clear();
         self.label.resize(n, NONE);
@@ -108,63 +114,87 @@ impl Components {
         }
         let components = count as usize;
 
-        // discs by component, in `nearby` order within each
-        counting_starts(
-            &mut self.member_start,
-            components,
-            (0..n).filter_map(|k| (self.label[k] != NONE).then_some(self.label[k])),
-        );
+        // discs by component, in `nearby` order within each (a stable counting
+        // sort; the discs in no component go to a last bucket, left out)
+        let label = &self.label;
+        fill_indexed(&mut self.keys, nearby.len(), Some(threads), |k| match label
+            [nearby[k] as usize]
+        {
+            NONE => count,
+            c => c,
+        });
         self.members.clear();
-        self.members
-            .resize(*self.member_start.last().unwrap_or(&0) as usize, 0);
-        self.local.clear();
-        self.local.resize(n, NONE);
-        self.cursor.clone_from(&self.member_start);
-        for &k in nearby {
-            let k = k as usize;
-            let c = self.label[k];
-            if c != NONE {
-                let slot = self.cursor[c as usize];
-                self.members[slot as usize] = k as u32;
-                self.local[k] = slot - self.member_start[c as usize];
-                self.cursor[c as usize] += 1;
+        self.members.resize(nearby.len(), 0);
+        let members = DisjointSlice::new(&mut self.members);
+        counting_sort_with(
+            &self.keys,
+            components + 1,
+            Some(threads),
+            &mut self.member_start,
+            &mut self.counts,
+            // SAFETY: every slot is given once
+            |k, slot| *unsafe { members.get(slot) } = nearby[k],
+        );
+        self.member_start.pop();
+        let member_start = &self.member_start;
+        let members = member_start[components] as usize;
+        self.members.truncate(members);
+        fill_indexed(&mut self.local, n, Some(threads), |_| NONE);
+        let local = DisjointSlice::new(&mut self.local);
+        let parts = part_ranges(members, threads.count());
+        let placed = &self.members;
+        map_parts(Some(threads), parts.len(), |p| {
+            for slot in parts[p].clone() {
+                let k = placed[slot] as usize;
+                // SAFETY: a disc is a member of one component, once
+                *unsafe { local.get(k) } = slot as u32 - member_start[label[k] as usize];
             }
-        }
+        });
 
         // pairs by component and level (a run), in canonical order within a run
         self.run_base.clear();
         self.run_base.resize(components + 1, 0);
-        for (c, &level) in contacts.iter().zip(&self.run) {
+        for (c, &level) in contacts.iter().zip(&self.levels) {
             let runs = &mut self.run_base[self.label[c.a as usize] as usize + 1];
             *runs = (*runs).max(level + 1);
         }
         for c in 0..components {
             self.run_base[c + 1] += self.run_base[c];
         }
-        for (c, run) in contacts.iter().zip(&mut self.run) {
-            *run += self.run_base[self.label[c.a as usize] as usize];
-        }
-        counting_starts(
-            &mut self.run_start,
-            self.run_base[components] as usize,
-            self.run.iter().copied(),
-        );
+        let (run_base, label, levels) = (&self.run_base, &self.label, &self.levels);
+        fill_indexed(&mut self.run, contacts.len(), Some(threads), |p| {
+            levels[p] + run_base[label[contacts[p].a as usize] as usize]
+        });
         let pairs = &mut self.pairs;
-        pairs.a.resize(contacts.len(), 0);
-        pairs.b.resize(contacts.len(), 0);
-        pairs.dx.resize(contacts.len(), 0.0);
-        pairs.dy.resize(contacts.len(), 0.0);
-        pairs.q.resize(contacts.len(), 0.0);
-        self.cursor.clone_from(&self.run_start);
-        for (c, &run) in contacts.iter().zip(&self.run) {
-            let slot = self.cursor[run as usize] as usize;
-            self.cursor[run as usize] += 1;
-            pairs.a[slot] = self.local[c.a as usize];
-            pairs.b[slot] = self.local[c.b as usize];
-            pairs.dx[slot] = c.sep.dx;
-            pairs.dy[slot] = c.sep.dy;
-            pairs.q[slot] = c.sep.q;
+        let m = contacts.len();
+        for column in [&mut pairs.a, &mut pairs.b] {
+            column.resize(m, 0);
         }
+        for column in [&mut pairs.dx, &mut pairs.dy, &mut pairs.q] {
+            column.resize(m, 0.0);
+        }
+        let [a, b] = [&mut pairs.a, &mut pairs.b].map(|c| DisjointSlice::new(c));
+        let [dx, dy, q] =
+            [&mut pairs.dx, &mut pairs.dy, &mut pairs.q].map(|c| DisjointSlice::new(c));
+        let local = &self.local;
+        counting_sort_with(
+            &self.run,
+            self.run_base[components] as usize,
+            Some(threads),
+            &mut self.run_start,
+            &mut self.counts,
+            |p, slot| {
+                let c = &contacts[p];
+                // SAFETY: every slot is given once
+                unsafe {
+                    *a.get(slot) = local[c.a as usize];
+                    *b.get(slot) = local[c.b as usize];
+                    *dx.get(slot) = c.sep.dx;
+                    *dy.get(slot) = c.sep.dy;
+                    *q.get(slot) = c.sep.q;
+                }
+            },
+        );
 
         counting_starts(
             &mut self.wall_start,
@@ -403,7 +433,26 @@ mod tests {
             .map(|k| (k, wall))
             .collect();
         let mut components = Components::default();
-        components.group(n, &contacts, &walls, grid.nearby_order());
+        components.group(
+            n,
+            &contacts,
+            &walls,
+            grid.nearby_order(),
+            &Threads::single(),
+        );
+        // the same grouping, to the bit, on two threads
+        let mut on_two = Components::default();
+        let two = Threads::new(2).unwrap();
+        on_two.group(n, &contacts, &walls, grid.nearby_order(), &two);
+        assert_eq!(on_two.members, components.members);
+        assert_eq!(on_two.member_start, components.member_start);
+        assert_eq!(on_two.run_start, components.run_start);
+        assert_eq!(on_two.run_base, components.run_base);
+        assert_eq!(on_two.wall_start, components.wall_start);
+        assert_eq!(on_two.walls, components.walls);
+        let p = (&on_two.pairs, &components.pairs);
+        assert!(p.0.a == p.1.a && p.0.b == p.1.b && p.0.q == p.1.q);
+        assert!(p.0.dx == p.1.dx && p.0.dy == p.1.dy);
         let c = &components;
         assert_eq!(c.pairs.a.len(), contacts.len());
         assert_eq!(c.walls.len(), walls.len());

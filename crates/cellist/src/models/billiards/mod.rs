@@ -233,6 +233,7 @@ impl Billiards {
             &self.contacts,
             &self.walls,
             self.grid.nearby_order(),
+            threads,
         );
         let sweeps = self
             .components
