@@ -164,10 +164,13 @@ pub fn collect_in_order_into<T: Copy + Send + Sync>(
     if done.iter().all(|(_, spill)| spill.is_empty()) {
         let mut end = 0;
         for (start, &(len, _)) in starts.zip(&done) {
-            // SAFETY: `base[start..start + len]` was written by its task, and
-            // `end <= start` (every earlier task wrote at most its estimate), so
-            // both ranges lie in the allocation; `copy` allows them to overlap.
-            unsafe { std::ptr::copy(base.add(start), base.add(end), len) };
+            if start != end {
+                // SAFETY: `base[start..start + len]` was written by its task, and
+                // `end <= start` (every earlier task wrote at most its estimate),
+                // so both ranges lie in the allocation; `copy` allows them to
+                // overlap.
+                unsafe { std::ptr::copy(base.add(start), base.add(end), len) };
+            }
             end += len;
         }
         // SAFETY: `out[..end]` holds the stretches, closed up above.
