@@ -258,27 +258,36 @@ pub fn counting_sort(
     order.clear();
     order.reserve(n);
     let slots = DisjointSlice::new(&mut order.spare_capacity_mut()[..n]);
-    counting_sort_with(keys, buckets, threads, start, counts, |i, slot| {
-        // SAFETY: every slot is given to one index
-        unsafe { slots.get(slot) }.write(i as u32);
-    });
+    counting_sort_with(
+        n,
+        |i| keys[i],
+        buckets,
+        threads,
+        start,
+        counts,
+        |i, slot| {
+            // SAFETY: every slot is given to one index
+            unsafe { slots.get(slot) }.write(i as u32);
+        },
+    );
     // SAFETY: the slots given out are exactly 0..n, each once
     unsafe { order.set_len(n) };
 }
 
-/// [`counting_sort`] without the `order` array: `place(i, slot)` is called
-/// once for every index `i`, with the slot the sort gives it, so that callers
-/// move their own data into place. Calls for different indices may run on
-/// different threads at once; each slot is given once.
+/// [`counting_sort`] of `0..n` by `key(i)`, without the `order` array:
+/// `place(i, slot)` is called once for every index `i`, with the slot the sort
+/// gives it, so that callers move their own data into place. `key` is called
+/// twice per index; calls for different indices may run on different threads
+/// at once; each slot is given once.
 pub fn counting_sort_with(
-    keys: &[u32],
+    n: usize,
+    key: impl Fn(usize) -> u32 + Sync + Send,
     buckets: usize,
     threads: Option<&Threads>,
     start: &mut Vec<u32>,
     counts: &mut Vec<u32>,
     place: impl Fn(usize, usize) + Sync + Send,
 ) {
-    let n = keys.len();
     assert!(n < u32::MAX as usize, "at most 2^32 - 1 items to sort");
     let ranges = part_ranges(n, parts_for(threads));
     let parts = ranges.len();
@@ -288,8 +297,8 @@ pub fn counting_sort_with(
     map_parts(threads, parts, |p| {
         // SAFETY: each part counts into its own row
         let row = unsafe { rows.range(p * buckets..(p + 1) * buckets) };
-        for &key in &keys[ranges[p].clone()] {
-            row[key as usize] += 1;
+        for i in ranges[p].clone() {
+            row[key(i) as usize] += 1;
         }
     });
     // bucket by bucket, part by part: the counts become each part's first slot
@@ -311,7 +320,7 @@ pub fn counting_sort_with(
         // gives out are its own (see above)
         let cursor = unsafe { cursors.range(p * buckets..(p + 1) * buckets) };
         for i in ranges[p].clone() {
-            let slot = &mut cursor[keys[i] as usize];
+            let slot = &mut cursor[key(i) as usize];
             place(i, *slot as usize);
             *slot += 1;
         }

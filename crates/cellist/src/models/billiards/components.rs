@@ -126,8 +126,10 @@ impl Components {
         self.members.clear();
         self.members.resize(nearby.len(), 0);
         let members = DisjointSlice::new(&mut self.members);
+        let keys = &self.keys;
         counting_sort_with(
-            &self.keys,
+            keys.len(),
+            |k| keys[k],
             components + 1,
             Some(threads),
             &mut self.member_start,
@@ -177,8 +179,10 @@ impl Components {
         let [dx, dy, q] =
             [&mut pairs.dx, &mut pairs.dy, &mut pairs.q].map(|c| DisjointSlice::new(c));
         let local = &self.local;
+        let run = &self.run;
         counting_sort_with(
-            &self.run,
+            m,
+            |p| run[p],
             self.run_base[components] as usize,
             Some(threads),
             &mut self.run_start,

@@ -8,7 +8,8 @@
 
 use super::rules::Separation;
 use crate::threads::{
-    concat_into, counting_sort, fill_indexed, map_parts, part_ranges, DisjointSlice, Threads,
+    concat_into, counting_sort, counting_sort_with, fill_indexed, map_parts, part_ranges,
+    DisjointSlice, Threads,
 };
 use rayon::prelude::*;
 
@@ -77,8 +78,6 @@ pub struct ContactGrid {
     sorted_y: Vec<f64>,
     rows: Vec<Vec<Contact>>,
     found: Vec<Contact>,
-    keys: Vec<u32>,
-    by_row: Vec<u32>,
     counts: Vec<u32>,
     offsets: Vec<u32>,
 }
@@ -127,22 +126,21 @@ impl ContactGrid {
         concat_into(&mut self.found, &rows);
         self.rows = rows;
         let found = &self.found;
-        fill_indexed(&mut self.keys, found.len(), Some(threads), |k| found[k].a);
-        counting_sort(
-            &self.keys,
+        out.clear();
+        out.resize(found.len(), Contact::default());
+        let placed = DisjointSlice::new(out);
+        counting_sort_with(
+            found.len(),
+            |k| found[k].a,
             n,
             Some(threads),
             &mut self.offsets,
-            &mut self.by_row,
             &mut self.counts,
+            // SAFETY: every slot is given once
+            |k, slot| *unsafe { placed.get(slot) } = found[k],
         );
-        let by_row = &self.by_row;
-        fill_indexed(out, found.len(), Some(threads), |k| {
-            found[by_row[k] as usize]
-        });
         let offsets = &self.offsets;
         let parts = part_ranges(n, threads.count());
-        let placed = DisjointSlice::new(out);
         map_parts(Some(threads), parts.len(), |p| {
             let discs = parts[p].clone();
             let first = offsets[discs.start] as usize;
