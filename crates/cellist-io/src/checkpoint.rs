@@ -10,8 +10,8 @@
 //! u32 n  n x (str section name, u64 byte count, bytes, u32 CRC-32 of name and bytes)
 //! u32 CRC-32 of everything before it   "CKPTDONE"
 //! ```
-//! Floats are stored by their bit patterns. Files are written atomically: a
-//! temporary file in the same folder, fsync, the previous checkpoint renamed to
+//! Floats are stored by their bit patterns. Files are written atomically:
+//! `FILE.partial` in the same folder, fsync, the previous checkpoint renamed to
 //! `FILE.prev`, the new one renamed into place, fsync of the folder.
 
 use crate::error::InputError;
@@ -274,10 +274,15 @@ pub fn write_checkpoint(path: &Path, c: &Checkpoint) -> io::Result<()> {
         _ => PathBuf::from("."),
     };
     let partial = partial_path(path);
-    let mut file = std::fs::File::create(&partial)?;
-    file.write_all(&encode(c))?;
-    file.sync_all()?;
-    drop(file);
+    let written = std::fs::File::create(&partial).and_then(|mut file| {
+        file.write_all(&encode(c))?;
+        file.sync_all()
+    });
+    if let Err(e) = written {
+        // a write cut short (a full disk) leaves nothing behind
+        let _ = std::fs::remove_file(&partial);
+        return Err(e);
+    }
     if path.exists() {
         std::fs::rename(path, previous_path(path))?;
     }

@@ -53,8 +53,9 @@ impl Threads {
     }
 }
 
-/// Replaces the contents of `out` by the parts in order (copied in parallel),
-/// reusing its memory when it has room.
+/// Replaces the contents of `out` by the parts in order (copied in parallel on
+/// the current pool: call it inside [`Threads::install`]), reusing its memory
+/// when it has room.
 pub fn concat_into<T: Copy + Send + Sync, P: AsRef<[T]> + Sync>(out: &mut Vec<T>, parts: &[P]) {
     let total = parts.iter().map(|p| p.as_ref().len()).sum();
     out.clear();
@@ -274,11 +275,16 @@ pub fn counting_sort(
     unsafe { order.set_len(n) };
 }
 
+/// How many counts per item [`counting_sort_with`] may keep (parts x buckets):
+/// with many buckets per item it splits into fewer parts.
+const COUNTS_PER_ITEM: usize = 8;
+
 /// [`counting_sort`] of `0..n` by `key(i)`, without the `order` array:
 /// `place(i, slot)` is called once for every index `i`, with the slot the sort
 /// gives it, so that callers move their own data into place. `key` is called
-/// twice per index; calls for different indices may run on different threads
-/// at once; each slot is given once.
+/// twice per index and must return the same value both times (callers' writes
+/// are disjoint only then); calls for different indices may run on different
+/// threads at once; each slot is given once.
 pub fn counting_sort_with(
     n: usize,
     key: impl Fn(usize) -> u32 + Sync + Send,
@@ -289,7 +295,10 @@ pub fn counting_sort_with(
     place: impl Fn(usize, usize) + Sync + Send,
 ) {
     assert!(n < u32::MAX as usize, "at most 2^32 - 1 items to sort");
-    let ranges = part_ranges(n, parts_for(threads));
+    // parts x buckets counts are kept and summed serially: no more parts than
+    // keep that within a few times the item count
+    let most = (COUNTS_PER_ITEM * n / buckets.max(1)).max(1);
+    let ranges = part_ranges(n, parts_for(threads).min(most));
     let parts = ranges.len();
     counts.clear();
     counts.resize(parts * buckets, 0);

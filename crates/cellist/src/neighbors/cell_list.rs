@@ -26,7 +26,7 @@ pub struct CellList<const D: usize> {
     positions: Vec<[f64; D]>,
     columns: [Vec<f64>; D],
     anchors_by_colour: Vec<Vec<u32>>,
-    // scratch, kept so that rebinning does not allocate
+    // scratch, kept so that rebinning does not reallocate the arrays
     cell_ids: Vec<u32>,
     counts: Vec<u32>,
 }
@@ -79,8 +79,8 @@ impl<const D: usize> CellList<D> {
         Ok(list)
     }
 
-    /// Sorts new positions into the same grid, reusing every buffer (no allocation once
-    /// the buffers have grown to the particle count).
+    /// Sorts new positions into the same grid, reusing every buffer (the arrays are
+    /// not reallocated once they have grown to the particle count).
     pub fn rebin(&mut self, points: &[[f64; D]]) {
         self.sort(points, None);
     }
@@ -179,7 +179,8 @@ impl<const D: usize> CellList<D> {
         &self.columns
     }
 
-    /// Frees the per-axis columns until the next [`CellList::rebin`], which
+    /// Frees the per-axis columns until the next [`CellList::rebin`] (or
+    /// [`CellList::rebin_in`]), which
     /// makes them anew: for a holder that keeps the list between two searches
     /// only for its order and positions (the md system between two Verlet
     /// builds), one copy of the positions less in memory.

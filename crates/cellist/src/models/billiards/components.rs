@@ -79,6 +79,14 @@ impl Components {
         nearby: &[u32],
         threads: &Threads,
     ) {
+        // the disjoint writes below rely on every disc being in `nearby` once
+        assert_eq!(nearby.len(), n, "nearby must list every disc once");
+        debug_assert!({
+            let mut seen = vec![false; n];
+            nearby
+                .iter()
+                .all(|&k| !std::mem::replace(&mut seen[k as usize], true))
+        });
         // one pass in canonical order: union-find, and each pair's level (one more
         // than the highest level among the earlier pairs sharing a disc with it;
         // `depth` holds, per disc, one more than the level of its latest pair)
@@ -134,7 +142,8 @@ impl Components {
             Some(threads),
             &mut self.member_start,
             &mut self.counts,
-            // SAFETY: every slot is given once
+            // SAFETY: every slot is given once (`nearby` is a permutation of
+            // the discs, each labelled once)
             |k, slot| *unsafe { members.get(slot) } = nearby[k],
         );
         self.member_start.pop();
@@ -148,7 +157,8 @@ impl Components {
         map_parts(Some(threads), parts.len(), |p| {
             for slot in parts[p].clone() {
                 let k = placed[slot] as usize;
-                // SAFETY: a disc is a member of one component, once
+                // SAFETY: a disc is a member of one component, once: `nearby` is a
+                // permutation of the discs (asserted above)
                 *unsafe { local.get(k) } = slot as u32 - member_start[label[k] as usize];
             }
         });

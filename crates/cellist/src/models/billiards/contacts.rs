@@ -123,7 +123,7 @@ impl ContactGrid {
         });
         // then place the pairs row by row in the order of a (a counting sort,
         // stable), each row sorted by b; both in parts over the threads
-        concat_into(&mut self.found, &rows);
+        threads.install(|| concat_into(&mut self.found, &rows));
         self.rows = rows;
         let found = &self.found;
         out.clear();
