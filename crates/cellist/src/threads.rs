@@ -454,7 +454,8 @@ mod tests {
 
     proptest::proptest! {
         /// The parallel counting sort equals a stable sort by key, with its
-        /// bucket offsets, on no thread pool and on pools of 1 to 3 threads.
+        /// bucket offsets, and `fill_indexed` equals a plain map, on no thread
+        /// pool and on pools of 1 to 3 threads.
         #[test]
         fn counting_sort_is_a_stable_sort_by_key(
             keys in proptest::collection::vec(0u32..40, 0..500),

@@ -44,7 +44,6 @@ struct LocalDisc {
 pub(super) struct Components {
     sets: DisjointSets,
     label: Vec<u32>,
-    cursor: Vec<u32>,
     local: Vec<u32>,
     member_start: Vec<u32>,
     members: Vec<u32>,
@@ -210,19 +209,21 @@ impl Components {
             },
         );
 
-        counting_starts(
-            &mut self.wall_start,
-            components,
-            walls.iter().map(|&(k, _)| self.label[k as usize]),
-        );
+        // walls by component, in the order of `walls` within each
         self.walls.clear();
         self.walls.resize(walls.len(), (0, Walls::default()));
-        self.cursor.clone_from(&self.wall_start);
-        for &(k, w) in walls {
-            let comp = self.label[k as usize] as usize;
-            self.walls[self.cursor[comp] as usize] = (self.local[k as usize], w);
-            self.cursor[comp] += 1;
-        }
+        let (label, local) = (&self.label, &self.local);
+        let placed = DisjointSlice::new(&mut self.walls);
+        counting_sort_with(
+            walls.len(),
+            |i| label[walls[i].0 as usize],
+            components,
+            Some(threads),
+            &mut self.wall_start,
+            &mut self.counts,
+            // SAFETY: every slot is given once
+            |i, slot| *unsafe { placed.get(slot) } = (local[walls[i].0 as usize], walls[i].1),
+        );
     }
 
     /// Runs the canonical loop in every component, in parallel, and writes the new
@@ -308,18 +309,6 @@ impl DisjointSets {
             k = grand;
         }
         k
-    }
-}
-
-/// `starts[c]..starts[c + 1]` for the counts of `labels` over `components`.
-fn counting_starts(starts: &mut Vec<u32>, components: usize, labels: impl Iterator<Item = u32>) {
-    starts.clear();
-    starts.resize(components + 1, 0);
-    for c in labels {
-        starts[c as usize + 1] += 1;
-    }
-    for c in 0..components {
-        starts[c + 1] += starts[c];
     }
 }
 
