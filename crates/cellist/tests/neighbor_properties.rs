@@ -6,6 +6,7 @@ use cellist::neighbors::{
     brute_force_pairs, gather_cells, gather_verlet, half_list_as_found, half_pairs,
     scatter_coloured, scatter_verlet_serial, sorted_half_list, PairKernel, PairQuantities,
 };
+use cellist::neighbors::{ClusterList, CLUSTER};
 use cellist::{Boundary, CellList, Domain, StencilKind, Threads, VerletList};
 use proptest::prelude::*;
 
@@ -229,6 +230,77 @@ fn check_all_paths<const D: usize>(domain: &Domain<D>, cutoff: f64, points: &[[f
     scatter_verlet_serial(&half, wide.positions(), &kernel, &mut h);
     assert_eq!(to_input_order(&h), expected);
     check_verlet_after_moves(domain, cutoff, skin, &wide, &full, &half);
+    check_cluster_list(domain, cutoff, skin, points);
+}
+
+/// The cluster pair list: the same cell order and list on no pool, 1 and 2
+/// threads; after moves below skin/2 (no rebuild asked for) it holds every pair
+/// within the cutoff exactly once, and no pair it holds within the cutoff is
+/// missing from the brute-force list (pairs within 1e-9 of the cutoff, where
+/// the two separations may round apart, are left out of both checks).
+fn check_cluster_list<const D: usize>(
+    domain: &Domain<D>,
+    cutoff: f64,
+    skin: f64,
+    points: &[[f64; D]],
+) {
+    let (one, two) = (Threads::single(), Threads::new(2).unwrap());
+    let side = ClusterList::cell_side(domain, cutoff + skin, points.len());
+    let binned = |threads: Option<&Threads>| {
+        let mut cells = CellList::build(domain, side, points).unwrap();
+        cells.order_cells_in_columns(threads);
+        cells
+    };
+    let cells = binned(Some(&two));
+    assert_eq!(cells.order(), binned(None).order());
+    let mut scratch = Vec::new();
+    let list = ClusterList::build(&cells, cutoff, skin, &two, &mut scratch);
+    let list_one = ClusterList::build(&cells, cutoff, skin, &one, &mut scratch);
+    for c in 0..list.num_clusters() {
+        assert!(list.slots(c).len() <= CLUSTER);
+        assert_eq!(
+            list.row(c),
+            list_one.row(c),
+            "row {c} differs between 1 and 2 threads"
+        );
+    }
+    let mut rng = cellist::random::Rng::new(points.len() as u64 + 7);
+    let step = 0.49 * skin / (D as f64).sqrt();
+    let moved: Vec<[f64; D]> = cells
+        .positions()
+        .iter()
+        .map(|x| std::array::from_fn(|a| x[a] + (2.0 * rng.uniform() - 1.0) * step))
+        .collect();
+    assert!(!list.needs_rebuild(&cells, &moved));
+    let (inside, outside) = (cutoff * (1.0 - 1e-9), cutoff * (1.0 + 1e-9));
+    let mut seen = std::collections::HashMap::new();
+    list.for_each_pair(&moved, |i, j, _, r2| {
+        let r = r2.sqrt();
+        if r < outside {
+            *seen.entry((i.min(j), i.max(j))).or_insert(0) += usize::from(r < inside);
+        }
+    });
+    let brute = brute_force_pairs(domain, cutoff, &moved);
+    for &(i, j, r) in &brute {
+        if r < inside {
+            assert_eq!(
+                seen.get(&(i as usize, j as usize)),
+                Some(&1),
+                "pair {i} {j} at {r}"
+            );
+        }
+    }
+    let near: std::collections::HashSet<(usize, usize)> =
+        brute_force_pairs(domain, outside, &moved)
+            .iter()
+            .map(|&(i, j, _)| (i as usize, j as usize))
+            .collect();
+    for (pair, &count) in &seen {
+        assert!(
+            count <= 1 && near.contains(pair),
+            "pair {pair:?} seen {count} times"
+        );
+    }
 }
 
 /// Moves every particle by less than skin/2 (without re-wrapping): the lists must

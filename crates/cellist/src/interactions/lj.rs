@@ -1,6 +1,8 @@
 //! The Lennard-Jones potential with a cutoff (LAMMPS `pair_style lj/cut`).
 
 use super::PairPotential;
+use crate::simd::F64x4;
+use std::ops::{Div, Mul, Sub};
 
 /// `U(r) = 4 eps ((sigma/r)^12 - (sigma/r)^6) - U_shift` for `r < r_c`, zero beyond.
 ///
@@ -83,12 +85,37 @@ impl PairPotential for LennardJones {
 
     #[inline(always)]
     fn energy_and_force(&self, r2: f64) -> (f64, f64) {
-        let r2inv = 1.0 / r2;
-        let r6inv = r2inv * r2inv * r2inv;
-        let force = r6inv * (self.lj1 * r6inv - self.lj2);
-        let energy = r6inv * (self.lj3 * r6inv - self.lj4) - self.offset;
-        (energy, force * r2inv)
+        lj_terms(
+            r2,
+            1.0,
+            [self.lj1, self.lj2, self.lj3, self.lj4],
+            self.offset,
+        )
     }
+}
+
+impl LennardJones {
+    /// [`PairPotential::energy_and_force`] on four `r^2` at once: `(U, -U'/r)`
+    /// lane by lane, the same operations, so the same bits as four scalar calls.
+    #[inline(always)]
+    pub fn energy_and_force_lanes(&self, r2: F64x4) -> (F64x4, F64x4) {
+        let lj = [self.lj1, self.lj2, self.lj3, self.lj4].map(F64x4::splat);
+        lj_terms(r2, F64x4::splat(1.0), lj, F64x4::splat(self.offset))
+    }
+}
+
+/// LAMMPS's arithmetic, on scalars or lanes: with `s = 1/r^2`,
+/// `U = s^3 (lj3 s^3 - lj4) - U_shift` and `-U'/r = s^3 (lj1 s^3 - lj2) s`.
+#[inline(always)]
+fn lj_terms<T>(r2: T, one: T, lj: [T; 4], offset: T) -> (T, T)
+where
+    T: Copy + Mul<Output = T> + Sub<Output = T> + Div<Output = T>,
+{
+    let r2inv = one / r2;
+    let r6inv = r2inv * r2inv * r2inv;
+    let force = r6inv * (lj[0] * r6inv - lj[1]);
+    let energy = r6inv * (lj[2] * r6inv - lj[3]) - offset;
+    (energy, force * r2inv)
 }
 
 #[cfg(test)]

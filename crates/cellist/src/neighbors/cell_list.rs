@@ -2,7 +2,9 @@
 
 use super::grid::CellGrid;
 use crate::geometry::{Domain, GeometryError};
-use crate::threads::{counting_sort, fill_indexed, Threads};
+use crate::threads::{
+    counting_sort, fill_indexed, map_parts, part_ranges, parts_for, DisjointSlice, Threads,
+};
 use std::ops::Range;
 
 /// Particles binned into the cells of a [`CellGrid`] and stored contiguously per cell.
@@ -113,9 +115,57 @@ impl<const D: usize> CellList<D> {
         fill_indexed(&mut self.positions, order.len(), threads, |k| {
             domain.wrap(points[order[k] as usize])
         });
+        self.fill_columns(threads);
+    }
+
+    /// The positions axis by axis ([`CellList::columns`]).
+    fn fill_columns(&mut self, threads: Option<&Threads>) {
         let positions = &self.positions;
         for (a, column) in self.columns.iter_mut().enumerate() {
             fill_indexed(column, positions.len(), threads, |k| positions[k][a]);
+        }
+    }
+
+    /// Reorders the particles inside every cell along the walk of
+    /// [`CellGrid::column_key`]: up one half-cell column, down the next, so that
+    /// consecutive slots lie close together and every run of a few slots is a
+    /// compact cluster ([`ClusterList`](super::ClusterList)). An unstable sort
+    /// by `(column, along, input index)`, a total order, so the same wrapped
+    /// positions in the same input order give the same slots for any thread
+    /// count. Cells keep their slot ranges; `order`, `positions` and the
+    /// columns (unless released) follow.
+    pub fn order_cells_in_columns(&mut self, threads: Option<&Threads>) {
+        let parts = part_ranges(self.grid.num_cells(), parts_for(threads));
+        let (grid, start) = (&self.grid, &self.cell_start);
+        let order = DisjointSlice::new(&mut self.order);
+        let positions = DisjointSlice::new(&mut self.positions);
+        map_parts(threads, parts.len(), |p| {
+            let mut keyed: Vec<(u32, f64, u32, [f64; D])> = Vec::new();
+            for c in parts[p].clone() {
+                let range = start[c] as usize..start[c + 1] as usize;
+                if range.len() < 2 {
+                    continue;
+                }
+                // SAFETY: the cells' slot ranges are disjoint and each cell is
+                // in one part.
+                let (order, positions) =
+                    unsafe { (order.range(range.clone()), positions.range(range)) };
+                keyed.clear();
+                keyed.extend(order.iter().zip(positions.iter()).map(|(&i, x)| {
+                    let (column, along) = grid.column_key(c, x);
+                    (column, along, i, *x)
+                }));
+                keyed.sort_unstable_by(|a, b| {
+                    a.0.cmp(&b.0).then(a.1.total_cmp(&b.1)).then(a.2.cmp(&b.2))
+                });
+                for ((o, x), k) in order.iter_mut().zip(positions.iter_mut()).zip(&keyed) {
+                    *o = k.2;
+                    *x = k.3;
+                }
+            }
+        });
+        if self.columns.iter().all(|c| c.len() == self.order.len()) {
+            self.fill_columns(threads);
         }
     }
 

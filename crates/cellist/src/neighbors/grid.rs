@@ -113,6 +113,31 @@ impl<const D: usize> CellGrid<D> {
         idx
     }
 
+    /// Where `x`, a point of cell `cell`, comes in the walk through the cell that
+    /// [`CellList::order_cells_in_columns`](super::CellList::order_cells_in_columns)
+    /// sorts by: `(column, along)`. The cell is cut in half along every axis but
+    /// the last into `2^(D-1)` columns, numbered in Gray-code order (each column
+    /// next to the one before it); `along` is the last coordinate, negated in
+    /// odd columns, so that the walk goes up one column and down the next.
+    #[inline]
+    pub fn column_key(&self, cell: usize, x: &[f64; D]) -> (u32, f64) {
+        let base = self.coords(cell);
+        let mut gray = 0u32;
+        for d in 0..D - 1 {
+            let within = (x[d] - self.lo[d]) * self.inv_side[d] - base[d] as f64;
+            gray = gray << 1 | u32::from(within >= 0.5);
+        }
+        // the rank of a Gray code g is g ^ (g >> 1) ^ (g >> 2) ^ ...
+        let mut column = gray;
+        let mut shifted = gray >> 1;
+        while shifted != 0 {
+            column ^= shifted;
+            shifted >>= 1;
+        }
+        let along = x[D - 1];
+        (column, if column % 2 == 0 { along } else { -along })
+    }
+
     /// Grid coordinates of a cell index.
     #[inline]
     pub fn coords(&self, mut idx: usize) -> [usize; D] {

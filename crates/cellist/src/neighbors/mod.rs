@@ -3,6 +3,7 @@
 
 mod brute;
 mod cell_list;
+mod clusters;
 mod grid;
 mod ordered;
 mod pairs;
@@ -14,6 +15,7 @@ mod verlet;
 
 pub use brute::brute_force_pairs;
 pub use cell_list::CellList;
+pub use clusters::{ClusterList, Lanes, CLUSTER};
 pub use grid::{
     image_code, offsets, AnchoredPair, CellGrid, NeighbourCell, StencilKind, StencilRun,
 };

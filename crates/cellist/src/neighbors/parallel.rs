@@ -12,9 +12,11 @@
 //!   that only it writes, added afterwards (Newton's third law, one pass).
 
 use super::cell_list::CellList;
+use super::clusters::CLUSTER;
 use super::grid::StencilKind;
 use super::traverse::{for_each_anchored_pair, for_each_row_in_cell, CutoffTest};
 use super::verlet::VerletList;
+use crate::simd::F64x4;
 use crate::threads::{DisjointSlice, Threads};
 use rayon::prelude::*;
 use std::ops::Range;
@@ -174,12 +176,20 @@ pub struct LayerPlan {
 impl LayerPlan {
     /// The layers of `cells` as binned now (make a new plan after every rebin).
     pub fn new<const D: usize>(cells: &CellList<D>) -> Self {
+        Self::over(cells, cells.cell_start())
+    }
+
+    /// The layers of `cells` counted in units other than slots: `starts[c]` is
+    /// the first unit of cell `c` (`num_cells + 1` entries, ascending), such as
+    /// the clusters of a [`ClusterList`](super::ClusterList).
+    pub fn over<const D: usize>(cells: &CellList<D>, starts: &[u32]) -> Self {
         let dims = cells.grid().dims();
         let layers = dims[D - 1];
         let per_layer: usize = dims[..D - 1].iter().product();
-        let start = cells.cell_start();
-        let mut bounds: Vec<usize> = (0..layers).map(|z| start[z * per_layer] as usize).collect();
-        bounds.push(cells.len());
+        assert_eq!(starts.len(), layers * per_layer + 1);
+        let bounds: Vec<usize> = (0..=layers)
+            .map(|z| starts[z * per_layer] as usize)
+            .collect();
         LayerPlan {
             bounds,
             // a single periodic layer wraps onto itself: its writes are all its own
@@ -254,6 +264,22 @@ impl<const D: usize> Summand for [f64; D] {
     #[inline(always)]
     fn negated(&self) -> Self {
         std::array::from_fn(|a| -self[a])
+    }
+}
+
+impl<const D: usize> Summand for [[f64; CLUSTER]; D] {
+    const ZERO: Self = [[0.0; CLUSTER]; D];
+
+    #[inline(always)]
+    fn add_assign(&mut self, delta: &Self) {
+        for (lanes, delta) in self.iter_mut().zip(delta) {
+            (F64x4::load(lanes) + F64x4::load(delta)).store(lanes);
+        }
+    }
+
+    #[inline(always)]
+    fn negated(&self) -> Self {
+        self.map(|lanes| lanes.map(|v| -v))
     }
 }
 

@@ -35,7 +35,7 @@ pub const SLOT_BITS: u32 = 27;
 
 /// The entry of neighbour slot `j` seen at image code `image`.
 #[inline(always)]
-fn pack(j: usize, image: u8) -> u32 {
+pub(crate) fn pack(j: usize, image: u8) -> u32 {
     debug_assert!(j < 1 << SLOT_BITS && image < 32);
     j as u32 | (image as u32) << SLOT_BITS
 }

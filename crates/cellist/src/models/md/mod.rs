@@ -11,6 +11,7 @@
 //! ```
 
 mod atoms;
+mod cluster_forces;
 mod integrate;
 mod lattice;
 mod model;
@@ -30,10 +31,9 @@ pub use velocity::{create_velocities, VelocityDistribution};
 
 use crate::geometry::{norm2, Domain, GeometryError};
 use crate::interactions::{LennardJones, PairPotential};
-use crate::neighbors::{
-    scatter_half_rows, unpack, CellList, LayerPlan, Rebuild, RebuildRule, StencilKind, VerletList,
-};
+use crate::neighbors::{CellList, ClusterList, Lanes, LayerPlan, Rebuild, RebuildRule, CLUSTER};
 use crate::threads::Threads;
+use cluster_forces::ClusterForces;
 use std::fmt;
 use std::time::{Duration, Instant};
 
@@ -213,10 +213,12 @@ pub struct MdSystem<const D: usize> {
     potential: LennardJones,
     skin: f64,
     cells: CellList<D>,
-    list: VerletList<D>,
+    list: ClusterList<D>,
     layers: LayerPlan,
     tallies: Vec<PairTally>,
-    halo: Vec<[f64; D]>,
+    lanes: Vec<Lanes<D>>,
+    lane_forces: Vec<Lanes<D>>,
+    halo: Vec<Lanes<D>>,
     totals: Option<PairTally>,
     scratch: PermuteScratch<D>,
     rule: RebuildRule,
@@ -242,12 +244,18 @@ impl<const D: usize> MdSystem<D> {
         let reach = potential.cutoff() + skin;
         domain.check_cutoff(reach)?;
         check_positions(&domain, &atoms, 0)?;
-        let cells = CellList::build_in(&domain, reach, &atoms.positions, threads)?;
+        let side = ClusterList::cell_side(&domain, reach, atoms.len());
+        let mut cells = CellList::build_in(&domain, side, &atoms.positions, threads)?;
+        cells.order_cells_in_columns(Some(threads));
+        let mut lanes = Vec::new();
+        let list = ClusterList::build(&cells, potential.cutoff(), skin, threads, &mut lanes);
         let mut system = MdSystem {
             domain,
-            list: VerletList::build(&cells, StencilKind::Half, potential.cutoff(), skin, threads),
-            layers: LayerPlan::new(&cells),
+            layers: LayerPlan::over(&cells, list.cell_clusters()),
+            list,
             tallies: Vec::new(),
+            lanes,
+            lane_forces: Vec::new(),
             halo: Vec::new(),
             cells,
             atoms,
@@ -317,7 +325,7 @@ impl<const D: usize> MdSystem<D> {
         self.counts.late_builds
     }
 
-    /// Entries in the current half Verlet list.
+    /// Cluster pairs in the current half list (each up to `4 x 4` atom pairs).
     pub fn list_entries(&self) -> usize {
         self.list.num_entries()
     }
@@ -354,13 +362,20 @@ impl<const D: usize> MdSystem<D> {
         Ok(())
     }
 
-    /// Wraps the positions, sorts the atoms by cell and rebuilds the Verlet list.
+    /// Wraps the positions, sorts the atoms by cell (in columns inside a cell)
+    /// and rebuilds the cluster list.
     fn rebuild(&mut self, threads: &Threads) {
         self.cells.rebin_in(&self.atoms.positions, threads);
+        self.cells.order_cells_in_columns(Some(threads));
         self.adopt_cell_order();
-        self.list.rebuild(&self.cells, threads);
+        self.build_list(threads);
+    }
+
+    /// The cluster list and its layers for the cell list as binned now.
+    fn build_list(&mut self, threads: &Threads) {
+        self.list.rebuild(&self.cells, threads, &mut self.lanes);
         self.cells.release_columns();
-        self.layers = LayerPlan::new(&self.cells);
+        self.layers = LayerPlan::over(&self.cells, self.list.cell_clusters());
     }
 
     /// The positions the Verlet list was built at (slot order, wrapped).
@@ -396,6 +411,7 @@ impl<const D: usize> MdSystem<D> {
             return Err("a saved reference position is not finite".into());
         }
         self.cells.rebin_in(reference, threads);
+        self.cells.order_cells_in_columns(Some(threads));
         let order = self.cells.order();
         let wrapped = order
             .iter()
@@ -411,9 +427,7 @@ impl<const D: usize> MdSystem<D> {
             std::mem::swap(&mut atoms.positions, &mut self.scratch.vectors);
         }
         self.atoms = atoms;
-        self.list.rebuild(&self.cells, threads);
-        self.cells.release_columns();
-        self.layers = LayerPlan::new(&self.cells);
+        self.build_list(threads);
         self.tallies = vec![PairTally::default(); self.layers.num_layers()];
         self.counts = counts;
         // the energy and virial of the restored state, for its thermo; the
@@ -436,57 +450,54 @@ impl<const D: usize> MdSystem<D> {
     }
 
     fn check_overlaps(&self) -> Result<(), MdError> {
-        for i in 0..self.list.len() {
-            let mut twin = None;
-            self.list
-                .for_each_in_row(i, &self.atoms.positions, |j, _, r2| {
-                    if r2 == 0.0 && twin.is_none() {
-                        twin = Some(j);
-                    }
-                });
-            if let Some(j) = twin {
+        let mut twin = None;
+        self.list
+            .for_each_pair(&self.atoms.positions, |i, j, _, r2| {
+                if r2 == 0.0 && twin.is_none() {
+                    twin = Some((i, j));
+                }
+            });
+        match twin {
+            Some((i, j)) => {
                 let (a, b) = (self.atoms.ids[i], self.atoms.ids[j]);
-                return Err(MdError::Overlap {
+                Err(MdError::Overlap {
                     first: a.min(b),
                     second: a.max(b),
-                });
+                })
             }
+            None => Ok(()),
         }
-        Ok(())
     }
 
     /// Zeroes and recomputes the forces; with `energy`, also the energy and virial.
     pub fn compute_forces(&mut self, energy: bool, threads: &Threads) {
-        self.atoms.forces.fill([0.0; D]);
+        self.list
+            .gather(&self.atoms.positions, threads, &mut self.lanes);
+        self.lane_forces.clear();
+        self.lane_forces
+            .resize(self.list.num_clusters(), [[0.0; CLUSTER]; D]);
         self.tallies.fill(PairTally::default());
-        let args = PairArgs {
+        let kernel = ClusterForces {
             list: &self.list,
             layers: &self.layers,
             potential: &self.potential,
-            positions: &self.atoms.positions,
+            positions: &self.lanes,
         };
+        let (forces, halo, tallies) = (&mut self.lane_forces, &mut self.halo, &mut self.tallies);
         if energy {
-            args.run::<true>(
-                &mut self.atoms.forces,
-                &mut self.halo,
-                &mut self.tallies,
-                threads,
-            );
+            kernel.run::<true>(forces, halo, tallies, threads);
             let mut totals = PairTally::default();
-            for t in &self.tallies {
+            for t in tallies.iter() {
                 totals.energy += t.energy;
                 totals.virial += t.virial;
             }
             self.totals = Some(totals);
         } else {
-            args.run::<false>(
-                &mut self.atoms.forces,
-                &mut self.halo,
-                &mut self.tallies,
-                threads,
-            );
+            kernel.run::<false>(forces, halo, tallies, threads);
             self.totals = None;
         }
+        self.list
+            .scatter(&self.lane_forces, threads, &mut self.atoms.forces);
     }
 
     /// Energy and virial of the last force evaluation, if it summed them.
@@ -499,21 +510,14 @@ impl<const D: usize> MdSystem<D> {
     pub fn per_atom_energy(&self) -> Vec<f64> {
         let mut pe = vec![0.0; self.atoms.len()];
         let cutoff2 = self.potential.cutoff2();
-        for i in 0..self.list.len() {
-            let xi = self.atoms.positions[i];
-            for &entry in self.list.row(i) {
-                let (j, image) = unpack(entry);
-                let s = self.list.image_shift(image);
-                let xj = &self.atoms.positions[j];
-                let d: [f64; D] = std::array::from_fn(|a| xi[a] - (xj[a] + s[a]));
-                let r2 = norm2(&d);
+        self.list
+            .for_each_pair(&self.atoms.positions, |i, j, _, r2| {
                 if r2 < cutoff2 {
                     let half = 0.5 * self.potential.energy_and_force(r2).0;
                     pe[i] += half;
                     pe[j] += half;
                 }
-            }
-        }
+            });
         pe
     }
 
@@ -591,14 +595,6 @@ pub fn check_positions<const D: usize>(
     Ok(())
 }
 
-/// What the pair-force loop reads.
-struct PairArgs<'a, const D: usize, P> {
-    list: &'a VerletList<D>,
-    layers: &'a LayerPlan,
-    potential: &'a P,
-    positions: &'a [[f64; D]],
-}
-
 /// Entries of a Verlet row handled together by the pair loop: gathered, then computed
 /// in straight-line (vectorisable) code, then scattered.
 pub(crate) const PAIR_BLOCK: usize = 16;
@@ -645,57 +641,5 @@ impl<const D: usize> Default for PairBlock<D> {
             f_over_r: [0.0; PAIR_BLOCK],
             r2: [0.0; PAIR_BLOCK],
         }
-    }
-}
-
-impl<const D: usize, P: PairPotential> PairArgs<'_, D, P> {
-    /// `f_i += sum_j f_ij`, `f_j -= f_ij` over the half list, `f_ij = (-U'/r)(x_i - x_j)`
-    /// for `r^2 < r_c^2`; with `ENERGY`, each layer's `U` and `W` in `tallies`.
-    fn run<const ENERGY: bool>(
-        &self,
-        forces: &mut [[f64; D]],
-        halo: &mut Vec<[f64; D]>,
-        tallies: &mut [PairTally],
-        threads: &Threads,
-    ) {
-        let cutoff2 = self.potential.cutoff() * self.potential.cutoff();
-        let (list, positions, potential) = (self.list, self.positions, self.potential);
-        scatter_half_rows(
-            self.layers,
-            forces,
-            halo,
-            tallies,
-            threads,
-            |rows, f, tally| {
-                let mut b = PairBlock::<D>::default();
-                for i in rows {
-                    let xi = positions[i];
-                    let mut fi = [0.0; D];
-                    for block in list.row(i).chunks(PAIR_BLOCK) {
-                        for (k, &entry) in block.iter().enumerate() {
-                            let (j, image) = unpack(entry);
-                            let xj = &positions[j];
-                            let s = list.image_shift(image);
-                            for a in 0..D {
-                                b.d[a][k] = xi[a] - (xj[a] + s[a]);
-                            }
-                        }
-                        b.compute(potential, cutoff2);
-                        for (k, &entry) in block.iter().enumerate() {
-                            let fij: [f64; D] = std::array::from_fn(|a| b.f[a][k]);
-                            for a in 0..D {
-                                fi[a] += fij[a];
-                            }
-                            f.sub(unpack(entry).0, &fij);
-                            if ENERGY && b.r2[k] < cutoff2 {
-                                tally.energy += b.energy[k];
-                                tally.virial += b.f_over_r[k] * b.r2[k];
-                            }
-                        }
-                    }
-                    f.add(i, &fi);
-                }
-            },
-        );
     }
 }

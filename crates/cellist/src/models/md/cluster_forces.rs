@@ -1,0 +1,146 @@
+//! The Lennard-Jones forces over a half cluster pair list ([`ClusterList`]),
+//! `4 x 4` pairs at a time, GROMACS's nbnxm scheme in double precision:
+//!
+//! ```text
+//! for every cluster I, its i-lanes in registers:
+//!     for every (J, image) of row I:
+//!         x_J + shift loaded as one lane vector per axis
+//!         for every i in I:   d = x_i - (x_J + shift),  r^2 = |d|^2 (4 lanes)
+//!             g = -U'(r)/r where r^2 < r_c^2 (and the lane is a real pair), else 0
+//!             f_i += d g (summed over the row),  f_J -= d g (one store per J)
+//! ```
+//!
+//! No neighbour is gathered one at a time and no force is scattered one at a
+//! time: a row entry is one cluster, loaded and stored as lanes. Lanes beyond a
+//! cluster's size, the pairs `j <= i` of a cluster with itself, and the pairs
+//! at or beyond the cutoff get `g = 0` from a mask, so the loop has no branch
+//! per pair. Every pair's `g` has the bits of the scalar
+//! [`PairPotential::energy_and_force`](crate::interactions::PairPotential).
+//! The rows run in parallel by cell layers ([`scatter_half_rows`]), each sum in
+//! an order fixed by the list, so the forces do not depend on the thread count.
+
+use super::PairTally;
+use crate::interactions::LennardJones;
+use crate::neighbors::{scatter_half_rows, unpack, ClusterList, Lanes, LayerPlan, CLUSTER};
+use crate::simd::F64x4;
+use crate::threads::Threads;
+
+/// What the cluster force loop reads.
+pub(super) struct ClusterForces<'a, const D: usize> {
+    pub(super) list: &'a ClusterList<D>,
+    pub(super) layers: &'a LayerPlan,
+    pub(super) potential: &'a LennardJones,
+    pub(super) positions: &'a [Lanes<D>],
+}
+
+/// A mask operand for [`F64x4::zero_unless_less`]: `r^2 < limit` keeps a lane,
+/// and no `r^2` is below `NO_PAIR`.
+const NO_PAIR: f64 = -1.0;
+
+/// The sums one row of the list adds to: the forces on the row's i-lanes, one
+/// vector per i and axis (summed across its lanes at the end of the row), and
+/// the energy and virial.
+struct RowSums<const D: usize> {
+    fi: [[F64x4; D]; CLUSTER],
+    energy: F64x4,
+    virial: F64x4,
+}
+
+impl<const D: usize> ClusterForces<'_, D> {
+    /// `forces[I] += sum over row I of f_ij` (lanes of I) and `forces[J] -= f_ij`,
+    /// `f_ij = (-U'/r)(x_i - x_j)` for `r^2 < r_c^2`; with `ENERGY`, each layer's
+    /// `U` and `W = sum r^2 (-U'/r)` in `tallies`.
+    pub(super) fn run<const ENERGY: bool>(
+        &self,
+        forces: &mut [Lanes<D>],
+        halo: &mut Vec<Lanes<D>>,
+        tallies: &mut [PairTally],
+        threads: &Threads,
+    ) {
+        let (list, positions, potential) = (self.list, self.positions, self.potential);
+        let cutoff2 = potential.cutoff2();
+        // above[i]: the cutoff in the lanes j > i only (a cluster's own pairs)
+        let above: [F64x4; CLUSTER] = std::array::from_fn(|i| {
+            let lanes: [f64; CLUSTER] =
+                std::array::from_fn(|l| if l > i { cutoff2 } else { NO_PAIR });
+            F64x4::load(&lanes)
+        });
+        scatter_half_rows(
+            self.layers,
+            forces,
+            halo,
+            tallies,
+            threads,
+            |rows, f, tally| {
+                for ci in rows {
+                    let xi = &positions[ci];
+                    // the cutoff for the cluster's real i-lanes, no pair for the rest
+                    let ni = list.slots(ci).len();
+                    let limits: [F64x4; CLUSTER] = std::array::from_fn(|i| {
+                        F64x4::splat(if i < ni { cutoff2 } else { NO_PAIR })
+                    });
+                    let mut sums = RowSums {
+                        fi: [[F64x4::splat(0.0); D]; CLUSTER],
+                        energy: F64x4::splat(0.0),
+                        virial: F64x4::splat(0.0),
+                    };
+                    // the pairs inside the cluster: lanes j > i of the cluster itself
+                    let own_limits: [F64x4; CLUSTER] =
+                        std::array::from_fn(|i| limits[i].min(above[i]));
+                    let xj: [F64x4; D] = std::array::from_fn(|a| F64x4::load(&xi[a]));
+                    let f_own = self.block::<ENERGY>(xi, &xj, &own_limits, &mut sums);
+                    for &entry in list.row(ci) {
+                        let (cj, image) = unpack(entry);
+                        let shift = list.image_shift(image);
+                        let xj: [F64x4; D] = std::array::from_fn(|a| {
+                            F64x4::load(&positions[cj][a]) + F64x4::splat(shift[a])
+                        });
+                        let fj = self.block::<ENERGY>(xi, &xj, &limits, &mut sums);
+                        f.add(cj, &fj.map(F64x4::to_array));
+                    }
+                    let own: Lanes<D> = std::array::from_fn(|a| {
+                        let fj = f_own[a].to_array();
+                        std::array::from_fn(|i| sums.fi[i][a].sum() + fj[i])
+                    });
+                    f.add(ci, &own);
+                    if ENERGY {
+                        tally.energy += sums.energy.sum();
+                        tally.virial += sums.virial.sum();
+                    }
+                }
+            },
+        );
+    }
+
+    /// The `4 x 4` pairs of the i-lanes `xi` with the j-lanes `xj`: adds the
+    /// i forces (and with `ENERGY` the energy and virial) to `sums`, returns the
+    /// j forces. Lane `l` of pair row `i` counts where `r^2 < limits[i]_l`.
+    #[inline(always)]
+    fn block<const ENERGY: bool>(
+        &self,
+        xi: &Lanes<D>,
+        xj: &[F64x4; D],
+        limits: &[F64x4; CLUSTER],
+        sums: &mut RowSums<D>,
+    ) -> [F64x4; D] {
+        let mut fj = [F64x4::splat(0.0); D];
+        for (i, fi) in sums.fi.iter_mut().enumerate() {
+            let d: [F64x4; D] = std::array::from_fn(|a| F64x4::splat(xi[a][i]) - xj[a]);
+            let mut r2 = d[0] * d[0];
+            for da in &d[1..] {
+                r2 = da.mul_add(*da, r2);
+            }
+            let (e, g) = self.potential.energy_and_force_lanes(r2);
+            let g = g.zero_unless_less(r2, limits[i]);
+            for a in 0..D {
+                fi[a] = d[a].mul_add(g, fi[a]);
+                fj[a] = d[a].neg_mul_add(g, fj[a]);
+            }
+            if ENERGY {
+                sums.energy = sums.energy + e.zero_unless_less(r2, limits[i]);
+                sums.virial = g.mul_add(r2, sums.virial);
+            }
+        }
+        fj
+    }
+}

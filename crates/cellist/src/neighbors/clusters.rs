@@ -1,0 +1,366 @@
+//! Cluster pair lists, the layout of GROMACS's nbnxm kernels: the slots of every
+//! cell cut into clusters of [`CLUSTER`] consecutive slots (compact when the
+//! cells are ordered in columns, [`CellList::order_cells_in_columns`]), and for
+//! every cluster the clusters of the half stencil whose bounding boxes come
+//! within `cutoff + skin` of its own. A force kernel then computes `4 x 4` pairs
+//! at once from lanes ([`Lanes`]), pairs beyond the cutoff masked, instead of
+//! gathering one neighbour at a time.
+//!
+//! The list holds every pair of a Verlet list of the same `cutoff + skin`, and
+//! more: two particles closer than `cutoff + skin` have bounding boxes closer
+//! than that too. It stays valid on the same skin/2 rule.
+
+use super::cell_list::CellList;
+use super::grid::{StencilKind, StencilRun};
+use super::pairs::{balanced_cell_runs, expected_pairs, share_of, tasks_for};
+use super::verlet::{moved_beyond_half_skin, pack, unpack, SLOT_BITS};
+use crate::geometry::{norm2, Domain};
+use crate::simd::F64x4;
+use crate::threads::{
+    collect_in_order_into, fill_indexed, map_parts, part_ranges, DisjointSlice, Threads,
+};
+use std::ops::Range;
+
+/// The coordinate of a position lane beyond a cluster's size: far from any
+/// particle (`r^2` about `D 10^60`, finite, its inverse powers normal
+/// numbers), so a pair with it is beyond any cutoff.
+pub const PADDING: f64 = 1e30;
+
+/// Slots per cluster (at most; the last cluster of a cell may hold fewer).
+pub const CLUSTER: usize = 4;
+
+/// One cluster's positions or forces, an array of lanes per axis: lane `l` of
+/// axis `a` is component `a` of the cluster's slot `first + l`. Lanes beyond
+/// the cluster's size hold 0 in forces and [`PADDING`] in positions.
+pub type Lanes<const D: usize> = [[f64; CLUSTER]; D];
+
+/// A half cluster pair list over the slots of a [`CellList`], in CSR form: row
+/// `I` holds the clusters `J` (with the image code they are seen at, packed as
+/// in [`VerletList`](super::VerletList)) of the half stencil of `I`'s cell,
+/// `J > I` inside a run that holds the cell itself, whose bounding boxes (`J`'s
+/// shifted by the image) are closer than `cutoff + skin` and which hold a pair
+/// of particles that close. The pairs inside a cluster (slot `j` above slot
+/// `i`) are no entry: every cluster has them.
+#[derive(Clone, Debug)]
+pub struct ClusterList<const D: usize> {
+    cutoff: f64,
+    skin: f64,
+    cell_clusters: Vec<u32>,
+    first: Vec<u32>,
+    start: Vec<usize>,
+    entries: Vec<u32>,
+    image_shifts: Vec<[f64; D]>,
+    boxes: Vec<[[f64; D]; 2]>,
+}
+
+impl<const D: usize> ClusterList<D> {
+    /// Builds the list for the particles of `cells` (binned for at least
+    /// `cutoff + skin`), in parallel, the same list for any thread count.
+    /// `scratch` is overwritten (the positions as lanes).
+    pub fn build(
+        cells: &CellList<D>,
+        cutoff: f64,
+        skin: f64,
+        threads: &Threads,
+        scratch: &mut Vec<Lanes<D>>,
+    ) -> Self {
+        assert!(skin >= 0.0, "skin must be >= 0");
+        let mut list = ClusterList {
+            cutoff,
+            skin,
+            cell_clusters: Vec::new(),
+            first: Vec::new(),
+            start: Vec::new(),
+            entries: Vec::new(),
+            image_shifts: Vec::new(),
+            boxes: Vec::new(),
+        };
+        list.rebuild(cells, threads, scratch);
+        list
+    }
+
+    /// Builds the list anew for `cells` as binned now, reusing its memory;
+    /// `scratch` is overwritten (the positions as lanes).
+    pub fn rebuild(&mut self, cells: &CellList<D>, threads: &Threads, scratch: &mut Vec<Lanes<D>>) {
+        let reach = self.cutoff + self.skin;
+        assert!(
+            reach <= cells.cutoff(),
+            "cutoff + skin {reach} above the cell list's {}",
+            cells.cutoff()
+        );
+        self.cut_into_clusters(cells);
+        assert!(
+            self.num_clusters() <= 1 << SLOT_BITS,
+            "a cluster list holds at most 2^{SLOT_BITS} clusters, got {}",
+            self.num_clusters()
+        );
+        let (first, positions, clusters) = (&self.first, cells.positions(), self.num_clusters());
+        fill_indexed(&mut self.boxes, clusters, Some(threads), |c| {
+            bounding_box(&positions[first[c] as usize..first[c + 1] as usize])
+        });
+        self.gather(positions, threads, scratch);
+        let lanes = &*scratch;
+        // a hair above (cutoff + skin)^2, so that rounding in the box gap never
+        // drops a pair the Verlet list of the same reach would hold
+        let reach2 = reach * reach * (1.0 + 1e-12);
+        let runs = balanced_cell_runs(cells, tasks_for(threads));
+        let guess = if self.entries.is_empty() {
+            // measured on fcc and liquid LJ: about 3 times the pairs computed
+            3 * expected_pairs(cells, reach) / (CLUSTER * CLUSTER)
+        } else {
+            self.entries.len() + self.entries.len() / 16
+        };
+        let estimates: Vec<usize> = runs
+            .iter()
+            .map(|homes| share_of(guess, cells, homes))
+            .collect();
+        self.start.clear();
+        self.start.resize(self.num_clusters() + 1, 0);
+        let lengths = DisjointSlice::new(&mut self.start[1..]);
+        let (grid, cell_clusters, boxes, first) =
+            (cells.grid(), &self.cell_clusters, &self.boxes, &self.first);
+        collect_in_order_into(&mut self.entries, &estimates, threads, |k, out| {
+            let mut stencil = [StencilRun::<D>::default(); 27];
+            for home in runs[k].clone() {
+                let n = grid.stencil_runs(home, StencilKind::Half, &mut stencil);
+                for i in cell_clusters[home] as usize..cell_clusters[home + 1] as usize {
+                    let mut len = 0;
+                    for run in &stencil[..n] {
+                        let end = cell_clusters[run.last_cell + 1] as usize;
+                        let begin = if run.holds_home {
+                            // the clusters after i (its own pairs are not a row entry)
+                            i + 1
+                        } else {
+                            cell_clusters[run.first_cell] as usize
+                        };
+                        for j in begin..end {
+                            if box_gap2(&boxes[i], &boxes[j], &run.shift) < reach2
+                                && any_pair_within(
+                                    &lanes[i],
+                                    (first[i + 1] - first[i]) as usize,
+                                    &lanes[j],
+                                    &run.shift,
+                                    reach2,
+                                )
+                            {
+                                out.push(pack(j, run.image));
+                                len += 1;
+                            }
+                        }
+                    }
+                    // SAFETY: cluster `i` is in cell `home`, which one task visits.
+                    unsafe { *lengths.get_unchecked(i) = len };
+                }
+            }
+        });
+        for c in 0..self.num_clusters() {
+            self.start[c + 1] += self.start[c];
+        }
+        self.image_shifts.clear();
+        self.image_shifts
+            .extend((0..3u8.pow(D as u32)).map(|c| grid.image_shift(c)));
+    }
+
+    /// The side of the cells to bin `particles` in for a list of reach
+    /// `cutoff + skin = reach`: two sides of a cube that holds a cluster on
+    /// average, `2 (CLUSTER V / N)^(1/D)`, so that a cell's half-width columns
+    /// ([`CellList::order_cells_in_columns`]) cut into near-cubic clusters;
+    /// at least `reach`, and at most half the shortest periodic side (or
+    /// `reach` if that is larger).
+    pub fn cell_side(domain: &Domain<D>, reach: f64, particles: usize) -> f64 {
+        let volume_per_cluster = CLUSTER as f64 * domain.volume() / particles.max(1) as f64;
+        let widest = (0..D)
+            .filter(|&a| domain.is_periodic(a))
+            .map(|a| 0.5 * domain.length[a])
+            .fold(f64::INFINITY, f64::min);
+        (2.0 * volume_per_cluster.powf(1.0 / D as f64))
+            .min(widest)
+            .max(reach)
+    }
+
+    /// Cuts every cell's slots into clusters of [`CLUSTER`], the last one of a
+    /// cell holding the rest.
+    fn cut_into_clusters(&mut self, cells: &CellList<D>) {
+        self.cell_clusters.clear();
+        self.first.clear();
+        for c in 0..cells.grid().num_cells() {
+            self.cell_clusters.push(self.first.len() as u32);
+            self.first
+                .extend(cells.cell_range(c).step_by(CLUSTER).map(|s| s as u32));
+        }
+        self.cell_clusters.push(self.first.len() as u32);
+        self.first.push(cells.len() as u32);
+    }
+
+    /// The interaction cutoff (without skin).
+    pub fn cutoff(&self) -> f64 {
+        self.cutoff
+    }
+
+    /// The skin.
+    pub fn skin(&self) -> f64 {
+        self.skin
+    }
+
+    /// Number of clusters (rows).
+    pub fn num_clusters(&self) -> usize {
+        self.first.len() - 1
+    }
+
+    /// `cell_clusters[c]`: the first cluster of cell `c` (`num_cells + 1`
+    /// entries), for a [`LayerPlan`](super::LayerPlan) over clusters.
+    pub fn cell_clusters(&self) -> &[u32] {
+        &self.cell_clusters
+    }
+
+    /// The slots of cluster `c`.
+    #[inline(always)]
+    pub fn slots(&self, c: usize) -> Range<usize> {
+        self.first[c] as usize..self.first[c + 1] as usize
+    }
+
+    /// Row `c`: its entries, each a neighbour cluster and image code ([`unpack`]).
+    #[inline(always)]
+    pub fn row(&self, c: usize) -> &[u32] {
+        &self.entries[self.start[c]..self.start[c + 1]]
+    }
+
+    /// Total number of cluster pairs.
+    pub fn num_entries(&self) -> usize {
+        self.entries.len()
+    }
+
+    /// The shift vector of an image code.
+    #[inline(always)]
+    pub fn image_shift(&self, code: u8) -> &[f64; D] {
+        &self.image_shifts[code as usize]
+    }
+
+    /// The positions (slot order) as lanes, one [`Lanes`] per cluster, in
+    /// parallel on `threads`.
+    pub fn gather(&self, positions: &[[f64; D]], threads: &Threads, out: &mut Vec<Lanes<D>>) {
+        assert_eq!(positions.len() as u32, *self.first.last().unwrap_or(&0));
+        fill_indexed(out, self.num_clusters(), Some(threads), |c| {
+            let mut lanes = [[PADDING; CLUSTER]; D];
+            for (l, x) in positions[self.slots(c)].iter().enumerate() {
+                for a in 0..D {
+                    lanes[a][l] = x[a];
+                }
+            }
+            lanes
+        });
+    }
+
+    /// Writes lanes back to the slots: `out[first_c + l][a] = lanes[c][a][l]`,
+    /// in parallel on `threads`.
+    pub fn scatter(&self, lanes: &[Lanes<D>], threads: &Threads, out: &mut [[f64; D]]) {
+        assert_eq!(lanes.len(), self.num_clusters());
+        assert_eq!(out.len() as u32, *self.first.last().unwrap_or(&0));
+        let parts = part_ranges(self.num_clusters(), threads.count());
+        let shared = DisjointSlice::new(out);
+        map_parts(Some(threads), parts.len(), |p| {
+            let clusters = parts[p].clone();
+            if clusters.is_empty() {
+                return;
+            }
+            let slots = self.slots(clusters.start).start..self.slots(clusters.end - 1).end;
+            let base = slots.start;
+            // SAFETY: the parts' clusters, and so their slots, are disjoint.
+            let out = unsafe { shared.range(slots) };
+            for c in clusters {
+                for (l, slot) in self.slots(c).enumerate() {
+                    out[slot - base] = std::array::from_fn(|a| lanes[c][a][l]);
+                }
+            }
+        });
+    }
+
+    /// Visits every pair of slots the list holds, cluster by cluster (its own
+    /// pairs, then its row), as `visit(i, j, d, r2)` with `d = x_i - (x_j +
+    /// shift)` and `r2 = |d|^2` at `positions` (slot order): every pair within
+    /// `cutoff + skin` at the build, and others.
+    pub fn for_each_pair(
+        &self,
+        positions: &[[f64; D]],
+        mut visit: impl FnMut(usize, usize, &[f64; D], f64),
+    ) {
+        let mut pair = |i: usize, j: usize, shift: &[f64; D]| {
+            let (xi, xj) = (&positions[i], &positions[j]);
+            let d: [f64; D] = std::array::from_fn(|a| xi[a] - (xj[a] + shift[a]));
+            visit(i, j, &d, norm2(&d));
+        };
+        for c in 0..self.num_clusters() {
+            let own = self.slots(c);
+            for i in own.clone() {
+                for j in i + 1..own.end {
+                    pair(i, j, &[0.0; D]);
+                }
+            }
+            for &entry in self.row(c) {
+                let (other, image) = unpack(entry);
+                let shift = self.image_shift(image);
+                for i in self.slots(c) {
+                    for j in self.slots(other) {
+                        pair(i, j, shift);
+                    }
+                }
+            }
+        }
+    }
+
+    /// True when some particle has moved more than `skin / 2` since the build
+    /// (see [`VerletList::needs_rebuild`](super::VerletList::needs_rebuild)):
+    /// `cells` is the cell list the list was built from, not rebinned since.
+    pub fn needs_rebuild(&self, cells: &CellList<D>, positions: &[[f64; D]]) -> bool {
+        moved_beyond_half_skin(positions, cells.positions(), self.skin)
+    }
+}
+
+/// The smallest box holding `points`: `[lo, hi]`.
+fn bounding_box<const D: usize>(points: &[[f64; D]]) -> [[f64; D]; 2] {
+    let mut b = [[f64::INFINITY; D], [f64::NEG_INFINITY; D]];
+    for x in points {
+        for a in 0..D {
+            b[0][a] = b[0][a].min(x[a]);
+            b[1][a] = b[1][a].max(x[a]);
+        }
+    }
+    b
+}
+
+/// Whether one of the first `count` lanes of `a` and one lane of `b` shifted
+/// by `shift` are closer than `sqrt(reach2)` (padding lanes of `b` are too far
+/// to count).
+#[inline]
+fn any_pair_within<const D: usize>(
+    a: &Lanes<D>,
+    count: usize,
+    b: &Lanes<D>,
+    shift: &[f64; D],
+    reach2: f64,
+) -> bool {
+    let xj: [F64x4; D] = std::array::from_fn(|k| F64x4::load(&b[k]) + F64x4::splat(shift[k]));
+    let reach2 = F64x4::splat(reach2);
+    (0..count).any(|i| {
+        let mut r2 = F64x4::splat(0.0);
+        for k in 0..D {
+            let d = F64x4::splat(a[k][i]) - xj[k];
+            r2 = d.mul_add(d, r2);
+        }
+        F64x4::any_less(r2, reach2)
+    })
+}
+
+/// The squared distance between box `a` and box `b` shifted by `shift`:
+/// `sum_k max(0, lo_b,k + s_k - hi_a,k, lo_a,k - hi_b,k - s_k)^2`.
+#[inline(always)]
+fn box_gap2<const D: usize>(a: &[[f64; D]; 2], b: &[[f64; D]; 2], shift: &[f64; D]) -> f64 {
+    let mut gap2 = 0.0;
+    for k in 0..D {
+        let gap = (b[0][k] + shift[k] - a[1][k])
+            .max(a[0][k] - (b[1][k] + shift[k]))
+            .max(0.0);
+        gap2 += gap * gap;
+    }
+    gap2
+}
