@@ -51,6 +51,7 @@ pub struct ClusterList<const D: usize> {
     entries: Vec<u32>,
     image_shifts: Vec<[f64; D]>,
     boxes: Vec<[[f64; D]; 2]>,
+    cell_boxes: Vec<[[f64; D]; 2]>,
 }
 
 impl<const D: usize> ClusterList<D> {
@@ -74,6 +75,7 @@ impl<const D: usize> ClusterList<D> {
             entries: Vec::new(),
             image_shifts: Vec::new(),
             boxes: Vec::new(),
+            cell_boxes: Vec::new(),
         };
         list.rebuild(cells, threads, scratch);
         list
@@ -98,6 +100,21 @@ impl<const D: usize> ClusterList<D> {
         fill_indexed(&mut self.boxes, clusters, Some(threads), |c| {
             bounding_box(&positions[first[c] as usize..first[c + 1] as usize])
         });
+        let (boxes, cell_clusters) = (&self.boxes, &self.cell_clusters);
+        fill_indexed(
+            &mut self.cell_boxes,
+            cells.grid().num_cells(),
+            Some(threads),
+            |c| {
+                let clusters = cell_clusters[c] as usize..cell_clusters[c + 1] as usize;
+                boxes[clusters].iter().fold(empty_box(), |all, b| {
+                    [
+                        std::array::from_fn(|a| all[0][a].min(b[0][a])),
+                        std::array::from_fn(|a| all[1][a].max(b[1][a])),
+                    ]
+                })
+            },
+        );
         self.gather(positions, threads, scratch);
         let lanes = &*scratch;
         // a hair above (cutoff + skin)^2, so that rounding in the box gap never
@@ -117,34 +134,51 @@ impl<const D: usize> ClusterList<D> {
         self.start.clear();
         self.start.resize(self.num_clusters() + 1, 0);
         let lengths = DisjointSlice::new(&mut self.start[1..]);
-        let (grid, cell_clusters, boxes, first) =
-            (cells.grid(), &self.cell_clusters, &self.boxes, &self.first);
+        let (grid, cell_clusters, boxes, cell_boxes, first) = (
+            cells.grid(),
+            &self.cell_clusters,
+            &self.boxes,
+            &self.cell_boxes,
+            &self.first,
+        );
         collect_in_order_into(&mut self.entries, &estimates, threads, |k, out| {
             let mut stencil = [StencilRun::<D>::default(); 27];
             for home in runs[k].clone() {
                 let n = grid.stencil_runs(home, StencilKind::Half, &mut stencil);
                 for i in cell_clusters[home] as usize..cell_clusters[home + 1] as usize {
+                    let count = (first[i + 1] - first[i]) as usize;
                     let mut len = 0;
-                    for run in &stencil[..n] {
-                        let end = cell_clusters[run.last_cell + 1] as usize;
-                        let begin = if run.holds_home {
+                    let cells_of_runs = stencil[..n]
+                        .iter()
+                        .flat_map(|run| (run.first_cell..=run.last_cell).map(move |c| (c, run)));
+                    for (cell, run) in cells_of_runs {
+                        if box_gap2(&boxes[i], &cell_boxes[cell], &run.shift) >= reach2 {
+                            continue;
+                        }
+                        let end = cell_clusters[cell + 1] as usize;
+                        let begin = if run.holds_home && cell == home {
                             // the clusters after i (its own pairs are not a row entry)
                             i + 1
                         } else {
-                            cell_clusters[run.first_cell] as usize
+                            cell_clusters[cell] as usize
                         };
-                        for j in begin..end {
-                            if box_gap2(&boxes[i], &boxes[j], &run.shift) < reach2
-                                && any_pair_within(
-                                    &lanes[i],
-                                    (first[i + 1] - first[i]) as usize,
-                                    &lanes[j],
-                                    &run.shift,
-                                    reach2,
-                                )
-                            {
-                                out.push(pack(j, run.image));
-                                len += 1;
+                        // the box test for up to 64 clusters without a branch,
+                        // then the pair test for those whose boxes are close
+                        for from in (begin..end).step_by(64) {
+                            let to = (from + 64).min(end);
+                            let mut close = 0u64;
+                            for (k, b) in boxes[from..to].iter().enumerate() {
+                                let near = box_gap2(&boxes[i], b, &run.shift) < reach2;
+                                close |= u64::from(near) << k;
+                            }
+                            while close != 0 {
+                                let j = from + close.trailing_zeros() as usize;
+                                close &= close - 1;
+                                if any_pair_within(&lanes[i], count, &lanes[j], &run.shift, reach2)
+                                {
+                                    out.push(pack(j, run.image));
+                                    len += 1;
+                                }
                             }
                         }
                     }
@@ -316,9 +350,14 @@ impl<const D: usize> ClusterList<D> {
     }
 }
 
+/// `[lo, hi]` of no point: beyond every other box.
+const fn empty_box<const D: usize>() -> [[f64; D]; 2] {
+    [[f64::INFINITY; D], [f64::NEG_INFINITY; D]]
+}
+
 /// The smallest box holding `points`: `[lo, hi]`.
 fn bounding_box<const D: usize>(points: &[[f64; D]]) -> [[f64; D]; 2] {
-    let mut b = [[f64::INFINITY; D], [f64::NEG_INFINITY; D]];
+    let mut b = empty_box();
     for x in points {
         for a in 0..D {
             b[0][a] = b[0][a].min(x[a]);
@@ -340,15 +379,16 @@ fn any_pair_within<const D: usize>(
     reach2: f64,
 ) -> bool {
     let xj: [F64x4; D] = std::array::from_fn(|k| F64x4::load(&b[k]) + F64x4::splat(shift[k]));
-    let reach2 = F64x4::splat(reach2);
-    (0..count).any(|i| {
+    let mut nearest = F64x4::splat(f64::INFINITY);
+    for i in 0..count {
         let mut r2 = F64x4::splat(0.0);
         for k in 0..D {
             let d = F64x4::splat(a[k][i]) - xj[k];
             r2 = d.mul_add(d, r2);
         }
-        F64x4::any_less(r2, reach2)
-    })
+        nearest = nearest.min(r2);
+    }
+    F64x4::any_less(nearest, F64x4::splat(reach2))
 }
 
 /// The squared distance between box `a` and box `b` shifted by `shift`:
