@@ -1,13 +1,13 @@
 //! Molecular dynamics: atoms with a pair potential, summed once per pair (Newton's
-//! third law) over a half Verlet list, in parallel without atomics by cell layers
-//! that write the next layer through a halo ([`LayerPlan`]), and advanced by an
-//! [`Integrator`].
+//! third law) over a half cluster pair list (`4 x 4` atoms at a time,
+//! [`ClusterList`]), in parallel without atomics by cell layers that write the
+//! next layer through a halo ([`LayerPlan`]), and advanced by an [`Integrator`].
 //!
 //! One step (LAMMPS's order, so that trajectories compare with LAMMPS's):
 //! ```text
-//! first_half (kick + drift)  ->  blow-up check  ->  rebuild the Verlet list if some
-//! atom moved more than skin/2 (wrap, counting sort, permute the atoms)  ->  forces
-//! ->  second_half (kick)
+//! first_half (kick + drift)  ->  blow-up check  ->  rebuild the cluster list if some
+//! atom moved more than skin/2 (wrap, counting sort, columns inside the cells,
+//! permute the atoms)  ->  forces  ->  second_half (kick)
 //! ```
 
 mod atoms;
@@ -135,7 +135,7 @@ pub struct Thermo {
 /// Wall time per stage of a run (LAMMPS's breakdown).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct StageTimes {
-    /// Blow-up checks, Verlet-list checks and rebuilds.
+    /// Blow-up checks, neighbour-list checks and rebuilds.
     pub neighbor: Duration,
     /// Pair forces.
     pub force: Duration,
@@ -179,7 +179,7 @@ fn twice_kinetic<const D: usize>(atoms: &Atoms<D>) -> f64 {
         .sum()
 }
 
-/// The Verlet list's counters that a checkpoint keeps, so that a restart
+/// The neighbour list's counters that a checkpoint keeps, so that a restart
 /// rebuilds on the same steps as the run it continues.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct ListCounts {
@@ -289,7 +289,7 @@ impl<const D: usize> MdSystem<D> {
         &self.potential
     }
 
-    /// The Verlet skin.
+    /// The neighbour-list skin.
     pub fn skin(&self) -> f64 {
         self.skin
     }
@@ -299,12 +299,12 @@ impl<const D: usize> MdSystem<D> {
         self.counts.rebuilds
     }
 
-    /// When the Verlet list is rebuilt (every step on the skin test unless set).
+    /// When the neighbour list is rebuilt (every step on the skin test unless set).
     pub fn rebuild_rule(&self) -> RebuildRule {
         self.rule
     }
 
-    /// Sets when the Verlet list is rebuilt, from the next step on.
+    /// Sets when the neighbour list is rebuilt, from the next step on.
     pub fn set_rebuild_rule(&mut self, rule: RebuildRule) {
         assert!(
             rule.every >= 1,
@@ -378,18 +378,18 @@ impl<const D: usize> MdSystem<D> {
         self.layers = LayerPlan::over(&self.cells, self.list.cell_clusters());
     }
 
-    /// The positions the Verlet list was built at (slot order, wrapped).
+    /// The positions the neighbour list was built at (slot order, wrapped).
     pub fn list_reference(&self) -> &[[f64; D]] {
         self.cells.positions()
     }
 
-    /// Replaces the atoms by a saved set whose Verlet list was built at
+    /// Replaces the atoms by a saved set whose neighbour list was built at
     /// `reference` (each atom's wrapped position at the last rebuild, what
     /// [`MdSystem::list_reference`] returned, in the saved atoms' order). The
     /// atoms are put in the cell order of `reference` and the list is built
     /// from it: the saved run's list, entry for entry, when the atoms come in
-    /// the slot order [`MdSystem::atoms`] had (the counting sort then leaves them
-    /// in place), and the same pairs in another order when they come from a
+    /// the slot order [`MdSystem::atoms`] had (the counting sort and the columns
+    /// then leave them in place), and the same pairs in another order when they come from a
     /// distributed run (sorted by id). Forces are kept as given (those of the
     /// saved step); `counts` are the saved run's list counters.
     pub fn restore(
@@ -593,53 +593,4 @@ pub fn check_positions<const D: usize>(
         }
     }
     Ok(())
-}
-
-/// Entries of a Verlet row handled together by the pair loop: gathered, then computed
-/// in straight-line (vectorisable) code, then scattered.
-pub(crate) const PAIR_BLOCK: usize = 16;
-
-/// One block of a row: separations `d = x_i - (x_j + shift)` by axis, then the pair
-/// force components and, for the energy, `U` and `-U'/r`.
-pub(crate) struct PairBlock<const D: usize> {
-    pub(crate) d: [[f64; PAIR_BLOCK]; D],
-    pub(crate) f: [[f64; PAIR_BLOCK]; D],
-    pub(crate) energy: [f64; PAIR_BLOCK],
-    pub(crate) f_over_r: [f64; PAIR_BLOCK],
-    pub(crate) r2: [f64; PAIR_BLOCK],
-}
-
-impl<const D: usize> PairBlock<D> {
-    /// From the separations `d`: `r^2`, `U`, `-U'/r` and the pair forces
-    /// `f = d (-U'/r)`, branch-free (vectorisable): entries at or beyond the
-    /// cutoff get `-U'/r = 0`, so exact zero forces.
-    #[inline(always)]
-    pub(crate) fn compute<P: PairPotential>(&mut self, potential: &P, cutoff2: f64) {
-        for k in 0..PAIR_BLOCK {
-            let d: [f64; D] = std::array::from_fn(|a| self.d[a][k]);
-            let r2 = norm2(&d);
-            let (e, f_over_r) = potential.energy_and_force(r2);
-            let f_over_r = if r2 < cutoff2 { f_over_r } else { 0.0 };
-            for a in 0..D {
-                self.f[a][k] = d[a] * f_over_r;
-            }
-            self.energy[k] = e;
-            self.f_over_r[k] = f_over_r;
-            self.r2[k] = r2;
-        }
-    }
-}
-
-impl<const D: usize> Default for PairBlock<D> {
-    fn default() -> Self {
-        // the lanes beyond a short block are computed but never scattered; start
-        // them at a finite, nonzero separation
-        PairBlock {
-            d: [[1.0; PAIR_BLOCK]; D],
-            f: [[0.0; PAIR_BLOCK]; D],
-            energy: [0.0; PAIR_BLOCK],
-            f_over_r: [0.0; PAIR_BLOCK],
-            r2: [0.0; PAIR_BLOCK],
-        }
-    }
 }

@@ -10,10 +10,59 @@
 //! any number of ranks and threads; the total energy and virial are the sums of
 //! `u_i` and `w_i`.
 
-use super::{PairBlock, PAIR_BLOCK};
+use crate::geometry::norm2;
 use crate::interactions::PairPotential;
 use crate::neighbors::OrderedRows;
 use crate::threads::Threads;
+
+/// Entries of a row handled together by the pair loop: gathered, then computed
+/// in straight-line (vectorisable) code, then scattered.
+const PAIR_BLOCK: usize = 16;
+
+/// One block of a row: separations `d = x_i - (x_j + shift)` by axis, then the pair
+/// force components and, for the energy, `U` and `-U'/r`.
+struct PairBlock<const D: usize> {
+    d: [[f64; PAIR_BLOCK]; D],
+    f: [[f64; PAIR_BLOCK]; D],
+    energy: [f64; PAIR_BLOCK],
+    f_over_r: [f64; PAIR_BLOCK],
+    r2: [f64; PAIR_BLOCK],
+}
+
+impl<const D: usize> PairBlock<D> {
+    /// From the separations `d`: `r^2`, `U`, `-U'/r` and the pair forces
+    /// `f = d (-U'/r)`, branch-free (vectorisable): entries at or beyond the
+    /// cutoff get `-U'/r = 0`, so exact zero forces.
+    #[inline(always)]
+    fn compute<P: PairPotential>(&mut self, potential: &P, cutoff2: f64) {
+        for k in 0..PAIR_BLOCK {
+            let d: [f64; D] = std::array::from_fn(|a| self.d[a][k]);
+            let r2 = norm2(&d);
+            let (e, f_over_r) = potential.energy_and_force(r2);
+            let f_over_r = if r2 < cutoff2 { f_over_r } else { 0.0 };
+            for a in 0..D {
+                self.f[a][k] = d[a] * f_over_r;
+            }
+            self.energy[k] = e;
+            self.f_over_r[k] = f_over_r;
+            self.r2[k] = r2;
+        }
+    }
+}
+
+impl<const D: usize> Default for PairBlock<D> {
+    fn default() -> Self {
+        // the lanes beyond a short block are computed but never scattered; start
+        // them at a finite, nonzero separation
+        PairBlock {
+            d: [[1.0; PAIR_BLOCK]; D],
+            f: [[0.0; PAIR_BLOCK]; D],
+            energy: [0.0; PAIR_BLOCK],
+            f_over_r: [0.0; PAIR_BLOCK],
+            r2: [0.0; PAIR_BLOCK],
+        }
+    }
+}
 
 /// One owned atom's force, half pair energy and half virial.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -79,7 +128,6 @@ pub fn ordered_forces<const ENERGY: bool, const D: usize, P: PairPotential + Syn
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geometry::norm2;
     use crate::interactions::LennardJones;
     use crate::random::Rng;
 
