@@ -8,7 +8,7 @@
 //! give the same bits everywhere (the collision benchmark depends on it); the
 //! tests compile both implementations and compare them. What differs: `mul_add`
 //! and `neg_mul_add` (a build with FMA rounds `a * b + c` once, one without it
-//! twice) and `min` with a NaN lane.
+//! twice) and `min` and `max` with a NaN lane.
 
 #[cfg(all(
     target_arch = "x86_64",
@@ -104,7 +104,17 @@ mod lanes {
         /// Whether `a < b` in some lane.
         #[inline(always)]
         pub fn any_less(a: Self, b: Self) -> bool {
-            unsafe { _mm256_movemask_pd(_mm256_cmp_pd::<_CMP_LT_OQ>(a.0, b.0)) != 0 }
+            Self::mask_less(a, b) != 0
+        }
+        /// Bit `l` set where `a < b` in lane `l`.
+        #[inline(always)]
+        pub fn mask_less(a: Self, b: Self) -> u32 {
+            unsafe { _mm256_movemask_pd(_mm256_cmp_pd::<_CMP_LT_OQ>(a.0, b.0)) as u32 }
+        }
+        /// Lane-wise maximum.
+        #[inline(always)]
+        pub fn max(self, b: Self) -> Self {
+            unsafe { F64x4(_mm256_max_pd(self.0, b.0)) }
         }
         /// Four pairs `p[l] = [x_l, y_l]` as the lanes `x` and `y`.
         #[inline(always)]
@@ -250,7 +260,17 @@ mod portable {
         /// Whether `a < b` in some lane.
         #[inline(always)]
         pub fn any_less(a: Self, b: Self) -> bool {
-            (0..4).any(|l| a.0[l] < b.0[l])
+            Self::mask_less(a, b) != 0
+        }
+        /// Bit `l` set where `a < b` in lane `l`.
+        #[inline(always)]
+        pub fn mask_less(a: Self, b: Self) -> u32 {
+            (0..4).fold(0, |bits, l| bits | u32::from(a.0[l] < b.0[l]) << l)
+        }
+        /// Lane-wise maximum.
+        #[inline(always)]
+        pub fn max(self, b: Self) -> Self {
+            F64x4(std::array::from_fn(|l| self.0[l].max(b.0[l])))
         }
         /// Four pairs `p[l] = [x_l, y_l]` as the lanes `x` and `y`.
         #[inline(always)]

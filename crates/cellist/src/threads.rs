@@ -101,6 +101,21 @@ impl<T> Stretch<'_, T> {
             None => self.spill.push(value),
         }
     }
+
+    /// Appends `value` if `keep`, without a branch on `keep` while the stretch
+    /// has room (the value is written either way; a rejected one is
+    /// overwritten by the next).
+    #[inline(always)]
+    pub fn push_if(&mut self, value: T, keep: bool) {
+        match self.room.get_mut(self.len) {
+            Some(slot) => {
+                slot.write(value);
+                self.len += usize::from(keep);
+            }
+            None if keep => self.spill.push(value),
+            None => {}
+        }
+    }
 }
 
 /// One vector filled by `estimates.len()` tasks in parallel, task `k` appending
@@ -483,7 +498,8 @@ mod tests {
         }
 
         /// Whatever the estimates (short, exact, long or zero) and the thread
-        /// count, the tasks' values come out in task order.
+        /// count, the tasks' values come out in task order, and values pushed
+        /// with `push_if(_, false)` do not.
         #[test]
         fn collected_values_are_the_tasks_values_in_order(
             lengths in proptest::collection::vec(0usize..300, 1..7),
@@ -497,9 +513,15 @@ mod tests {
                 .collect();
             let value = |k: usize, v: usize| (k * 1000 + v) as u32;
             let pool = Threads::new(threads).unwrap();
+            // every third value through push_if, with a rejected one before it
             let fill = |k: usize, out: &mut Stretch<u32>| {
                 for v in 0..lengths[k] {
-                    out.push(value(k, v));
+                    if v % 3 == 0 {
+                        out.push_if(u32::MAX, false);
+                        out.push_if(value(k, v), true);
+                    } else {
+                        out.push(value(k, v));
+                    }
                 }
             };
             let got = collect_in_order(&estimates, &pool, fill);

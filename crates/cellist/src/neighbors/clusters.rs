@@ -51,6 +51,7 @@ pub struct ClusterList<const D: usize> {
     entries: Vec<u32>,
     image_shifts: Vec<[f64; D]>,
     boxes: Vec<[[f64; D]; 2]>,
+    box_columns: [[Vec<f64>; D]; 2],
     cell_boxes: Vec<[[f64; D]; 2]>,
 }
 
@@ -75,6 +76,7 @@ impl<const D: usize> ClusterList<D> {
             entries: Vec::new(),
             image_shifts: Vec::new(),
             boxes: Vec::new(),
+            box_columns: std::array::from_fn(|_| std::array::from_fn(|_| Vec::new())),
             cell_boxes: Vec::new(),
         };
         list.rebuild(cells, threads, scratch);
@@ -115,6 +117,15 @@ impl<const D: usize> ClusterList<D> {
                 })
             },
         );
+        for side in 0..2 {
+            for a in 0..D {
+                let column = &mut self.box_columns[side][a];
+                column.clear();
+                column.extend(self.boxes.iter().map(|b| b[side][a]));
+                // room for a four-lane load at every cluster
+                column.extend([empty_box::<D>()[side][a]; CLUSTER - 1]);
+            }
+        }
         self.gather(positions, threads, scratch);
         let lanes = &*scratch;
         // a hair above (cutoff + skin)^2, so that rounding in the box gap never
@@ -134,11 +145,12 @@ impl<const D: usize> ClusterList<D> {
         self.start.clear();
         self.start.resize(self.num_clusters() + 1, 0);
         let lengths = DisjointSlice::new(&mut self.start[1..]);
-        let (grid, cell_clusters, boxes, cell_boxes, first) = (
+        let (grid, cell_clusters, boxes, cell_boxes, box_columns, first) = (
             cells.grid(),
             &self.cell_clusters,
             &self.boxes,
             &self.cell_boxes,
+            &self.box_columns,
             &self.first,
         );
         collect_in_order_into(&mut self.entries, &estimates, threads, |k, out| {
@@ -164,21 +176,19 @@ impl<const D: usize> ClusterList<D> {
                         };
                         // the box test for up to 64 clusters without a branch,
                         // then the pair test for those whose boxes are close
+                        let [lo, hi] =
+                            boxes[i].map(|x| std::array::from_fn(|a| x[a] - run.shift[a]));
                         for from in (begin..end).step_by(64) {
                             let to = (from + 64).min(end);
-                            let mut close = 0u64;
-                            for (k, b) in boxes[from..to].iter().enumerate() {
-                                let near = box_gap2(&boxes[i], b, &run.shift) < reach2;
-                                close |= u64::from(near) << k;
-                            }
+                            let mut close = close_boxes(box_columns, from..to, &lo, &hi, reach2);
                             while close != 0 {
                                 let j = from + close.trailing_zeros() as usize;
                                 close &= close - 1;
-                                if any_pair_within(&lanes[i], count, &lanes[j], &run.shift, reach2)
-                                {
-                                    out.push(pack(j, run.image));
-                                    len += 1;
-                                }
+                                let near = any_pair_within(
+                                    &lanes[i], count, &lanes[j], &run.shift, reach2,
+                                );
+                                out.push_if(pack(j, run.image), near);
+                                len += usize::from(near);
                             }
                         }
                     }
@@ -389,6 +399,34 @@ fn any_pair_within<const D: usize>(
         nearest = nearest.min(r2);
     }
     F64x4::any_less(nearest, F64x4::splat(reach2))
+}
+
+/// Bit `k` set where the box of cluster `range.start + k` comes within
+/// `sqrt(reach2)` of the box `[lo, hi]` (`range` at most 64 clusters; `lo` and
+/// `hi` already shifted by minus the image shift of the clusters): the gap
+/// `max(0, lo_j - hi, lo - hi_j)` per axis, four boxes per vector from the
+/// box columns (`[lo, hi]`, one array per axis, padded for a last load).
+#[inline]
+fn close_boxes<const D: usize>(
+    columns: &[[Vec<f64>; D]; 2],
+    range: Range<usize>,
+    lo: &[f64; D],
+    hi: &[f64; D],
+    reach2: f64,
+) -> u64 {
+    let zero = F64x4::splat(0.0);
+    let mut close = 0u64;
+    for k in range.clone().step_by(CLUSTER) {
+        let mut gap2 = zero;
+        for a in 0..D {
+            let above = F64x4::load(&columns[0][a][k..]) - F64x4::splat(hi[a]);
+            let below = F64x4::splat(lo[a]) - F64x4::load(&columns[1][a][k..]);
+            let gap = above.max(below).max(zero);
+            gap2 = gap.mul_add(gap, gap2);
+        }
+        close |= u64::from(F64x4::mask_less(gap2, F64x4::splat(reach2))) << (k - range.start);
+    }
+    close & (u64::MAX >> (64 - range.len()))
 }
 
 /// The squared distance between box `a` and box `b` shifted by `shift`:
