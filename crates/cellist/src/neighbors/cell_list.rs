@@ -232,7 +232,7 @@ impl<const D: usize> CellList<D> {
     /// Frees the per-axis columns until the next [`CellList::rebin`] (or
     /// [`CellList::rebin_in`]), which
     /// makes them anew: for a holder that keeps the list between two searches
-    /// only for its order and positions (the md system between two Verlet
+    /// only for its order and positions (the md system between two list
     /// builds), one copy of the positions less in memory.
     pub fn release_columns(&mut self) {
         self.columns = std::array::from_fn(|_| Vec::new());

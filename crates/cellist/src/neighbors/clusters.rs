@@ -22,8 +22,8 @@ use crate::threads::{
 use std::ops::Range;
 
 /// The coordinate of a position lane beyond a cluster's size: far from any
-/// particle (`r^2` about `D 10^60`, finite, its inverse powers normal
-/// numbers), so a pair with it is beyond any cutoff.
+/// particle (`r^2` about `D 10^60`, finite, and so are the terms the kernel
+/// forms from it), so a pair with it is beyond any cutoff.
 pub const PADDING: f64 = 1e30;
 
 /// Slots per cluster (at most; the last cluster of a cell may hold fewer).
@@ -209,13 +209,13 @@ impl<const D: usize> ClusterList<D> {
     /// `cutoff + skin = reach`: two sides of a cube that holds a cluster on
     /// average, `2 (CLUSTER V / N)^(1/D)`, so that a cell's half-width columns
     /// ([`CellList::order_cells_in_columns`]) cut into near-cubic clusters;
-    /// at least `reach`, and at most half the shortest periodic side (or
-    /// `reach` if that is larger).
+    /// at least `reach`, and a hair below half the shortest periodic side, so
+    /// that such an axis keeps two cells (one when `reach` is half of it).
     pub fn cell_side(domain: &Domain<D>, reach: f64, particles: usize) -> f64 {
         let volume_per_cluster = CLUSTER as f64 * domain.volume() / particles.max(1) as f64;
         let widest = (0..D)
             .filter(|&a| domain.is_periodic(a))
-            .map(|a| 0.5 * domain.length[a])
+            .map(|a| 0.5 * domain.length[a] * (1.0 - 1e-9))
             .fold(f64::INFINITY, f64::min);
         (2.0 * volume_per_cluster.powf(1.0 / D as f64))
             .min(widest)

@@ -7,7 +7,8 @@
 //! - coloured passes: anchor cells are split into colours such that the blocks
 //!   `anchor + {0, 1}^D` of one colour are disjoint; each pass runs one colour in
 //!   parallel, each pair once, updating both particles (Newton's third law);
-//! - layers with a halo (over a half Verlet list): every cell layer runs at once,
+//! - layers with a halo (over half-list rows, Verlet or cluster): every cell
+//!   layer runs at once,
 //!   writing its own particles directly and the next layer's into a halo buffer
 //!   that only it writes, added afterwards (Newton's third law, one pass).
 
@@ -157,7 +158,7 @@ pub fn scatter_verlet_serial<const D: usize, K: PairKernel<D>>(
 }
 
 /// The cell layers along the last axis (z in 3D, y in 2D), for Newton's-third-law
-/// sums over a half Verlet list in parallel.
+/// sums over half-list rows (Verlet rows of slots, or cluster rows) in parallel.
 ///
 /// Cells are numbered with the last axis slowest, so a layer of cells is one
 /// contiguous range of slots. The half stencil reaches only the last-axis offsets 0
@@ -202,7 +203,7 @@ impl LayerPlan {
         self.bounds.len() - 1
     }
 
-    /// Slots of layer `z`.
+    /// The rows (slots, or the units of [`LayerPlan::over`]) of layer `z`.
     pub fn rows(&self, z: usize) -> Range<usize> {
         self.bounds[z]..self.bounds[z + 1]
     }
@@ -334,8 +335,8 @@ impl<V: Summand> LayerForces<'_, '_, V> {
 
 /// Runs `work(rows, forces, tally)` once per layer of `plan`, all layers in
 /// parallel, then adds the halo to the sums (`forces`: vectors, scalars, any
-/// [`Summand`]): the parallel form of a Newton's-third-law sum over the rows of a half Verlet list built on the cell list
-/// of `plan`. `halo` is scratch (resized and zeroed here). `tallies[z]` is layer
+/// [`Summand`]): the parallel form of a Newton's-third-law sum over the rows of
+/// a half list (Verlet or cluster rows) built on the cell list of `plan`. `halo` is scratch (resized and zeroed here). `tallies[z]` is layer
 /// `z`'s own accumulator (energies, virials), to be reduced in layer order by the
 /// caller.
 pub fn scatter_half_rows<V: Summand, T: Send>(

@@ -14,8 +14,10 @@
 //! time: a row entry is one cluster, loaded and stored as lanes. Lanes beyond a
 //! cluster's size, the pairs `j <= i` of a cluster with itself, and the pairs
 //! at or beyond the cutoff get `g = 0` from a mask, so the loop has no branch
-//! per pair. Every pair's `g` has the bits of the scalar
-//! [`PairPotential::energy_and_force`](crate::interactions::PairPotential).
+//! per pair. Every pair's `g` is what the scalar
+//! [`PairPotential::energy_and_force`](crate::interactions::PairPotential)
+//! gives for the same `r^2` (the kernel sums `r^2` with fused multiply-adds,
+//! so its `r^2` may differ from the scalar `norm2` in the last bit).
 //! The rows run in parallel by cell layers ([`scatter_half_rows`]), each sum in
 //! an order fixed by the list, so the forces do not depend on the thread count.
 

@@ -246,7 +246,7 @@ impl<const D: usize> MdSystem<D> {
         check_positions(&domain, &atoms, 0)?;
         let side = ClusterList::cell_side(&domain, reach, atoms.len());
         let mut cells = CellList::build_in(&domain, side, &atoms.positions, threads)?;
-        cells.order_cells_in_columns(Some(threads));
+        order_in_columns(&mut cells, threads);
         let mut lanes = Vec::new();
         let list = ClusterList::build(&cells, potential.cutoff(), skin, threads, &mut lanes);
         let mut system = MdSystem {
@@ -266,7 +266,6 @@ impl<const D: usize> MdSystem<D> {
             rule: RebuildRule::default(),
             counts: ListCounts::default(),
         };
-        system.cells.release_columns();
         system.adopt_cell_order();
         system.tallies = vec![PairTally::default(); system.layers.num_layers()];
         system.check_overlaps()?;
@@ -366,7 +365,7 @@ impl<const D: usize> MdSystem<D> {
     /// and rebuilds the cluster list.
     fn rebuild(&mut self, threads: &Threads) {
         self.cells.rebin_in(&self.atoms.positions, threads);
-        self.cells.order_cells_in_columns(Some(threads));
+        order_in_columns(&mut self.cells, threads);
         self.adopt_cell_order();
         self.build_list(threads);
     }
@@ -374,7 +373,6 @@ impl<const D: usize> MdSystem<D> {
     /// The cluster list and its layers for the cell list as binned now.
     fn build_list(&mut self, threads: &Threads) {
         self.list.rebuild(&self.cells, threads, &mut self.lanes);
-        self.cells.release_columns();
         self.layers = LayerPlan::over(&self.cells, self.list.cell_clusters());
     }
 
@@ -389,8 +387,10 @@ impl<const D: usize> MdSystem<D> {
     /// atoms are put in the cell order of `reference` and the list is built
     /// from it: the saved run's list, entry for entry, when the atoms come in
     /// the slot order [`MdSystem::atoms`] had (the counting sort and the columns
-    /// then leave them in place), and the same pairs in another order when they come from a
-    /// distributed run (sorted by id). Forces are kept as given (those of the
+    /// then leave them in place), and the same pairs within the cutoff when
+    /// they come from a distributed run (sorted by id: ties inside a column may
+    /// then fall in another order, and the clusters differ). Forces are kept as
+    /// given (those of the
     /// saved step); `counts` are the saved run's list counters.
     pub fn restore(
         &mut self,
@@ -411,7 +411,7 @@ impl<const D: usize> MdSystem<D> {
             return Err("a saved reference position is not finite".into());
         }
         self.cells.rebin_in(reference, threads);
-        self.cells.order_cells_in_columns(Some(threads));
+        order_in_columns(&mut self.cells, threads);
         let order = self.cells.order();
         let wrapped = order
             .iter()
@@ -551,6 +551,13 @@ impl Thermo {
             press,
         }
     }
+}
+
+/// Orders each cell of `cells` in columns for the cluster list; the cell
+/// list's per-axis columns, which md does not read, are released first.
+fn order_in_columns<const D: usize>(cells: &mut CellList<D>, threads: &Threads) {
+    cells.release_columns();
+    cells.order_cells_in_columns(Some(threads));
 }
 
 /// Adds the time since `t` to `total` and returns now: a stage's timer.
