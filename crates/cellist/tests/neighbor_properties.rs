@@ -264,13 +264,7 @@ fn check_cluster_list<const D: usize>(
             "row {c} differs between 1 and 2 threads"
         );
     }
-    let mut rng = cellist::random::Rng::new(points.len() as u64 + 7);
-    let step = 0.49 * skin / (D as f64).sqrt();
-    let moved: Vec<[f64; D]> = cells
-        .positions()
-        .iter()
-        .map(|x| std::array::from_fn(|a| x[a] + (2.0 * rng.uniform() - 1.0) * step))
-        .collect();
+    let moved = moved_below_half_skin(cells.positions(), skin, points.len() as u64 + 7);
     assert!(!list.needs_rebuild(&cells, &moved));
     let (inside, outside) = (cutoff * (1.0 - 1e-9), cutoff * (1.0 + 1e-9));
     let mut seen = std::collections::HashMap::new();
@@ -314,13 +308,7 @@ fn check_verlet_after_moves<const D: usize>(
     full: &VerletList<D>,
     half: &VerletList<D>,
 ) {
-    let mut rng = cellist::random::Rng::new(wide.len() as u64);
-    let step = 0.49 * skin / (D as f64).sqrt();
-    let moved: Vec<[f64; D]> = wide
-        .positions()
-        .iter()
-        .map(|x| std::array::from_fn(|a| x[a] + (2.0 * rng.uniform() - 1.0) * step))
-        .collect();
+    let moved = moved_below_half_skin(wide.positions(), skin, wide.len() as u64);
     assert!(!full.needs_rebuild(wide, &moved));
     let slots: Vec<u32> = (0..moved.len() as u32).collect();
     let kernel = TallyKernel { ids: &slots };
@@ -342,6 +330,21 @@ fn check_verlet_after_moves<const D: usize>(
         far[0] = std::array::from_fn(|a| built[a] + if a == 0 { 0.51 * skin } else { 0.0 });
         assert_eq!(full.needs_rebuild(wide, &far), skin > 0.0);
     }
+}
+
+/// `positions`, each moved by less than skin/2 (at most `0.49 skin / sqrt(D)`
+/// per axis, uniformly, from the stream `seed`), not wrapped again.
+fn moved_below_half_skin<const D: usize>(
+    positions: &[[f64; D]],
+    skin: f64,
+    seed: u64,
+) -> Vec<[f64; D]> {
+    let mut rng = cellist::random::Rng::new(seed);
+    let step = 0.49 * skin / (D as f64).sqrt();
+    positions
+        .iter()
+        .map(|x| std::array::from_fn(|a| x[a] + (2.0 * rng.uniform() - 1.0) * step))
+        .collect()
 }
 
 fn boundary(periodic: bool) -> Boundary {

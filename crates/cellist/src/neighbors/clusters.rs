@@ -12,13 +12,11 @@
 
 use super::cell_list::CellList;
 use super::grid::{StencilKind, StencilRun};
-use super::pairs::{balanced_cell_runs, expected_pairs, share_of, tasks_for};
+use super::pairs::{expected_pairs, rows_by_cells};
 use super::verlet::{moved_beyond_half_skin, pack, unpack, SLOT_BITS};
 use crate::geometry::{norm2, Domain};
 use crate::simd::F64x4;
-use crate::threads::{
-    collect_in_order_into, fill_indexed, map_parts, part_ranges, DisjointSlice, Threads,
-};
+use crate::threads::{fill_indexed, map_parts, part_ranges, DisjointSlice, Stretch, Threads};
 use std::ops::Range;
 
 /// The coordinate of a position lane beyond a cluster's size: far from any
@@ -50,7 +48,6 @@ pub struct ClusterList<const D: usize> {
     start: Vec<usize>,
     entries: Vec<u32>,
     image_shifts: Vec<[f64; D]>,
-    boxes: Vec<[[f64; D]; 2]>,
     box_columns: [[Vec<f64>; D]; 2],
     cell_boxes: Vec<[[f64; D]; 2]>,
 }
@@ -75,7 +72,6 @@ impl<const D: usize> ClusterList<D> {
             start: Vec::new(),
             entries: Vec::new(),
             image_shifts: Vec::new(),
-            boxes: Vec::new(),
             box_columns: std::array::from_fn(|_| std::array::from_fn(|_| Vec::new())),
             cell_boxes: Vec::new(),
         };
@@ -98,18 +94,75 @@ impl<const D: usize> ClusterList<D> {
             "a cluster list holds at most 2^{SLOT_BITS} clusters, got {}",
             self.num_clusters()
         );
+        self.bound_clusters(cells, threads);
+        self.gather(cells.positions(), threads, scratch);
+        let search = RowSearch {
+            cell_clusters: &self.cell_clusters,
+            first: &self.first,
+            box_columns: &self.box_columns,
+            cell_boxes: &self.cell_boxes,
+            lanes: scratch,
+            // a hair above (cutoff + skin)^2, so that rounding in the box gap
+            // never drops a pair the Verlet list of the same reach would hold
+            reach2: reach * reach * (1.0 + 1e-12),
+        };
+        let guess = if self.entries.is_empty() {
+            // measured on fcc and liquid LJ: about 3 times the pairs computed
+            3 * expected_pairs(cells, reach) / (CLUSTER * CLUSTER)
+        } else {
+            self.entries.len() + self.entries.len() / 16
+        };
+        let grid = cells.grid();
+        rows_by_cells(
+            cells,
+            self.num_clusters(),
+            guess,
+            threads,
+            &mut self.start,
+            &mut self.entries,
+            |home, out, lengths| {
+                let mut stencil = [StencilRun::<D>::default(); 27];
+                let n = grid.stencil_runs(home, StencilKind::Half, &mut stencil);
+                for i in search.clusters_of(home) {
+                    let len = search.row(home, i, &stencil[..n], out);
+                    // SAFETY: cluster `i` is in cell `home`, which one task visits.
+                    unsafe { *lengths.get_unchecked(i) = len };
+                }
+            },
+        );
+        self.image_shifts.clear();
+        self.image_shifts
+            .extend((0..3u8.pow(D as u32)).map(|c| grid.image_shift(c)));
+    }
+
+    /// The clusters' bounding boxes as columns (`[lo, hi]`, one array per axis,
+    /// padded with empty boxes for a four-lane load at every cluster), and the
+    /// cells' boxes (each the union of its clusters').
+    fn bound_clusters(&mut self, cells: &CellList<D>, threads: &Threads) {
         let (first, positions, clusters) = (&self.first, cells.positions(), self.num_clusters());
-        fill_indexed(&mut self.boxes, clusters, Some(threads), |c| {
-            bounding_box(&positions[first[c] as usize..first[c + 1] as usize])
-        });
-        let (boxes, cell_clusters) = (&self.boxes, &self.cell_clusters);
+        for (side, columns) in self.box_columns.iter_mut().enumerate() {
+            let (empty, extreme): (f64, fn(f64, f64) -> f64) = if side == 0 {
+                (f64::INFINITY, f64::min)
+            } else {
+                (f64::NEG_INFINITY, f64::max)
+            };
+            for (a, column) in columns.iter_mut().enumerate() {
+                fill_indexed(column, clusters, Some(threads), |c| {
+                    let slots = first[c] as usize..first[c + 1] as usize;
+                    positions[slots].iter().map(|x| x[a]).fold(empty, extreme)
+                });
+                column.extend([empty; CLUSTER - 1]);
+            }
+        }
+        let (columns, cell_clusters) = (&self.box_columns, &self.cell_clusters);
         fill_indexed(
             &mut self.cell_boxes,
             cells.grid().num_cells(),
             Some(threads),
-            |c| {
-                let clusters = cell_clusters[c] as usize..cell_clusters[c + 1] as usize;
-                boxes[clusters].iter().fold(empty_box(), |all, b| {
+            |cell| {
+                let clusters = cell_clusters[cell] as usize..cell_clusters[cell + 1] as usize;
+                clusters.fold(empty_box(), |all, c| {
+                    let b = cluster_box(columns, c);
                     [
                         std::array::from_fn(|a| all[0][a].min(b[0][a])),
                         std::array::from_fn(|a| all[1][a].max(b[1][a])),
@@ -117,92 +170,6 @@ impl<const D: usize> ClusterList<D> {
                 })
             },
         );
-        for side in 0..2 {
-            for a in 0..D {
-                let column = &mut self.box_columns[side][a];
-                column.clear();
-                column.extend(self.boxes.iter().map(|b| b[side][a]));
-                // room for a four-lane load at every cluster
-                column.extend([empty_box::<D>()[side][a]; CLUSTER - 1]);
-            }
-        }
-        self.gather(positions, threads, scratch);
-        let lanes = &*scratch;
-        // a hair above (cutoff + skin)^2, so that rounding in the box gap never
-        // drops a pair the Verlet list of the same reach would hold
-        let reach2 = reach * reach * (1.0 + 1e-12);
-        let runs = balanced_cell_runs(cells, tasks_for(threads));
-        let guess = if self.entries.is_empty() {
-            // measured on fcc and liquid LJ: about 3 times the pairs computed
-            3 * expected_pairs(cells, reach) / (CLUSTER * CLUSTER)
-        } else {
-            self.entries.len() + self.entries.len() / 16
-        };
-        let estimates: Vec<usize> = runs
-            .iter()
-            .map(|homes| share_of(guess, cells, homes))
-            .collect();
-        self.start.clear();
-        self.start.resize(self.num_clusters() + 1, 0);
-        let lengths = DisjointSlice::new(&mut self.start[1..]);
-        let (grid, cell_clusters, boxes, cell_boxes, box_columns, first) = (
-            cells.grid(),
-            &self.cell_clusters,
-            &self.boxes,
-            &self.cell_boxes,
-            &self.box_columns,
-            &self.first,
-        );
-        collect_in_order_into(&mut self.entries, &estimates, threads, |k, out| {
-            let mut stencil = [StencilRun::<D>::default(); 27];
-            for home in runs[k].clone() {
-                let n = grid.stencil_runs(home, StencilKind::Half, &mut stencil);
-                for i in cell_clusters[home] as usize..cell_clusters[home + 1] as usize {
-                    let count = (first[i + 1] - first[i]) as usize;
-                    let mut len = 0;
-                    let cells_of_runs = stencil[..n]
-                        .iter()
-                        .flat_map(|run| (run.first_cell..=run.last_cell).map(move |c| (c, run)));
-                    for (cell, run) in cells_of_runs {
-                        if box_gap2(&boxes[i], &cell_boxes[cell], &run.shift) >= reach2 {
-                            continue;
-                        }
-                        let end = cell_clusters[cell + 1] as usize;
-                        let begin = if run.holds_home && cell == home {
-                            // the clusters after i (its own pairs are not a row entry)
-                            i + 1
-                        } else {
-                            cell_clusters[cell] as usize
-                        };
-                        // the box test for up to 64 clusters without a branch,
-                        // then the pair test for those whose boxes are close
-                        let [lo, hi] =
-                            boxes[i].map(|x| std::array::from_fn(|a| x[a] - run.shift[a]));
-                        for from in (begin..end).step_by(64) {
-                            let to = (from + 64).min(end);
-                            let mut close = close_boxes(box_columns, from..to, &lo, &hi, reach2);
-                            while close != 0 {
-                                let j = from + close.trailing_zeros() as usize;
-                                close &= close - 1;
-                                let near = any_pair_within(
-                                    &lanes[i], count, &lanes[j], &run.shift, reach2,
-                                );
-                                out.push_if(pack(j, run.image), near);
-                                len += usize::from(near);
-                            }
-                        }
-                    }
-                    // SAFETY: cluster `i` is in cell `home`, which one task visits.
-                    unsafe { *lengths.get_unchecked(i) = len };
-                }
-            }
-        });
-        for c in 0..self.num_clusters() {
-            self.start[c + 1] += self.start[c];
-        }
-        self.image_shifts.clear();
-        self.image_shifts
-            .extend((0..3u8.pow(D as u32)).map(|c| grid.image_shift(c)));
     }
 
     /// The side of the cells to bin `particles` in for a list of reach
@@ -365,16 +332,72 @@ const fn empty_box<const D: usize>() -> [[f64; D]; 2] {
     [[f64::INFINITY; D], [f64::NEG_INFINITY; D]]
 }
 
-/// The smallest box holding `points`: `[lo, hi]`.
-fn bounding_box<const D: usize>(points: &[[f64; D]]) -> [[f64; D]; 2] {
-    let mut b = empty_box();
-    for x in points {
-        for a in 0..D {
-            b[0][a] = b[0][a].min(x[a]);
-            b[1][a] = b[1][a].max(x[a]);
-        }
+/// Cluster `c`'s box `[lo, hi]` from the box columns.
+#[inline(always)]
+fn cluster_box<const D: usize>(columns: &[[Vec<f64>; D]; 2], c: usize) -> [[f64; D]; 2] {
+    columns
+        .each_ref()
+        .map(|side| std::array::from_fn(|a| side[a][c]))
+}
+
+/// What the search for one cluster's row reads.
+struct RowSearch<'a, const D: usize> {
+    cell_clusters: &'a [u32],
+    first: &'a [u32],
+    box_columns: &'a [[Vec<f64>; D]; 2],
+    cell_boxes: &'a [[[f64; D]; 2]],
+    lanes: &'a [Lanes<D>],
+    reach2: f64,
+}
+
+impl<const D: usize> RowSearch<'_, D> {
+    /// The clusters of cell `cell`.
+    fn clusters_of(&self, cell: usize) -> Range<usize> {
+        self.cell_clusters[cell] as usize..self.cell_clusters[cell + 1] as usize
     }
-    b
+
+    /// Appends the row of cluster `i` (of cell `home`, whose half stencil is
+    /// `stencil`) to `out`; returns its length. Per stencil cell: the cell's
+    /// box, then the boxes of up to 64 of its clusters at once without a branch,
+    /// then the atom pairs of those whose boxes are close.
+    fn row(
+        &self,
+        home: usize,
+        i: usize,
+        stencil: &[StencilRun<D>],
+        out: &mut Stretch<u32>,
+    ) -> usize {
+        let own = cluster_box(self.box_columns, i);
+        let count = (self.first[i + 1] - self.first[i]) as usize;
+        let mut len = 0;
+        let cells = stencil
+            .iter()
+            .flat_map(|run| (run.first_cell..=run.last_cell).map(move |c| (c, run)));
+        for (cell, run) in cells {
+            if box_gap2(&own, &self.cell_boxes[cell], &run.shift) >= self.reach2 {
+                continue;
+            }
+            let mut candidates = self.clusters_of(cell);
+            if run.holds_home && cell == home {
+                // the clusters after i (its own pairs are not a row entry)
+                candidates.start = i + 1;
+            }
+            let [lo, hi] = own.map(|x| std::array::from_fn(|a| x[a] - run.shift[a]));
+            let xi = &self.lanes[i];
+            for from in candidates.clone().step_by(64) {
+                let to = (from + 64).min(candidates.end);
+                let mut close = close_boxes(self.box_columns, from..to, &lo, &hi, self.reach2);
+                while close != 0 {
+                    let j = from + close.trailing_zeros() as usize;
+                    close &= close - 1;
+                    let near = any_pair_within(xi, count, &self.lanes[j], &run.shift, self.reach2);
+                    out.push_if(pack(j, run.image), near);
+                    len += usize::from(near);
+                }
+            }
+        }
+        len
+    }
 }
 
 /// Whether one of the first `count` lanes of `a` and one lane of `b` shifted
@@ -388,17 +411,30 @@ fn any_pair_within<const D: usize>(
     shift: &[f64; D],
     reach2: f64,
 ) -> bool {
-    let xj: [F64x4; D] = std::array::from_fn(|k| F64x4::load(&b[k]) + F64x4::splat(shift[k]));
+    let xj = shifted(b, shift);
     let mut nearest = F64x4::splat(f64::INFINITY);
     for i in 0..count {
-        let mut r2 = F64x4::splat(0.0);
-        for k in 0..D {
-            let d = F64x4::splat(a[k][i]) - xj[k];
-            r2 = d.mul_add(d, r2);
-        }
-        nearest = nearest.min(r2);
+        nearest = nearest.min(separation(a, i, &xj).1);
     }
     F64x4::any_less(nearest, F64x4::splat(reach2))
+}
+
+/// The lanes of `lanes` shifted by `shift`: `x_J + s`, one vector per axis.
+#[inline(always)]
+pub fn shifted<const D: usize>(lanes: &Lanes<D>, shift: &[f64; D]) -> [F64x4; D] {
+    std::array::from_fn(|a| F64x4::load(&lanes[a]) + F64x4::splat(shift[a]))
+}
+
+/// The separations `d = x_i - x_J` of lane `i` of `xi` from the four lanes
+/// `xj`, and `r^2 = |d|^2` (summed axis by axis with fused multiply-adds): one
+/// row of a `4 x 4` block.
+#[inline(always)]
+pub fn separation<const D: usize>(xi: &Lanes<D>, i: usize, xj: &[F64x4; D]) -> ([F64x4; D], F64x4) {
+    let d: [F64x4; D] = std::array::from_fn(|a| F64x4::splat(xi[a][i]) - xj[a]);
+    let r2 = d[1..]
+        .iter()
+        .fold(d[0] * d[0], |r2, da| da.mul_add(*da, r2));
+    (d, r2)
 }
 
 /// Bit `k` set where the box of cluster `range.start + k` comes within

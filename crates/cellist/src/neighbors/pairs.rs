@@ -4,7 +4,7 @@
 use super::cell_list::CellList;
 use super::grid::StencilKind;
 use super::traverse::{for_each_row_in_cell, CutoffTest};
-use crate::threads::{collect_in_order, Threads};
+use crate::threads::{collect_in_order, collect_in_order_into, DisjointSlice, Stretch, Threads};
 
 /// Every pair `(i, j)`, `i < j` in input numbering, with `|x_j - x_i| < cutoff`
 /// (minimum image on periodic axes), as `make(i, j, r^2)`, in an order fixed by
@@ -39,6 +39,41 @@ pub fn half_pairs<const D: usize, T: Copy + Send + Sync>(
             });
         }
     })
+}
+
+/// Rows in CSR form, built in parallel by runs of cells and the same for any
+/// thread count: `fill(home, out, lengths)` appends the entries of the rows of
+/// cell `home` to `out`, in row order, and writes the length of each of those
+/// rows to `lengths[row]` (every row belongs to one cell, and one task visits
+/// a cell). `start` gets the `rows + 1` row starts (the prefix sums of the
+/// lengths), `entries` the entries, both reusing their memory. `guess`, the
+/// expected number of entries, sizes the tasks' stretches of the result.
+pub(crate) fn rows_by_cells<const D: usize, T: Copy + Send + Sync>(
+    cells: &CellList<D>,
+    rows: usize,
+    guess: usize,
+    threads: &Threads,
+    start: &mut Vec<usize>,
+    entries: &mut Vec<T>,
+    fill: impl Fn(usize, &mut Stretch<T>, &DisjointSlice<usize>) + Sync,
+) {
+    let runs = balanced_cell_runs(cells, tasks_for(threads));
+    let estimates: Vec<usize> = runs
+        .iter()
+        .map(|homes| share_of(guess, cells, homes))
+        .collect();
+    // row lengths first, shifted by one so that the prefix sum gives the starts
+    start.clear();
+    start.resize(rows + 1, 0);
+    let lengths = DisjointSlice::new(&mut start[1..]);
+    collect_in_order_into(entries, &estimates, threads, |k, out| {
+        for home in runs[k].clone() {
+            fill(home, out, &lengths);
+        }
+    });
+    for r in 0..rows {
+        start[r + 1] += start[r];
+    }
 }
 
 /// Tasks of a pair search split into runs of cells: one on one thread, else a

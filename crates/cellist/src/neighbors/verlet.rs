@@ -3,10 +3,10 @@
 
 use super::cell_list::CellList;
 use super::grid::StencilKind;
-use super::pairs::{balanced_cell_runs, expected_pairs, share_of, tasks_for};
+use super::pairs::{expected_pairs, rows_by_cells};
 use super::traverse::{for_each_row_in_cell, CutoffTest};
 use crate::geometry::norm2;
-use crate::threads::{collect_in_order_into, DisjointSlice, Threads};
+use crate::threads::Threads;
 
 /// A neighbour list in compressed-sparse-row form over the sorted slots of a
 /// [`CellList`].
@@ -96,27 +96,21 @@ impl<const D: usize> VerletList<D> {
             StencilKind::Half => 1,
             StencilKind::Full => 2,
         } * expected_pairs(cells, reach);
-        let runs = balanced_cell_runs(cells, tasks_for(threads));
-        let estimates: Vec<usize> = runs
-            .iter()
-            .map(|homes| share_of(entries, cells, homes))
-            .collect();
-        // row lengths first, shifted by one so that the prefix sum gives the starts
-        self.start.clear();
-        self.start.resize(cells.len() + 1, 0);
-        let lengths = DisjointSlice::new(&mut self.start[1..]);
-        collect_in_order_into(&mut self.entries, &estimates, threads, |k, out| {
-            for home in runs[k].clone() {
+        rows_by_cells(
+            cells,
+            cells.len(),
+            entries,
+            threads,
+            &mut self.start,
+            &mut self.entries,
+            |home, out, lengths| {
                 for_each_row_in_cell(cells, home, kind, &test, |i, j, image, _, _| {
                     // SAFETY: slot `i` is in cell `home`, which one task visits.
                     unsafe { *lengths.get_unchecked(i) += 1 };
                     out.push(pack(j, image));
                 });
-            }
-        });
-        for i in 0..cells.len() {
-            self.start[i + 1] += self.start[i];
-        }
+            },
+        );
         self.image_shifts.clear();
         self.image_shifts
             .extend((0..3u8.pow(D as u32)).map(|c| grid.image_shift(c)));

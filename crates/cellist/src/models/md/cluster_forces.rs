@@ -23,7 +23,9 @@
 
 use super::PairTally;
 use crate::interactions::LennardJones;
-use crate::neighbors::{scatter_half_rows, unpack, ClusterList, Lanes, LayerPlan, CLUSTER};
+use crate::neighbors::{
+    scatter_half_rows, separation, shifted, unpack, ClusterList, Lanes, LayerPlan, CLUSTER,
+};
 use crate::simd::F64x4;
 use crate::threads::Threads;
 
@@ -89,14 +91,11 @@ impl<const D: usize> ClusterForces<'_, D> {
                     // the pairs inside the cluster: lanes j > i of the cluster itself
                     let own_limits: [F64x4; CLUSTER] =
                         std::array::from_fn(|i| limits[i].min(above[i]));
-                    let xj: [F64x4; D] = std::array::from_fn(|a| F64x4::load(&xi[a]));
+                    let xj = shifted(xi, &[0.0; D]);
                     let f_own = self.block::<ENERGY>(xi, &xj, &own_limits, &mut sums);
                     for &entry in list.row(ci) {
                         let (cj, image) = unpack(entry);
-                        let shift = list.image_shift(image);
-                        let xj: [F64x4; D] = std::array::from_fn(|a| {
-                            F64x4::load(&positions[cj][a]) + F64x4::splat(shift[a])
-                        });
+                        let xj = shifted(&positions[cj], list.image_shift(image));
                         let fj = self.block::<ENERGY>(xi, &xj, &limits, &mut sums);
                         f.add(cj, &fj.map(F64x4::to_array));
                     }
@@ -127,11 +126,7 @@ impl<const D: usize> ClusterForces<'_, D> {
     ) -> [F64x4; D] {
         let mut fj = [F64x4::splat(0.0); D];
         for (i, fi) in sums.fi.iter_mut().enumerate() {
-            let d: [F64x4; D] = std::array::from_fn(|a| F64x4::splat(xi[a][i]) - xj[a]);
-            let mut r2 = d[0] * d[0];
-            for da in &d[1..] {
-                r2 = da.mul_add(*da, r2);
-            }
+            let (d, r2) = separation(xi, i, xj);
             let (e, g) = self.potential.energy_and_force_lanes(r2);
             let g = g.zero_unless_less(r2, limits[i]);
             for a in 0..D {
