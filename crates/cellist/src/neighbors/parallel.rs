@@ -333,12 +333,15 @@ impl<V: Summand> LayerForces<'_, '_, V> {
     }
 }
 
-/// Runs `work(rows, forces, tally)` once per layer of `plan`, all layers in
-/// parallel, then adds the halo to the sums (`forces`: vectors, scalars, any
-/// [`Summand`]): the parallel form of a Newton's-third-law sum over the rows of
-/// a half list (Verlet or cluster rows) built on the cell list of `plan`. `halo` is scratch (resized and zeroed here). `tallies[z]` is layer
-/// `z`'s own accumulator (energies, virials), to be reduced in layer order by the
-/// caller.
+/// Sets `forces` to the sums of `work(rows, forces, tally)` run once per layer of
+/// `plan`, all layers in parallel, then adds the halo to the sums (`forces`:
+/// vectors, scalars, any [`Summand`]): the parallel form of a Newton's-third-law
+/// sum over the rows of a half list (Verlet or cluster rows) built on the cell
+/// list of `plan`. `forces` need not be zeroed: each layer's task zeroes its own
+/// slots and the halo slots it writes before its rows run, so no pass over all
+/// the slots runs on one thread. `halo` is scratch (resized here). `tallies[z]`
+/// is layer `z`'s own accumulator (energies, virials), to be reduced in layer
+/// order by the caller.
 pub fn scatter_half_rows<V: Summand, T: Send>(
     plan: &LayerPlan,
     forces: &mut [V],
@@ -350,8 +353,10 @@ pub fn scatter_half_rows<V: Summand, T: Send>(
     assert_eq!(tallies.len(), plan.num_layers());
     let n = forces.len();
     assert_eq!(n, plan.bounds.last().copied().unwrap_or(0));
-    halo.clear();
-    halo.resize(n, V::ZERO);
+    if halo.len() != n {
+        halo.clear();
+        halo.resize(n, V::ZERO);
+    }
     threads.install(|| {
         {
             let shared = DisjointSlice::new(forces);
@@ -359,6 +364,14 @@ pub fn scatter_half_rows<V: Summand, T: Send>(
             let tallies = DisjointSlice::new(tallies);
             (0..plan.num_layers()).into_par_iter().for_each(|z| {
                 let (first, own, count) = plan.reach(z);
+                // SAFETY: layer z's own slots (forces) and the next layer's slots
+                // (halo) are written by layer z's task only (LayerPlan)
+                unsafe {
+                    shared.range(first..first + own).fill(V::ZERO);
+                    // the next layer: the following slots, or the first layer's
+                    let next = (first + own) % n.max(1);
+                    shared_halo.range(next..next + count - own).fill(V::ZERO);
+                }
                 let access = LayerForces {
                     forces: shared.base(),
                     halo: shared_halo.base(),
@@ -374,9 +387,12 @@ pub fn scatter_half_rows<V: Summand, T: Send>(
                 work(plan.rows(z), &access, tally);
             });
         }
-        forces
+        // the halo of every layer but the first, and of the first when the last
+        // layer wraps onto it: the slots some layer's task zeroed and wrote
+        let start = if plan.wraps { 0 } else { plan.rows(0).end };
+        forces[start..]
             .par_chunks_mut(HALO_CHUNK)
-            .zip(halo.par_chunks(HALO_CHUNK))
+            .zip(halo[start..].par_chunks(HALO_CHUNK))
             .for_each(|(f, h)| {
                 for (f, h) in f.iter_mut().zip(h) {
                     f.add_assign(h);
@@ -438,28 +454,38 @@ mod tests {
 
     #[test]
     fn halo_writes_reach_the_forces_for_any_thread_count() {
-        let plan = plan_for(5, true);
-        for threads in [Threads::single(), Threads::new(2).unwrap()] {
-            let mut forces = vec![[0.0; 2]; 20];
-            let mut halo = Vec::new();
-            let mut tallies = vec![0usize; plan.num_layers()];
-            scatter_half_rows(
-                &plan,
-                &mut forces,
-                &mut halo,
-                &mut tallies,
-                &threads,
-                |rows, f, rows_seen| {
-                    for i in rows {
-                        // to the row itself and to the same place one layer on
-                        f.add(i, &[1.0, 0.0]);
-                        f.sub((i + 4) % 20, &[0.0, 1.0]);
-                        *rows_seen += 1;
+        for periodic in [true, false] {
+            let plan = plan_for(5, periodic);
+            for threads in [Threads::single(), Threads::new(2).unwrap()] {
+                // the sums overwrite whatever the forces and the halo held
+                let mut forces = vec![[f64::NAN; 2]; 20];
+                let mut halo = vec![[f64::NAN; 2]; 20];
+                for _call in 0..2 {
+                    let mut tallies = vec![0usize; plan.num_layers()];
+                    scatter_half_rows(
+                        &plan,
+                        &mut forces,
+                        &mut halo,
+                        &mut tallies,
+                        &threads,
+                        |rows, f, rows_seen| {
+                            for i in rows {
+                                // to the row itself and to the same place one layer on
+                                f.add(i, &[1.0, 0.0]);
+                                if periodic || i < 16 {
+                                    f.sub((i + 4) % 20, &[0.0, 1.0]);
+                                }
+                                *rows_seen += 1;
+                            }
+                        },
+                    );
+                    for (k, f) in forces.iter().enumerate() {
+                        let from_before = if periodic || k >= 4 { -1.0 } else { 0.0 };
+                        assert_eq!(*f, [1.0, from_before], "slot {k}, periodic {periodic}");
                     }
-                },
-            );
-            assert!(forces.iter().all(|f| *f == [1.0, -1.0]));
-            assert_eq!(tallies, vec![4; 5]);
+                    assert_eq!(tallies, vec![4; 5]);
+                }
+            }
         }
     }
 

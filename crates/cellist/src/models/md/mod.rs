@@ -473,7 +473,7 @@ impl<const D: usize> MdSystem<D> {
     pub fn compute_forces(&mut self, energy: bool, threads: &Threads) {
         self.list
             .gather(&self.atoms.positions, threads, &mut self.lanes);
-        self.lane_forces.clear();
+        // every element is set by the sum (scatter_half_rows): no zeroing pass
         self.lane_forces
             .resize(self.list.num_clusters(), [[0.0; CLUSTER]; D]);
         self.tallies.fill(PairTally::default());

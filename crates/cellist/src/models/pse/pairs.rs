@@ -233,7 +233,6 @@ impl<const D: usize> ListPairs<D> {
         out: &mut [f64],
         threads: &Threads,
     ) {
-        out.fill(0.0);
         let list = &self.list;
         let sign = partner_sign(summed);
         scatter_half_rows(
