@@ -3,7 +3,7 @@
 use super::grid::CellGrid;
 use crate::geometry::{Domain, GeometryError};
 use crate::threads::{
-    counting_sort, fill_indexed, map_parts, part_ranges, parts_for, DisjointSlice, Threads,
+    counting_sort_with, fill_indexed, map_parts, part_ranges, parts_for, DisjointSlice, Threads,
 };
 use std::ops::Range;
 
@@ -94,27 +94,44 @@ impl<const D: usize> CellList<D> {
     }
 
     /// Steps 1-4 of the build, each pass split in parts over `threads`
-    /// ([`counting_sort`]), then the wrapped positions and their columns in
-    /// slot order.
+    /// ([`counting_sort_with`]): the sort writes each particle's input index
+    /// and wrapped position straight into its slot (reading the points in input
+    /// order, no gather), then the columns in slot order.
     fn sort(&mut self, points: &[[f64; D]], threads: Option<&Threads>) {
-        // positions are wrapped twice (here and when they are put in slot order)
-        // rather than kept wrapped: a copy of the positions less
+        // positions are wrapped twice (for the cell and for the slot) rather
+        // than kept wrapped: a copy of the positions less
         let (grid, domain) = (&self.grid, &self.domain);
         fill_indexed(&mut self.cell_ids, points.len(), threads, |i| {
             grid.cell_of(&domain.wrap(points[i])) as u32
         });
-        counting_sort(
-            &self.cell_ids,
+        let n = points.len();
+        self.order.clear();
+        self.order.reserve(n);
+        self.positions.clear();
+        self.positions.reserve(n);
+        let order = DisjointSlice::new(&mut self.order.spare_capacity_mut()[..n]);
+        let positions = DisjointSlice::new(&mut self.positions.spare_capacity_mut()[..n]);
+        let cell_ids = &self.cell_ids;
+        counting_sort_with(
+            n,
+            |i| cell_ids[i],
             grid.num_cells(),
             threads,
             &mut self.cell_start,
-            &mut self.order,
             &mut self.counts,
+            |i, slot| {
+                // SAFETY: every slot is given to one index
+                unsafe {
+                    order.get(slot).write(i as u32);
+                    positions.get(slot).write(domain.wrap(points[i]));
+                }
+            },
         );
-        let order = &self.order;
-        fill_indexed(&mut self.positions, order.len(), threads, |k| {
-            domain.wrap(points[order[k] as usize])
-        });
+        // SAFETY: the slots given out are exactly 0..n, each once
+        unsafe {
+            self.order.set_len(n);
+            self.positions.set_len(n);
+        }
         self.fill_columns(threads);
     }
 
