@@ -339,7 +339,8 @@ impl<V: Summand> LayerForces<'_, '_, V> {
 /// sum over the rows of a half list (Verlet or cluster rows) built on the cell
 /// list of `plan`. `forces` need not be zeroed: each layer's task zeroes its own
 /// slots and the halo slots it writes before its rows run, so no pass over all
-/// the slots runs on one thread. `halo` is scratch (resized here). `tallies[z]`
+/// the slots runs on one thread. `halo` is scratch (resized here; on an open
+/// axis the first layer's part of it is never written nor read). `tallies[z]`
 /// is layer `z`'s own accumulator (energies, virials), to be reduced in layer
 /// order by the caller.
 pub fn scatter_half_rows<V: Summand, T: Send>(
@@ -364,12 +365,15 @@ pub fn scatter_half_rows<V: Summand, T: Send>(
             let tallies = DisjointSlice::new(tallies);
             (0..plan.num_layers()).into_par_iter().for_each(|z| {
                 let (first, own, count) = plan.reach(z);
-                // SAFETY: layer z's own slots (forces) and the next layer's slots
-                // (halo) are written by layer z's task only (LayerPlan)
+                // the next layer's slots: those after this layer's, or the first
+                // layer's when this is the last layer and wraps (LayerPlan::reach;
+                // empty for the last layer of an open axis and for a single layer)
+                let next = if first + own == n { 0 } else { first + own };
+                // SAFETY: the layers' own ranges are disjoint, and so are their
+                // next-layer ranges (each layer is the next of one layer at most):
+                // layer z's task is the only one to touch either of its ranges
                 unsafe {
                     shared.range(first..first + own).fill(V::ZERO);
-                    // the next layer: the following slots, or the first layer's
-                    let next = (first + own) % n.max(1);
                     shared_halo.range(next..next + count - own).fill(V::ZERO);
                 }
                 let access = LayerForces {
@@ -485,6 +489,76 @@ mod tests {
                     }
                     assert_eq!(tallies, vec![4; 5]);
                 }
+            }
+        }
+    }
+
+    #[test]
+    fn the_sums_are_set_on_layers_of_any_size() {
+        // layers of 3, 0, 5, 2 and 4 slots, periodic and open, and two layers
+        let cases = [
+            (vec![3, 0, 5, 2, 4], true),
+            (vec![3, 0, 5, 2, 4], false),
+            (vec![1, 3], true),
+        ];
+        for (counts, periodic) in cases {
+            let layers = counts.len();
+            let boundary = if periodic {
+                Boundary::Periodic
+            } else {
+                Boundary::Open
+            };
+            let domain = Domain::new([4.0, layers as f64], [Boundary::Periodic, boundary]).unwrap();
+            let points: Vec<[f64; 2]> = counts
+                .iter()
+                .enumerate()
+                .flat_map(|(z, &c)| (0..c).map(move |k| [k as f64 % 4.0 + 0.5, z as f64 + 0.5]))
+                .collect();
+            let cells = CellList::build(&domain, 0.99, &points).unwrap();
+            assert_eq!(cells.grid().dims()[1], layers);
+            let plan = LayerPlan::new(&cells);
+            let n = points.len();
+            // every row adds (1, 0) to itself and (0, -1) to the first slot of
+            // the next layer, when there is one and it is not empty
+            let next_first = |z: usize| {
+                let next = if z + 1 < layers {
+                    Some(z + 1)
+                } else if periodic {
+                    Some(0)
+                } else {
+                    None
+                };
+                next.map(|y| plan.rows(y))
+                    .filter(|r| !r.is_empty())
+                    .map(|r| r.start)
+            };
+            let mut expected = vec![[1.0, 0.0]; n];
+            for z in 0..layers {
+                if let Some(target) = next_first(z) {
+                    expected[target][1] -= plan.rows(z).len() as f64;
+                }
+            }
+            for threads in [Threads::single(), Threads::new(2).unwrap()] {
+                let mut forces = vec![[f64::NAN; 2]; n];
+                let mut halo = vec![[f64::NAN; 2]; n];
+                let mut tallies = vec![(); layers];
+                scatter_half_rows(
+                    &plan,
+                    &mut forces,
+                    &mut halo,
+                    &mut tallies,
+                    &threads,
+                    |rows, f, _| {
+                        let z = (0..layers).find(|&z| plan.rows(z) == rows).unwrap();
+                        for i in rows {
+                            f.add(i, &[1.0, 0.0]);
+                            if let Some(target) = next_first(z) {
+                                f.sub(target, &[0.0, 1.0]);
+                            }
+                        }
+                    },
+                );
+                assert_eq!(forces, expected, "{counts:?}, periodic {periodic}");
             }
         }
     }

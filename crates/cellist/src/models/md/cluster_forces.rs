@@ -51,9 +51,10 @@ struct RowSums<const D: usize> {
 }
 
 impl<const D: usize> ClusterForces<'_, D> {
-    /// `forces[I] += sum over row I of f_ij` (lanes of I) and `forces[J] -= f_ij`,
-    /// `f_ij = (-U'/r)(x_i - x_j)` for `r^2 < r_c^2`; with `ENERGY`, each layer's
-    /// `U` and `W = sum r^2 (-U'/r)` in `tallies`.
+    /// Sets `forces` to the pair sums: `f_I = sum over row I of f_ij` (lanes of
+    /// I) and `f_J -= f_ij` for every entry `J`, `f_ij = (-U'/r)(x_i - x_j)` for
+    /// `r^2 < r_c^2`; with `ENERGY`, each layer's `U` and `W = sum r^2 (-U'/r)`
+    /// added to `tallies`.
     pub(super) fn run<const ENERGY: bool>(
         &self,
         forces: &mut [Lanes<D>],

@@ -469,7 +469,8 @@ impl<const D: usize> MdSystem<D> {
         }
     }
 
-    /// Zeroes and recomputes the forces; with `energy`, also the energy and virial.
+    /// Recomputes the forces (every one is set); with `energy`, also the energy
+    /// and virial.
     pub fn compute_forces(&mut self, energy: bool, threads: &Threads) {
         self.list
             .gather(&self.atoms.positions, threads, &mut self.lanes);
