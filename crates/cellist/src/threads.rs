@@ -53,34 +53,6 @@ impl Threads {
     }
 }
 
-/// Replaces the contents of `out` by the parts in order (copied in parallel on
-/// the current pool: call it inside [`Threads::install`]), reusing its memory
-/// when it has room.
-pub fn concat_into<T: Copy + Send + Sync, P: AsRef<[T]> + Sync>(out: &mut Vec<T>, parts: &[P]) {
-    let total = parts.iter().map(|p| p.as_ref().len()).sum();
-    out.clear();
-    if out.capacity() < total {
-        *out = crate::memory::large_vec(total);
-    }
-    let mut slots: Vec<&mut [MaybeUninit<T>]> = Vec::with_capacity(parts.len());
-    let mut rest = &mut out.spare_capacity_mut()[..total];
-    for p in parts {
-        let (head, tail) = rest.split_at_mut(p.as_ref().len());
-        slots.push(head);
-        rest = tail;
-    }
-    slots
-        .into_par_iter()
-        .zip(parts.par_iter())
-        .for_each(|(slot, part)| {
-            for (s, v) in slot.iter_mut().zip(part.as_ref()) {
-                s.write(*v);
-            }
-        });
-    // SAFETY: the slots cover out[0..total] exactly and every one was written above.
-    unsafe { out.set_len(total) };
-}
-
 /// Where one task of [`collect_in_order`] appends: its stretch of the result,
 /// then, past the stretch's estimated length, a spill vector of its own.
 pub struct Stretch<'a, T> {
@@ -255,13 +227,9 @@ pub fn fill_indexed<T: Copy + Send + Sync>(
 }
 
 /// A stable counting sort of the indices `0..keys.len()` by key (`keys[i] <
-/// buckets`), in parts on `threads`: `start` gets the `buckets + 1` bucket
-/// offsets (exclusive prefix sums of the counts), `order` the indices bucket by
-/// bucket, ascending within a bucket. `counts` is scratch (one row of counts per
-/// part). Part `p` counts its own range of keys; bucket `c`'s slots for part `p`
-/// then begin at `start[c]` plus the counts of `c` in the parts before `p`, so
-/// every part scatters into slots of its own and the result is the same for any
-/// thread count.
+/// buckets`), in parts on `threads` ([`counting_sort_with`]): `start` gets the
+/// `buckets + 1` bucket offsets, `order` the indices bucket by bucket, ascending
+/// within a bucket. The result is the same for any thread count.
 pub fn counting_sort(
     keys: &[u32],
     buckets: usize,
@@ -282,24 +250,29 @@ pub fn counting_sort(
         start,
         counts,
         |i, slot| {
-            // SAFETY: every slot is given to one index
-            unsafe { slots.get(slot) }.write(i as u32);
+            // SAFETY: every slot is given to one index, below n
+            unsafe { slots.get_unchecked(slot) }.write(i as u32);
         },
     );
     // SAFETY: the slots given out are exactly 0..n, each once
     unsafe { order.set_len(n) };
 }
 
-/// How many counts per item [`counting_sort_with`] may keep (parts x buckets):
-/// with many buckets per item it splits into fewer parts.
+/// How many counts per item a counting sort may keep (parts x buckets): with
+/// many buckets per item it splits into fewer parts.
 const COUNTS_PER_ITEM: usize = 8;
 
-/// [`counting_sort`] of `0..n` by `key(i)`, without the `order` array:
-/// `place(i, slot)` is called once for every index `i`, with the slot the sort
-/// gives it, so that callers move their own data into place. `key` is called
-/// twice per index and must return the same value both times (callers' writes
-/// are disjoint only then); calls for different indices may run on different
-/// threads at once; each slot is given once.
+/// A stable counting sort of `0..n` by `key(i)` (`key(i) < buckets`), in parts
+/// on `threads`: `start` gets the `buckets + 1` bucket offsets (exclusive prefix
+/// sums of the counts), and `place(i, slot)` is called once for every index `i`,
+/// with the slot the sort gives it (bucket by bucket, ascending `i` within a
+/// bucket), so that callers move their own data into place. `counts` is scratch.
+/// The result is the same for any thread count (see [`counting_sort_parts`]).
+/// Every slot is below `n` (checked once per index, so `place` may write
+/// unchecked into columns of `n` elements). `key` is called twice per index and
+/// must return the same value both times (callers' writes are disjoint only
+/// then); calls for different indices may run on different threads at once;
+/// each slot is given once.
 pub fn counting_sort_with(
     n: usize,
     key: impl Fn(usize) -> u32 + Sync + Send,
@@ -309,43 +282,94 @@ pub fn counting_sort_with(
     counts: &mut Vec<u32>,
     place: impl Fn(usize, usize) + Sync + Send,
 ) {
+    let ranges = part_ranges(n, sort_parts(n, buckets, threads));
+    counting_sort_parts(
+        ranges.len(),
+        |p| ranges[p].clone(),
+        |&i| key(i),
+        buckets,
+        threads,
+        start,
+        counts,
+        place,
+    );
+}
+
+/// How many parts a counting sort of `n` items into `buckets` is split into:
+/// one per thread, but no more than keep the parts x buckets counts (summed
+/// serially) within [`COUNTS_PER_ITEM`] per item.
+pub fn sort_parts(n: usize, buckets: usize, threads: Option<&Threads>) -> usize {
     assert!(n < u32::MAX as usize, "at most 2^32 - 1 items to sort");
-    // parts x buckets counts are kept and summed serially: no more parts than
-    // keep that within a few times the item count
     let most = (COUNTS_PER_ITEM * n / buckets.max(1)).max(1);
-    let ranges = part_ranges(n, parts_for(threads).min(most));
-    let parts = ranges.len();
+    parts_for(threads).min(most)
+}
+
+/// The stable counting sort under [`counting_sort_with`], of items given in
+/// `parts` consecutive parts, `items(p)` listing part `p`'s in order: items that
+/// already lie in pieces (the rows of a parallel search) are sorted where they
+/// are, without first being gathered into one array. Part `p` counts its own
+/// items into its row of `counts`; bucket `c`'s slots for part `p` then begin
+/// at `start[c]` plus the counts of `c` in the parts before `p`, so every part
+/// places into slots of its own, and the slots depend only on the items' order
+/// and keys, not on how they are split into parts. `place(item, slot)` is
+/// called once per item, with a slot below the number of items (checked).
+#[allow(clippy::too_many_arguments)]
+pub fn counting_sort_parts<I, It: Iterator<Item = I>>(
+    parts: usize,
+    items: impl Fn(usize) -> It + Sync + Send,
+    key: impl Fn(&I) -> u32 + Sync + Send,
+    buckets: usize,
+    threads: Option<&Threads>,
+    start: &mut Vec<u32>,
+    counts: &mut Vec<u32>,
+    place: impl Fn(I, usize) + Sync + Send,
+) {
     counts.clear();
     counts.resize(parts * buckets, 0);
     let rows = DisjointSlice::new(counts);
     map_parts(threads, parts, |p| {
         // SAFETY: each part counts into its own row
         let row = unsafe { rows.range(p * buckets..(p + 1) * buckets) };
-        for i in ranges[p].clone() {
-            row[key(i) as usize] += 1;
+        for item in items(p) {
+            row[key(&item) as usize] += 1;
         }
     });
     // bucket by bucket, part by part: the counts become each part's first slot
     start.clear();
     start.resize(buckets + 1, 0);
     let mut at = 0u32;
-    for c in 0..buckets {
-        start[c] = at;
-        for p in 0..parts {
-            let count = counts[p * buckets + c];
-            counts[p * buckets + c] = at;
-            at += count;
+    if parts == 1 {
+        // one row: the plain exclusive prefix sum
+        for (first, cursor) in start.iter_mut().zip(counts.iter_mut()) {
+            *first = at;
+            at += std::mem::replace(cursor, at);
+        }
+    } else {
+        for c in 0..buckets {
+            start[c] = at;
+            for p in 0..parts {
+                let count = counts[p * buckets + c];
+                counts[p * buckets + c] = at;
+                at += count;
+            }
         }
     }
     start[buckets] = at;
+    let total = at as usize;
     let cursors = DisjointSlice::new(counts);
     map_parts(threads, parts, |p| {
         // SAFETY: each part moves its own row of cursors; the slots a part
         // gives out are its own (see above)
         let cursor = unsafe { cursors.range(p * buckets..(p + 1) * buckets) };
-        for i in ranges[p].clone() {
-            let slot = &mut cursor[key(i) as usize];
-            place(i, *slot as usize);
+        for item in items(p) {
+            let slot = &mut cursor[key(&item) as usize];
+            // the one bound check callers' writes rely on (`place` may write
+            // into columns as long as the items unchecked)
+            assert!(
+                (*slot as usize) < total,
+                "counting sort: a key changed between passes"
+            );
+            place(item, *slot as usize);
             *slot += 1;
         }
     });
@@ -497,6 +521,56 @@ mod tests {
             }
         }
 
+        /// Items sorted where they lie, in pieces (empty ones too) grouped
+        /// into parts of any sizes, get the slots of the same items sorted in
+        /// one array: the parts change nothing but the work's split.
+        #[test]
+        fn sorting_in_pieces_equals_sorting_one_array(
+            pieces in proptest::collection::vec(proptest::collection::vec(0u32..30, 0..40), 0..12),
+            cuts in proptest::collection::vec(0usize..13, 0..5),
+            threads in 1usize..4,
+        ) {
+            let keys: Vec<u32> = pieces.iter().flatten().copied().collect();
+            let mut want: Vec<u32> = (0..keys.len() as u32).collect();
+            want.sort_by_key(|&i| keys[i as usize]);
+            let want_start: Vec<u32> = (0..=30)
+                .map(|c| keys.iter().filter(|&&k| k < c).count() as u32)
+                .collect();
+            // the parts: consecutive runs of pieces between sorted cut points
+            let mut bounds: Vec<usize> = cuts.iter().map(|&c| c.min(pieces.len())).collect();
+            bounds.extend([0, pieces.len()]);
+            bounds.sort_unstable();
+            let parts: Vec<std::ops::Range<usize>> =
+                bounds.windows(2).map(|w| w[0]..w[1]).collect();
+            // each item carries its index in the flattened order
+            let mut first = 0;
+            let indexed: Vec<Vec<(usize, u32)>> = pieces
+                .iter()
+                .map(|piece| {
+                    let run = piece.iter().enumerate().map(|(k, &key)| (first + k, key)).collect();
+                    first += piece.len();
+                    run
+                })
+                .collect();
+            let pool = Threads::new(threads).unwrap();
+            let mut order = vec![u32::MAX; keys.len()];
+            let slots = DisjointSlice::new(&mut order);
+            let (mut start, mut counts) = (Vec::new(), Vec::new());
+            counting_sort_parts(
+                parts.len(),
+                |p| indexed[parts[p].clone()].iter().flatten(),
+                |item| item.1,
+                30,
+                Some(&pool),
+                &mut start,
+                &mut counts,
+                // SAFETY: every slot is given once
+                |item, slot| *unsafe { slots.get(slot) } = item.0 as u32,
+            );
+            proptest::prop_assert_eq!(order, want);
+            proptest::prop_assert_eq!(start, want_start);
+        }
+
         /// Whatever the estimates (short, exact, long or zero) and the thread
         /// count, the tasks' values come out in task order, and values pushed
         /// with `push_if(_, false)` do not.
@@ -536,13 +610,6 @@ mod tests {
             proptest::prop_assert_eq!(&got, &want);
             proptest::prop_assert_eq!(reused, want);
         }
-    }
-
-    #[test]
-    fn concat_keeps_order() {
-        let mut out = vec![9; 100];
-        concat_into(&mut out, &[vec![7], vec![8, 9]]);
-        assert_eq!(out, vec![7, 8, 9]);
     }
 
     #[test]

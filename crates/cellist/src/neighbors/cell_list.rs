@@ -120,10 +120,10 @@ impl<const D: usize> CellList<D> {
             &mut self.cell_start,
             &mut self.counts,
             |i, slot| {
-                // SAFETY: every slot is given to one index
+                // SAFETY: every slot is given to one index, below n
                 unsafe {
-                    order.get(slot).write(i as u32);
-                    positions.get(slot).write(domain.wrap(points[i]));
+                    order.get_unchecked(slot).write(i as u32);
+                    positions.get_unchecked(slot).write(domain.wrap(points[i]));
                 }
             },
         );

@@ -141,9 +141,9 @@ impl Components {
             Some(threads),
             &mut self.member_start,
             &mut self.counts,
-            // SAFETY: every slot is given once (`nearby` is a permutation of
-            // the discs, each labelled once)
-            |k, slot| *unsafe { members.get(slot) } = nearby[k],
+            // SAFETY: every slot is given once, below the column's length
+            // (`nearby` is a permutation of the discs, each labelled once)
+            |k, slot| *unsafe { members.get_unchecked(slot) } = nearby[k],
         );
         self.member_start.pop();
         let member_start = &self.member_start;
@@ -198,13 +198,13 @@ impl Components {
             &mut self.counts,
             |p, slot| {
                 let c = &contacts[p];
-                // SAFETY: every slot is given once
+                // SAFETY: every slot is given once, below the column's length
                 unsafe {
-                    *a.get(slot) = local[c.a as usize];
-                    *b.get(slot) = local[c.b as usize];
-                    *dx.get(slot) = c.sep.dx;
-                    *dy.get(slot) = c.sep.dy;
-                    *q.get(slot) = c.sep.q;
+                    *a.get_unchecked(slot) = local[c.a as usize];
+                    *b.get_unchecked(slot) = local[c.b as usize];
+                    *dx.get_unchecked(slot) = c.sep.dx;
+                    *dy.get_unchecked(slot) = c.sep.dy;
+                    *q.get_unchecked(slot) = c.sep.q;
                 }
             },
         );
@@ -221,8 +221,10 @@ impl Components {
             Some(threads),
             &mut self.wall_start,
             &mut self.counts,
-            // SAFETY: every slot is given once
-            |i, slot| *unsafe { placed.get(slot) } = (local[walls[i].0 as usize], walls[i].1),
+            // SAFETY: every slot is given once, below the column's length
+            |i, slot| {
+                *unsafe { placed.get_unchecked(slot) } = (local[walls[i].0 as usize], walls[i].1)
+            },
         );
     }
 

@@ -8,7 +8,7 @@
 
 use super::rules::Separation;
 use crate::threads::{
-    concat_into, counting_sort, counting_sort_with, fill_indexed, map_parts, part_ranges,
+    counting_sort, counting_sort_parts, fill_indexed, map_parts, part_ranges, sort_parts,
     DisjointSlice, Threads,
 };
 use rayon::prelude::*;
@@ -77,7 +77,6 @@ pub struct ContactGrid {
     sorted_x: Vec<f64>,
     sorted_y: Vec<f64>,
     rows: Vec<Vec<Contact>>,
-    found: Vec<Contact>,
     counts: Vec<u32>,
     offsets: Vec<u32>,
 }
@@ -122,23 +121,30 @@ impl ContactGrid {
             });
         });
         // then place the pairs row by row in the order of a (a counting sort,
-        // stable), each row sorted by b; both in parts over the threads
-        threads.install(|| concat_into(&mut self.found, &rows));
-        self.rows = rows;
-        let found = &self.found;
-        out.clear();
-        out.resize(found.len(), Contact::default());
-        let placed = DisjointSlice::new(out);
-        counting_sort_with(
-            found.len(),
-            |k| found[k].a,
+        // stable, reading the rows where they are), each row sorted by b; both
+        // in parts over the threads
+        let m: usize = rows.iter().map(Vec::len).sum();
+        let groups = row_groups(&rows, sort_parts(m, n, Some(threads)));
+        out.reserve(m);
+        let room = DisjointSlice::new(&mut out.spare_capacity_mut()[..m]);
+        counting_sort_parts(
+            groups.len(),
+            |g| rows[groups[g].clone()].iter().flatten(),
+            |c| c.a,
             n,
             Some(threads),
             &mut self.offsets,
             &mut self.counts,
-            // SAFETY: every slot is given once
-            |k, slot| *unsafe { placed.get(slot) } = found[k],
+            // SAFETY: every slot is given once, below the number of pairs
+            |c, slot| {
+                unsafe { room.get_unchecked(slot) }.write(*c);
+            },
         );
+        // SAFETY: the sort gave out the slots 0..m, each once, and each was
+        // written above
+        unsafe { out.set_len(m) };
+        self.rows = rows;
+        let placed = DisjointSlice::new(out);
         let offsets = &self.offsets;
         let parts = part_ranges(n, threads.count());
         map_parts(Some(threads), parts.len(), |p| {
@@ -337,9 +343,49 @@ impl ContactGrid {
     }
 }
 
+/// `parts` runs of consecutive rows (covering every row) holding about equal
+/// numbers of values.
+fn row_groups<T>(rows: &[Vec<T>], parts: usize) -> Vec<std::ops::Range<usize>> {
+    let mut ends = Vec::with_capacity(rows.len());
+    let mut total = 0;
+    for row in rows {
+        total += row.len();
+        ends.push(total);
+    }
+    let parts = parts.clamp(1, rows.len().max(1));
+    let bounds: Vec<usize> = (0..=parts)
+        .map(|p| match p {
+            0 => 0,
+            p if p == parts => rows.len(),
+            p => ends.partition_point(|&end| end <= total * p / parts),
+        })
+        .collect();
+    bounds.windows(2).map(|w| w[0]..w[1]).collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn row_groups_cover_the_rows_in_order_with_balanced_values() {
+        let rows: Vec<Vec<u8>> = [5, 0, 3, 8, 0, 0, 2, 6]
+            .iter()
+            .map(|&l| vec![0; l])
+            .collect();
+        for parts in 1..=10 {
+            let groups = row_groups(&rows, parts);
+            assert_eq!(groups.len(), parts.min(rows.len()));
+            assert_eq!(groups[0].start, 0);
+            assert_eq!(groups.last().unwrap().end, rows.len());
+            assert!(groups.windows(2).all(|w| w[0].end == w[1].start));
+        }
+        let halves = row_groups(&rows, 2);
+        let values =
+            |g: &std::ops::Range<usize>| rows[g.clone()].iter().map(Vec::len).sum::<usize>();
+        assert_eq!((values(&halves[0]), values(&halves[1])), (8, 16));
+        assert_eq!(row_groups::<u8>(&[], 3), vec![0..0]);
+    }
     use crate::random::Rng;
     use proptest::prelude::*;
 
