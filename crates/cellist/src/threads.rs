@@ -211,6 +211,19 @@ pub fn fill_indexed<T: Copy + Send + Sync>(
     threads: Option<&Threads>,
     value: impl Fn(usize) -> T + Sync + Send,
 ) {
+    fill_in_parts(out, n, threads, |range| range.map(&value));
+}
+
+/// [`fill_indexed`] with each part's values given as one iterator:
+/// `values(range)` yields the values of the indices `range`, in order (callers
+/// that zip slices over the range need no bound check per index). Panics if a
+/// part yields fewer values than its range holds; extra values are ignored.
+pub fn fill_in_parts<T: Copy + Send + Sync, I: Iterator<Item = T>>(
+    out: &mut Vec<T>,
+    n: usize,
+    threads: Option<&Threads>,
+    values: impl Fn(std::ops::Range<usize>) -> I + Sync + Send,
+) {
     out.clear();
     out.reserve(n);
     let ranges = part_ranges(n, parts_for(threads));
@@ -218,11 +231,18 @@ pub fn fill_indexed<T: Copy + Send + Sync>(
     map_parts(threads, ranges.len(), |p| {
         // SAFETY: the parts' ranges are disjoint
         let slots = unsafe { room.range(ranges[p].clone()) };
-        for (slot, k) in slots.iter_mut().zip(ranges[p].clone()) {
-            slot.write(value(k));
+        let mut written = 0;
+        for (slot, value) in slots.iter_mut().zip(values(ranges[p].clone())) {
+            slot.write(value);
+            written += 1;
         }
+        assert_eq!(
+            written,
+            slots.len(),
+            "fill_in_parts: a part yielded too few values"
+        );
     });
-    // SAFETY: the ranges cover 0..n, and every slot was written above
+    // SAFETY: the ranges cover 0..n, and every slot was written above (checked)
     unsafe { out.set_len(n) };
 }
 
@@ -517,7 +537,12 @@ mod tests {
                 let mut filled = vec![1.5];
                 fill_indexed(&mut filled, keys.len(), threads, |k| keys[k] as f64 * 0.5);
                 let direct: Vec<f64> = keys.iter().map(|&k| k as f64 * 0.5).collect();
-                proptest::prop_assert_eq!(filled, direct);
+                proptest::prop_assert_eq!(&filled, &direct);
+                let mut zipped = vec![2.5; 3];
+                fill_in_parts(&mut zipped, keys.len(), threads, |range| {
+                    keys[range].iter().map(|&k| k as f64 * 0.5)
+                });
+                proptest::prop_assert_eq!(zipped, direct);
             }
         }
 

@@ -3,7 +3,7 @@
 use super::grid::CellGrid;
 use crate::geometry::{Domain, GeometryError};
 use crate::threads::{
-    counting_sort_with, fill_indexed, map_parts, part_ranges, parts_for, DisjointSlice, Threads,
+    counting_sort_with, fill_in_parts, map_parts, part_ranges, parts_for, DisjointSlice, Threads,
 };
 use std::ops::Range;
 
@@ -101,8 +101,10 @@ impl<const D: usize> CellList<D> {
         // positions are wrapped twice (for the cell and for the slot) rather
         // than kept wrapped: a copy of the positions less
         let (grid, domain) = (&self.grid, &self.domain);
-        fill_indexed(&mut self.cell_ids, points.len(), threads, |i| {
-            grid.cell_of(&domain.wrap(points[i])) as u32
+        fill_in_parts(&mut self.cell_ids, points.len(), threads, |range| {
+            points[range]
+                .iter()
+                .map(|p| grid.cell_of(&domain.wrap(*p)) as u32)
         });
         let n = points.len();
         self.order.clear();
@@ -139,7 +141,9 @@ impl<const D: usize> CellList<D> {
     fn fill_columns(&mut self, threads: Option<&Threads>) {
         let positions = &self.positions;
         for (a, column) in self.columns.iter_mut().enumerate() {
-            fill_indexed(column, positions.len(), threads, |k| positions[k][a]);
+            fill_in_parts(column, positions.len(), threads, |range| {
+                positions[range].iter().map(|p| p[a])
+            });
         }
     }
 

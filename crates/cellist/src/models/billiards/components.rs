@@ -17,7 +17,7 @@ use super::contacts::Contact;
 use super::rules::{collide_four, Separation, Walls};
 use crate::simd::F64x4;
 use crate::threads::{
-    counting_sort_with, fill_indexed, map_parts, part_ranges, DisjointSlice, Threads,
+    counting_sort_with, fill_in_parts, fill_indexed, map_parts, part_ranges, DisjointSlice, Threads,
 };
 use rayon::prelude::*;
 
@@ -124,11 +124,11 @@ impl Components {
         // discs by component, in `nearby` order within each (a stable counting
         // sort; the discs in no component go to a last bucket, left out)
         let label = &self.label;
-        fill_indexed(&mut self.keys, nearby.len(), Some(threads), |k| match label
-            [nearby[k] as usize]
-        {
-            NONE => count,
-            c => c,
+        fill_in_parts(&mut self.keys, nearby.len(), Some(threads), |range| {
+            nearby[range].iter().map(|&k| match label[k as usize] {
+                NONE => count,
+                c => c,
+            })
         });
         self.members.clear();
         self.members.resize(nearby.len(), 0);
@@ -173,8 +173,11 @@ impl Components {
             self.run_base[c + 1] += self.run_base[c];
         }
         let (run_base, label, levels) = (&self.run_base, &self.label, &self.levels);
-        fill_indexed(&mut self.run, contacts.len(), Some(threads), |p| {
-            levels[p] + run_base[label[contacts[p].a as usize] as usize]
+        fill_in_parts(&mut self.run, contacts.len(), Some(threads), |range| {
+            contacts[range.clone()]
+                .iter()
+                .zip(&levels[range])
+                .map(|(c, &level)| level + run_base[label[c.a as usize] as usize])
         });
         let pairs = &mut self.pairs;
         let m = contacts.len();

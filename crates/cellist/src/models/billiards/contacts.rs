@@ -8,7 +8,7 @@
 
 use super::rules::Separation;
 use crate::threads::{
-    counting_sort, counting_sort_parts, fill_indexed, map_parts, part_ranges, sort_parts,
+    counting_sort, counting_sort_parts, fill_in_parts, map_parts, part_ranges, sort_parts,
     DisjointSlice, Threads,
 };
 use rayon::prelude::*;
@@ -248,11 +248,13 @@ impl ContactGrid {
         let mut cell_of = std::mem::take(&mut self.cell_of);
         let grid = &*self;
         match self.shape {
-            CellShape::Square => fill_indexed(&mut cell_of, n, Some(threads), |k| {
-                grid.cell_at::<false>(x[k], y[k]) as u32
+            CellShape::Square => fill_in_parts(&mut cell_of, n, Some(threads), |range| {
+                let points = x[range.clone()].iter().zip(&y[range]);
+                points.map(|(&px, &py)| grid.cell_at::<false>(px, py) as u32)
             }),
-            CellShape::Hex => fill_indexed(&mut cell_of, n, Some(threads), |k| {
-                grid.cell_at::<true>(x[k], y[k]) as u32
+            CellShape::Hex => fill_in_parts(&mut cell_of, n, Some(threads), |range| {
+                let points = x[range.clone()].iter().zip(&y[range]);
+                points.map(|(&px, &py)| grid.cell_at::<true>(px, py) as u32)
             }),
         }
         self.cell_of = cell_of;
@@ -265,12 +267,11 @@ impl ContactGrid {
             &mut self.counts,
         );
         let sorted = &self.sorted;
-        fill_indexed(&mut self.sorted_x, n, Some(threads), |k| {
-            x[sorted[k] as usize]
-        });
-        fill_indexed(&mut self.sorted_y, n, Some(threads), |k| {
-            y[sorted[k] as usize]
-        });
+        for (column, coordinate) in [(&mut self.sorted_x, x), (&mut self.sorted_y, y)] {
+            fill_in_parts(column, n, Some(threads), |range| {
+                sorted[range].iter().map(|&k| coordinate[k as usize])
+            });
+        }
     }
 
     /// The cell of a point: row `floor((y - y0) / h)`, column `floor((x - x0) / w)`,
