@@ -262,18 +262,21 @@ pub fn counting_sort(
     order.clear();
     order.reserve(n);
     let slots = DisjointSlice::new(&mut order.spare_capacity_mut()[..n]);
-    counting_sort_with(
-        n,
-        |i| keys[i],
-        buckets,
-        threads,
-        start,
-        counts,
-        |i, slot| {
-            // SAFETY: every slot is given to one index, below n
-            unsafe { slots.get_unchecked(slot) }.write(i as u32);
-        },
-    );
+    // SAFETY: the keys are a slice, the same on both passes
+    unsafe {
+        counting_sort_with(
+            n,
+            |i| keys[i],
+            buckets,
+            threads,
+            start,
+            counts,
+            |i, slot| {
+                // SAFETY: every slot is given to one index, below n
+                slots.get_unchecked(slot).write(i as u32);
+            },
+        );
+    }
     // SAFETY: the slots given out are exactly 0..n, each once
     unsafe { order.set_len(n) };
 }
@@ -289,11 +292,13 @@ const COUNTS_PER_ITEM: usize = 8;
 /// bucket), so that callers move their own data into place. `counts` is scratch.
 /// The result is the same for any thread count (see [`counting_sort_parts`]).
 /// Every slot is below `n` (checked once per index, so `place` may write
-/// unchecked into columns of `n` elements). `key` is called twice per index and
-/// must return the same value both times (callers' writes are disjoint only
-/// then); calls for different indices may run on different threads at once;
-/// each slot is given once.
-pub fn counting_sort_with(
+/// unchecked into columns of `n` elements); calls for different indices may run
+/// on different threads at once; each slot is given once.
+///
+/// # Safety
+/// `key` is called twice per index and must return the same value both times
+/// (as [`counting_sort_parts`]).
+pub unsafe fn counting_sort_with(
     n: usize,
     key: impl Fn(usize) -> u32 + Sync + Send,
     buckets: usize,
@@ -303,23 +308,26 @@ pub fn counting_sort_with(
     place: impl Fn(usize, usize) + Sync + Send,
 ) {
     let ranges = part_ranges(n, sort_parts(n, buckets, threads));
-    counting_sort_parts(
-        ranges.len(),
-        |p| ranges[p].clone(),
-        |&i| key(i),
-        buckets,
-        threads,
-        start,
-        counts,
-        place,
-    );
+    // SAFETY: a part's indices are the same range both times; `key` is the
+    // caller's promise
+    unsafe {
+        counting_sort_parts(
+            ranges.len(),
+            |p| ranges[p].clone(),
+            |&i| key(i),
+            buckets,
+            threads,
+            start,
+            counts,
+            place,
+        );
+    }
 }
 
 /// How many parts a counting sort of `n` items into `buckets` is split into:
-/// one per thread, but no more than keep the parts x buckets counts (summed
-/// serially) within [`COUNTS_PER_ITEM`] per item.
+/// one per thread, but few enough that the parts x buckets counts (summed
+/// serially) stay within a few (8) per item.
 pub fn sort_parts(n: usize, buckets: usize, threads: Option<&Threads>) -> usize {
-    assert!(n < u32::MAX as usize, "at most 2^32 - 1 items to sort");
     let most = (COUNTS_PER_ITEM * n / buckets.max(1)).max(1);
     parts_for(threads).min(most)
 }
@@ -331,10 +339,19 @@ pub fn sort_parts(n: usize, buckets: usize, threads: Option<&Threads>) -> usize 
 /// items into its row of `counts`; bucket `c`'s slots for part `p` then begin
 /// at `start[c]` plus the counts of `c` in the parts before `p`, so every part
 /// places into slots of its own, and the slots depend only on the items' order
-/// and keys, not on how they are split into parts. `place(item, slot)` is
-/// called once per item, with a slot below the number of items (checked).
+/// and keys, not on how they are split into parts (the one-part prefix sum is
+/// the same sum in a plainer loop). `place(item, slot)` is called once per item,
+/// with a slot below the number of items (checked); calls for different items
+/// may run on different threads at once.
+///
+/// # Safety
+/// `items(p)` is called twice per part (to count, then to place) and must yield
+/// the same items in the same order both times, and `key` must give an item the
+/// same bucket both times. Otherwise two items may be given one slot and some
+/// slots none: callers that write every slot and then set a length would expose
+/// uninitialised memory.
 #[allow(clippy::too_many_arguments)]
-pub fn counting_sort_parts<I, It: Iterator<Item = I>>(
+pub unsafe fn counting_sort_parts<I, It: Iterator<Item = I>>(
     parts: usize,
     items: impl Fn(usize) -> It + Sync + Send,
     key: impl Fn(&I) -> u32 + Sync + Send,
@@ -347,13 +364,23 @@ pub fn counting_sort_parts<I, It: Iterator<Item = I>>(
     counts.clear();
     counts.resize(parts * buckets, 0);
     let rows = DisjointSlice::new(counts);
-    map_parts(threads, parts, |p| {
+    let sizes = map_parts(threads, parts, |p| {
         // SAFETY: each part counts into its own row
         let row = unsafe { rows.range(p * buckets..(p + 1) * buckets) };
+        let mut size = 0usize;
         for item in items(p) {
             row[key(&item) as usize] += 1;
+            size += 1;
         }
+        size
     });
+    // (a bucket's count wraps only if the items reach 2^32: caught here, before
+    // any count is used)
+    let items_in_all: usize = sizes.iter().sum();
+    assert!(
+        items_in_all < u32::MAX as usize,
+        "at most 2^32 - 1 items to sort"
+    );
     // bucket by bucket, part by part: the counts become each part's first slot
     start.clear();
     start.resize(buckets + 1, 0);
@@ -383,11 +410,11 @@ pub fn counting_sort_parts<I, It: Iterator<Item = I>>(
         let cursor = unsafe { cursors.range(p * buckets..(p + 1) * buckets) };
         for item in items(p) {
             let slot = &mut cursor[key(&item) as usize];
-            // the one bound check callers' writes rely on (`place` may write
-            // into columns as long as the items unchecked)
+            // the bound check callers' writes rely on (`place` may write
+            // unchecked into columns as long as the items)
             assert!(
                 (*slot as usize) < total,
-                "counting sort: a key changed between passes"
+                "counting sort: a key or an item changed between passes"
             );
             place(item, *slot as usize);
             *slot += 1;
@@ -405,8 +432,8 @@ pub struct DisjointSlice<'a, T> {
     _borrow: std::marker::PhantomData<&'a mut [T]>,
 }
 
-// SAFETY: access is only through `get`, whose callers guarantee disjoint indices
-// across threads; T: Send makes moving the access to another thread sound.
+// SAFETY: access is only through the unsafe methods (`get`, `get_unchecked`,
+// `range`, `base`), whose callers guarantee disjoint indices across threads; T: Send makes moving the access to another thread sound.
 unsafe impl<T: Send> Sync for DisjointSlice<'_, T> {}
 unsafe impl<T: Send> Send for DisjointSlice<'_, T> {}
 
@@ -581,17 +608,21 @@ mod tests {
             let mut order = vec![u32::MAX; keys.len()];
             let slots = DisjointSlice::new(&mut order);
             let (mut start, mut counts) = (Vec::new(), Vec::new());
-            counting_sort_parts(
-                parts.len(),
-                |p| indexed[parts[p].clone()].iter().flatten(),
-                |item| item.1,
-                30,
-                Some(&pool),
-                &mut start,
-                &mut counts,
-                // SAFETY: every slot is given once
-                |item, slot| *unsafe { slots.get(slot) } = item.0 as u32,
-            );
+            // SAFETY: every slot is given once
+            let place = |item: &(usize, u32), slot| *unsafe { slots.get(slot) } = item.0 as u32;
+            // SAFETY: the pieces do not change during the sort
+            unsafe {
+                counting_sort_parts(
+                    parts.len(),
+                    |p| indexed[parts[p].clone()].iter().flatten(),
+                    |item| item.1,
+                    30,
+                    Some(&pool),
+                    &mut start,
+                    &mut counts,
+                    place,
+                );
+            }
             proptest::prop_assert_eq!(order, want);
             proptest::prop_assert_eq!(start, want_start);
         }

@@ -114,21 +114,25 @@ impl<const D: usize> CellList<D> {
         let order = DisjointSlice::new(&mut self.order.spare_capacity_mut()[..n]);
         let positions = DisjointSlice::new(&mut self.positions.spare_capacity_mut()[..n]);
         let cell_ids = &self.cell_ids;
-        counting_sort_with(
-            n,
-            |i| cell_ids[i],
-            grid.num_cells(),
-            threads,
-            &mut self.cell_start,
-            &mut self.counts,
-            |i, slot| {
-                // SAFETY: every slot is given to one index, below n
-                unsafe {
-                    order.get_unchecked(slot).write(i as u32);
-                    positions.get_unchecked(slot).write(domain.wrap(points[i]));
-                }
-            },
-        );
+        let place = |i: usize, slot| {
+            // SAFETY: every slot is given to one index, below n
+            unsafe {
+                order.get_unchecked(slot).write(i as u32);
+                positions.get_unchecked(slot).write(domain.wrap(points[i]));
+            }
+        };
+        // SAFETY: the cell ids are a slice, the same on both passes
+        unsafe {
+            counting_sort_with(
+                n,
+                |i| cell_ids[i],
+                grid.num_cells(),
+                threads,
+                &mut self.cell_start,
+                &mut self.counts,
+                place,
+            );
+        }
         // SAFETY: the slots given out are exactly 0..n, each once
         unsafe {
             self.order.set_len(n);

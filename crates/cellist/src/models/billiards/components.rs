@@ -134,17 +134,20 @@ impl Components {
         self.members.resize(nearby.len(), 0);
         let members = DisjointSlice::new(&mut self.members);
         let keys = &self.keys;
-        counting_sort_with(
-            keys.len(),
-            |k| keys[k],
-            components + 1,
-            Some(threads),
-            &mut self.member_start,
-            &mut self.counts,
-            // SAFETY: every slot is given once, below the column's length
-            // (`nearby` is a permutation of the discs, each labelled once)
-            |k, slot| *unsafe { members.get_unchecked(slot) } = nearby[k],
-        );
+        // SAFETY: every slot is given once, below the column's length
+        let place = |k: usize, slot| *unsafe { members.get_unchecked(slot) } = nearby[k];
+        // SAFETY: the keys are a slice, the same on both passes
+        unsafe {
+            counting_sort_with(
+                keys.len(),
+                |k| keys[k],
+                components + 1,
+                Some(threads),
+                &mut self.member_start,
+                &mut self.counts,
+                place,
+            );
+        }
         self.member_start.pop();
         let member_start = &self.member_start;
         let members = member_start[components] as usize;
@@ -192,43 +195,51 @@ impl Components {
             [&mut pairs.dx, &mut pairs.dy, &mut pairs.q].map(|c| DisjointSlice::new(c));
         let local = &self.local;
         let run = &self.run;
-        counting_sort_with(
-            m,
-            |p| run[p],
-            self.run_base[components] as usize,
-            Some(threads),
-            &mut self.run_start,
-            &mut self.counts,
-            |p, slot| {
-                let c = &contacts[p];
-                // SAFETY: every slot is given once, below the column's length
-                unsafe {
-                    *a.get_unchecked(slot) = local[c.a as usize];
-                    *b.get_unchecked(slot) = local[c.b as usize];
-                    *dx.get_unchecked(slot) = c.sep.dx;
-                    *dy.get_unchecked(slot) = c.sep.dy;
-                    *q.get_unchecked(slot) = c.sep.q;
-                }
-            },
-        );
+        let place = |p: usize, slot| {
+            let c = &contacts[p];
+            // SAFETY: every slot is given once, below the columns' length
+            unsafe {
+                *a.get_unchecked(slot) = local[c.a as usize];
+                *b.get_unchecked(slot) = local[c.b as usize];
+                *dx.get_unchecked(slot) = c.sep.dx;
+                *dy.get_unchecked(slot) = c.sep.dy;
+                *q.get_unchecked(slot) = c.sep.q;
+            }
+        };
+        // SAFETY: the runs are a slice, the same on both passes
+        unsafe {
+            counting_sort_with(
+                m,
+                |p| run[p],
+                self.run_base[components] as usize,
+                Some(threads),
+                &mut self.run_start,
+                &mut self.counts,
+                place,
+            );
+        }
 
         // walls by component, in the order of `walls` within each
         self.walls.clear();
         self.walls.resize(walls.len(), (0, Walls::default()));
         let (label, local) = (&self.label, &self.local);
         let placed = DisjointSlice::new(&mut self.walls);
-        counting_sort_with(
-            walls.len(),
-            |i| label[walls[i].0 as usize],
-            components,
-            Some(threads),
-            &mut self.wall_start,
-            &mut self.counts,
-            // SAFETY: every slot is given once, below the column's length
-            |i, slot| {
-                *unsafe { placed.get_unchecked(slot) } = (local[walls[i].0 as usize], walls[i].1)
-            },
-        );
+        // SAFETY: every slot is given once, below the column's length
+        let place = |i: usize, slot| {
+            *unsafe { placed.get_unchecked(slot) } = (local[walls[i].0 as usize], walls[i].1)
+        };
+        // SAFETY: the key reads `walls` and `label`, unchanged during the sort
+        unsafe {
+            counting_sort_with(
+                walls.len(),
+                |i| label[walls[i].0 as usize],
+                components,
+                Some(threads),
+                &mut self.wall_start,
+                &mut self.counts,
+                place,
+            );
+        }
     }
 
     /// Runs the canonical loop in every component, in parallel, and writes the new

@@ -127,19 +127,24 @@ impl ContactGrid {
         let groups = row_groups(&rows, sort_parts(m, n, Some(threads)));
         out.reserve(m);
         let room = DisjointSlice::new(&mut out.spare_capacity_mut()[..m]);
-        counting_sort_parts(
-            groups.len(),
-            |g| rows[groups[g].clone()].iter().flatten(),
-            |c| c.a,
-            n,
-            Some(threads),
-            &mut self.offsets,
-            &mut self.counts,
-            // SAFETY: every slot is given once, below the number of pairs
-            |c, slot| {
-                unsafe { room.get_unchecked(slot) }.write(*c);
-            },
-        );
+        // SAFETY: every slot is given once, below the number of pairs
+        let place = |c: &Contact, slot| {
+            unsafe { room.get_unchecked(slot) }.write(*c);
+        };
+        // SAFETY: the rows do not change during the sort, so a group yields the
+        // same pairs, with the same keys, on both passes
+        unsafe {
+            counting_sort_parts(
+                groups.len(),
+                |g| rows[groups[g].clone()].iter().flatten(),
+                |c| c.a,
+                n,
+                Some(threads),
+                &mut self.offsets,
+                &mut self.counts,
+                place,
+            );
+        }
         // SAFETY: the sort gave out the slots 0..m, each once, and each was
         // written above
         unsafe { out.set_len(m) };
@@ -368,6 +373,9 @@ fn row_groups<T>(rows: &[Vec<T>], parts: usize) -> Vec<std::ops::Range<usize>> {
 mod tests {
     use super::*;
 
+    use crate::random::Rng;
+    use proptest::prelude::*;
+
     #[test]
     fn row_groups_cover_the_rows_in_order_with_balanced_values() {
         let rows: Vec<Vec<u8>> = [5, 0, 3, 8, 0, 0, 2, 6]
@@ -387,8 +395,6 @@ mod tests {
         assert_eq!((values(&halves[0]), values(&halves[1])), (8, 16));
         assert_eq!(row_groups::<u8>(&[], 3), vec![0..0]);
     }
-    use crate::random::Rng;
-    use proptest::prelude::*;
 
     const SHAPES: [CellShape; 2] = [CellShape::Square, CellShape::Hex];
 
