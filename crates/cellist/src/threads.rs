@@ -433,7 +433,8 @@ pub struct DisjointSlice<'a, T> {
 }
 
 // SAFETY: access is only through the unsafe methods (`get`, `get_unchecked`,
-// `range`, `base`), whose callers guarantee disjoint indices across threads; T: Send makes moving the access to another thread sound.
+// `range`, `base`), whose callers guarantee disjoint indices across threads;
+// T: Send makes moving the access to another thread sound.
 unsafe impl<T: Send> Sync for DisjointSlice<'_, T> {}
 unsafe impl<T: Send> Send for DisjointSlice<'_, T> {}
 

@@ -372,7 +372,6 @@ fn row_groups<T>(rows: &[Vec<T>], parts: usize) -> Vec<std::ops::Range<usize>> {
 #[cfg(test)]
 mod tests {
     use super::*;
-
     use crate::random::Rng;
     use proptest::prelude::*;
 
