@@ -33,12 +33,26 @@ pub fn half_pairs<const D: usize, T: Copy + Send + Sync>(
         .collect();
     collect_in_order(&estimates, threads, |k, out| {
         for home in runs[k].clone() {
-            for_each_row_in_cell(cells, home, StencilKind::Half, &test, |i, j, _, _, r2| {
-                let (a, b) = (order[i], order[j]);
-                out.push(make(a.min(b), a.max(b), r2));
-            });
+            cell_pairs(cells, home, &test, order, &make, out);
         }
     })
+}
+
+/// The pairs of [`half_pairs`] whose first slot lies in cell `home`, appended
+/// to `out`. Kept out of line: the scan then has the registers to itself.
+#[inline(never)]
+fn cell_pairs<const D: usize, T>(
+    cells: &CellList<D>,
+    home: usize,
+    test: &CutoffTest,
+    order: &[u32],
+    make: &impl Fn(u32, u32, f64) -> T,
+    out: &mut Stretch<T>,
+) {
+    for_each_row_in_cell(cells, home, StencilKind::Half, test, |i, j, _, _, r2| {
+        let (a, b) = (order[i], order[j]);
+        out.push(make(a.min(b), a.max(b), r2));
+    });
 }
 
 /// Rows in CSR form, built in parallel by runs of cells and the same for any
