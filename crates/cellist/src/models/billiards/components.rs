@@ -3,7 +3,8 @@
 //! canonical loop on its own (its wall discs ascending, then its pairs in
 //! lexicographic order, until a sweep changes nothing), and components run in
 //! parallel. Each component's discs are gathered into one contiguous block of
-//! velocities, so every task owns its own range: no shared writes at all.
+//! velocities, so every task owns its own range; the gather and the write-back
+//! run in parts (a disc belongs to one component: each velocity is written once).
 //!
 //! Within a sweep only the order of the pairs that share a disc matters: each pair
 //! reads and writes the velocities of its two discs alone. The pairs are therefore
@@ -106,18 +107,27 @@ impl Components {
         for &(k, _) in walls {
             self.label[k as usize] = 0;
         }
+        // labels, and each component's number of levels (`run_base[c + 1]`,
+        // summed below): the largest `depth` of its discs, since a disc's
+        // depth is one more than the highest level of its pairs
+        self.run_base.clear();
+        self.run_base.push(0);
         let mut count = 0u32;
         for k in 0..n {
             if self.label[k] == NONE && self.depth[k] == 0 {
                 continue;
             }
             let r = self.sets.root(k as u32) as usize;
-            self.label[k] = if r == k {
+            if r == k {
+                self.label[k] = count;
+                self.run_base.push(self.depth[k]);
                 count += 1;
-                count - 1
             } else {
-                self.label[r]
-            };
+                let c = self.label[r];
+                self.label[k] = c;
+                let runs = &mut self.run_base[c as usize + 1];
+                *runs = (*runs).max(self.depth[k]);
+            }
         }
         let components = count as usize;
 
@@ -166,12 +176,6 @@ impl Components {
         });
 
         // pairs by component and level (a run), in canonical order within a run
-        self.run_base.clear();
-        self.run_base.resize(components + 1, 0);
-        for (c, &level) in contacts.iter().zip(&self.levels) {
-            let runs = &mut self.run_base[self.label[c.a as usize] as usize + 1];
-            *runs = (*runs).max(level + 1);
-        }
         for c in 0..components {
             self.run_base[c + 1] += self.run_base[c];
         }
@@ -253,12 +257,13 @@ impl Components {
         threads: &Threads,
     ) -> Result<u64, (usize, usize)> {
         let components = self.member_start.len().saturating_sub(1);
-        self.discs.clear();
         let read: &[[f64; 2]] = v;
         let (members, member_start) = (&self.members, &self.member_start);
-        self.discs.extend(members.iter().map(|&k| LocalDisc {
-            v: read[k as usize],
-        }));
+        fill_in_parts(&mut self.discs, members.len(), Some(threads), |range| {
+            members[range].iter().map(|&k| LocalDisc {
+                v: read[k as usize],
+            })
+        });
         let (pairs, walls) = (&self.pairs, &self.walls);
         let (run_base, run_start, wall_start) = (&self.run_base, &self.run_start, &self.wall_start);
         // (largest sweep count, first component that did not settle)
@@ -284,9 +289,15 @@ impl Components {
                 })
                 .reduce(|| (1, NONE), |a, b| (a.0.max(b.0), a.1.min(b.1)))
         });
-        for (disc, &k) in self.discs.iter().zip(&self.members) {
-            v[k as usize] = disc.v;
-        }
+        let parts = part_ranges(members.len(), threads.count());
+        let velocities = DisjointSlice::new(v);
+        map_parts(Some(threads), parts.len(), |p| {
+            let range = parts[p].clone();
+            for (disc, &k) in self.discs[range.clone()].iter().zip(&members[range]) {
+                // SAFETY: a disc is a member of one component, once
+                *unsafe { velocities.get(k as usize) } = disc.v;
+            }
+        });
         if failed != NONE {
             let c = failed as usize;
             let range = self.member_start[c] as usize..self.member_start[c + 1] as usize;
