@@ -140,7 +140,7 @@ impl Components {
                 c => c,
             })
         });
-        self.members.clear();
+        // every slot is overwritten by the sort: only a longer tail is filled
         self.members.resize(nearby.len(), 0);
         let members = DisjointSlice::new(&mut self.members);
         let keys = &self.keys;
