@@ -431,10 +431,16 @@ pub fn shifted<const D: usize>(lanes: &Lanes<D>, shift: &[f64; D]) -> [F64x4; D]
 #[inline(always)]
 pub fn separation<const D: usize>(xi: &Lanes<D>, i: usize, xj: &[F64x4; D]) -> ([F64x4; D], F64x4) {
     let d: [F64x4; D] = std::array::from_fn(|a| F64x4::splat(xi[a][i]) - xj[a]);
-    let r2 = d[1..]
+    (d, squared_length(&d))
+}
+
+/// `|d|^2` lane by lane, `d_0 d_0` then one fused multiply-add per further
+/// axis: the `r^2` of [`separation`].
+#[inline(always)]
+pub fn squared_length<const D: usize>(d: &[F64x4; D]) -> F64x4 {
+    d[1..]
         .iter()
-        .fold(d[0] * d[0], |r2, da| da.mul_add(*da, r2));
-    (d, r2)
+        .fold(d[0] * d[0], |r2, da| da.mul_add(*da, r2))
 }
 
 /// Bit `k` set where the box of cluster `range.start + k` comes within

@@ -6,6 +6,8 @@
 //!     for every (J, image) of row I:
 //!         x_J + shift loaded as one lane vector per axis
 //!         for every i in I:   d = x_i - (x_J + shift),  r^2 = |d|^2 (4 lanes)
+//!                             (formed as -d = (x_J + shift) - x_i from x_i
+//!                             broadcast once per row: an exact negation)
 //!             g = -U'(r)/r where r^2 < r_c^2 (and the lane is a real pair), else 0
 //!             f_i += d g (summed over the row),  f_J -= d g (one store per J)
 //! ```
@@ -24,7 +26,7 @@
 use super::PairTally;
 use crate::interactions::LennardJones;
 use crate::neighbors::{
-    scatter_half_rows, separation, shifted, unpack, ClusterList, Lanes, LayerPlan, CLUSTER,
+    scatter_half_rows, shifted, squared_length, unpack, ClusterList, Lanes, LayerPlan, CLUSTER,
 };
 use crate::simd::F64x4;
 use crate::threads::Threads;
@@ -93,11 +95,14 @@ impl<const D: usize> ClusterForces<'_, D> {
                     let own_limits: [F64x4; CLUSTER] =
                         std::array::from_fn(|i| limits[i].min(above[i]));
                     let xj = shifted(xi, &[0.0; D]);
-                    let f_own = self.block::<ENERGY>(xi, &xj, &own_limits, &mut sums);
+                    // the i positions broadcast once per row
+                    let xib: [[F64x4; D]; CLUSTER] =
+                        std::array::from_fn(|i| std::array::from_fn(|a| F64x4::splat(xi[a][i])));
+                    let f_own = self.block::<ENERGY>(&xib, &xj, &own_limits, &mut sums);
                     for &entry in list.row(ci) {
                         let (cj, image) = unpack(entry);
                         let xj = shifted(&positions[cj], list.image_shift(image));
-                        let fj = self.block::<ENERGY>(xi, &xj, &limits, &mut sums);
+                        let fj = self.block::<ENERGY>(&xib, &xj, &limits, &mut sums);
                         f.add(cj, &fj.map(F64x4::to_array));
                     }
                     let own: Lanes<D> = std::array::from_fn(|a| {
@@ -120,19 +125,21 @@ impl<const D: usize> ClusterForces<'_, D> {
     #[inline(always)]
     fn block<const ENERGY: bool>(
         &self,
-        xi: &Lanes<D>,
+        xib: &[[F64x4; D]; CLUSTER],
         xj: &[F64x4; D],
         limits: &[F64x4; CLUSTER],
         sums: &mut RowSums<D>,
     ) -> [F64x4; D] {
         let mut fj = [F64x4::splat(0.0); D];
         for (i, fi) in sums.fi.iter_mut().enumerate() {
-            let (d, r2) = separation(xi, i, xj);
+            // -d = x_J - x_i, so that the i positions can be a memory operand
+            let minus_d: [F64x4; D] = std::array::from_fn(|a| xj[a] - xib[i][a]);
+            let r2 = squared_length(&minus_d);
             let (e, g) = self.potential.energy_and_force_lanes(r2);
             let g = g.zero_unless_less(r2, limits[i]);
             for a in 0..D {
-                fi[a] = d[a].mul_add(g, fi[a]);
-                fj[a] = d[a].neg_mul_add(g, fj[a]);
+                fi[a] = minus_d[a].neg_mul_add(g, fi[a]);
+                fj[a] = minus_d[a].mul_add(g, fj[a]);
             }
             if ENERGY {
                 sums.energy = sums.energy + e.zero_unless_less(r2, limits[i]);
