@@ -15,7 +15,7 @@ mod verlet;
 
 pub use brute::brute_force_pairs;
 pub use cell_list::CellList;
-pub use clusters::{separation, shifted, squared_length, ClusterList, Lanes, CLUSTER};
+pub use clusters::{shifted, squared_length, ClusterList, Lanes, CLUSTER};
 pub use grid::{
     image_code, offsets, AnchoredPair, CellGrid, NeighbourCell, StencilKind, StencilRun,
 };

@@ -2,12 +2,14 @@
 //! `4 x 4` pairs at a time, GROMACS's nbnxm scheme in double precision:
 //!
 //! ```text
-//! for every cluster I, its i-lanes in registers:
+//! for every cluster I, each i position broadcast to four lanes once:
 //!     for every (J, image) of row I:
 //!         x_J + shift loaded as one lane vector per axis
 //!         for every i in I:   d = x_i - (x_J + shift),  r^2 = |d|^2 (4 lanes)
-//!                             (formed as -d = (x_J + shift) - x_i from x_i
-//!                             broadcast once per row: an exact negation)
+//!                             (formed as -d = (x_J + shift) - x_i, so that the
+//!                             broadcast x_i is a memory operand; the same
+//!                             forces to the bit: only a zero's sign differs,
+//!                             and the sums start at +0)
 //!             g = -U'(r)/r where r^2 < r_c^2 (and the lane is a real pair), else 0
 //!             f_i += d g (summed over the row),  f_J -= d g (one store per J)
 //! ```
@@ -119,9 +121,10 @@ impl<const D: usize> ClusterForces<'_, D> {
         );
     }
 
-    /// The `4 x 4` pairs of the i-lanes `xi` with the j-lanes `xj`: adds the
-    /// i forces (and with `ENERGY` the energy and virial) to `sums`, returns the
-    /// j forces. Lane `l` of pair row `i` counts where `r^2 < limits[i]_l`.
+    /// The `4 x 4` pairs of the i positions `xib` (each broadcast to four
+    /// lanes) with the j-lanes `xj`: adds the i forces (and with `ENERGY` the
+    /// energy and virial) to `sums`, returns the j forces. Lane `l` of pair row
+    /// `i` counts where `r^2 < limits[i]_l`.
     #[inline(always)]
     fn block<const ENERGY: bool>(
         &self,
