@@ -246,6 +246,30 @@ pub fn fill_in_parts<T: Copy + Send + Sync, I: Iterator<Item = T>>(
     unsafe { out.set_len(n) };
 }
 
+/// `out[k] = value` for every `(k, value)` that `writes(range)` yields, the
+/// index range `0..n` split in parts on `threads` (in this thread without
+/// them): a scatter through a permutation, each part's writes by one thread.
+/// Panics if an index is outside `out`.
+///
+/// # Safety
+/// No index `k` is yielded twice over all the parts (the parts' writes run at
+/// once on different threads).
+pub unsafe fn scatter_in_parts<T: Send, I: Iterator<Item = (usize, T)>>(
+    out: &mut [T],
+    n: usize,
+    threads: Option<&Threads>,
+    writes: impl Fn(std::ops::Range<usize>) -> I + Sync + Send,
+) {
+    let ranges = part_ranges(n, parts_for(threads));
+    let shared = DisjointSlice::new(out);
+    map_parts(threads, ranges.len(), |p| {
+        for (k, value) in writes(ranges[p].clone()) {
+            // SAFETY: no index is written twice (the caller's promise)
+            *unsafe { shared.get(k) } = value;
+        }
+    });
+}
+
 /// A stable counting sort of the indices `0..keys.len()` by key (`keys[i] <
 /// buckets`), in parts on `threads` ([`counting_sort_with`]): `start` gets the
 /// `buckets + 1` bucket offsets, `order` the indices bucket by bucket, ascending
@@ -541,8 +565,9 @@ mod tests {
 
     proptest::proptest! {
         /// The parallel counting sort equals a stable sort by key, with its
-        /// bucket offsets, and `fill_indexed` equals a plain map, on no thread
-        /// pool and on pools of 1 to 3 threads.
+        /// bucket offsets, `fill_indexed` and `fill_in_parts` equal a plain
+        /// map, and `scatter_in_parts` a plain scatter, on no thread pool and
+        /// on pools of 1 to 3 threads.
         #[test]
         fn counting_sort_is_a_stable_sort_by_key(
             keys in proptest::collection::vec(0u32..40, 0..500),
@@ -571,6 +596,20 @@ mod tests {
                     keys[range].iter().map(|&k| k as f64 * 0.5)
                 });
                 proptest::prop_assert_eq!(zipped, direct);
+                // the sort's order is a permutation: scattering each rank to
+                // its index gives the inverse permutation
+                let mut rank_of = vec![u32::MAX; keys.len()];
+                for (rank, &i) in want.iter().enumerate() {
+                    rank_of[i as usize] = rank as u32;
+                }
+                let mut scattered = vec![u32::MAX; keys.len()];
+                // SAFETY: `order` is a permutation, so no index comes twice
+                unsafe {
+                    scatter_in_parts(&mut scattered, order.len(), threads, |range| {
+                        order[range.clone()].iter().map(|&i| i as usize).zip(range.map(|r| r as u32))
+                    });
+                }
+                proptest::prop_assert_eq!(scattered, rank_of);
             }
         }
 

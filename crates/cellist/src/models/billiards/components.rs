@@ -18,7 +18,7 @@ use super::contacts::Contact;
 use super::rules::{collide_four, Separation, Walls};
 use crate::simd::F64x4;
 use crate::threads::{
-    counting_sort_with, fill_in_parts, fill_indexed, map_parts, part_ranges, DisjointSlice, Threads,
+    counting_sort_with, fill_in_parts, fill_indexed, scatter_in_parts, DisjointSlice, Threads,
 };
 use rayon::prelude::*;
 
@@ -163,17 +163,17 @@ impl Components {
         let members = member_start[components] as usize;
         self.members.truncate(members);
         fill_indexed(&mut self.local, n, Some(threads), |_| NONE);
-        let local = DisjointSlice::new(&mut self.local);
-        let parts = part_ranges(members, threads.count());
         let placed = &self.members;
-        map_parts(Some(threads), parts.len(), |p| {
-            for slot in parts[p].clone() {
-                let k = placed[slot] as usize;
-                // SAFETY: a disc is a member of one component, once: `nearby` is a
-                // permutation of the discs (asserted above)
-                *unsafe { local.get(k) } = slot as u32 - member_start[label[k] as usize];
-            }
-        });
+        // SAFETY: a disc is a member of one component, once: `nearby` is a
+        // permutation of the discs (asserted above)
+        unsafe {
+            scatter_in_parts(&mut self.local, members, Some(threads), |slots| {
+                placed[slots.clone()].iter().zip(slots).map(|(&k, slot)| {
+                    let k = k as usize;
+                    (k, slot as u32 - member_start[label[k] as usize])
+                })
+            });
+        }
 
         // pairs by component and level (a run), in canonical order within a run
         for c in 0..components {
@@ -289,15 +289,16 @@ impl Components {
                 })
                 .reduce(|| (1, NONE), |a, b| (a.0.max(b.0), a.1.min(b.1)))
         });
-        let parts = part_ranges(members.len(), threads.count());
-        let velocities = DisjointSlice::new(v);
-        map_parts(Some(threads), parts.len(), |p| {
-            let range = parts[p].clone();
-            for (disc, &k) in self.discs[range.clone()].iter().zip(&members[range]) {
-                // SAFETY: a disc is a member of one component, once
-                *unsafe { velocities.get(k as usize) } = disc.v;
-            }
-        });
+        let discs = &self.discs;
+        // SAFETY: a disc is a member of one component, once
+        unsafe {
+            scatter_in_parts(v, members.len(), Some(threads), |slots| {
+                members[slots.clone()]
+                    .iter()
+                    .zip(&discs[slots])
+                    .map(|(&k, disc)| (k as usize, disc.v))
+            });
+        }
         if failed != NONE {
             let c = failed as usize;
             let range = self.member_start[c] as usize..self.member_start[c + 1] as usize;
