@@ -6,7 +6,7 @@ use cellist::neighbors::{
     brute_force_pairs, gather_cells, gather_verlet, half_list_as_found, half_pairs,
     scatter_coloured, scatter_verlet_serial, sorted_half_list, PairKernel, PairQuantities,
 };
-use cellist::neighbors::{ClusterList, CLUSTER};
+use cellist::neighbors::{unpack, ClusterList, CLUSTER};
 use cellist::{Boundary, CellList, Domain, StencilKind, Threads, VerletList};
 use proptest::prelude::*;
 
@@ -264,9 +264,10 @@ fn check_cluster_list<const D: usize>(
             "row {c} differs between 1 and 2 threads"
         );
     }
+    let (inside, outside) = (cutoff * (1.0 - 1e-9), cutoff * (1.0 + 1e-9));
+    check_row_parts(&list, cells.positions(), inside, outside);
     let moved = moved_below_half_skin(cells.positions(), skin, points.len() as u64 + 7);
     assert!(!list.needs_rebuild(&cells, &moved));
-    let (inside, outside) = (cutoff * (1.0 - 1e-9), cutoff * (1.0 + 1e-9));
     let mut seen = std::collections::HashMap::new();
     list.for_each_pair(&moved, |i, j, _, r2| {
         let r = r2.sqrt();
@@ -294,6 +295,47 @@ fn check_cluster_list<const D: usize>(
             count <= 1 && near.contains(pair),
             "pair {pair:?} seen {count} times"
         );
+    }
+}
+
+/// Each row's first part holds the entries with a pair closer than the cutoff
+/// at the build positions `built` (slot order), its second part those without:
+/// the closest pair of every entry, against the cutoff as `inside` and
+/// `outside` bracket it (a pair between the two may round either way).
+fn check_row_parts<const D: usize>(
+    list: &ClusterList<D>,
+    built: &[[f64; D]],
+    inside: f64,
+    outside: f64,
+) {
+    for c in 0..list.num_clusters() {
+        let (near, far) = list.row_parts(c);
+        assert_eq!([near, far].concat(), list.row(c));
+        let closest = |entry: u32| {
+            let (other, image) = unpack(entry);
+            let shift = list.image_shift(image);
+            let mut closest = f64::INFINITY;
+            for i in list.slots(c) {
+                for j in list.slots(other) {
+                    let d: [f64; D] =
+                        std::array::from_fn(|a| built[i][a] - (built[j][a] + shift[a]));
+                    closest = closest.min(d.iter().map(|x| x * x).sum::<f64>().sqrt());
+                }
+            }
+            closest
+        };
+        for &entry in near {
+            assert!(
+                closest(entry) < outside,
+                "row {c}: near entry {entry} has no pair within the cutoff"
+            );
+        }
+        for &entry in far {
+            assert!(
+                closest(entry) >= inside,
+                "row {c}: far entry {entry} has a pair within the cutoff"
+            );
+        }
     }
 }
 

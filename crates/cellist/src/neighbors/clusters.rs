@@ -39,6 +39,12 @@ pub type Lanes<const D: usize> = [[f64; CLUSTER]; D];
 /// shifted by the image) are closer than `cutoff + skin` and which hold a pair
 /// of particles that close. The pairs inside a cluster (slot `j` above slot
 /// `i`) are no entry: every cluster has them.
+///
+/// Each row comes in two parts ([`ClusterList::row_parts`]): first the entries
+/// with a pair closer than `cutoff` at the build, then those with none (a
+/// pair within `cutoff + skin` only). A kernel can test an entry of the second
+/// part for a pair within the cutoff before it computes the forces: most of
+/// them stay out of reach until the next build.
 #[derive(Clone, Debug)]
 pub struct ClusterList<const D: usize> {
     cutoff: f64,
@@ -47,6 +53,7 @@ pub struct ClusterList<const D: usize> {
     first: Vec<u32>,
     start: Vec<usize>,
     entries: Vec<u32>,
+    near_counts: Vec<u32>,
     image_shifts: Vec<[f64; D]>,
     box_columns: [[Vec<f64>; D]; 2],
     cell_boxes: Vec<[[f64; D]; 2]>,
@@ -71,6 +78,7 @@ impl<const D: usize> ClusterList<D> {
             first: Vec::new(),
             start: Vec::new(),
             entries: Vec::new(),
+            near_counts: Vec::new(),
             image_shifts: Vec::new(),
             box_columns: std::array::from_fn(|_| std::array::from_fn(|_| Vec::new())),
             cell_boxes: Vec::new(),
@@ -105,6 +113,7 @@ impl<const D: usize> ClusterList<D> {
             // a hair above (cutoff + skin)^2, so that rounding in the box gap
             // never drops a pair the Verlet list of the same reach would hold
             reach2: reach * reach * (1.0 + 1e-12),
+            cutoff2: self.cutoff * self.cutoff,
         };
         let guess = if self.entries.is_empty() {
             // measured on fcc and liquid LJ: about 3 times the pairs computed
@@ -113,20 +122,31 @@ impl<const D: usize> ClusterList<D> {
             self.entries.len() + self.entries.len() / 16
         };
         let grid = cells.grid();
+        let clusters = self.num_clusters();
+        self.near_counts.clear();
+        self.near_counts.resize(clusters, 0);
+        let near_counts = DisjointSlice::new(&mut self.near_counts);
         rows_by_cells(
             cells,
-            self.num_clusters(),
+            clusters,
             guess,
             threads,
             &mut self.start,
             &mut self.entries,
-            |home, out, lengths| {
+            |home, out, lengths, far: &mut Vec<u32>| {
                 let mut stencil = [StencilRun::<D>::default(); 27];
                 let n = grid.stencil_runs(home, StencilKind::Half, &mut stencil);
                 for i in search.clusters_of(home) {
-                    let len = search.row(home, i, &stencil[..n], out);
+                    let near = search.row(home, i, &stencil[..n], out, far);
                     // SAFETY: cluster `i` is in cell `home`, which one task visits.
-                    unsafe { *lengths.get_unchecked(i) = len };
+                    unsafe {
+                        *lengths.get_unchecked(i) = near + far.len();
+                        *near_counts.get_unchecked(i) = near as u32;
+                    }
+                    for &entry in far.iter() {
+                        out.push(entry);
+                    }
+                    far.clear();
                 }
             },
         );
@@ -236,6 +256,13 @@ impl<const D: usize> ClusterList<D> {
         &self.entries[self.start[c]..self.start[c + 1]]
     }
 
+    /// Row `c` in its two parts: the entries with a pair closer than the
+    /// cutoff at the build, then the others.
+    #[inline(always)]
+    pub fn row_parts(&self, c: usize) -> (&[u32], &[u32]) {
+        self.row(c).split_at(self.near_counts[c] as usize)
+    }
+
     /// Total number of cluster pairs.
     pub fn num_entries(&self) -> usize {
         self.entries.len()
@@ -245,6 +272,11 @@ impl<const D: usize> ClusterList<D> {
     #[inline(always)]
     pub fn image_shift(&self, code: u8) -> &[f64; D] {
         &self.image_shifts[code as usize]
+    }
+
+    /// The shift vectors of all image codes, indexed by code.
+    pub fn image_shifts(&self) -> &[[f64; D]] {
+        &self.image_shifts
     }
 
     /// The positions (slot order) as lanes, one [`Lanes`] per cluster, in
@@ -348,6 +380,7 @@ struct RowSearch<'a, const D: usize> {
     cell_boxes: &'a [[[f64; D]; 2]],
     lanes: &'a [Lanes<D>],
     reach2: f64,
+    cutoff2: f64,
 }
 
 impl<const D: usize> RowSearch<'_, D> {
@@ -356,20 +389,23 @@ impl<const D: usize> RowSearch<'_, D> {
         self.cell_clusters[cell] as usize..self.cell_clusters[cell + 1] as usize
     }
 
-    /// Appends the row of cluster `i` (of cell `home`, whose half stencil is
-    /// `stencil`) to `out`; returns its length. Per stencil cell: the cell's
-    /// box, then the boxes of up to 64 of its clusters at once without a branch,
-    /// then the atom pairs of those whose boxes are close.
+    /// Finds the row of cluster `i` (of cell `home`, whose half stencil is
+    /// `stencil`): appends its entries with a pair closer than the cutoff to
+    /// `out` and returns their number, and appends the others to `far`. Per
+    /// stencil cell: the cell's box, then the boxes of up to 64 of its clusters
+    /// at once without a branch, then the atom pairs of those whose boxes are
+    /// close.
     fn row(
         &self,
         home: usize,
         i: usize,
         stencil: &[StencilRun<D>],
         out: &mut Stretch<u32>,
+        far: &mut Vec<u32>,
     ) -> usize {
         let own = cluster_box(self.box_columns, i);
         let count = (self.first[i + 1] - self.first[i]) as usize;
-        let mut len = 0;
+        let mut near_len = 0;
         let cells = stencil
             .iter()
             .flat_map(|run| (run.first_cell..=run.last_cell).map(move |c| (c, run)));
@@ -390,33 +426,36 @@ impl<const D: usize> RowSearch<'_, D> {
                 while close != 0 {
                     let j = from + close.trailing_zeros() as usize;
                     close &= close - 1;
-                    let near = any_pair_within(xi, count, &self.lanes[j], &run.shift, self.reach2);
-                    out.push_if(pack(j, run.image), near);
-                    len += usize::from(near);
+                    let nearest = nearest_pair(xi, count, &self.lanes[j], &run.shift);
+                    let entry = pack(j, run.image);
+                    let near = F64x4::any_less(nearest, F64x4::splat(self.cutoff2));
+                    out.push_if(entry, near);
+                    near_len += usize::from(near);
+                    if !near && F64x4::any_less(nearest, F64x4::splat(self.reach2)) {
+                        far.push(entry);
+                    }
                 }
             }
         }
-        len
+        near_len
     }
 }
 
-/// Whether one of the first `count` lanes of `a` and one lane of `b` shifted
-/// by `shift` are closer than `sqrt(reach2)` (padding lanes of `b` are too far
-/// to count).
+/// Lane `l`: the smallest `r^2` between lane `l` of `b` shifted by `shift` and
+/// the first `count` lanes of `a` (padding lanes of `b` are too far to count).
 #[inline]
-fn any_pair_within<const D: usize>(
+fn nearest_pair<const D: usize>(
     a: &Lanes<D>,
     count: usize,
     b: &Lanes<D>,
     shift: &[f64; D],
-    reach2: f64,
-) -> bool {
+) -> F64x4 {
     let xj = shifted(b, shift);
     let mut nearest = F64x4::splat(f64::INFINITY);
     for i in 0..count {
         nearest = nearest.min(separation(a, i, &xj).1);
     }
-    F64x4::any_less(nearest, F64x4::splat(reach2))
+    nearest
 }
 
 /// The lanes of `lanes` shifted by `shift`: `x_J + s`, one vector per axis.

@@ -56,20 +56,21 @@ fn cell_pairs<const D: usize, T>(
 }
 
 /// Rows in CSR form, built in parallel by runs of cells and the same for any
-/// thread count: `fill(home, out, lengths)` appends the entries of the rows of
-/// cell `home` to `out`, in row order, and writes the length of each of those
-/// rows to `lengths[row]` (every row belongs to one cell, and one task visits
-/// a cell). `start` gets the `rows + 1` row starts (the prefix sums of the
-/// lengths), `entries` the entries, both reusing their memory. `guess`, the
-/// expected number of entries, sizes the tasks' stretches of the result.
-pub(crate) fn rows_by_cells<const D: usize, T: Copy + Send + Sync>(
+/// thread count: `fill(home, out, lengths, scratch)` appends the entries of the
+/// rows of cell `home` to `out`, in row order, and writes the length of each of
+/// those rows to `lengths[row]` (every row belongs to one cell, and one task
+/// visits a cell); `scratch` is the task's own, kept from one cell to the next.
+/// `start` gets the `rows + 1` row starts (the prefix sums of the lengths),
+/// `entries` the entries, both reusing their memory. `guess`, the expected
+/// number of entries, sizes the tasks' stretches of the result.
+pub(crate) fn rows_by_cells<const D: usize, T: Copy + Send + Sync, S: Default>(
     cells: &CellList<D>,
     rows: usize,
     guess: usize,
     threads: &Threads,
     start: &mut Vec<usize>,
     entries: &mut Vec<T>,
-    fill: impl Fn(usize, &mut Stretch<T>, &DisjointSlice<usize>) + Sync,
+    fill: impl Fn(usize, &mut Stretch<T>, &DisjointSlice<usize>, &mut S) + Sync,
 ) {
     let runs = balanced_cell_runs(cells, tasks_for(threads));
     let estimates: Vec<usize> = runs
@@ -81,8 +82,9 @@ pub(crate) fn rows_by_cells<const D: usize, T: Copy + Send + Sync>(
     start.resize(rows + 1, 0);
     let lengths = DisjointSlice::new(&mut start[1..]);
     collect_in_order_into(entries, &estimates, threads, |k, out| {
+        let mut scratch = S::default();
         for home in runs[k].clone() {
-            fill(home, out, &lengths);
+            fill(home, out, &lengths, &mut scratch);
         }
     });
     for r in 0..rows {

@@ -103,7 +103,7 @@ impl<const D: usize> VerletList<D> {
             threads,
             &mut self.start,
             &mut self.entries,
-            |home, out, lengths| {
+            |home, out, lengths, _: &mut ()| {
                 for_each_row_in_cell(cells, home, kind, &test, |i, j, image, _, _| {
                     // SAFETY: slot `i` is in cell `home`, which one task visits.
                     unsafe { *lengths.get_unchecked(i) += 1 };

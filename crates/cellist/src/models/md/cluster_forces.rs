@@ -3,7 +3,9 @@
 //!
 //! ```text
 //! for every cluster I, each i position broadcast to four lanes once:
-//!     for every (J, image) of row I:
+//!     for every (J, image) of row I (first the entries with a pair within
+//!     the cutoff at the build, then the others, each only if r^2 < r_c^2 in
+//!     some lane now: a block of masked pairs adds only zeros):
 //!         x_J + shift loaded as one lane vector per axis
 //!         for every i in I:   d = x_i - (x_J + shift),  r^2 = |d|^2 (4 lanes)
 //!                             (formed as -d = (x_J + shift) - x_i, so that the
@@ -81,6 +83,9 @@ impl<const D: usize> ClusterForces<'_, D> {
             tallies,
             threads,
             |rows, f, tally| {
+                // copied into the task: loads through `self` would be repeated
+                // after every force store, which the compiler cannot tell apart
+                let (lj, shifts) = (*potential, list.image_shifts());
                 for ci in rows {
                     let xi = &positions[ci];
                     // the cutoff for the cluster's real i-lanes, no pair for the rest
@@ -100,12 +105,23 @@ impl<const D: usize> ClusterForces<'_, D> {
                     // the i positions broadcast once per row
                     let xib: [[F64x4; D]; CLUSTER] =
                         std::array::from_fn(|i| std::array::from_fn(|a| F64x4::splat(xi[a][i])));
-                    let f_own = self.block::<ENERGY>(&xib, &xj, &own_limits, &mut sums);
-                    for &entry in list.row(ci) {
+                    let f_own = Self::block::<ENERGY>(&lj, &xib, &xj, &own_limits, &mut sums);
+                    let (near, far) = list.row_parts(ci);
+                    for &entry in near {
                         let (cj, image) = unpack(entry);
-                        let xj = shifted(&positions[cj], list.image_shift(image));
-                        let fj = self.block::<ENERGY>(&xib, &xj, &limits, &mut sums);
+                        let xj = shifted(&positions[cj], &shifts[usize::from(image)]);
+                        let fj = Self::block::<ENERGY>(&lj, &xib, &xj, &limits, &mut sums);
                         f.add(cj, &fj.map(F64x4::to_array));
+                    }
+                    // a block with no pair inside the limits adds only zeros:
+                    // skipping it leaves every sum as it is
+                    for &entry in far {
+                        let (cj, image) = unpack(entry);
+                        let xj = shifted(&positions[cj], &shifts[usize::from(image)]);
+                        if any_within(&xib, &xj, &limits) {
+                            let fj = Self::block::<ENERGY>(&lj, &xib, &xj, &limits, &mut sums);
+                            f.add(cj, &fj.map(F64x4::to_array));
+                        }
                     }
                     let own: Lanes<D> = std::array::from_fn(|a| {
                         let fj = f_own[a].to_array();
@@ -122,12 +138,12 @@ impl<const D: usize> ClusterForces<'_, D> {
     }
 
     /// The `4 x 4` pairs of the i positions `xib` (each broadcast to four
-    /// lanes) with the j-lanes `xj`: adds the i forces (and with `ENERGY` the
+    /// lanes) with the j-lanes `xj` under the potential `lj`: adds the i forces (and with `ENERGY` the
     /// energy and virial) to `sums`, returns the j forces. Lane `l` of pair row
     /// `i` counts where `r^2 < limits[i]_l`.
     #[inline(always)]
     fn block<const ENERGY: bool>(
-        &self,
+        lj: &LennardJones,
         xib: &[[F64x4; D]; CLUSTER],
         xj: &[F64x4; D],
         limits: &[F64x4; CLUSTER],
@@ -138,7 +154,7 @@ impl<const D: usize> ClusterForces<'_, D> {
             // -d = x_J - x_i, so that the i positions can be a memory operand
             let minus_d: [F64x4; D] = std::array::from_fn(|a| xj[a] - xib[i][a]);
             let r2 = squared_length(&minus_d);
-            let (e, g) = self.potential.energy_and_force_lanes(r2);
+            let (e, g) = lj.energy_and_force_lanes(r2);
             let g = g.zero_unless_less(r2, limits[i]);
             for a in 0..D {
                 fi[a] = minus_d[a].neg_mul_add(g, fi[a]);
@@ -150,5 +166,112 @@ impl<const D: usize> ClusterForces<'_, D> {
             }
         }
         fj
+    }
+}
+
+/// Whether some pair of the block of `xib` and `xj` counts: `r^2 < limits[i]`
+/// in some lane of some row `i`, with `r^2` formed as the block forms it.
+#[inline(always)]
+fn any_within<const D: usize>(
+    xib: &[[F64x4; D]; CLUSTER],
+    xj: &[F64x4; D],
+    limits: &[F64x4; CLUSTER],
+) -> bool {
+    let inside = xib.iter().zip(limits).fold(0, |inside, (xi, limit)| {
+        let minus_d: [F64x4; D] = std::array::from_fn(|a| xj[a] - xi[a]);
+        inside | F64x4::mask_less(squared_length(&minus_d), *limit)
+    });
+    inside != 0
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::{
+        create_velocities, lattice, Atoms, Integrator, LatticeKind, MdSystem, StageTimes,
+        VelocityDistribution,
+    };
+    use crate::geometry::norm2;
+    use crate::interactions::{LennardJones, PairPotential};
+    use crate::neighbors::{brute_force_pairs, unpack, RebuildRule};
+    use crate::random::Rng;
+    use crate::threads::Threads;
+
+    /// A hot, jittered fcc crystal run four steps without a rebuild (every atom still within
+    /// skin/2 of its build position): some entries of the rows' second parts,
+    /// which had no pair within the cutoff at the build, now hold one, and the
+    /// forces equal the brute-force sum over all pairs at the moved positions,
+    /// the same bits on 1 and 2 threads.
+    #[test]
+    fn entries_that_come_within_the_cutoff_after_the_build_are_summed() {
+        let (domain, mut points) = lattice(LatticeKind::Fcc, 0.8442, [4; 3]).unwrap();
+        // jittered, so that the pair distances spread across the cutoff
+        let mut rng = Rng::new(7);
+        for x in &mut points {
+            *x = domain.wrap(x.map(|c| c + 0.3 * (rng.uniform() - 0.5)));
+        }
+        let lj = LennardJones::new(1.0, 1.0, 2.5, false).unwrap();
+        let run = |threads: &Threads| {
+            let mut atoms = Atoms::at_rest(points.clone(), 1.0);
+            create_velocities(&mut atoms, 3.0, 5, VelocityDistribution::Uniform);
+            let mut system = MdSystem::new(domain, atoms, lj, 0.3, threads).unwrap();
+            system.set_rebuild_rule(RebuildRule {
+                every: 1000,
+                check: false,
+            });
+            let mut times = StageTimes::default();
+            for step in 1..=4 {
+                let verlet = &Integrator::VelocityVerlet;
+                system
+                    .step(verlet, 0.005, step, false, threads, &mut times)
+                    .unwrap();
+            }
+            system
+        };
+        let system = run(&Threads::single());
+        assert_eq!(
+            system.atoms.forces,
+            run(&Threads::new(2).unwrap()).atoms.forces
+        );
+        assert_eq!(system.rebuilds(), 0);
+        let (list, x) = (&system.list, &system.atoms.positions);
+        assert!(
+            !list.needs_rebuild(&system.cells, x),
+            "an atom moved beyond skin/2"
+        );
+        let came_within = (0..list.num_clusters()).any(|c| {
+            list.row_parts(c).1.iter().any(|&entry| {
+                let (other, image) = unpack(entry);
+                let shift = list.image_shift(image);
+                list.slots(c).any(|i| {
+                    list.slots(other).any(|j| {
+                        let d: [f64; 3] = std::array::from_fn(|a| x[i][a] - (x[j][a] + shift[a]));
+                        norm2(&d) < lj.cutoff2()
+                    })
+                })
+            })
+        });
+        assert!(
+            came_within,
+            "no far entry came within the cutoff: the test tests nothing"
+        );
+        let mut want = vec![[0.0; 3]; x.len()];
+        for (i, j, _) in brute_force_pairs(&domain, lj.cutoff(), x) {
+            let (i, j) = (i as usize, j as usize);
+            let x_ji = domain.separation(&x[i], &x[j]);
+            let g = lj.energy_and_force(norm2(&x_ji)).1;
+            for a in 0..3 {
+                want[i][a] -= g * x_ji[a];
+                want[j][a] += g * x_ji[a];
+            }
+        }
+        let scale = want.iter().map(|f| norm2(f).sqrt()).sum::<f64>() / want.len() as f64;
+        for (k, (got, want)) in system.atoms.forces.iter().zip(&want).enumerate() {
+            for a in 0..3 {
+                assert!(
+                    (got[a] - want[a]).abs() <= 1e-12 * scale,
+                    "slot {k} axis {a}"
+                );
+            }
+        }
     }
 }
