@@ -104,7 +104,7 @@ impl<const D: usize> DistributedMd<D> {
         }
         let reach = potential.cutoff() + skin;
         domain.check_cutoff(reach).map_err(|e| e.to_string())?;
-        check_positions(&domain, &atoms, 0).map_err(|e| e.to_string())?;
+        check_positions(&domain, &atoms, 0, threads).map_err(|e| e.to_string())?;
         let decomposition = Decomposition::new(domain, world.size() as usize);
         decomposition.check_reach(reach)?;
         let rank = world.rank() as usize;
@@ -417,10 +417,11 @@ impl<const D: usize> Model for DistributedMd<D> {
 
     fn step(&mut self, step: u64, observe: bool, threads: &Threads) -> Result<(), Blowup> {
         let t = Instant::now();
-        self.integrator.first_half(&mut self.atoms, self.dt);
+        self.integrator
+            .first_half(&mut self.atoms, self.dt, threads);
         let t = lap(t, &mut self.times.integrate);
         let domain = self.decomposition.domain;
-        let local = check_positions(&domain, &self.atoms, step)
+        let local = check_positions(&domain, &self.atoms, step, threads)
             .err()
             .map(|e| blowup_of(&e, step));
         self.agree_blowup(step, local)?;
@@ -454,7 +455,8 @@ impl<const D: usize> Model for DistributedMd<D> {
         let t = lap(t, &mut self.times.neighbor);
         self.forces(observe, threads);
         let t = lap(t, &mut self.times.force);
-        self.integrator.second_half(&mut self.atoms, self.dt, step);
+        self.integrator
+            .second_half(&mut self.atoms, self.dt, step, threads);
         lap(t, &mut self.times.integrate);
         let c = Instant::now();
         let mut count = 0u64;

@@ -3,6 +3,8 @@
 
 use super::Atoms;
 use crate::random::{stream_seed, Rng};
+use crate::threads::Threads;
+use rayon::prelude::*;
 
 /// The Langevin thermostat (LAMMPS `fix langevin`): on top of velocity Verlet,
 /// every atom feels `f += -(m / damping) v + sqrt(24 k_B T m / (damping dt)) (u - 1/2)`
@@ -34,83 +36,136 @@ pub enum Integrator {
 }
 
 impl Integrator {
-    /// The part of the step before the new forces.
-    pub fn first_half<const D: usize>(&self, atoms: &mut Atoms<D>, dt: f64) {
-        let Atoms {
-            masses,
-            positions,
-            velocities,
-            forces,
-            ..
-        } = atoms;
+    /// The part of the step before the new forces, on every atom in parallel
+    /// (each atom's update is its own: the same bits for any thread count).
+    pub fn first_half<const D: usize>(&self, atoms: &mut Atoms<D>, dt: f64, threads: &Threads) {
         match self {
             Integrator::VelocityVerlet | Integrator::Langevin(_) => {
                 let dtf = 0.5 * dt;
-                for k in 0..positions.len() {
-                    let dtfm = dtf / masses[k];
+                each_atom(atoms, threads, |atom| {
+                    let dtfm = dtf / atom.mass;
                     for a in 0..D {
-                        velocities[k][a] += dtfm * forces[k][a];
-                        positions[k][a] += dt * velocities[k][a];
+                        atom.velocity[a] += dtfm * atom.force[a];
+                        atom.position[a] += dt * atom.velocity[a];
                     }
-                }
+                });
             }
-            Integrator::Euler => {
-                for k in 0..positions.len() {
-                    let dtm = dt / masses[k];
-                    for a in 0..D {
-                        positions[k][a] += dt * velocities[k][a];
-                        velocities[k][a] += dtm * forces[k][a];
-                    }
+            Integrator::Euler => each_atom(atoms, threads, |atom| {
+                let dtm = dt / atom.mass;
+                for a in 0..D {
+                    atom.position[a] += dt * atom.velocity[a];
+                    atom.velocity[a] += dtm * atom.force[a];
                 }
-            }
-            Integrator::SymplecticEuler => {
-                for k in 0..positions.len() {
-                    let dtm = dt / masses[k];
-                    for a in 0..D {
-                        velocities[k][a] += dtm * forces[k][a];
-                        positions[k][a] += dt * velocities[k][a];
-                    }
+            }),
+            Integrator::SymplecticEuler => each_atom(atoms, threads, |atom| {
+                let dtm = dt / atom.mass;
+                for a in 0..D {
+                    atom.velocity[a] += dtm * atom.force[a];
+                    atom.position[a] += dt * atom.velocity[a];
                 }
-            }
+            }),
         }
     }
 
-    /// The part of the step after the new forces (of step number `step`).
-    pub fn second_half<const D: usize>(&self, atoms: &mut Atoms<D>, dt: f64, step: u64) {
+    /// The part of the step after the new forces (of step number `step`), on
+    /// every atom in parallel.
+    pub fn second_half<const D: usize>(
+        &self,
+        atoms: &mut Atoms<D>,
+        dt: f64,
+        step: u64,
+        threads: &Threads,
+    ) {
         match self {
-            Integrator::VelocityVerlet => kick(atoms, 0.5 * dt),
+            Integrator::VelocityVerlet => each_atom(atoms, threads, |atom| kick(atom, 0.5 * dt)),
             Integrator::Langevin(thermostat) => {
-                thermostat.add_forces(atoms, dt, step);
-                kick(atoms, 0.5 * dt);
+                let noise = thermostat.noise(dt);
+                each_atom(atoms, threads, |mut atom| {
+                    thermostat.add_force(&mut atom, noise, step);
+                    kick(atom, 0.5 * dt);
+                });
             }
             Integrator::Euler | Integrator::SymplecticEuler => {}
         }
     }
 }
 
+/// One atom's entries, as an integrator updates them.
+struct AtomMut<'a, const D: usize> {
+    id: u64,
+    mass: f64,
+    position: &'a mut [f64; D],
+    velocity: &'a mut [f64; D],
+    force: &'a mut [f64; D],
+}
+
+/// Atoms per task of [`each_atom`].
+const ATOM_CHUNK: usize = 4096;
+
+/// `update` on every atom, in chunks on `threads`.
+fn each_atom<const D: usize>(
+    atoms: &mut Atoms<D>,
+    threads: &Threads,
+    update: impl Fn(AtomMut<'_, D>) + Sync,
+) {
+    let Atoms {
+        ids,
+        masses,
+        positions,
+        velocities,
+        forces,
+        ..
+    } = atoms;
+    threads.install(|| {
+        (
+            ids.par_chunks(ATOM_CHUNK),
+            masses.par_chunks(ATOM_CHUNK),
+            positions.par_chunks_mut(ATOM_CHUNK),
+            velocities.par_chunks_mut(ATOM_CHUNK),
+            forces.par_chunks_mut(ATOM_CHUNK),
+        )
+            .into_par_iter()
+            .for_each(|(ids, masses, positions, velocities, forces)| {
+                let entries = ids.iter().zip(masses).zip(positions).zip(velocities);
+                for ((((&id, &mass), position), velocity), force) in entries.zip(forces) {
+                    update(AtomMut {
+                        id,
+                        mass,
+                        position,
+                        velocity,
+                        force,
+                    });
+                }
+            });
+    });
+}
+
 /// `v += (dtf / m) f`.
-fn kick<const D: usize>(atoms: &mut Atoms<D>, dtf: f64) {
-    for k in 0..atoms.len() {
-        let dtfm = dtf / atoms.masses[k];
-        for a in 0..D {
-            atoms.velocities[k][a] += dtfm * atoms.forces[k][a];
-        }
+#[inline(always)]
+fn kick<const D: usize>(atom: AtomMut<'_, D>, dtf: f64) {
+    let dtfm = dtf / atom.mass;
+    for a in 0..D {
+        atom.velocity[a] += dtfm * atom.force[a];
     }
 }
 
 impl Langevin {
-    /// Adds the friction and the random force to `atoms.forces`.
-    fn add_forces<const D: usize>(&self, atoms: &mut Atoms<D>, dt: f64, step: u64) {
-        let noise = (24.0 * self.temperature / (self.damping * dt)).sqrt();
-        for k in 0..atoms.len() {
-            let m = atoms.masses[k];
-            let gamma1 = -m / self.damping;
-            let gamma2 = m.sqrt() * noise;
-            let mut rng = Rng::new(stream_seed(self.seed, &[step, atoms.ids[k]]));
-            for a in 0..D {
-                atoms.forces[k][a] +=
-                    gamma1 * atoms.velocities[k][a] + gamma2 * (rng.uniform() - 0.5);
-            }
+    /// The amplitude of the random force per `sqrt(m)`:
+    /// `sqrt(24 k_B T / (damping dt))`.
+    fn noise(&self, dt: f64) -> f64 {
+        (24.0 * self.temperature / (self.damping * dt)).sqrt()
+    }
+
+    /// Adds the friction and the random force (of amplitude `sqrt(m) noise`)
+    /// to the atom's force.
+    #[inline(always)]
+    fn add_force<const D: usize>(&self, atom: &mut AtomMut<'_, D>, noise: f64, step: u64) {
+        let m = atom.mass;
+        let gamma1 = -m / self.damping;
+        let gamma2 = m.sqrt() * noise;
+        let mut rng = Rng::new(stream_seed(self.seed, &[step, atom.id]));
+        for a in 0..D {
+            atom.force[a] += gamma1 * atom.velocity[a] + gamma2 * (rng.uniform() - 0.5);
         }
     }
 }

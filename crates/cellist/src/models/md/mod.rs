@@ -34,6 +34,7 @@ use crate::interactions::{LennardJones, PairPotential};
 use crate::neighbors::{CellList, ClusterList, Lanes, LayerPlan, Rebuild, RebuildRule, CLUSTER};
 use crate::threads::Threads;
 use cluster_forces::ClusterForces;
+use rayon::prelude::*;
 use std::fmt;
 use std::time::{Duration, Instant};
 
@@ -243,7 +244,7 @@ impl<const D: usize> MdSystem<D> {
         assert!(skin >= 0.0, "skin must be >= 0");
         let reach = potential.cutoff() + skin;
         domain.check_cutoff(reach)?;
-        check_positions(&domain, &atoms, 0)?;
+        check_positions(&domain, &atoms, 0, threads)?;
         let side = ClusterList::cell_side(&domain, reach, atoms.len());
         let mut cells = CellList::build_in(&domain, side, &atoms.positions, threads)?;
         order_in_columns(&mut cells, threads);
@@ -330,7 +331,9 @@ impl<const D: usize> MdSystem<D> {
     }
 
     /// Advances by one step of `dt` (numbered `step`); sums energy and virial when
-    /// `energy`. Stage times are added to `times`.
+    /// `energy`. Stage times are added to `times`. The whole step runs on the
+    /// pool of `threads`: its parallel passes then start from a pool thread,
+    /// with no hand-over from the calling thread and back for each of them.
     pub fn step(
         &mut self,
         integrator: &Integrator,
@@ -340,10 +343,22 @@ impl<const D: usize> MdSystem<D> {
         threads: &Threads,
         times: &mut StageTimes,
     ) -> Result<(), MdError> {
+        threads.install(|| self.step_in_pool(integrator, dt, step, energy, threads, times))
+    }
+
+    fn step_in_pool(
+        &mut self,
+        integrator: &Integrator,
+        dt: f64,
+        step: u64,
+        energy: bool,
+        threads: &Threads,
+        times: &mut StageTimes,
+    ) -> Result<(), MdError> {
         let t = Instant::now();
-        integrator.first_half(&mut self.atoms, dt);
+        integrator.first_half(&mut self.atoms, dt, threads);
         let t = lap(t, &mut times.integrate);
-        check_positions(&self.domain, &self.atoms, step)?;
+        check_positions(&self.domain, &self.atoms, step, threads)?;
         let since = self.counts.step();
         let (list, cells, positions) = (&self.list, &self.cells, &self.atoms.positions);
         if let Rebuild::Yes { late } = self
@@ -356,7 +371,7 @@ impl<const D: usize> MdSystem<D> {
         let t = lap(t, &mut times.neighbor);
         self.compute_forces(energy, threads);
         let t = lap(t, &mut times.force);
-        integrator.second_half(&mut self.atoms, dt, step);
+        integrator.second_half(&mut self.atoms, dt, step, threads);
         lap(t, &mut times.integrate);
         Ok(())
     }
@@ -569,36 +584,91 @@ pub fn lap(t: Instant, total: &mut Duration) -> Instant {
 }
 
 /// Every position finite, and inside the box on non-periodic axes
-/// (`lo_a <= x_a <= lo_a + L_a`); the first atom that is not, as the error of `step`.
+/// (`lo_a <= x_a <= lo_a + L_a`); the first atom that is not, as the error of
+/// `step`. The atoms are looked at in parallel; the first is the first in
+/// their order, whatever the thread count.
 pub fn check_positions<const D: usize>(
     domain: &Domain<D>,
     atoms: &Atoms<D>,
     step: u64,
+    threads: &Threads,
 ) -> Result<(), MdError> {
-    let all_finite = atoms
-        .positions
-        .iter()
-        .all(|x| x.iter().all(|c| c.is_finite()));
-    let open: Vec<usize> = (0..D).filter(|&a| !domain.is_periodic(a)).collect();
-    if all_finite && open.is_empty() {
+    const CHUNK: usize = 4096;
+    let open: [bool; D] = std::array::from_fn(|a| !domain.is_periodic(a));
+    let hi: [f64; D] = std::array::from_fn(|a| domain.lo[a] + domain.length[a]);
+    let inside = |x: &[f64; D], a: usize| !open[a] || (domain.lo[a]..=hi[a]).contains(&x[a]);
+    let any_open = open.contains(&true);
+    let fine = |x: &[f64; D]| {
+        x.iter().all(|c| c.is_finite()) && (!any_open || (0..D).all(|a| inside(x, a)))
+    };
+    let positions = &atoms.positions;
+    let first_bad_chunk = threads.install(|| {
+        positions
+            .par_chunks(CHUNK)
+            .position_first(|chunk| !chunk.iter().all(fine))
+    });
+    let Some(c) = first_bad_chunk else {
         return Ok(());
+    };
+    let k = c * CHUNK
+        + positions[c * CHUNK..]
+            .iter()
+            .position(|x| !fine(x))
+            .expect("the chunk holds an atom that is not fine");
+    let (x, id) = (&atoms.positions[k], atoms.ids[k]);
+    if !x.iter().all(|c| c.is_finite()) {
+        return Err(MdError::NotFinite { step, id });
     }
-    for (k, x) in atoms.positions.iter().enumerate() {
-        let id = atoms.ids[k];
-        if !x.iter().all(|c| c.is_finite()) {
-            return Err(MdError::NotFinite { step, id });
+    let axis = (0..D)
+        .find(|&a| !inside(x, a))
+        .expect("an atom that is finite but not fine is outside on some axis");
+    Err(MdError::LeftBox {
+        step,
+        id,
+        axis,
+        coordinate: x[axis],
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::Boundary;
+
+    /// The first atom (in the atoms' order) that is not finite or is outside
+    /// an open face, whatever chunk it falls in and whatever the thread count;
+    /// `Ok` when every atom is fine.
+    #[test]
+    fn check_positions_reports_the_first_bad_atom_on_any_thread_count() {
+        let domain = Domain::new([10.0; 2], [Boundary::Periodic, Boundary::Open]).unwrap();
+        let n = 10_000;
+        let points = (0..n).map(|k| [k as f64 * 1e-3, 5.0]).collect();
+        let mut atoms = Atoms::at_rest(points, 1.0);
+        let pools = [Threads::single(), Threads::new(2).unwrap()];
+        for threads in &pools {
+            assert_eq!(check_positions(&domain, &atoms, 3, threads), Ok(()));
         }
-        for &axis in &open {
-            let (lo, hi) = (domain.lo[axis], domain.lo[axis] + domain.length[axis]);
-            if !(lo..=hi).contains(&x[axis]) {
-                return Err(MdError::LeftBox {
-                    step,
-                    id,
-                    axis,
-                    coordinate: x[axis],
-                });
-            }
+        atoms.positions[9_000][0] = f64::NAN;
+        atoms.positions[5_000][1] = 10.5;
+        let left = MdError::LeftBox {
+            step: 3,
+            id: 5_001,
+            axis: 1,
+            coordinate: 10.5,
+        };
+        for threads in &pools {
+            assert_eq!(
+                check_positions(&domain, &atoms, 3, threads),
+                Err(left.clone())
+            );
+        }
+        atoms.positions[4_100][0] = f64::INFINITY;
+        let not_finite = MdError::NotFinite { step: 3, id: 4_101 };
+        for threads in &pools {
+            assert_eq!(
+                check_positions(&domain, &atoms, 3, threads),
+                Err(not_finite.clone())
+            );
         }
     }
-    Ok(())
 }
