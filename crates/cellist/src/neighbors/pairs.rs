@@ -59,7 +59,9 @@ fn cell_pairs<const D: usize, T>(
 /// thread count: `fill(home, out, lengths, scratch)` appends the entries of the
 /// rows of cell `home` to `out`, in row order, and writes the length of each of
 /// those rows to `lengths[row]` (every row belongs to one cell, and one task
-/// visits a cell); `scratch` is the task's own, kept from one cell to the next.
+/// visits a cell); `scratch` is the task's own, kept from one cell to the next
+/// (which cells share a task depends on the thread count: what `fill` appends
+/// must not depend on what the scratch holds when it is called).
 /// `start` gets the `rows + 1` row starts (the prefix sums of the lengths),
 /// `entries` the entries, both reusing their memory. `guess`, the expected
 /// number of entries, sizes the tasks' stretches of the result.

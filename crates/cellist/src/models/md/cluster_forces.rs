@@ -196,11 +196,13 @@ mod tests {
     use crate::random::Rng;
     use crate::threads::Threads;
 
-    /// A hot, jittered fcc crystal run four steps without a rebuild (every atom still within
-    /// skin/2 of its build position): some entries of the rows' second parts,
-    /// which had no pair within the cutoff at the build, now hold one, and the
-    /// forces equal the brute-force sum over all pairs at the moved positions,
-    /// the same bits on 1 and 2 threads.
+    /// A hot, jittered fcc crystal run four steps without a rebuild (every
+    /// atom still within skin/2 of its build position): some entries of the
+    /// rows' second parts, which had no pair within the cutoff at the build,
+    /// now hold one. The forces, energy and virial equal the brute-force sums
+    /// over all pairs at the moved positions, the forces are the same bits on
+    /// 1 and 2 threads, and all of them are the same bits as when every block
+    /// is computed without the test.
     #[test]
     fn entries_that_come_within_the_cutoff_after_the_build_are_summed() {
         let (domain, mut points) = lattice(LatticeKind::Fcc, 0.8442, [4; 3]).unwrap();
@@ -227,13 +229,13 @@ mod tests {
             }
             system
         };
-        let system = run(&Threads::single());
+        let mut system = run(&Threads::single());
         assert_eq!(
             system.atoms.forces,
             run(&Threads::new(2).unwrap()).atoms.forces
         );
         assert_eq!(system.rebuilds(), 0);
-        let (list, x) = (&system.list, &system.atoms.positions);
+        let (list, x) = (&system.list, &system.atoms.positions.clone());
         assert!(
             !list.needs_rebuild(&system.cells, x),
             "an atom moved beyond skin/2"
@@ -254,11 +256,14 @@ mod tests {
             came_within,
             "no far entry came within the cutoff: the test tests nothing"
         );
-        let mut want = vec![[0.0; 3]; x.len()];
+        let (mut want, mut energy, mut virial) = (vec![[0.0; 3]; x.len()], 0.0, 0.0);
         for (i, j, _) in brute_force_pairs(&domain, lj.cutoff(), x) {
             let (i, j) = (i as usize, j as usize);
             let x_ji = domain.separation(&x[i], &x[j]);
-            let g = lj.energy_and_force(norm2(&x_ji)).1;
+            let r2 = norm2(&x_ji);
+            let (e, g) = lj.energy_and_force(r2);
+            energy += e;
+            virial += r2 * g;
             for a in 0..3 {
                 want[i][a] -= g * x_ji[a];
                 want[j][a] += g * x_ji[a];
@@ -273,5 +278,18 @@ mod tests {
                 );
             }
         }
+        let threads = Threads::single();
+        system.compute_forces(true, &threads);
+        let tested = system.pair_totals().unwrap();
+        assert!((tested.energy - energy).abs() <= 1e-12 * energy.abs());
+        assert!((tested.virial - virial).abs() <= 1e-12 * virial.abs());
+        let bits = |f: &[[f64; 3]]| f.iter().flatten().map(|c| c.to_bits()).collect::<Vec<_>>();
+        let forces = bits(&system.atoms.forces);
+        system.list.without_far_parts();
+        system.compute_forces(true, &threads);
+        assert_eq!(bits(&system.atoms.forces), forces);
+        let all = system.pair_totals().unwrap();
+        assert_eq!(all.energy.to_bits(), tested.energy.to_bits());
+        assert_eq!(all.virial.to_bits(), tested.virial.to_bits());
     }
 }
