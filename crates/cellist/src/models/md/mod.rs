@@ -343,37 +343,27 @@ impl<const D: usize> MdSystem<D> {
         threads: &Threads,
         times: &mut StageTimes,
     ) -> Result<(), MdError> {
-        threads.install(|| self.step_in_pool(integrator, dt, step, energy, threads, times))
-    }
-
-    fn step_in_pool(
-        &mut self,
-        integrator: &Integrator,
-        dt: f64,
-        step: u64,
-        energy: bool,
-        threads: &Threads,
-        times: &mut StageTimes,
-    ) -> Result<(), MdError> {
-        let t = Instant::now();
-        integrator.first_half(&mut self.atoms, dt, threads);
-        let t = lap(t, &mut times.integrate);
-        check_positions(&self.domain, &self.atoms, step, threads)?;
-        let since = self.counts.step();
-        let (list, cells, positions) = (&self.list, &self.cells, &self.atoms.positions);
-        if let Rebuild::Yes { late } = self
-            .rule
-            .decide(since, || list.needs_rebuild(cells, positions))
-        {
-            self.rebuild(threads);
-            self.counts.built(late);
-        }
-        let t = lap(t, &mut times.neighbor);
-        self.compute_forces(energy, threads);
-        let t = lap(t, &mut times.force);
-        integrator.second_half(&mut self.atoms, dt, step, threads);
-        lap(t, &mut times.integrate);
-        Ok(())
+        threads.install(|| {
+            let t = Instant::now();
+            integrator.first_half(&mut self.atoms, dt, threads);
+            let t = lap(t, &mut times.integrate);
+            check_positions(&self.domain, &self.atoms, step, threads)?;
+            let since = self.counts.step();
+            let (list, cells, positions) = (&self.list, &self.cells, &self.atoms.positions);
+            if let Rebuild::Yes { late } = self
+                .rule
+                .decide(since, || list.needs_rebuild(cells, positions))
+            {
+                self.rebuild(threads);
+                self.counts.built(late);
+            }
+            let t = lap(t, &mut times.neighbor);
+            self.compute_forces(energy, threads);
+            let t = lap(t, &mut times.force);
+            integrator.second_half(&mut self.atoms, dt, step, threads);
+            lap(t, &mut times.integrate);
+            Ok(())
+        })
     }
 
     /// Wraps the positions, sorts the atoms by cell (in columns inside a cell)
