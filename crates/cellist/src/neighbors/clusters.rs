@@ -143,10 +143,9 @@ impl<const D: usize> ClusterList<D> {
                         *lengths.get_unchecked(i) = near + far.len();
                         *near_counts.get_unchecked(i) = near as u32;
                     }
-                    for &entry in far.iter() {
+                    for entry in far.drain(..) {
                         out.push(entry);
                     }
-                    far.clear();
                 }
             },
         );

@@ -106,18 +106,21 @@ impl<const D: usize> ClusterForces<'_, D> {
                     let xib: [[F64x4; D]; CLUSTER] =
                         std::array::from_fn(|i| std::array::from_fn(|a| F64x4::splat(xi[a][i])));
                     let f_own = Self::block::<ENERGY>(&lj, &xib, &xj, &own_limits, &mut sums);
+                    // an entry's cluster and its lanes shifted by the entry's image
+                    let lanes_of = |entry: u32| {
+                        let (cj, image) = unpack(entry);
+                        (cj, shifted(&positions[cj], &shifts[usize::from(image)]))
+                    };
                     let (near, far) = list.row_parts(ci);
                     for &entry in near {
-                        let (cj, image) = unpack(entry);
-                        let xj = shifted(&positions[cj], &shifts[usize::from(image)]);
+                        let (cj, xj) = lanes_of(entry);
                         let fj = Self::block::<ENERGY>(&lj, &xib, &xj, &limits, &mut sums);
                         f.add(cj, &fj.map(F64x4::to_array));
                     }
                     // a block with no pair inside the limits adds only zeros:
                     // skipping it leaves every sum as it is
                     for &entry in far {
-                        let (cj, image) = unpack(entry);
-                        let xj = shifted(&positions[cj], &shifts[usize::from(image)]);
+                        let (cj, xj) = lanes_of(entry);
                         if any_within(&xib, &xj, &limits) {
                             let fj = Self::block::<ENERGY>(&lj, &xib, &xj, &limits, &mut sums);
                             f.add(cj, &fj.map(F64x4::to_array));
@@ -138,9 +141,9 @@ impl<const D: usize> ClusterForces<'_, D> {
     }
 
     /// The `4 x 4` pairs of the i positions `xib` (each broadcast to four
-    /// lanes) with the j-lanes `xj` under the potential `lj`: adds the i forces (and with `ENERGY` the
-    /// energy and virial) to `sums`, returns the j forces. Lane `l` of pair row
-    /// `i` counts where `r^2 < limits[i]_l`.
+    /// lanes) with the j-lanes `xj` under the potential `lj`: adds the i forces
+    /// (and with `ENERGY` the energy and virial) to `sums`, returns the j
+    /// forces. Lane `l` of pair row `i` counts where `r^2 < limits[i]_l`.
     #[inline(always)]
     fn block<const ENERGY: bool>(
         lj: &LennardJones,

@@ -1,7 +1,7 @@
 //! Time integrators for molecular dynamics, split around the force evaluation:
 //! `first_half` before the new forces, `second_half` after.
 
-use super::Atoms;
+use super::{Atoms, ATOM_CHUNK};
 use crate::random::{stream_seed, Rng};
 use crate::threads::Threads;
 use rayon::prelude::*;
@@ -98,9 +98,6 @@ struct AtomMut<'a, const D: usize> {
     velocity: &'a mut [f64; D],
     force: &'a mut [f64; D],
 }
-
-/// Atoms per task of [`each_atom`].
-const ATOM_CHUNK: usize = 4096;
 
 /// `update` on every atom, in chunks on `threads`.
 fn each_atom<const D: usize>(

@@ -573,6 +573,10 @@ pub fn lap(t: Instant, total: &mut Duration) -> Instant {
     now
 }
 
+/// Atoms per task of the per-atom passes of a step (the integrator, the
+/// position check).
+const ATOM_CHUNK: usize = 4096;
+
 /// Every position finite, and inside the box on non-periodic axes
 /// (`lo_a <= x_a <= lo_a + L_a`); the first atom that is not, as the error of
 /// `step`. The atoms are looked at in parallel; the first is the first in
@@ -583,7 +587,6 @@ pub fn check_positions<const D: usize>(
     step: u64,
     threads: &Threads,
 ) -> Result<(), MdError> {
-    const CHUNK: usize = 4096;
     let open: [bool; D] = std::array::from_fn(|a| !domain.is_periodic(a));
     let hi: [f64; D] = std::array::from_fn(|a| domain.lo[a] + domain.length[a]);
     let inside = |x: &[f64; D], a: usize| !open[a] || (domain.lo[a]..=hi[a]).contains(&x[a]);
@@ -594,14 +597,14 @@ pub fn check_positions<const D: usize>(
     let positions = &atoms.positions;
     let first_bad_chunk = threads.install(|| {
         positions
-            .par_chunks(CHUNK)
+            .par_chunks(ATOM_CHUNK)
             .position_first(|chunk| !chunk.iter().all(fine))
     });
     let Some(c) = first_bad_chunk else {
         return Ok(());
     };
-    let k = c * CHUNK
-        + positions[c * CHUNK..]
+    let k = c * ATOM_CHUNK
+        + positions[c * ATOM_CHUNK..]
             .iter()
             .position(|x| !fine(x))
             .expect("the chunk holds an atom that is not fine");
