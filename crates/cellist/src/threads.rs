@@ -385,12 +385,13 @@ pub unsafe fn counting_sort_parts<I, It: Iterator<Item = I>>(
     counts: &mut Vec<u32>,
     place: impl Fn(I, usize) + Sync + Send,
 ) {
-    counts.clear();
+    // each part clears its own row (no serial pass over all the counts)
     counts.resize(parts * buckets, 0);
     let rows = DisjointSlice::new(counts);
     let sizes = map_parts(threads, parts, |p| {
         // SAFETY: each part counts into its own row
         let row = unsafe { rows.range(p * buckets..(p + 1) * buckets) };
+        row.fill(0);
         let mut size = 0usize;
         for item in items(p) {
             row[key(&item) as usize] += 1;
@@ -405,28 +406,9 @@ pub unsafe fn counting_sort_parts<I, It: Iterator<Item = I>>(
         items_in_all < u32::MAX as usize,
         "at most 2^32 - 1 items to sort"
     );
-    // bucket by bucket, part by part: the counts become each part's first slot
-    start.clear();
+    // every entry of `start` is written below
     start.resize(buckets + 1, 0);
-    let mut at = 0u32;
-    if parts == 1 {
-        // one row: the plain exclusive prefix sum
-        for (first, cursor) in start.iter_mut().zip(counts.iter_mut()) {
-            *first = at;
-            at += std::mem::replace(cursor, at);
-        }
-    } else {
-        for c in 0..buckets {
-            start[c] = at;
-            for p in 0..parts {
-                let count = counts[p * buckets + c];
-                counts[p * buckets + c] = at;
-                at += count;
-            }
-        }
-    }
-    start[buckets] = at;
-    let total = at as usize;
+    let total = first_slots(counts, parts, buckets, start, threads) as usize;
     let cursors = DisjointSlice::new(counts);
     map_parts(threads, parts, |p| {
         // SAFETY: each part moves its own row of cursors; the slots a part
@@ -444,6 +426,63 @@ pub unsafe fn counting_sort_parts<I, It: Iterator<Item = I>>(
             *slot += 1;
         }
     });
+}
+
+/// Turns the counts of [`counting_sort_parts`] (row `p`: part `p`'s count per
+/// bucket) into each part's first slot per bucket, bucket by bucket and part by
+/// part (`slot(p, c) = sum of count(q, d) over d < c, and over d = c, q < p`),
+/// and `start[c]` into bucket `c`'s first slot (`start[buckets]` the total,
+/// which it returns). With several parts the buckets are cut into blocks, one
+/// per part: the blocks sum their counts, then each, starting after the blocks
+/// before it, writes its own slots (the same sums, in two passes).
+fn first_slots(
+    counts: &mut [u32],
+    parts: usize,
+    buckets: usize,
+    start: &mut [u32],
+    threads: Option<&Threads>,
+) -> u32 {
+    if parts == 1 {
+        // one row: the plain exclusive prefix sum
+        let mut at = 0u32;
+        for (first, cursor) in start.iter_mut().zip(counts.iter_mut()) {
+            *first = at;
+            at += std::mem::replace(cursor, at);
+        }
+        start[buckets] = at;
+        return at;
+    }
+    let blocks = part_ranges(buckets, parts);
+    let totals = map_parts(threads, blocks.len(), |b| {
+        let cell = |c: usize| (0..parts).map(|p| counts[p * buckets + c]).sum::<u32>();
+        blocks[b].clone().map(cell).sum::<u32>()
+    });
+    let firsts: Vec<u32> = totals
+        .iter()
+        .scan(0u32, |at, &total| {
+            let first = *at;
+            *at += total;
+            Some(first)
+        })
+        .collect();
+    let (cursors, firsts_of_buckets) = (DisjointSlice::new(counts), DisjointSlice::new(start));
+    map_parts(threads, blocks.len(), |b| {
+        let mut at = firsts[b];
+        for c in blocks[b].clone() {
+            // SAFETY: bucket `c` (its first slot and its count in every row)
+            // belongs to one block
+            unsafe {
+                *firsts_of_buckets.get(c) = at;
+                for p in 0..parts {
+                    let cursor = cursors.get(p * buckets + c);
+                    at += std::mem::replace(cursor, at);
+                }
+            }
+        }
+    });
+    let total = totals.iter().sum();
+    start[buckets] = total;
+    total
 }
 
 /// A mutable slice shared by threads that promise to touch disjoint elements.

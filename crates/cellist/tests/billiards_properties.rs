@@ -1,7 +1,7 @@
 //! The fast collision step (grid candidates, components in parallel) against the
 //! literal O(N^2) loops of SPEC.md section 4, bit for bit.
 
-use cellist::models::billiards::{Billiards, Table};
+use cellist::models::billiards::{Billiards, BilliardsError, Table};
 use cellist::Threads;
 use proptest::prelude::*;
 
@@ -131,4 +131,30 @@ fn a_step_that_does_not_settle_names_the_step() {
             .starts_with("step 1: the collisions did not settle within 1 sweeps"),
         "{err}"
     );
+}
+
+#[test]
+fn an_overflow_names_the_first_disc_to_leave_the_finite_numbers_on_any_thread_count() {
+    // two discs overflow in the first move, one in each half of the discs
+    let n = 10_000;
+    let mut discs: Vec<[f64; 4]> = (0..n)
+        .map(|k| [(k % 100) as f64 * 9.0, (k / 100) as f64 * 9.0, 0.5, -0.5])
+        .collect();
+    for k in [3_000, 9_000] {
+        discs[k] = [f64::MAX, 5.0, f64::MAX, 0.0];
+    }
+    let table = Table {
+        side: 1000,
+        radius: 1,
+    };
+    let expected = BilliardsError::Overflow {
+        step: 1,
+        index: 3_000,
+    };
+    assert_eq!(table_of(table, &discs).step_brute(1), Err(expected.clone()));
+    for threads in [1, 2, 3] {
+        let pool = Threads::new(threads).unwrap();
+        let result = table_of(table, &discs).step(1, &pool);
+        assert_eq!(result, Err(expected.clone()), "{threads} thread(s)");
+    }
 }

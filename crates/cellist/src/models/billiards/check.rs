@@ -226,7 +226,7 @@ pub fn check_step(
     y.extend(c.iter().map(|s| s[1]));
     let lim = table.contact();
     grid.find(x, y, lim + NEAR, threads, near);
-    sets.reset(n);
+    sets.reset(n, threads);
     for p in near.iter() {
         sets.union(p.a, p.b);
     }

@@ -18,7 +18,8 @@ use super::contacts::Contact;
 use super::rules::{collide_four, Separation, Walls};
 use crate::simd::F64x4;
 use crate::threads::{
-    counting_sort_with, fill_in_parts, fill_indexed, scatter_in_parts, DisjointSlice, Threads,
+    counting_sort_with, fill_in_parts, fill_indexed, map_parts, part_ranges, scatter_in_parts,
+    DisjointSlice, Threads,
 };
 use rayon::prelude::*;
 
@@ -45,6 +46,7 @@ struct LocalDisc {
 pub(super) struct Components {
     sets: DisjointSets,
     label: Vec<u32>,
+    roots: Vec<u32>,
     local: Vec<u32>,
     member_start: Vec<u32>,
     members: Vec<u32>,
@@ -90,9 +92,8 @@ impl Components {
         // one pass in canonical order: union-find, and each pair's level (one more
         // than the highest level among the earlier pairs sharing a disc with it;
         // `depth` holds, per disc, one more than the level of its latest pair)
-        self.sets.reset(n);
-        self.depth.clear();
-        self.depth.resize(n, 0);
+        self.sets.reset(n, threads);
+        fill_indexed(&mut self.depth, n, Some(threads), |_| 0);
         self.levels.clear();
         for c in contacts {
             self.sets.union(c.a, c.b);
@@ -102,41 +103,20 @@ impl Components {
             self.depth[b] = level + 1;
             self.levels.push(level);
         }
-        self.label.clear();
-        self.label.resize(n, NONE);
+        // the discs in a component (on a wall, or in a pair) by their component,
+        // numbered in the order of its smallest disc, its root
+        fill_indexed(&mut self.label, n, Some(threads), |_| NONE);
         for &(k, _) in walls {
             self.label[k as usize] = 0;
         }
-        // labels, and each component's number of levels (`run_base[c + 1]`,
-        // summed below): the largest `depth` of its discs, since a disc's
-        // depth is one more than the highest level of its pairs
-        self.run_base.clear();
-        self.run_base.push(0);
-        let mut count = 0u32;
-        for k in 0..n {
-            if self.label[k] == NONE && self.depth[k] == 0 {
-                continue;
-            }
-            let r = self.sets.root(k as u32) as usize;
-            if r == k {
-                self.label[k] = count;
-                self.run_base.push(self.depth[k]);
-                count += 1;
-            } else {
-                let c = self.label[r];
-                self.label[k] = c;
-                let runs = &mut self.run_base[c as usize + 1];
-                *runs = (*runs).max(self.depth[k]);
-            }
-        }
-        let components = count as usize;
+        let components = self.number_components(threads);
 
         // discs by component, in `nearby` order within each (a stable counting
         // sort; the discs in no component go to a last bucket, left out)
         let label = &self.label;
         fill_in_parts(&mut self.keys, nearby.len(), Some(threads), |range| {
             nearby[range].iter().map(|&k| match label[k as usize] {
-                NONE => count,
+                NONE => components as u32,
                 c => c,
             })
         });
@@ -162,6 +142,14 @@ impl Components {
         let member_start = &self.member_start;
         let members = member_start[components] as usize;
         self.members.truncate(members);
+        // each component's number of levels: the largest `depth` of its discs,
+        // since a disc's depth is one more than the highest level of its pairs
+        let (placed, depth) = (&self.members, &self.depth);
+        fill_indexed(&mut self.run_base, components + 1, Some(threads), |c| {
+            let range = |c: usize| member_start[c] as usize..member_start[c + 1] as usize;
+            let deepest = |c: usize| placed[range(c)].iter().map(|&k| depth[k as usize]).max();
+            c.checked_sub(1).and_then(deepest).unwrap_or(0)
+        });
         fill_indexed(&mut self.local, n, Some(threads), |_| NONE);
         let placed = &self.members;
         // SAFETY: a disc is a member of one component, once: `nearby` is a
@@ -246,6 +234,64 @@ impl Components {
         }
     }
 
+    /// Labels every disc marked in `label` (any value but `NONE`) or with a
+    /// pair (`depth > 0`) with its component's number, and every other disc
+    /// with `NONE`; returns the number of components. Component `c` is the one
+    /// with the `c`-th smallest root (a root is its set's smallest disc). In
+    /// parts on `threads`: each part finds its discs' roots and counts the roots
+    /// among them; each root is numbered after the roots of the parts before;
+    /// then every disc takes its root's number.
+    fn number_components(&mut self, threads: &Threads) -> usize {
+        let n = self.label.len();
+        let parts = part_ranges(n, threads.count());
+        self.roots.resize(n, NONE);
+        let (sets, depth, label) = (&self.sets, &self.depth, &self.label);
+        let roots = DisjointSlice::new(&mut self.roots);
+        let counts = map_parts(Some(threads), parts.len(), |p| {
+            // SAFETY: the parts' ranges are disjoint
+            let part = unsafe { roots.range(parts[p].clone()) };
+            let mut count = 0;
+            for (k, root) in parts[p].clone().zip(part) {
+                let member = label[k] != NONE || depth[k] > 0;
+                *root = if member { sets.find(k as u32) } else { NONE };
+                count += u32::from(*root == k as u32);
+            }
+            count
+        });
+        let firsts: Vec<u32> = counts
+            .iter()
+            .scan(0, |next, &count| {
+                Some(std::mem::replace(next, *next + count))
+            })
+            .collect();
+        let roots = &self.roots;
+        let numbers = DisjointSlice::new(&mut self.label);
+        map_parts(Some(threads), parts.len(), |p| {
+            // SAFETY: the parts' ranges are disjoint
+            let part = unsafe { numbers.range(parts[p].clone()) };
+            let mut next = firsts[p];
+            for (k, number) in parts[p].clone().zip(part) {
+                if roots[k] == k as u32 {
+                    *number = next;
+                    next += 1;
+                }
+            }
+        });
+        // a disc's root is no later than the disc, and every root is numbered
+        let numbers = &self.label;
+        let roots = DisjointSlice::new(&mut self.roots);
+        map_parts(Some(threads), parts.len(), |p| {
+            // SAFETY: the parts' ranges are disjoint
+            for root in unsafe { roots.range(parts[p].clone()) } {
+                if *root != NONE {
+                    *root = numbers[*root as usize];
+                }
+            }
+        });
+        std::mem::swap(&mut self.label, &mut self.roots);
+        counts.iter().sum::<u32>() as usize
+    }
+
     /// Runs the canonical loop in every component, in parallel, and writes the new
     /// velocities back. Returns the largest sweep count (at least 1), or the
     /// smallest disc and the size of the first component (by number) that had not
@@ -317,16 +363,24 @@ pub(super) struct DisjointSets {
 }
 
 impl DisjointSets {
-    /// `n` singletons.
-    pub(super) fn reset(&mut self, n: usize) {
-        self.parent.clear();
-        self.parent.extend(0..n as u32);
+    /// `n` singletons (written in parts on `threads`).
+    pub(super) fn reset(&mut self, n: usize, threads: &Threads) {
+        fill_indexed(&mut self.parent, n, Some(threads), |k| k as u32);
     }
 
     /// Joins the sets of `a` and `b`; the smaller root stays the root.
     pub(super) fn union(&mut self, a: u32, b: u32) {
         let (ra, rb) = (self.root(a), self.root(b));
         self.parent[ra.max(rb) as usize] = ra.min(rb);
+    }
+
+    /// The root of `k`'s set (its smallest element), the path left as it is (so
+    /// that several threads may look up roots at once).
+    pub(super) fn find(&self, mut k: u32) -> u32 {
+        while self.parent[k as usize] != k {
+            k = self.parent[k as usize];
+        }
+        k
     }
 
     /// The root of `k`'s set (its smallest element), halving the path on the way.
@@ -441,8 +495,10 @@ mod tests {
     use crate::models::billiards::ContactGrid;
     use crate::random::Rng;
 
-    #[test]
-    fn levels_share_no_disc_and_every_disc_meets_its_pairs_in_canonical_order() {
+    /// 2000 discs at random in a 60 x 60 square, in contact within `q <= limit`,
+    /// the last five far from everything; every 97th disc and the far ones on a
+    /// wall, so that some components are walls only.
+    fn scattered_discs(limit: f64) -> (usize, Vec<Contact>, Vec<(u32, Walls)>, ContactGrid) {
         let mut rng = Rng::new(5);
         let n = 2000;
         let mut x: Vec<f64> = (0..n).map(|_| rng.uniform() * 60.0).collect();
@@ -453,7 +509,7 @@ mod tests {
         }
         let mut contacts = Vec::new();
         let mut grid = ContactGrid::default();
-        grid.find(&x, &y, 4.0, &Threads::single(), &mut contacts);
+        grid.find(&x, &y, limit, &Threads::single(), &mut contacts);
         // some discs on a wall, some of them without a pair: components of walls only
         let wall = Walls {
             low_x: true,
@@ -463,6 +519,62 @@ mod tests {
             .filter(|&k| k % 97 == 0 || k as usize >= n - 5)
             .map(|k| (k, wall))
             .collect();
+        (n, contacts, walls, grid)
+    }
+
+    #[test]
+    fn components_are_the_connected_sets_numbered_by_their_smallest_disc() {
+        // about 1.7 contacts per disc: many components, roots in every part
+        let (n, contacts, walls, grid) = scattered_discs(1.0);
+        // the reference: connected sets by a search over the contact graph
+        let mut neighbours = vec![Vec::new(); n];
+        for c in &contacts {
+            neighbours[c.a as usize].push(c.b as usize);
+            neighbours[c.b as usize].push(c.a as usize);
+        }
+        let on_wall: std::collections::HashSet<usize> =
+            walls.iter().map(|&(k, _)| k as usize).collect();
+        let mut seen = vec![false; n];
+        let mut expected: Vec<Vec<u32>> = Vec::new();
+        for first in 0..n {
+            if seen[first] || (neighbours[first].is_empty() && !on_wall.contains(&first)) {
+                continue;
+            }
+            seen[first] = true;
+            let (mut set, mut stack) = (vec![first as u32], vec![first]);
+            while let Some(d) = stack.pop() {
+                for &e in &neighbours[d] {
+                    if !std::mem::replace(&mut seen[e], true) {
+                        set.push(e as u32);
+                        stack.push(e);
+                    }
+                }
+            }
+            set.sort_unstable();
+            expected.push(set);
+        }
+        assert!(expected.len() > 100 && expected.iter().any(|set| set.len() > 10));
+        for threads in [1, 2, 3] {
+            let mut components = Components::default();
+            let pool = Threads::new(threads).unwrap();
+            components.group(n, &contacts, &walls, grid.nearby_order(), &pool);
+            let c = &components;
+            let found: Vec<Vec<u32>> = c
+                .member_start
+                .windows(2)
+                .map(|w| {
+                    let mut set = c.members[w[0] as usize..w[1] as usize].to_vec();
+                    set.sort_unstable();
+                    set
+                })
+                .collect();
+            assert_eq!(found, expected, "{threads} thread(s)");
+        }
+    }
+
+    #[test]
+    fn levels_share_no_disc_and_every_disc_meets_its_pairs_in_canonical_order() {
+        let (n, contacts, walls, grid) = scattered_discs(4.0);
         let mut components = Components::default();
         components.group(
             n,

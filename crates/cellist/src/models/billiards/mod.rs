@@ -27,7 +27,9 @@ pub use generate::{separated_discs, uniform_discs, Drawn};
 pub use model::BilliardsModel;
 pub use rules::{Separation, Table, Walls, APPROACH};
 
-use crate::threads::Threads;
+use crate::threads::{
+    collect_in_order_into, map_parts, part_ranges, parts_for, DisjointSlice, Threads,
+};
 use components::Components;
 use std::fmt;
 
@@ -208,46 +210,50 @@ impl Billiards {
     }
 
     /// Step `step`: move, then resolve over the candidates, component by component
-    /// in parallel.
+    /// in parallel. The whole step runs on the pool, so that its parallel passes
+    /// start there rather than being handed over from the calling thread one by
+    /// one.
     pub fn step(&mut self, step: u64, threads: &Threads) -> Result<StepStats, BilliardsError> {
-        self.advance(step)?;
-        let table = self.table;
-        self.grid.find(
-            &self.x,
-            &self.y,
-            table.contact(),
-            threads,
-            &mut self.contacts,
-        );
-        self.walls.clear();
-        self.walls.extend(
-            self.x
-                .iter()
-                .zip(&self.y)
-                .enumerate()
-                .map(|(k, (&x, &y))| (k as u32, table.walls_at(x, y)))
-                .filter(|(_, w)| w.any()),
-        );
-        self.components.group(
-            self.len(),
-            &self.contacts,
-            &self.walls,
-            self.grid.nearby_order(),
-            threads,
-        );
-        let sweeps = self
-            .components
-            .resolve(&mut self.v, self.max_sweeps, threads)
-            .map_err(|(first, size)| BilliardsError::NotConverged {
-                step,
-                sweeps: self.max_sweeps,
-                first,
-                size,
-            })?;
-        Ok(StepStats {
-            wall_discs: self.walls.len(),
-            pairs: self.contacts.len(),
-            sweeps,
+        threads.install(|| {
+            self.advance(step, Some(threads))?;
+            let table = self.table;
+            self.grid.find(
+                &self.x,
+                &self.y,
+                table.contact(),
+                threads,
+                &mut self.contacts,
+            );
+            let (x, y) = (&self.x, &self.y);
+            let parts = part_ranges(x.len(), threads.count());
+            let sizes: Vec<usize> = parts.iter().map(|part| part.len()).collect();
+            collect_in_order_into(&mut self.walls, &sizes, threads, |p, out| {
+                for k in parts[p].clone() {
+                    let walls = table.walls_at(x[k], y[k]);
+                    out.push_if((k as u32, walls), walls.any());
+                }
+            });
+            self.components.group(
+                self.len(),
+                &self.contacts,
+                &self.walls,
+                self.grid.nearby_order(),
+                threads,
+            );
+            let sweeps = self
+                .components
+                .resolve(&mut self.v, self.max_sweeps, threads)
+                .map_err(|(first, size)| BilliardsError::NotConverged {
+                    step,
+                    sweeps: self.max_sweeps,
+                    first,
+                    size,
+                })?;
+            Ok(StepStats {
+                wall_discs: self.walls.len(),
+                pairs: self.contacts.len(),
+                sweeps,
+            })
         })
     }
 
@@ -255,7 +261,7 @@ impl Billiards {
     /// wall pass, every pair `a < b` in the pair pass, O(N^2) per sweep. The
     /// reference the fast step is tested against.
     pub fn step_brute(&mut self, step: u64) -> Result<StepStats, BilliardsError> {
-        self.advance(step)?;
+        self.advance(step, None)?;
         let n = self.len();
         let table = self.table;
         let contact = table.contact();
@@ -302,13 +308,30 @@ impl Billiards {
         })
     }
 
-    /// Phase I: `x <- x + vx`, `y <- y + vy`.
-    fn advance(&mut self, step: u64) -> Result<(), BilliardsError> {
-        for ((x, y), v) in self.x.iter_mut().zip(&mut self.y).zip(&self.v) {
-            *x += v[0];
-            *y += v[1];
-        }
-        match (0..self.len()).find(|&k| !(self.x[k].is_finite() && self.y[k].is_finite())) {
+    /// Phase I: `x <- x + vx`, `y <- y + vy`, in parts on `threads` (in this
+    /// thread without them); the first disc (by vector position) that left the
+    /// finite numbers is reported.
+    fn advance(&mut self, step: u64, threads: Option<&Threads>) -> Result<(), BilliardsError> {
+        let parts = part_ranges(self.len(), parts_for(threads));
+        let (xs, ys) = (
+            DisjointSlice::new(&mut self.x),
+            DisjointSlice::new(&mut self.y),
+        );
+        let v = &self.v;
+        let first_bad = map_parts(threads, parts.len(), |p| {
+            let range = parts[p].clone();
+            // SAFETY: the parts' ranges are disjoint
+            let (x, y) = unsafe { (xs.range(range.clone()), ys.range(range.clone())) };
+            for ((x, y), v) in x.iter_mut().zip(y.iter_mut()).zip(&v[range.clone()]) {
+                *x += v[0];
+                *y += v[1];
+            }
+            let finite = |k: usize| x[k].is_finite() && y[k].is_finite();
+            (0..range.len())
+                .find(|&k| !finite(k))
+                .map(|k| range.start + k)
+        });
+        match first_bad.into_iter().flatten().next() {
             Some(index) => Err(BilliardsError::Overflow { step, index }),
             None => Ok(()),
         }
