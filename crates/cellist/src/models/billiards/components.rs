@@ -89,20 +89,32 @@ impl Components {
                 .iter()
                 .all(|&k| !std::mem::replace(&mut seen[k as usize], true))
         });
-        // one pass in canonical order: union-find, and each pair's level (one more
-        // than the highest level among the earlier pairs sharing a disc with it;
-        // `depth` holds, per disc, one more than the level of its latest pair)
-        self.sets.reset(n, threads);
-        fill_indexed(&mut self.depth, n, Some(threads), |_| 0);
-        self.levels.clear();
-        for c in contacts {
-            self.sets.union(c.a, c.b);
-            let (a, b) = (c.a as usize, c.b as usize);
-            let level = self.depth[a].max(self.depth[b]);
-            self.depth[a] = level + 1;
-            self.depth[b] = level + 1;
-            self.levels.push(level);
-        }
+        // two passes over the pairs, at once on two threads: the union-find, and
+        // in canonical order each pair's level (one more than the highest level
+        // among the earlier pairs sharing a disc with it; `depth` holds, per
+        // disc, one more than the level of its latest pair)
+        let (sets, depth, levels) = (&mut self.sets, &mut self.depth, &mut self.levels);
+        threads.install(|| {
+            rayon::join(
+                || {
+                    sets.reset(n, threads);
+                    for c in contacts {
+                        sets.union(c.a, c.b);
+                    }
+                },
+                || {
+                    fill_indexed(depth, n, Some(threads), |_| 0);
+                    levels.clear();
+                    for c in contacts {
+                        let (a, b) = (c.a as usize, c.b as usize);
+                        let level = depth[a].max(depth[b]);
+                        depth[a] = level + 1;
+                        depth[b] = level + 1;
+                        levels.push(level);
+                    }
+                },
+            )
+        });
         // the discs in a component (on a wall, or in a pair) by their component,
         // numbered in the order of its smallest disc, its root
         fill_indexed(&mut self.label, n, Some(threads), |_| NONE);

@@ -8,7 +8,7 @@
 
 use super::rules::Separation;
 use crate::threads::{
-    counting_sort, counting_sort_parts, fill_in_parts, map_parts, part_ranges, sort_parts,
+    counting_sort_parts, counting_sort_with, fill_in_parts, map_parts, part_ranges, sort_parts,
     DisjointSlice, Threads,
 };
 use rayon::prelude::*;
@@ -263,19 +263,35 @@ impl ContactGrid {
             }),
         }
         self.cell_of = cell_of;
-        counting_sort(
-            &self.cell_of,
-            dims[0] * dims[1],
-            Some(threads),
-            &mut self.start,
-            &mut self.sorted,
-            &mut self.counts,
-        );
-        let sorted = &self.sorted;
-        for (column, coordinate) in [(&mut self.sorted_x, x), (&mut self.sorted_y, y)] {
-            fill_in_parts(column, n, Some(threads), |range| {
-                sorted[range].iter().map(|&k| coordinate[k as usize])
-            });
+        // the discs by cell, each placed with its position (a stable counting
+        // sort); every slot of the three columns is written by the sort
+        for column in [&mut self.sorted_x, &mut self.sorted_y] {
+            column.resize(n, 0.0);
+        }
+        self.sorted.resize(n, 0);
+        let [sorted_x, sorted_y] =
+            [&mut self.sorted_x, &mut self.sorted_y].map(|c| DisjointSlice::new(c));
+        let sorted = DisjointSlice::new(&mut self.sorted);
+        let place = |k: usize, slot| {
+            // SAFETY: every slot is given once, below the columns' length
+            unsafe {
+                *sorted.get_unchecked(slot) = k as u32;
+                *sorted_x.get_unchecked(slot) = x[k];
+                *sorted_y.get_unchecked(slot) = y[k];
+            }
+        };
+        let cell_of = &self.cell_of;
+        // SAFETY: the keys are a slice, the same on both passes
+        unsafe {
+            counting_sort_with(
+                n,
+                |k| cell_of[k],
+                dims[0] * dims[1],
+                Some(threads),
+                &mut self.start,
+                &mut self.counts,
+                place,
+            );
         }
     }
 
