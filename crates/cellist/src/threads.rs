@@ -143,15 +143,11 @@ pub fn collect_in_order_into<T: Copy + Send + Sync>(
     } else {
         threads.install(|| rooms.into_par_iter().enumerate().map(run).collect())
     };
-    let starts = estimates.iter().scan(0, |at, &e| {
-        let start = *at;
-        *at += e;
-        Some(start)
-    });
+    let starts = exclusive_sums(estimates);
     let base = out.as_mut_ptr();
     if done.iter().all(|(_, spill)| spill.is_empty()) {
         let mut end = 0;
-        for (start, &(len, _)) in starts.zip(&done) {
+        for (&start, &(len, _)) in starts.iter().zip(&done) {
             if start != end {
                 // SAFETY: `base[start..start + len]` was written by its task, and
                 // `end <= start` (every earlier task wrote at most its estimate),
@@ -167,7 +163,7 @@ pub fn collect_in_order_into<T: Copy + Send + Sync>(
     }
     let length = done.iter().map(|(len, spill)| len + spill.len()).sum();
     let mut whole = crate::memory::large_vec(length);
-    for (start, (len, spill)) in starts.zip(&done) {
+    for (&start, (len, spill)) in starts.iter().zip(&done) {
         // SAFETY: `base[start..start + len]` was written by its task.
         whole.extend_from_slice(unsafe { std::slice::from_raw_parts(base.add(start), *len) });
         whole.extend_from_slice(spill);
@@ -181,6 +177,19 @@ pub fn part_ranges(n: usize, parts: usize) -> Vec<std::ops::Range<usize>> {
     let parts = parts.max(1);
     (0..parts)
         .map(|p| n * p / parts..n * (p + 1) / parts)
+        .collect()
+}
+
+/// The exclusive prefix sums of `values`: `0, v_0, v_0 + v_1, ...`, one per
+/// value (where each part's share of one result begins).
+pub fn exclusive_sums<T: Copy + Default + std::ops::Add<Output = T>>(values: &[T]) -> Vec<T> {
+    values
+        .iter()
+        .scan(T::default(), |next, &value| {
+            let first = *next;
+            *next = first + value;
+            Some(first)
+        })
         .collect()
 }
 
@@ -314,8 +323,9 @@ pub unsafe fn counting_sort_with(
 }
 
 /// How many parts a counting sort of `n` items into `buckets` is split into:
-/// one per thread, but few enough that the parts x buckets counts (summed
-/// serially) stay within a few (8) per item.
+/// one per thread, but few enough that the parts x buckets counts (each part
+/// zeroes its row; the offsets are summed in blocks of buckets) stay within a
+/// few (8) per item, which bounds their memory and the work of summing them.
 pub fn sort_parts(n: usize, buckets: usize, threads: Option<&Threads>) -> usize {
     let most = (COUNTS_PER_ITEM * n / buckets.max(1)).max(1);
     parts_for(threads).min(most)
@@ -422,14 +432,7 @@ fn first_slots(
         let cell = |c: usize| (0..parts).map(|p| counts[p * buckets + c]).sum::<u32>();
         blocks[b].clone().map(cell).sum::<u32>()
     });
-    let firsts: Vec<u32> = totals
-        .iter()
-        .scan(0u32, |at, &total| {
-            let first = *at;
-            *at += total;
-            Some(first)
-        })
-        .collect();
+    let firsts = exclusive_sums(&totals);
     let (cursors, firsts_of_buckets) = (DisjointSlice::new(counts), DisjointSlice::new(start));
     map_parts(threads, blocks.len(), |b| {
         let mut at = firsts[b];
@@ -587,7 +590,9 @@ mod tests {
             let mut runs: Vec<Option<&Threads>> = vec![None];
             runs.extend(pools.iter().map(Some));
             for threads in runs {
-                let (mut start, mut order, mut counts) = (vec![7], vec![9; keys.len()], Vec::new());
+                // stale buffers, as a sort kept between steps leaves them
+                let (mut start, mut order) = (vec![7; 50], vec![9; keys.len()]);
+                let mut counts = vec![u32::MAX; 200];
                 let slots = DisjointSlice::new(&mut order);
                 // SAFETY: the keys are a slice; each slot is given once
                 unsafe {
@@ -637,11 +642,17 @@ mod tests {
             pieces in proptest::collection::vec(proptest::collection::vec(0u32..30, 0..40), 0..12),
             cuts in proptest::collection::vec(0usize..13, 0..5),
             threads in 1usize..4,
+            buckets in 1u32..31,
         ) {
+            // fewer buckets than parts too
+            let pieces: Vec<Vec<u32>> = pieces
+                .iter()
+                .map(|piece| piece.iter().map(|&key| key % buckets).collect())
+                .collect();
             let keys: Vec<u32> = pieces.iter().flatten().copied().collect();
             let mut want: Vec<u32> = (0..keys.len() as u32).collect();
             want.sort_by_key(|&i| keys[i as usize]);
-            let want_start: Vec<u32> = (0..=30)
+            let want_start: Vec<u32> = (0..=buckets)
                 .map(|c| keys.iter().filter(|&&k| k < c).count() as u32)
                 .collect();
             // the parts: consecutive runs of pieces between sorted cut points
@@ -663,7 +674,8 @@ mod tests {
             let pool = Threads::new(threads).unwrap();
             let mut order = vec![u32::MAX; keys.len()];
             let slots = DisjointSlice::new(&mut order);
-            let (mut start, mut counts) = (Vec::new(), Vec::new());
+            // the buffers of an earlier, larger sort: nothing of theirs may leak
+            let (mut start, mut counts) = (vec![u32::MAX; 40], vec![u32::MAX; 300]);
             // SAFETY: every slot is given once
             let place = |item: &(usize, u32), slot| *unsafe { slots.get(slot) } = item.0 as u32;
             // SAFETY: the pieces do not change during the sort
@@ -672,7 +684,7 @@ mod tests {
                     parts.len(),
                     |p| indexed[parts[p].clone()].iter().flatten(),
                     |item| item.1,
-                    30,
+                    buckets as usize,
                     Some(&pool),
                     &mut start,
                     &mut counts,

@@ -18,8 +18,8 @@ use super::contacts::Contact;
 use super::rules::{collide_four, Separation, Walls};
 use crate::simd::F64x4;
 use crate::threads::{
-    counting_sort_with, fill_in_parts, fill_indexed, map_parts, part_ranges, scatter_in_parts,
-    DisjointSlice, Threads,
+    counting_sort_with, exclusive_sums, fill_in_parts, fill_indexed, map_parts, part_ranges,
+    scatter_in_parts, DisjointSlice, Threads,
 };
 use rayon::prelude::*;
 
@@ -89,7 +89,7 @@ impl Components {
                 .iter()
                 .all(|&k| !std::mem::replace(&mut seen[k as usize], true))
         });
-        // two passes over the pairs, at once on two threads: the union-find, and
+        // two passes over the pairs, two tasks of the pool: the union-find, and
         // in canonical order each pair's level (one more than the highest level
         // among the earlier pairs sharing a disc with it; `depth` holds, per
         // disc, one more than the level of its latest pair)
@@ -261,21 +261,25 @@ impl Components {
         let roots = DisjointSlice::new(&mut self.roots);
         let counts = map_parts(Some(threads), parts.len(), |p| {
             // SAFETY: the parts' ranges are disjoint
-            let part = unsafe { roots.range(parts[p].clone()) };
+            let range = parts[p].clone();
+            let part = unsafe { roots.range(range.clone()) };
             let mut count = 0;
-            for (k, root) in parts[p].clone().zip(part) {
-                let member = label[k] != NONE || depth[k] > 0;
-                *root = if member { sets.find(k as u32) } else { NONE };
-                count += u32::from(*root == k as u32);
+            for k in range.clone() {
+                // a disc's parent is no later than the disc, and a parent in
+                // this part already has its root
+                let parent = sets.parent(k as u32);
+                part[k - range.start] = if label[k] == NONE && depth[k] == 0 {
+                    NONE
+                } else if parent as usize >= range.start && parent as usize != k {
+                    part[parent as usize - range.start]
+                } else {
+                    sets.find(k as u32)
+                };
+                count += u32::from(part[k - range.start] == k as u32);
             }
             count
         });
-        let firsts: Vec<u32> = counts
-            .iter()
-            .scan(0, |next, &count| {
-                Some(std::mem::replace(next, *next + count))
-            })
-            .collect();
+        let firsts = exclusive_sums(&counts);
         let roots = &self.roots;
         let numbers = DisjointSlice::new(&mut self.label);
         map_parts(Some(threads), parts.len(), |p| {
@@ -384,6 +388,11 @@ impl DisjointSets {
     pub(super) fn union(&mut self, a: u32, b: u32) {
         let (ra, rb) = (self.root(a), self.root(b));
         self.parent[ra.max(rb) as usize] = ra.min(rb);
+    }
+
+    /// The parent of `k` (no later than `k`; `k` itself at a root).
+    pub(super) fn parent(&self, k: u32) -> u32 {
+        self.parent[k as usize]
     }
 
     /// The root of `k`'s set (its smallest element), the path left as it is (so
@@ -623,6 +632,8 @@ mod tests {
                 .map(|i| (global(c.pairs.a[i as usize]), global(c.pairs.b[i as usize])))
                 .collect();
             for run in runs.windows(2) {
+                // as many levels as the deepest pair needs, none empty
+                assert!(run[1] > run[0], "component {comp} has an empty level");
                 let range = (run[0] - runs[0]) as usize..(run[1] - runs[0]) as usize;
                 largest_run = largest_run.max(range.len());
                 let mut discs: Vec<u32> = order[range].iter().flat_map(|&(a, b)| [a, b]).collect();
