@@ -263,23 +263,12 @@ impl ContactGrid {
             }),
         }
         self.cell_of = cell_of;
-        // the discs by cell, each placed with its position (a stable counting
-        // sort); every slot of the three columns is written by the sort
-        for column in [&mut self.sorted_x, &mut self.sorted_y] {
-            column.resize(n, 0.0);
-        }
+        // the discs by cell (a stable counting sort), then their positions in
+        // that order
         self.sorted.resize(n, 0);
-        let [sorted_x, sorted_y] =
-            [&mut self.sorted_x, &mut self.sorted_y].map(|c| DisjointSlice::new(c));
         let sorted = DisjointSlice::new(&mut self.sorted);
-        let place = |k: usize, slot| {
-            // SAFETY: every slot is given once, below the columns' length
-            unsafe {
-                *sorted.get_unchecked(slot) = k as u32;
-                *sorted_x.get_unchecked(slot) = x[k];
-                *sorted_y.get_unchecked(slot) = y[k];
-            }
-        };
+        // SAFETY: every slot is given once, below the column's length
+        let place = |k: usize, slot| *unsafe { sorted.get_unchecked(slot) } = k as u32;
         let cell_of = &self.cell_of;
         // SAFETY: the keys are a slice, the same on both passes
         unsafe {
@@ -292,6 +281,12 @@ impl ContactGrid {
                 &mut self.counts,
                 place,
             );
+        }
+        let sorted = &self.sorted;
+        for (column, coordinate) in [(&mut self.sorted_x, x), (&mut self.sorted_y, y)] {
+            fill_in_parts(column, n, Some(threads), |range| {
+                sorted[range].iter().map(|&k| coordinate[k as usize])
+            });
         }
     }
 
