@@ -279,6 +279,41 @@ pub unsafe fn scatter_in_parts<T: Send, I: Iterator<Item = (usize, T)>>(
     });
 }
 
+/// A stable counting sort of the indices `0..keys.len()` by key (`keys[i] <
+/// buckets`), in parts on `threads` ([`counting_sort_with`]): `start` gets the
+/// `buckets + 1` bucket offsets, `order` the indices bucket by bucket, ascending
+/// within a bucket. The result is the same for any thread count.
+pub fn counting_sort(
+    keys: &[u32],
+    buckets: usize,
+    threads: Option<&Threads>,
+    start: &mut Vec<u32>,
+    order: &mut Vec<u32>,
+    counts: &mut Vec<u32>,
+) {
+    let n = keys.len();
+    order.clear();
+    order.reserve(n);
+    let slots = DisjointSlice::new(&mut order.spare_capacity_mut()[..n]);
+    // SAFETY: the keys are a slice, the same on both passes
+    unsafe {
+        counting_sort_with(
+            n,
+            |i| keys[i],
+            buckets,
+            threads,
+            start,
+            counts,
+            |i, slot| {
+                // SAFETY: every slot is given to one index, below n
+                slots.get_unchecked(slot).write(i as u32);
+            },
+        );
+    }
+    // SAFETY: the slots given out are exactly 0..n, each once
+    unsafe { order.set_len(n) };
+}
+
 /// How many counts per item a counting sort may keep (parts x buckets): with
 /// many buckets per item it splits into fewer parts.
 const COUNTS_PER_ITEM: usize = 8;
@@ -591,21 +626,9 @@ mod tests {
             runs.extend(pools.iter().map(Some));
             for threads in runs {
                 // stale buffers, as a sort kept between steps leaves them
-                let (mut start, mut order) = (vec![7; 50], vec![9; keys.len()]);
+                let (mut start, mut order) = (vec![7; 50], vec![9; 3]);
                 let mut counts = vec![u32::MAX; 200];
-                let slots = DisjointSlice::new(&mut order);
-                // SAFETY: the keys are a slice; each slot is given once
-                unsafe {
-                    counting_sort_with(
-                        keys.len(),
-                        |i| keys[i],
-                        buckets,
-                        threads,
-                        &mut start,
-                        &mut counts,
-                        |i, slot| *slots.get(slot) = i as u32,
-                    );
-                }
+                counting_sort(&keys, buckets, threads, &mut start, &mut order, &mut counts);
                 proptest::prop_assert_eq!(&order, &want);
                 proptest::prop_assert_eq!(&start, &want_start);
                 let mut filled = vec![1.5];

@@ -157,11 +157,24 @@ impl Components {
         // each component's number of levels: the largest `depth` of its discs,
         // since a disc's depth is one more than the highest level of its pairs
         let (placed, depth) = (&self.members, &self.depth);
-        fill_indexed(&mut self.run_base, components + 1, Some(threads), |c| {
-            let range = |c: usize| member_start[c] as usize..member_start[c + 1] as usize;
-            let deepest = |c: usize| placed[range(c)].iter().map(|&k| depth[k as usize]).max();
-            c.checked_sub(1).and_then(deepest).unwrap_or(0)
-        });
+        // (`run_base[c + 1]`, summed below; `run_base[0]` is 0)
+        fill_indexed(
+            &mut self.run_base,
+            components + 1,
+            Some(threads),
+            |e| match e {
+                0 => 0,
+                c_plus_1 => {
+                    let range =
+                        member_start[c_plus_1 - 1] as usize..member_start[c_plus_1] as usize;
+                    placed[range]
+                        .iter()
+                        .map(|&k| depth[k as usize])
+                        .max()
+                        .unwrap_or(0)
+                }
+            },
+        );
         fill_indexed(&mut self.local, n, Some(threads), |_| NONE);
         let placed = &self.members;
         // SAFETY: a disc is a member of one component, once: `nearby` is a

@@ -8,7 +8,7 @@
 
 use super::rules::Separation;
 use crate::threads::{
-    counting_sort_parts, counting_sort_with, fill_in_parts, map_parts, part_ranges, sort_parts,
+    counting_sort, counting_sort_parts, fill_in_parts, map_parts, part_ranges, sort_parts,
     DisjointSlice, Threads,
 };
 use rayon::prelude::*;
@@ -263,25 +263,14 @@ impl ContactGrid {
             }),
         }
         self.cell_of = cell_of;
-        // the discs by cell (a stable counting sort), then their positions in
-        // that order
-        self.sorted.resize(n, 0);
-        let sorted = DisjointSlice::new(&mut self.sorted);
-        // SAFETY: every slot is given once, below the column's length
-        let place = |k: usize, slot| *unsafe { sorted.get_unchecked(slot) } = k as u32;
-        let cell_of = &self.cell_of;
-        // SAFETY: the keys are a slice, the same on both passes
-        unsafe {
-            counting_sort_with(
-                n,
-                |k| cell_of[k],
-                dims[0] * dims[1],
-                Some(threads),
-                &mut self.start,
-                &mut self.counts,
-                place,
-            );
-        }
+        counting_sort(
+            &self.cell_of,
+            dims[0] * dims[1],
+            Some(threads),
+            &mut self.start,
+            &mut self.sorted,
+            &mut self.counts,
+        );
         let sorted = &self.sorted;
         for (column, coordinate) in [(&mut self.sorted_x, x), (&mut self.sorted_y, y)] {
             fill_in_parts(column, n, Some(threads), |range| {

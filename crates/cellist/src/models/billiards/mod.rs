@@ -326,9 +326,10 @@ impl Billiards {
                 *x += v[0];
                 *y += v[1];
             }
-            let finite = |k: usize| x[k].is_finite() && y[k].is_finite();
-            (0..range.len())
-                .find(|&k| !finite(k))
+            let finite = |(x, y): (&f64, &f64)| x.is_finite() && y.is_finite();
+            x.iter()
+                .zip(y.iter())
+                .position(|p| !finite(p))
                 .map(|k| range.start + k)
         });
         match first_bad.into_iter().flatten().next() {
