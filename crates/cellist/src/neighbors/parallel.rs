@@ -168,11 +168,26 @@ pub fn scatter_verlet_serial<const D: usize, K: PairKernel<D>>(
 /// halo buffer, each slot of which only layer `z` writes; the halo is then added to
 /// the forces, `f_j = (own rows' sum) + (previous layer's sum)`. Layers depend only
 /// on the grid, never on the thread count, so every sum runs in a fixed order.
+///
+/// An odd number of layers, fewer than 16 (`CUT_BELOW`), would give two threads
+/// uneven shares (nine layers: five against four), so there the middle layer's
+/// rows are cut into two tasks: the first half of the tasks then holds as many
+/// layers as the second (four and a half of nine; rayon's first split of the
+/// tasks is into halves). The second part of the cut layer writes its sums of
+/// its layer's slots and of the next layer's into an array of its own, added
+/// after the first part's: `f = own_0 + own_1 + halo_0 + halo_1`. Whether a
+/// layer is cut depends on the grid alone.
 #[derive(Clone, Debug, Default)]
 pub struct LayerPlan {
     bounds: Vec<usize>,
     wraps: bool,
+    cut: Option<usize>,
 }
+
+/// The number of layers from which a [`LayerPlan`] no longer cuts one: with
+/// this many, one layer more on one of two threads costs at most `1 /
+/// CUT_BELOW` of the pass.
+const CUT_BELOW: usize = 16;
 
 impl LayerPlan {
     /// The layers of `cells` as binned now (make a new plan after every rebin).
@@ -195,12 +210,43 @@ impl LayerPlan {
             bounds,
             // a single periodic layer wraps onto itself: its writes are all its own
             wraps: cells.domain().is_periodic(D - 1) && layers > 1,
+            cut: (layers % 2 == 1 && layers < CUT_BELOW).then_some(layers / 2),
         }
     }
 
     /// Number of layers.
     pub fn num_layers(&self) -> usize {
         self.bounds.len() - 1
+    }
+
+    /// Number of tasks: one per layer, and one more where a layer is cut.
+    pub fn num_tasks(&self) -> usize {
+        self.num_layers() + usize::from(self.cut.is_some())
+    }
+
+    /// The layer of task `t`, and whether `t` is the second part of the cut
+    /// layer (tasks in layer order, the cut layer's two parts one after the
+    /// other).
+    fn task(&self, t: usize) -> (usize, bool) {
+        match self.cut {
+            Some(m) if t > m => (t - 1, t == m + 1),
+            _ => (t, false),
+        }
+    }
+
+    /// The rows of task `t`: its layer's, or half of them where the layer is cut.
+    pub fn task_rows(&self, t: usize) -> Range<usize> {
+        let (z, second) = self.task(t);
+        let rows = self.rows(z);
+        if self.cut != Some(z) {
+            return rows;
+        }
+        let middle = rows.start + rows.len() / 2;
+        if second {
+            middle..rows.end
+        } else {
+            rows.start..middle
+        }
     }
 
     /// The rows (slots, or the units of [`LayerPlan::over`]) of layer `z`.
@@ -320,7 +366,7 @@ impl<V: Summand> LayerForces<'_, '_, V> {
             self.halo
         };
         // SAFETY: both slices have n elements and k < n, checked above; k lies in
-        // this layer (forces) or the next (halo), whose elements no other layer
+        // this layer (forces) or the next (halo), whose elements no other task
         // writes (LayerPlan), and the reference lives only here.
         let f = unsafe { &mut *target.add(k) };
         f.add_assign(delta);
@@ -333,52 +379,67 @@ impl<V: Summand> LayerForces<'_, '_, V> {
     }
 }
 
-/// Sets `forces` to the sums of `work(rows, forces, tally)` run once per layer of
-/// `plan`, all layers in parallel, then adds the halo to the sums (`forces`:
-/// vectors, scalars, any [`Summand`]): the parallel form of a Newton's-third-law
-/// sum over the rows of a half list (Verlet or cluster rows) built on the cell
-/// list of `plan`. `forces` need not be zeroed: each layer's task zeroes its own
-/// slots and the halo slots it writes before its rows run, so no pass over all
-/// the slots runs on one thread. `halo` is scratch (resized here; on an open
-/// axis the first layer's part of it is never written nor read). `tallies[z]`
-/// is layer `z`'s own accumulator (energies, virials), to be reduced in layer
-/// order by the caller.
+/// Sets `forces` to the sums of `work(rows, forces, tally)` run once per task of
+/// `plan` (a layer, or half of a cut one), all tasks in parallel, then adds the
+/// halo to the sums (`forces`: vectors, scalars, any [`Summand`]): the parallel
+/// form of a Newton's-third-law sum over the rows of a half list (Verlet or
+/// cluster rows) built on the cell list of `plan`. `forces` need not be
+/// zeroed: each task zeroes the slots it sums before its rows run, so no pass
+/// over all the slots runs on one thread. `scratch` holds the halo, and after
+/// it the cut layer's second array (resized here; on an open axis the first
+/// layer's part of the halo is never written nor read). `tallies[t]` is task
+/// `t`'s own accumulator (energies, virials), to be reduced in task order by
+/// the caller.
 pub fn scatter_half_rows<V: Summand, T: Send>(
     plan: &LayerPlan,
     forces: &mut [V],
-    halo: &mut Vec<V>,
+    scratch: &mut Vec<V>,
     tallies: &mut [T],
     threads: &Threads,
     work: impl Fn(Range<usize>, &LayerForces<V>, &mut T) + Sync,
 ) {
-    assert_eq!(tallies.len(), plan.num_layers());
+    assert_eq!(tallies.len(), plan.num_tasks());
     let n = forces.len();
     assert_eq!(n, plan.bounds.last().copied().unwrap_or(0));
-    if halo.len() != n {
-        halo.clear();
-        halo.resize(n, V::ZERO);
+    // the cut layer's second part sums into an array of its own
+    let extra = if plan.cut.is_some() { n } else { 0 };
+    if scratch.len() != n + extra {
+        scratch.clear();
+        scratch.resize(n + extra, V::ZERO);
     }
+    let (halo, cut) = scratch.split_at_mut(n);
     threads.install(|| {
         {
             let shared = DisjointSlice::new(forces);
             let shared_halo = DisjointSlice::new(halo);
             let tallies = DisjointSlice::new(tallies);
-            (0..plan.num_layers()).into_par_iter().for_each(|z| {
+            let cut = DisjointSlice::new(cut);
+            (0..plan.num_tasks()).into_par_iter().for_each(|t| {
+                let (z, second) = plan.task(t);
                 let (first, own, count) = plan.reach(z);
                 // the next layer's slots: those after this layer's, or the first
                 // layer's when this is the last layer and wraps (LayerPlan::reach;
                 // empty for the last layer of an open axis and for a single layer)
                 let next = if first + own == n { 0 } else { first + own };
-                // SAFETY: the layers' own ranges are disjoint, and so are their
-                // next-layer ranges (each layer is the next of one layer at most):
-                // layer z's task is the only one to touch either of its ranges
+                // the layers' own ranges are disjoint, and so are their next-layer
+                // ranges (each layer is the next of one layer at most); the two
+                // ranges of a layer lie apart but for a single layer, whose next
+                // range is empty
+                let (forces, halo) = match second {
+                    false => (&shared, &shared_halo),
+                    true => (&cut, &cut),
+                };
+                // SAFETY: by the above, layer z's first task is the only one to
+                // touch either of its ranges in the sums and the halo, and its
+                // second task (of the cut layer) the only one to touch the
+                // cut layer's array
                 unsafe {
-                    shared.range(first..first + own).fill(V::ZERO);
-                    shared_halo.range(next..next + count - own).fill(V::ZERO);
+                    forces.range(first..first + own).fill(V::ZERO);
+                    halo.range(next..next + count - own).fill(V::ZERO);
                 }
                 let access = LayerForces {
-                    forces: shared.base(),
-                    halo: shared_halo.base(),
+                    forces: forces.base(),
+                    halo: halo.base(),
                     _slices: std::marker::PhantomData,
                     first,
                     own,
@@ -386,10 +447,25 @@ pub fn scatter_half_rows<V: Summand, T: Send>(
                     n,
                     _one_thread: std::marker::PhantomData,
                 };
-                // SAFETY: each layer index is visited once.
-                let tally = unsafe { tallies.get(z) };
-                work(plan.rows(z), &access, tally);
+                // SAFETY: each task index is visited once.
+                let tally = unsafe { tallies.get(t) };
+                work(plan.task_rows(t), &access, tally);
             });
+        }
+        // slot by slot: own_0 + own_1, then + halo_0 + halo_1
+        let add = |sums: &mut [V], deltas: &[V]| {
+            for (f, h) in sums.iter_mut().zip(deltas) {
+                f.add_assign(h);
+            }
+        };
+        // the cut layer's own slots and its next layer's (cyclically)
+        let cut_slots = plan.cut.map(|m| {
+            let (first, own, count) = plan.reach(m);
+            let next = if first + own == n { 0 } else { first + own };
+            (first..first + own, next..next + count - own)
+        });
+        if let Some((own, _)) = &cut_slots {
+            add(&mut forces[own.clone()], &cut[own.clone()]);
         }
         // the halo of every layer but the first, and of the first when the last
         // layer wraps onto it: the slots some layer's task zeroed and wrote
@@ -397,11 +473,10 @@ pub fn scatter_half_rows<V: Summand, T: Send>(
         forces[start..]
             .par_chunks_mut(HALO_CHUNK)
             .zip(halo[start..].par_chunks(HALO_CHUNK))
-            .for_each(|(f, h)| {
-                for (f, h) in f.iter_mut().zip(h) {
-                    f.add_assign(h);
-                }
-            });
+            .for_each(|(f, h)| add(f, h));
+        if let Some((_, next)) = cut_slots {
+            add(&mut forces[next.clone()], &cut[next]);
+        }
     });
 }
 
@@ -457,12 +532,41 @@ mod tests {
     }
 
     #[test]
+    fn an_odd_number_of_few_layers_cuts_the_middle_one_in_two() {
+        for layers in 1..=2 * CUT_BELOW {
+            let plan = plan_for(layers, layers > 1);
+            let cut = layers % 2 == 1 && layers < CUT_BELOW;
+            let tasks = plan.num_tasks();
+            assert_eq!(tasks, layers + usize::from(cut), "{layers}");
+            // the tasks run through the rows in order, each within one layer
+            let runs: Vec<Range<usize>> = (0..tasks).map(|t| plan.task_rows(t)).collect();
+            assert_eq!(runs[0].start, 0);
+            assert_eq!(runs[tasks - 1].end, plan.rows(layers - 1).end);
+            assert!(runs.windows(2).all(|w| w[0].end == w[1].start));
+            let layer_of = |t: usize| plan.task(t).0;
+            assert!((0..tasks).all(|t| {
+                let rows = plan.rows(layer_of(t));
+                rows.start <= runs[t].start && runs[t].end <= rows.end
+            }));
+            // the first half of the tasks holds half of the rows (four per layer)
+            let first_half: usize = runs[..tasks / 2].iter().map(|r| r.len()).sum();
+            if cut || layers % 2 == 0 {
+                assert_eq!(first_half, 2 * layers, "{layers} layers");
+            }
+        }
+    }
+
+    #[test]
     fn the_sums_are_set_on_layers_of_any_size() {
-        // layers of 3, 0, 5, 2 and 4 slots, periodic and open, and two layers
+        // layers of 3, 0, 5, 2 and 4 slots, periodic and open, two layers, and more
         let cases = [
             (vec![3, 0, 5, 2, 4], true),
             (vec![3, 0, 5, 2, 4], false),
             (vec![1, 3], true),
+            // a cut last layer with an empty first half, and a single layer
+            (vec![2, 3, 1], true),
+            (vec![2, 3, 1], false),
+            (vec![3], false),
         ];
         for (counts, periodic) in cases {
             let layers = counts.len();
@@ -507,7 +611,7 @@ mod tests {
                 let mut forces = vec![[f64::NAN; 2]; n];
                 let mut halo = vec![[f64::NAN; 2]; n];
                 for _call in 0..2 {
-                    let mut rows_seen = vec![0; layers];
+                    let mut rows_seen = vec![0; plan.num_tasks()];
                     scatter_half_rows(
                         &plan,
                         &mut forces,
@@ -515,7 +619,10 @@ mod tests {
                         &mut rows_seen,
                         &threads,
                         |rows, f, seen| {
-                            let z = (0..layers).find(|&z| plan.rows(z) == rows).unwrap();
+                            // (an empty task's layer does not matter)
+                            let z = (0..layers)
+                                .find(|&z| plan.rows(z).contains(&rows.start))
+                                .unwrap_or(0);
                             for i in rows {
                                 f.add(i, &[1.0, 0.0]);
                                 if let Some(target) = next_first(z) {
@@ -526,7 +633,12 @@ mod tests {
                         },
                     );
                     assert_eq!(forces, expected, "{counts:?}, periodic {periodic}");
-                    assert_eq!(rows_seen, counts);
+                    // the cut layer's rows are shared by two tasks
+                    let mut per_layer = vec![0; layers];
+                    for (t, seen) in rows_seen.iter().enumerate() {
+                        per_layer[plan.task(t).0] += seen;
+                    }
+                    assert_eq!(per_layer, counts);
                 }
             }
         }
@@ -537,7 +649,7 @@ mod tests {
     fn writes_outside_the_reach_are_refused() {
         let plan = plan_for(6, true);
         let mut forces = vec![[0.0; 2]; 24];
-        let mut tallies = vec![(); plan.num_layers()];
+        let mut tallies = vec![(); plan.num_tasks()];
         scatter_half_rows(
             &plan,
             &mut forces,

@@ -190,10 +190,10 @@ fn any_within<const D: usize>(
 #[cfg(test)]
 mod tests {
     use super::super::{
-        create_velocities, lattice, Atoms, Integrator, LatticeKind, MdSystem, StageTimes,
-        VelocityDistribution,
+        create_velocities, lattice, Atoms, Integrator, LatticeKind, MdSystem, PairTally,
+        StageTimes, VelocityDistribution,
     };
-    use crate::geometry::norm2;
+    use crate::geometry::{norm2, Domain};
     use crate::interactions::{LennardJones, PairPotential};
     use crate::neighbors::{brute_force_pairs, unpack, RebuildRule};
     use crate::random::Rng;
@@ -259,8 +259,56 @@ mod tests {
             came_within,
             "no far entry came within the cutoff: the test tests nothing"
         );
+        let tested = assert_brute_force_sums(&mut system, &domain, &lj);
+        let threads = Threads::single();
+        let bits = |f: &[[f64; 3]]| f.iter().flatten().map(|c| c.to_bits()).collect::<Vec<_>>();
+        let forces = bits(&system.atoms.forces);
+        system.list.without_far_parts();
+        system.compute_forces(true, &threads);
+        assert_eq!(bits(&system.atoms.forces), forces);
+        let all = system.pair_totals().unwrap();
+        assert_eq!(all.energy.to_bits(), tested.energy.to_bits());
+        assert_eq!(all.virial.to_bits(), tested.virial.to_bits());
+    }
+
+    /// Seven fcc cells a side at the melt's density make three cell layers:
+    /// an odd number, so the middle layer's rows run as two tasks, the second
+    /// summing into an array of its own (`LayerPlan`). The forces, energy and
+    /// virial are the brute-force sums, and the same bits on 1, 2 and 3
+    /// threads.
+    #[test]
+    fn a_layer_cut_in_two_gives_the_brute_force_sums_on_any_thread_count() {
+        let (domain, mut points) = lattice(LatticeKind::Fcc, 0.8442, [7; 3]).unwrap();
+        let mut rng = Rng::new(11);
+        for x in &mut points {
+            *x = domain.wrap(x.map(|c| c + 0.3 * (rng.uniform() - 0.5)));
+        }
+        let lj = LennardJones::new(1.0, 1.0, 2.5, false).unwrap();
+        let build = |threads: &Threads| {
+            let atoms = Atoms::at_rest(points.clone(), 1.0);
+            MdSystem::new(domain, atoms, lj, 0.3, threads).unwrap()
+        };
+        let mut system = build(&Threads::single());
+        assert_eq!(system.layers.num_layers(), 3);
+        assert_eq!(system.layers.num_tasks(), 4);
+        for n in [2, 3] {
+            let other = build(&Threads::new(n).unwrap());
+            assert_eq!(system.atoms.forces, other.atoms.forces, "{n} threads");
+        }
+        assert_brute_force_sums(&mut system, &domain, &lj);
+    }
+
+    /// Asserts that `system`'s forces (as they are) and its energy and virial
+    /// (evaluated again, on one thread) are the brute-force sums over all pairs
+    /// within the cutoff, to 1e-12; returns the evaluated totals.
+    fn assert_brute_force_sums(
+        system: &mut MdSystem<3>,
+        domain: &Domain<3>,
+        lj: &LennardJones,
+    ) -> PairTally {
+        let x = &system.atoms.positions.clone();
         let (mut want, mut energy, mut virial) = (vec![[0.0; 3]; x.len()], 0.0, 0.0);
-        for (i, j, _) in brute_force_pairs(&domain, lj.cutoff(), x) {
+        for (i, j, _) in brute_force_pairs(domain, lj.cutoff(), x) {
             let (i, j) = (i as usize, j as usize);
             let x_ji = domain.separation(&x[i], &x[j]);
             let r2 = norm2(&x_ji);
@@ -281,18 +329,10 @@ mod tests {
                 );
             }
         }
-        let threads = Threads::single();
-        system.compute_forces(true, &threads);
+        system.compute_forces(true, &Threads::single());
         let tested = system.pair_totals().unwrap();
         assert!((tested.energy - energy).abs() <= 1e-12 * energy.abs());
         assert!((tested.virial - virial).abs() <= 1e-12 * virial.abs());
-        let bits = |f: &[[f64; 3]]| f.iter().flatten().map(|c| c.to_bits()).collect::<Vec<_>>();
-        let forces = bits(&system.atoms.forces);
-        system.list.without_far_parts();
-        system.compute_forces(true, &threads);
-        assert_eq!(bits(&system.atoms.forces), forces);
-        let all = system.pair_totals().unwrap();
-        assert_eq!(all.energy.to_bits(), tested.energy.to_bits());
-        assert_eq!(all.virial.to_bits(), tested.virial.to_bits());
+        tested
     }
 }

@@ -268,7 +268,7 @@ impl<const D: usize> MdSystem<D> {
             counts: ListCounts::default(),
         };
         system.adopt_cell_order();
-        system.tallies = vec![PairTally::default(); system.layers.num_layers()];
+        system.tallies = vec![PairTally::default(); system.layers.num_tasks()];
         system.check_overlaps()?;
         system.compute_forces(true, threads);
         Ok(system)
@@ -433,7 +433,7 @@ impl<const D: usize> MdSystem<D> {
         }
         self.atoms = atoms;
         self.build_list(threads);
-        self.tallies = vec![PairTally::default(); self.layers.num_layers()];
+        self.tallies = vec![PairTally::default(); self.layers.num_tasks()];
         self.counts = counts;
         // the energy and virial of the restored state, for its thermo; the
         // saved forces are kept (they continue the run bit for bit)

@@ -212,7 +212,7 @@ impl<const D: usize> ListPairs<D> {
         let plan = LayerPlan::new(cells);
         ListPairs {
             list: VerletList::build(cells, StencilKind::Half, cutoff, 0.0, threads),
-            tallies: vec![(); plan.num_layers()],
+            tallies: vec![(); plan.num_tasks()],
             plan,
             halo: Vec::new(),
         }
