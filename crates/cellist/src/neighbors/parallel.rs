@@ -10,7 +10,9 @@
 //! - layers with a halo (over half-list rows, Verlet or cluster): every cell
 //!   layer runs at once,
 //!   writing its own particles directly and the next layer's into a halo buffer
-//!   that only it writes, added afterwards (Newton's third law, one pass).
+//!   that only it writes, added afterwards (Newton's third law, one pass); one
+//!   layer of an odd few may run as two tasks, the second with sums of its own
+//!   ([`LayerPlan`]).
 
 use super::cell_list::CellList;
 use super::clusters::CLUSTER;
@@ -330,9 +332,10 @@ impl<const D: usize> Summand for [[f64; CLUSTER]; D] {
     }
 }
 
-/// Write access to the sums of the slots one layer may reach (see [`LayerPlan`]):
-/// the cyclic interval of `count` slots from `first`, the first `own` of them in the
-/// sums and the rest in the halo.
+/// Write access to the sums of the slots one task's layer may reach (see
+/// [`LayerPlan`]): the cyclic interval of `count` slots from `first`, the first
+/// `own` of them in the sums and the rest in the halo (for the second task of a
+/// cut layer, both in its own array).
 pub struct LayerForces<'s, 'a, V> {
     // the two slices' base pointers, taken once: a write picks one by a select
     forces: *mut V,
@@ -342,7 +345,7 @@ pub struct LayerForces<'s, 'a, V> {
     own: usize,
     count: usize,
     n: usize,
-    // not Sync: the task that owns the layer is the only thread that may write
+    // not Sync: the task that owns the access is the only thread that may write
     _one_thread: std::marker::PhantomData<std::cell::Cell<()>>,
 }
 
@@ -452,32 +455,35 @@ pub fn scatter_half_rows<V: Summand, T: Send>(
                 work(plan.task_rows(t), &access, tally);
             });
         }
-        // slot by slot: own_0 + own_1, then + halo_0 + halo_1
-        let add = |sums: &mut [V], deltas: &[V]| {
-            for (f, h) in sums.iter_mut().zip(deltas) {
-                f.add_assign(h);
-            }
-        };
-        // the cut layer's own slots and its next layer's (cyclically)
+        // slot by slot: own_0 + own_1, then + halo_0 + halo_1; the cut layer's
+        // own slots and its next layer's (cyclically)
         let cut_slots = plan.cut.map(|m| {
             let (first, own, count) = plan.reach(m);
             let next = if first + own == n { 0 } else { first + own };
             (first..first + own, next..next + count - own)
         });
         if let Some((own, _)) = &cut_slots {
-            add(&mut forces[own.clone()], &cut[own.clone()]);
+            add_in_chunks(&mut forces[own.clone()], &cut[own.clone()]);
         }
         // the halo of every layer but the first, and of the first when the last
         // layer wraps onto it: the slots some layer's task zeroed and wrote
         let start = if plan.wraps { 0 } else { plan.rows(0).end };
-        forces[start..]
-            .par_chunks_mut(HALO_CHUNK)
-            .zip(halo[start..].par_chunks(HALO_CHUNK))
-            .for_each(|(f, h)| add(f, h));
+        add_in_chunks(&mut forces[start..], &halo[start..]);
         if let Some((_, next)) = cut_slots {
-            add(&mut forces[next.clone()], &cut[next]);
+            add_in_chunks(&mut forces[next.clone()], &cut[next]);
         }
     });
+}
+
+/// `sums[k] += deltas[k]` for every `k`, in chunks on the current pool.
+fn add_in_chunks<V: Summand>(sums: &mut [V], deltas: &[V]) {
+    sums.par_chunks_mut(HALO_CHUNK)
+        .zip(deltas.par_chunks(HALO_CHUNK))
+        .for_each(|(sums, deltas)| {
+            for (f, h) in sums.iter_mut().zip(deltas) {
+                f.add_assign(h);
+            }
+        });
 }
 
 /// Slots per task when the halo is added to the forces.
@@ -563,9 +569,14 @@ mod tests {
             (vec![3, 0, 5, 2, 4], true),
             (vec![3, 0, 5, 2, 4], false),
             (vec![1, 3], true),
-            // a cut last layer with an empty first half, and a single layer
+            // three layers (the middle one cut): its halves of 1 and 2 rows,
+            // an empty first half, an empty cut layer, a cut layer whose next
+            // layer is empty (and ends the slots); and a single layer, cut
             (vec![2, 3, 1], true),
             (vec![2, 3, 1], false),
+            (vec![2, 1, 3], true),
+            (vec![2, 0, 3], true),
+            (vec![2, 3, 0], true),
             (vec![3], false),
         ];
         for (counts, periodic) in cases {

@@ -59,8 +59,8 @@ struct RowSums<const D: usize> {
 impl<const D: usize> ClusterForces<'_, D> {
     /// Sets `forces` to the pair sums: `f_I = sum over row I of f_ij` (lanes of
     /// I) and `f_J -= f_ij` for every entry `J`, `f_ij = (-U'/r)(x_i - x_j)` for
-    /// `r^2 < r_c^2`; with `ENERGY`, each layer's `U` and `W = sum r^2 (-U'/r)`
-    /// added to `tallies`.
+    /// `r^2 < r_c^2`; with `ENERGY`, each task's (`LayerPlan`) `U` and
+    /// `W = sum r^2 (-U'/r)` added to its entry of `tallies`.
     pub(super) fn run<const ENERGY: bool>(
         &self,
         forces: &mut [Lanes<D>],
@@ -291,9 +291,18 @@ mod tests {
         let mut system = build(&Threads::single());
         assert_eq!(system.layers.num_layers(), 3);
         assert_eq!(system.layers.num_tasks(), 4);
+        let bits = |system: &MdSystem<3>| {
+            let totals = system.pair_totals().unwrap();
+            let forces = system.atoms.forces.iter().flatten();
+            let totals = [totals.energy, totals.virial];
+            forces
+                .chain(&totals)
+                .map(|c| c.to_bits())
+                .collect::<Vec<_>>()
+        };
         for n in [2, 3] {
             let other = build(&Threads::new(n).unwrap());
-            assert_eq!(system.atoms.forces, other.atoms.forces, "{n} threads");
+            assert_eq!(bits(&system), bits(&other), "{n} threads");
         }
         assert_brute_force_sums(&mut system, &domain, &lj);
     }
