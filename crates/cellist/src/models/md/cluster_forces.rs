@@ -208,12 +208,7 @@ mod tests {
     /// is computed without the test.
     #[test]
     fn entries_that_come_within_the_cutoff_after_the_build_are_summed() {
-        let (domain, mut points) = lattice(LatticeKind::Fcc, 0.8442, [4; 3]).unwrap();
-        // jittered, so that the pair distances spread across the cutoff
-        let mut rng = Rng::new(7);
-        for x in &mut points {
-            *x = domain.wrap(x.map(|c| c + 0.3 * (rng.uniform() - 0.5)));
-        }
+        let (domain, points) = jittered_fcc(4, 7);
         let lj = LennardJones::new(1.0, 1.0, 2.5, false).unwrap();
         let run = |threads: &Threads| {
             let mut atoms = Atoms::at_rest(points.clone(), 1.0);
@@ -278,11 +273,7 @@ mod tests {
     /// threads.
     #[test]
     fn a_layer_cut_in_two_gives_the_brute_force_sums_on_any_thread_count() {
-        let (domain, mut points) = lattice(LatticeKind::Fcc, 0.8442, [7; 3]).unwrap();
-        let mut rng = Rng::new(11);
-        for x in &mut points {
-            *x = domain.wrap(x.map(|c| c + 0.3 * (rng.uniform() - 0.5)));
-        }
+        let (domain, points) = jittered_fcc(7, 11);
         let lj = LennardJones::new(1.0, 1.0, 2.5, false).unwrap();
         let build = |threads: &Threads| {
             let atoms = Atoms::at_rest(points.clone(), 1.0);
@@ -305,6 +296,18 @@ mod tests {
             assert_eq!(bits(&system), bits(&other), "{n} threads");
         }
         assert_brute_force_sums(&mut system, &domain, &lj);
+    }
+
+    /// An fcc crystal of `cells` unit cells a side at the melt's density, each
+    /// atom moved by up to 0.15 per axis (`seed`), so that the pair distances
+    /// spread across the cutoff.
+    fn jittered_fcc(cells: usize, seed: u64) -> (Domain<3>, Vec<[f64; 3]>) {
+        let (domain, mut points) = lattice(LatticeKind::Fcc, 0.8442, [cells; 3]).unwrap();
+        let mut rng = Rng::new(seed);
+        for x in &mut points {
+            *x = domain.wrap(x.map(|c| c + 0.3 * (rng.uniform() - 0.5)));
+        }
+        (domain, points)
     }
 
     /// Asserts that `system`'s forces (as they are) and its energy and virial
