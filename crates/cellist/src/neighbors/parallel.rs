@@ -271,6 +271,21 @@ impl LayerPlan {
         };
         (first, own, own + next)
     }
+
+    /// The two runs of slots in the reach of layer `z` ([`LayerPlan::reach`]):
+    /// its own, and the next layer's (those after its own, or the first
+    /// layer's when `z` is the last and wraps; empty for the last layer of an
+    /// open axis and for a single layer).
+    fn reach_runs(&self, z: usize) -> (Range<usize>, Range<usize>) {
+        let (first, own, count) = self.reach(z);
+        let end = first + own;
+        let next = if end == self.bounds[self.num_layers()] {
+            0
+        } else {
+            end
+        };
+        (first..end, next..next + count - own)
+    }
 }
 
 /// A per-particle sum that a layer scatter accumulates: a force vector `[f64; D]`,
@@ -420,10 +435,7 @@ pub fn scatter_half_rows<V: Summand, T: Send>(
             (0..plan.num_tasks()).into_par_iter().for_each(|t| {
                 let (z, second) = plan.task(t);
                 let (first, own, count) = plan.reach(z);
-                // the next layer's slots: those after this layer's, or the first
-                // layer's when this is the last layer and wraps (LayerPlan::reach;
-                // empty for the last layer of an open axis and for a single layer)
-                let next = if first + own == n { 0 } else { first + own };
+                let (own_slots, next_slots) = plan.reach_runs(z);
                 // the layers' own ranges are disjoint, and so are their next-layer
                 // ranges (each layer is the next of one layer at most); the two
                 // ranges of a layer lie apart but for a single layer, whose next
@@ -437,8 +449,8 @@ pub fn scatter_half_rows<V: Summand, T: Send>(
                 // second task (of the cut layer) the only one to touch the
                 // cut layer's array
                 unsafe {
-                    forces.range(first..first + own).fill(V::ZERO);
-                    halo.range(next..next + count - own).fill(V::ZERO);
+                    forces.range(own_slots).fill(V::ZERO);
+                    halo.range(next_slots).fill(V::ZERO);
                 }
                 let access = LayerForces {
                     forces: forces.base(),
@@ -456,12 +468,8 @@ pub fn scatter_half_rows<V: Summand, T: Send>(
             });
         }
         // slot by slot: own_0 + own_1, then + halo_0 + halo_1; the cut layer's
-        // own slots and its next layer's (cyclically)
-        let cut_slots = plan.cut.map(|m| {
-            let (first, own, count) = plan.reach(m);
-            let next = if first + own == n { 0 } else { first + own };
-            (first..first + own, next..next + count - own)
-        });
+        // own slots and its next layer's
+        let cut_slots = plan.cut.map(|m| plan.reach_runs(m));
         if let Some((own, _)) = &cut_slots {
             add_in_chunks(&mut forces[own.clone()], &cut[own.clone()]);
         }
