@@ -18,8 +18,7 @@ use super::contacts::Contact;
 use super::rules::{collide_four, Separation, Walls};
 use crate::simd::F64x4;
 use crate::threads::{
-    counting_sort_with, exclusive_sums, fill_in_parts, fill_indexed, map_parts, part_ranges,
-    scatter_in_parts, DisjointSlice, Threads,
+    counting_sort_with, fill_in_parts, fill_indexed, scatter_in_parts, DisjointSlice, Threads,
 };
 use rayon::prelude::*;
 
@@ -46,7 +45,6 @@ struct LocalDisc {
 pub(super) struct Components {
     sets: DisjointSets,
     label: Vec<u32>,
-    roots: Vec<u32>,
     local: Vec<u32>,
     member_start: Vec<u32>,
     members: Vec<u32>,
@@ -121,7 +119,7 @@ impl Components {
         for &(k, _) in walls {
             self.label[k as usize] = 0;
         }
-        let components = self.number_components(threads);
+        let components = self.number_components();
 
         // discs by component, in `nearby` order within each (a stable counting
         // sort; the discs in no component go to a last bucket, left out)
@@ -262,63 +260,27 @@ impl Components {
     /// Labels every disc marked in `label` (any value but `NONE`) or with a
     /// pair (`depth > 0`) with its component's number, and every other disc
     /// with `NONE`; returns the number of components. Component `c` is the one
-    /// with the `c`-th smallest root (a root is its set's smallest disc). In
-    /// parts on `threads`: each part finds its discs' roots and counts the roots
-    /// among them; each root is numbered after the roots of the parts before;
-    /// then every disc takes its root's number.
-    fn number_components(&mut self, threads: &Threads) -> usize {
-        let n = self.label.len();
-        let parts = part_ranges(n, threads.count());
-        self.roots.resize(n, NONE);
-        let (sets, depth, label) = (&self.sets, &self.depth, &self.label);
-        let roots = DisjointSlice::new(&mut self.roots);
-        let counts = map_parts(Some(threads), parts.len(), |p| {
-            // SAFETY: the parts' ranges are disjoint
-            let range = parts[p].clone();
-            let part = unsafe { roots.range(range.clone()) };
-            let mut count = 0;
-            for k in range.clone() {
-                // a disc's parent is no later than the disc, and a parent in
-                // this part already has its root
-                let parent = sets.parent(k as u32);
-                part[k - range.start] = if label[k] == NONE && depth[k] == 0 {
-                    NONE
-                } else if parent as usize >= range.start && parent as usize != k {
-                    part[parent as usize - range.start]
-                } else {
-                    sets.find(k as u32)
-                };
-                count += u32::from(part[k - range.start] == k as u32);
+    /// with the `c`-th smallest root (a root is its set's smallest disc). One
+    /// serial pass in disc order, each root numbered as it comes (it comes
+    /// before the rest of its set), each other disc taking its root's number,
+    /// the paths halved on the way: on the 100000-disc benchmark this took 0.54
+    /// ms a step against 0.89-0.91 for three passes in parts on one thread and
+    /// 0.73-0.82 on two.
+    fn number_components(&mut self) -> usize {
+        let mut count = 0;
+        for k in 0..self.label.len() {
+            if self.label[k] == NONE && self.depth[k] == 0 {
+                continue;
             }
-            count
-        });
-        let firsts = exclusive_sums(&counts);
-        let roots = &self.roots;
-        let numbers = DisjointSlice::new(&mut self.label);
-        map_parts(Some(threads), parts.len(), |p| {
-            // SAFETY: the parts' ranges are disjoint
-            let part = unsafe { numbers.range(parts[p].clone()) };
-            let mut next = firsts[p];
-            for (k, number) in parts[p].clone().zip(part) {
-                if roots[k] == k as u32 {
-                    *number = next;
-                    next += 1;
-                }
-            }
-        });
-        // a disc's root is no later than the disc, and every root is numbered
-        let numbers = &self.label;
-        let roots = DisjointSlice::new(&mut self.roots);
-        map_parts(Some(threads), parts.len(), |p| {
-            // SAFETY: the parts' ranges are disjoint
-            for root in unsafe { roots.range(parts[p].clone()) } {
-                if *root != NONE {
-                    *root = numbers[*root as usize];
-                }
-            }
-        });
-        std::mem::swap(&mut self.label, &mut self.roots);
-        counts.iter().sum::<u32>() as usize
+            let root = self.sets.root(k as u32) as usize;
+            self.label[k] = if root == k {
+                count += 1;
+                count - 1
+            } else {
+                self.label[root]
+            };
+        }
+        count as usize
     }
 
     /// Runs the canonical loop in every component, in parallel, and writes the new
@@ -401,20 +363,6 @@ impl DisjointSets {
     pub(super) fn union(&mut self, a: u32, b: u32) {
         let (ra, rb) = (self.root(a), self.root(b));
         self.parent[ra.max(rb) as usize] = ra.min(rb);
-    }
-
-    /// The parent of `k` (no later than `k`; `k` itself at a root).
-    pub(super) fn parent(&self, k: u32) -> u32 {
-        self.parent[k as usize]
-    }
-
-    /// The root of `k`'s set (its smallest element), the path left as it is (so
-    /// that several threads may look up roots at once).
-    pub(super) fn find(&self, mut k: u32) -> u32 {
-        while self.parent[k as usize] != k {
-            k = self.parent[k as usize];
-        }
-        k
     }
 
     /// The root of `k`'s set (its smallest element), halving the path on the way.
