@@ -264,7 +264,7 @@ impl Components {
     /// serial pass in disc order, each root numbered as it comes (it comes
     /// before the rest of its set), each other disc taking its root's number,
     /// the paths halved on the way: on the 100000-disc benchmark this took 0.54
-    /// ms a step against 0.89-0.91 for three passes in parts on one thread and
+    /// ms a step against 0.89-0.95 for three passes in parts on one thread and
     /// 0.73-0.82 on two.
     fn number_components(&mut self) -> usize {
         let mut count = 0;
@@ -506,7 +506,7 @@ mod tests {
 
     #[test]
     fn components_are_the_connected_sets_numbered_by_their_smallest_disc() {
-        // about 1.7 contacts per disc: many components, roots in every part
+        // about 1.7 contacts per disc: many components, some of them large
         let (n, contacts, walls, grid) = scattered_discs(1.0);
         // the reference: connected sets by a search over the contact graph
         let mut neighbours = vec![Vec::new(); n];
