@@ -3,10 +3,12 @@
 //! loops of the long-range solvers and of the collision benchmark are written on
 //! this type so that they run as SIMD without hoping for the auto-vectoriser.
 //!
-//! `+ - * /`, `sqrt`, the comparisons, selects, rounding and the pair shuffles are
-//! exact IEEE binary64 operations lane by lane in both implementations, so they
-//! give the same bits everywhere (the collision benchmark depends on it); the
-//! tests compile both implementations and compare them. What differs: `mul_add`
+//! `+ - * /`, negation, `sqrt`, the comparisons, selects, rounding, the scaling
+//! by `2^(k/4)` and the pair shuffles are exact IEEE binary64 operations lane
+//! by lane in both implementations, so they give the same bits everywhere (the
+//! collision benchmark depends on it); the tests compile both implementations
+//! and compare them. [`Real`] lets a kernel be written once for `f64` and for
+//! the lanes, with the bits of four scalar calls. What differs: `mul_add`
 //! and `neg_mul_add` (a build with FMA rounds `a * b + c` once, one without it
 //! twice) and `min` and `max` with a NaN lane.
 
@@ -116,6 +118,31 @@ mod lanes {
         pub fn max(self, b: Self) -> Self {
             unsafe { F64x4(_mm256_max_pd(self.0, b.0)) }
         }
+        /// [`super::Real::times_two_to_quarters`] lane by lane:
+        /// `QUARTER_POWERS[j]` by two blends on the bits of `j` moved to the
+        /// sign, `2^n` from the exponent field (the low 12 bits of `n + 1023`,
+        /// the same for a logical shift as for the arithmetic one).
+        #[inline(always)]
+        pub fn times_two_to_quarters(self, rounded: Self) -> Self {
+            unsafe {
+                let k = _mm256_sub_epi64(
+                    _mm256_castpd_si256(rounded.0),
+                    _mm256_set1_epi64x(super::ROUNDER.to_bits() as i64),
+                );
+                let odd = _mm256_castsi256_pd(_mm256_slli_epi64::<63>(k));
+                let upper = _mm256_castsi256_pd(_mm256_slli_epi64::<62>(k));
+                let [p0, p1, p2, p3] = super::QUARTER_POWERS.map(|p| _mm256_set1_pd(p));
+                let low = _mm256_blendv_pd(p0, p1, odd);
+                let high = _mm256_blendv_pd(p2, p3, odd);
+                let quarter = _mm256_blendv_pd(low, high, upper);
+                let n = _mm256_srli_epi64::<2>(k);
+                let two_n = _mm256_castsi256_pd(_mm256_slli_epi64::<52>(_mm256_add_epi64(
+                    n,
+                    _mm256_set1_epi64x(1023),
+                )));
+                F64x4(_mm256_mul_pd(_mm256_mul_pd(self.0, quarter), two_n))
+            }
+        }
         /// Four pairs `p[l] = [x_l, y_l]` as the lanes `x` and `y`.
         #[inline(always)]
         pub fn unzip_pairs(p: [[f64; 2]; 4]) -> (Self, Self) {
@@ -161,6 +188,15 @@ mod lanes {
     binary!(Sub, sub, _mm256_sub_pd);
     binary!(Mul, mul, _mm256_mul_pd);
     binary!(Div, div, _mm256_div_pd);
+
+    impl std::ops::Neg for F64x4 {
+        type Output = F64x4;
+        /// The sign bits flipped, as `-x` does.
+        #[inline(always)]
+        fn neg(self) -> F64x4 {
+            unsafe { F64x4(_mm256_xor_pd(self.0, _mm256_set1_pd(-0.0))) }
+        }
+    }
 }
 
 #[cfg(any(
@@ -272,6 +308,14 @@ mod portable {
         pub fn max(self, b: Self) -> Self {
             F64x4(std::array::from_fn(|l| self.0[l].max(b.0[l])))
         }
+        /// [`super::Real::times_two_to_quarters`] lane by lane.
+        #[inline(always)]
+        pub fn times_two_to_quarters(self, rounded: Self) -> Self {
+            use super::Real;
+            F64x4(std::array::from_fn(|l| {
+                self.0[l].times_two_to_quarters(rounded.0[l])
+            }))
+        }
         /// Four pairs `p[l] = [x_l, y_l]` as the lanes `x` and `y`.
         #[inline(always)]
         pub fn unzip_pairs(p: [[f64; 2]; 4]) -> (Self, Self) {
@@ -299,6 +343,14 @@ mod portable {
     binary!(Sub, sub, -);
     binary!(Mul, mul, *);
     binary!(Div, div, /);
+
+    impl std::ops::Neg for F64x4 {
+        type Output = F64x4;
+        #[inline(always)]
+        fn neg(self) -> F64x4 {
+            F64x4(self.0.map(|v| -v))
+        }
+    }
 }
 
 #[cfg(all(
@@ -313,6 +365,101 @@ pub use lanes::F64x4;
     target_feature = "fma"
 )))]
 pub use portable::F64x4;
+
+/// The number types a kernel is written once for: `f64` and [`F64x4`], whose
+/// lanes do the same IEEE operations, so that four lanes give the bits of four
+/// scalar calls.
+pub trait Real:
+    Copy
+    + std::ops::Add<Output = Self>
+    + std::ops::Sub<Output = Self>
+    + std::ops::Mul<Output = Self>
+    + std::ops::Div<Output = Self>
+    + std::ops::Neg<Output = Self>
+{
+    /// `v` (in every lane).
+    fn splat(v: f64) -> Self;
+    /// `max(self, b)`, and `b` where `self` is NaN.
+    fn max(self, b: Self) -> Self;
+    /// `if a < b { then } else { otherwise }` (per lane).
+    fn select_less(a: Self, b: Self, then: Self, otherwise: Self) -> Self;
+    /// `self * 2^(k/4)` as `self * 2^(j/4) * 2^n` (the products in that
+    /// order), where the integer `k = 4n + j` (`j` in `0..4`) is held by
+    /// `rounded = k + ROUNDER` (its bit pattern minus that of [`ROUNDER`]),
+    /// `2^(j/4)` is [`QUARTER_POWERS`]`[j]` and `2^n` is built from its
+    /// exponent bits (`-1022 <= n <= 1023`): the last step of an exponential.
+    fn times_two_to_quarters(self, rounded: Self) -> Self;
+}
+
+/// `1.5 * 2^52`: adding it to a number below `2^51` in magnitude rounds it to
+/// an integer, held in the low bits of the sum's mantissa.
+pub const ROUNDER: f64 = 6_755_399_441_055_744.0;
+/// `2^(j/4)` for `j = 0..3`.
+pub const QUARTER_POWERS: [f64; 4] = [
+    1.0,
+    1.189_207_115_002_721,
+    std::f64::consts::SQRT_2,
+    1.681_792_830_507_429,
+];
+
+impl Real for f64 {
+    #[inline(always)]
+    fn splat(v: f64) -> Self {
+        v
+    }
+    #[inline(always)]
+    fn max(self, b: Self) -> Self {
+        f64::max(self, b)
+    }
+    #[inline(always)]
+    fn select_less(a: Self, b: Self, then: Self, otherwise: Self) -> Self {
+        if a < b {
+            then
+        } else {
+            otherwise
+        }
+    }
+    /// `2^(j/4)` picked by selects between constants (no table lookup: with
+    /// the powers passed in as an array, they became one indexed load, which
+    /// kept loops of it from vectorising).
+    #[inline(always)]
+    fn times_two_to_quarters(self, rounded: Self) -> Self {
+        let k = (rounded.to_bits() as i64).wrapping_sub(ROUNDER.to_bits() as i64);
+        let (n, j) = (k >> 2, k & 3);
+        let low = if j & 1 == 0 {
+            QUARTER_POWERS[0]
+        } else {
+            QUARTER_POWERS[1]
+        };
+        let high = if j & 1 == 0 {
+            QUARTER_POWERS[2]
+        } else {
+            QUARTER_POWERS[3]
+        };
+        let quarter = if j & 2 == 0 { low } else { high };
+        let two_n = f64::from_bits((n + 1023).wrapping_shl(52) as u64);
+        self * quarter * two_n
+    }
+}
+
+impl Real for F64x4 {
+    #[inline(always)]
+    fn splat(v: f64) -> Self {
+        F64x4::splat(v)
+    }
+    #[inline(always)]
+    fn max(self, b: Self) -> Self {
+        F64x4::max(self, b)
+    }
+    #[inline(always)]
+    fn select_less(a: Self, b: Self, then: Self, otherwise: Self) -> Self {
+        F64x4::select_less(a, b, then, otherwise)
+    }
+    #[inline(always)]
+    fn times_two_to_quarters(self, rounded: Self) -> Self {
+        F64x4::times_two_to_quarters(self, rounded)
+    }
+}
 
 impl F64x4 {
     /// The lanes summed in a fixed order, `(l0 + l1) + (l2 + l3)`.
@@ -379,6 +526,31 @@ mod tests {
             F64x4::zip_pairs(x, y).map(|p| p.map(f64::to_bits)),
             pairs.map(|p| p.map(f64::to_bits))
         );
+    }
+
+    #[test]
+    fn the_power_of_quarters_is_two_to_the_j_quarters_times_two_to_the_n() {
+        for k in -4088i32..=4092 {
+            let (n, j) = (k.div_euclid(4), k.rem_euclid(4));
+            // 2^(j/4) to within an ulp, and exactly the table's value
+            let power = 2f64.powf(f64::from(j) / 4.0);
+            assert!((QUARTER_POWERS[j as usize] - power).abs() <= power * f64::EPSILON);
+            for x in [1.0, -3.25, 0.1] {
+                let expected = x * QUARTER_POWERS[j as usize] * 2f64.powi(n);
+                let rounded = f64::from(k) + ROUNDER;
+                assert_eq!(
+                    x.times_two_to_quarters(rounded).to_bits(),
+                    expected.to_bits(),
+                    "k {k}, x {x}"
+                );
+                let lanes = F64x4::splat(x).times_two_to_quarters(F64x4::splat(rounded));
+                assert_eq!(
+                    lanes.to_array().map(f64::to_bits),
+                    [expected.to_bits(); 4],
+                    "k {k}"
+                );
+            }
+        }
     }
 
     #[test]
@@ -454,6 +626,15 @@ mod tests {
                 );
             }
             assert_eq!(F64x4::any_less(fa, fb), P::any_less(pa, pb), "{a:?} {b:?}");
+            assert!(same((-fa).to_array(), (-pa).to_array()), "neg {a:?}");
+            // k = 4n + j over the whole exponent range, in the low bits of k + ROUNDER
+            let k: [f64; 4] = std::array::from_fn(|l| ((b[l].to_bits() % 8181) as f64) - 4088.0);
+            let rounded = k.map(|k| k + ROUNDER);
+            let (fast, slow) = (
+                fa.times_two_to_quarters(F64x4::load(&rounded)),
+                pa.times_two_to_quarters(P::load(&rounded)),
+            );
+            assert!(same(fast.to_array(), slow.to_array()), "{a:?} {k:?}");
             let split = |v: [f64; 4]| [[v[0], v[1]], [v[2], v[3]], [c[0], c[1]], [c[2], c[3]]];
             let (fx, fy) = F64x4::unzip_pairs(split(a));
             let (px, py) = P::unzip_pairs(split(a));

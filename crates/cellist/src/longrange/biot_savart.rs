@@ -13,7 +13,7 @@
 //! every particle's sum in an order fixed by the data.
 
 use crate::models::pse::exp_nonpositive;
-use crate::simd::F64x4;
+use crate::simd::{F64x4, Real};
 use crate::threads::{tournament, DisjointSlice, Threads};
 use rayon::prelude::*;
 use std::f64::consts::PI;
@@ -46,18 +46,17 @@ impl BlobKernel {
         self.sigma
     }
 
-    /// `q(r^2)`, in branch-free arithmetic that vectorises.
+    /// `q(r^2)`, in branch-free arithmetic, on `f64` or on the four lanes of
+    /// an [`F64x4`] (the bits of four scalar calls).
     #[inline(always)]
-    pub fn factor(&self, r2: f64) -> f64 {
-        let x = r2 * self.inv_two_sigma2;
+    pub fn factor<T: Real>(&self, r2: T) -> T {
+        let c = T::splat;
+        let x = r2 * c(self.inv_two_sigma2);
         // (1 - e^-x) / x = 1 - x/2 + x^2/6 - x^3/24 + ..., and q = that / (4 pi sigma^2)
-        let series = self.at_zero * (1.0 - x * (0.5 - x * (1.0 / 6.0 - x * (1.0 / 24.0))));
-        let full = (1.0 - exp_nonpositive(-x)) / (2.0 * PI * r2.max(f64::MIN_POSITIVE));
-        if x < SERIES_BELOW {
-            series
-        } else {
-            full
-        }
+        let series =
+            c(self.at_zero) * (c(1.0) - x * (c(0.5) - x * (c(1.0 / 6.0) - x * c(1.0 / 24.0))));
+        let full = (c(1.0) - exp_nonpositive(-x)) / (c(2.0 * PI) * r2.max(c(f64::MIN_POSITIVE)));
+        T::select_less(x, c(SERIES_BELOW), series, full)
     }
 
     /// `Gamma K_sigma(d)` with `d = x - x_j`.
@@ -306,15 +305,7 @@ fn row<const SYMMETRIC: bool>(
         let gj = F64x4::load(&gamma[j..]);
         let r2 = dx * dx + dy * dy;
         let q = if F64x4::any_less(r2, far) {
-            // written out lane by lane: `[f64; 4]::map` was left as a call per
-            // lane here, which cost 12% of the evaluation
-            let [r0, r1, r2, r3] = r2.to_array();
-            F64x4::load(&[
-                kernel.factor(r0),
-                kernel.factor(r1),
-                kernel.factor(r2),
-                kernel.factor(r3),
-            ])
+            kernel.factor(r2)
         } else {
             one / (two_pi * r2)
         };
@@ -385,6 +376,38 @@ mod tests {
             assert!((got - exact(r2)).abs() <= 1e-13 * exact(r2), "{r2}: {got}");
         }
         assert_eq!(k.factor(0.0), 1.0 / (4.0 * PI * 0.09));
+    }
+
+    #[test]
+    fn four_lanes_of_the_factor_give_the_bits_of_four_scalar_calls() {
+        let k = BlobKernel::new(0.3);
+        let mut rng = Rng::new(4);
+        // around the series switch (x = 1e-3), the far field (x = 40), zero,
+        // the smallest and huge distances
+        let switch = SERIES_BELOW / k.inv_two_sigma2;
+        let special = [
+            0.0,
+            5e-324,
+            switch,
+            switch.next_down(),
+            switch.next_up(),
+            FAR / k.inv_two_sigma2,
+            1e300,
+            f64::INFINITY,
+        ];
+        for round in 0..20_000 {
+            let r2: [f64; 4] = std::array::from_fn(|l| match (round + l) % 3 {
+                0 => special[(round / 3 + l) % special.len()],
+                1 => rng.uniform() * 2.0 * switch,
+                _ => rng.uniform() * 100.0 * 0.09,
+            });
+            let lanes = k.factor(F64x4::load(&r2)).to_array();
+            assert_eq!(
+                lanes.map(f64::to_bits),
+                r2.map(|r2| k.factor(r2).to_bits()),
+                "{r2:?}"
+            );
+        }
     }
 
     #[test]

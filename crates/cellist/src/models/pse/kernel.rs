@@ -3,6 +3,8 @@
 //! the exponential it needs, written in straight-line code so that a block of pairs
 //! runs in SIMD lanes.
 
+use crate::simd::{Real, ROUNDER};
+
 /// The pair weight of the PSE rate on equal volumes `V`:
 /// `w(r^2) = nu / eps^2 * V * eta_eps(r) = c exp(-r^2 / eps^2)`, with
 /// `c = nu / eps^2 * V * eps^-D * 4 / pi^(D/2)`.
@@ -39,15 +41,6 @@ const QUARTERS_PER_E: f64 = 4.0 * std::f64::consts::LOG2_E;
 /// so that `k QUARTER_LN2_HI` is exact for the `k` that occur.
 const QUARTER_LN2_HI: f64 = f64::from_bits(0x3fe6_2e42_fee0_0000) / 4.0;
 const QUARTER_LN2_LO: f64 = f64::from_bits(0x3dea_39ef_3579_3c76) / 4.0;
-/// `1.5 * 2^52`: adding it rounds to an integer held in the low mantissa bits.
-const ROUNDER: f64 = 6_755_399_441_055_744.0;
-/// `2^(j/4)` for `j = 0..3`.
-const QUARTER_POWERS: [f64; 4] = [
-    1.0,
-    1.189_207_115_002_721,
-    std::f64::consts::SQRT_2,
-    1.681_792_830_507_429,
-];
 /// Below this, `exp(x)` is under `3.3e-308` and returned as 0.
 const UNDERFLOW: f64 = -708.0;
 
@@ -55,15 +48,17 @@ const UNDERFLOW: f64 = -708.0;
 /// branch-free arithmetic that vectorises: `x = (4n + j) ln2 / 4 + r` with
 /// `|r| <= ln2 / 8`, `exp(r)` by its Taylor polynomial of degree 9 (truncation below
 /// `1e-17` relative), times `2^(j/4)` picked by selects (no table lookup) and `2^n`
-/// built from the exponent bits. Results below `3.3e-308` are flushed to 0.
+/// built from the exponent bits. Results below `3.3e-308` are flushed to 0. On
+/// `f64`, or on the four lanes of an [`F64x4`](crate::simd::F64x4) with the
+/// bits of four scalar calls.
 #[inline(always)]
-pub fn exp_nonpositive(x: f64) -> f64 {
-    let clamped = x.max(UNDERFLOW);
-    let shifted = clamped * QUARTERS_PER_E + ROUNDER;
-    let k = shifted - ROUNDER;
-    let r = (clamped - k * QUARTER_LN2_HI) - k * QUARTER_LN2_LO;
+pub fn exp_nonpositive<T: Real>(x: T) -> T {
+    let clamped = x.max(T::splat(UNDERFLOW));
+    let shifted = clamped * T::splat(QUARTERS_PER_E) + T::splat(ROUNDER);
+    let k = shifted - T::splat(ROUNDER);
+    let r = (clamped - k * T::splat(QUARTER_LN2_HI)) - k * T::splat(QUARTER_LN2_LO);
     // Horner, 1/i! coefficients
-    let mut p = 1.0 / 362_880.0;
+    let mut p = T::splat(1.0 / 362_880.0);
     for c in [
         1.0 / 40_320.0,
         1.0 / 5_040.0,
@@ -75,28 +70,11 @@ pub fn exp_nonpositive(x: f64) -> f64 {
         1.0,
         1.0,
     ] {
-        p = p * r + c;
+        p = p * r + T::splat(c);
     }
-    let k_bits = (shifted.to_bits() as i64).wrapping_sub(ROUNDER.to_bits() as i64);
     // k = 4n + j with j in 0..4 (the shift floors negative k)
-    let (n, j) = (k_bits >> 2, k_bits & 3);
-    let low = if j & 1 == 0 {
-        QUARTER_POWERS[0]
-    } else {
-        QUARTER_POWERS[1]
-    };
-    let high = if j & 1 == 0 {
-        QUARTER_POWERS[2]
-    } else {
-        QUARTER_POWERS[3]
-    };
-    let quarter = if j & 2 == 0 { low } else { high };
-    let two_n = f64::from_bits((n + 1023).wrapping_shl(52) as u64);
-    if x < UNDERFLOW {
-        0.0
-    } else {
-        p * quarter * two_n
-    }
+    let scaled = p.times_two_to_quarters(shifted);
+    T::select_less(x, T::splat(UNDERFLOW), T::splat(0.0), scaled)
 }
 
 #[cfg(test)]
@@ -119,6 +97,38 @@ mod tests {
         assert_eq!(exp_nonpositive(-0.0), 1.0);
         assert_eq!(exp_nonpositive(-709.0), 0.0);
         assert_eq!(exp_nonpositive(f64::NEG_INFINITY), 0.0);
+    }
+
+    #[test]
+    fn four_lanes_give_the_bits_of_four_scalar_calls() {
+        use crate::random::Rng;
+        use crate::simd::F64x4;
+        let mut rng = Rng::new(9);
+        let special = [
+            0.0,
+            -0.0,
+            -1e-300,
+            -5e-324,
+            -1e-9,
+            -708.0,
+            -708.0f64.next_down(),
+            -709.0,
+            -1e5,
+            f64::NEG_INFINITY,
+        ];
+        for round in 0..20_000 {
+            let x: [f64; 4] = std::array::from_fn(|l| match (round + l) % 4 {
+                0 => special[(round / 4 + l) % special.len()],
+                1 => -rng.uniform() * 1e-3,
+                _ => -rng.uniform() * 750.0,
+            });
+            let lanes = exp_nonpositive(F64x4::load(&x)).to_array();
+            assert_eq!(
+                lanes.map(f64::to_bits),
+                x.map(|x| exp_nonpositive(x).to_bits()),
+                "{x:?}"
+            );
+        }
     }
 
     #[test]
