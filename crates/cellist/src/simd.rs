@@ -119,8 +119,8 @@ mod lanes {
             unsafe { F64x4(_mm256_max_pd(self.0, b.0)) }
         }
         /// [`super::Real::times_two_to_quarters`] lane by lane:
-        /// `QUARTER_POWERS[j]` by two blends on the bits of `j` moved to the
-        /// sign, `2^n` from the exponent field (the low 12 bits of `n + 1023`,
+        /// `QUARTER_POWERS[j]` by three blends (two levels) on the bits of `j`
+        /// moved to the sign, `2^n` from the exponent field (the low 12 bits of `n + 1023`,
         /// the same for a logical shift as for the arithmetic one).
         #[inline(always)]
         pub fn times_two_to_quarters(self, rounded: Self) -> Self {
@@ -368,7 +368,7 @@ pub use portable::F64x4;
 
 /// The number types a kernel is written once for: `f64` and [`F64x4`], whose
 /// lanes do the same IEEE operations, so that four lanes give the bits of four
-/// scalar calls.
+/// scalar calls (for [`Real::max`], as long as `b` is neither NaN nor zero).
 pub trait Real:
     Copy
     + std::ops::Add<Output = Self>
@@ -379,7 +379,9 @@ pub trait Real:
 {
     /// `v` (in every lane).
     fn splat(v: f64) -> Self;
-    /// `max(self, b)`, and `b` where `self` is NaN.
+    /// `max(self, b)`, and `b` where `self` is NaN. Where `b` is NaN, or both
+    /// are zeros of either sign, `f64` and the lanes may differ: callers pass a
+    /// `b` that is neither.
     fn max(self, b: Self) -> Self;
     /// `if a < b { then } else { otherwise }` (per lane).
     fn select_less(a: Self, b: Self, then: Self, otherwise: Self) -> Self;

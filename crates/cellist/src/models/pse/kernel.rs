@@ -72,7 +72,7 @@ pub fn exp_nonpositive<T: Real>(x: T) -> T {
     ] {
         p = p * r + T::splat(c);
     }
-    // k = 4n + j with j in 0..4 (the shift floors negative k)
+    // times 2^(k/4), k = 4n + j the integer rounded into `shifted`
     let scaled = p.times_two_to_quarters(shifted);
     T::select_less(x, T::splat(UNDERFLOW), T::splat(0.0), scaled)
 }
