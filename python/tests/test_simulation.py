@@ -254,12 +254,20 @@ def test_thermo_after_a_restart_an_unpickling_and_a_blow_up(tmp_path):
 
 def test_ctrl_c_stops_a_run_at_a_step(tmp_path):
     import _thread
+    import signal
+    # a process started in the background by a shell without job control
+    # ignores SIGINT, and then interrupt_main() does nothing: Python's own
+    # handler, as in an interactive session
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
     sim = cellist.Simulation.from_toml(md_scenario(steps=10), threads=1, out=tmp_path)
     timer = threading.Timer(0.3, _thread.interrupt_main)
     timer.start()
-    with pytest.raises(KeyboardInterrupt):
-        sim.run(10_000_000)
-    timer.join()
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            sim.run(10_000_000)
+    finally:
+        timer.join()
+        signal.signal(signal.SIGINT, previous)
     stopped = sim.step
     assert 0 < stopped < 10_000_000
     sim.run(5)
