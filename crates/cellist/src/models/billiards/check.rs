@@ -3,7 +3,7 @@
 //! away from walls, and no definite collision left. Any resolution order that
 //! follows the rules passes; the checks do not know the canonical order.
 
-use super::components::DisjointSets;
+use super::components::SlotSets;
 use super::contacts::{Contact, ContactGrid};
 use super::rules::Table;
 use crate::threads::Threads;
@@ -145,7 +145,7 @@ impl fmt::Display for CheckFailure {
 pub struct StepChecker {
     grid: ContactGrid,
     near: Vec<Contact>,
-    sets: DisjointSets,
+    parent: Vec<u32>,
     x: Vec<f64>,
     y: Vec<f64>,
 }
@@ -156,7 +156,7 @@ impl StepChecker {
         StepChecker {
             grid: table.grid(),
             near: Vec::new(),
-            sets: DisjointSets::default(),
+            parent: Vec::new(),
             x: Vec::new(),
             y: Vec::new(),
         }
@@ -216,7 +216,7 @@ pub fn check_step(
     let StepChecker {
         grid,
         near,
-        sets,
+        parent,
         x,
         y,
     } = checker;
@@ -226,9 +226,11 @@ pub fn check_step(
     y.extend(c.iter().map(|s| s[1]));
     let lim = table.contact();
     grid.find(x, y, lim + NEAR, threads, near);
-    sets.reset(n, threads);
+    parent.clear();
+    parent.extend(0..n as u32);
+    let mut sets = SlotSets { parent, first: 0 };
     for p in near.iter() {
-        sets.union(p.a, p.b);
+        sets.union(p.a as usize, p.b as usize);
     }
     // per group (indexed by its root, the smallest id): sums in id order
     let (r, l) = (table.radius_f(), table.side_f());
@@ -237,7 +239,7 @@ pub fn check_step(
     let mut momentum = vec![[0.0f64; 4]; n];
     let mut walled = vec![false; n];
     for id in 0..n {
-        let g = sets.root(id as u32) as usize;
+        let g = sets.root(id);
         let (p, s) = (&prev[id], &c[id]);
         size[g] += 1;
         energy[g][0] += p[2] * p[2] + p[3] * p[3];

@@ -14,11 +14,12 @@
 //! the pairs of one level share no disc, so they run four at a time in SIMD lanes
 //! without waiting for each other.
 
-use super::contacts::Contact;
+use super::contacts::{row_groups, Contact};
 use super::rules::{collide_four, Separation, Walls};
 use crate::simd::F64x4;
 use crate::threads::{
-    counting_sort_with, fill_in_parts, fill_indexed, scatter_in_parts, DisjointSlice, Threads,
+    counting_sort_parts, counting_sort_with, exclusive_sums, fill_in_parts, map_parts, part_ranges,
+    parts_for, scatter_in_parts, sort_parts, DisjointSlice, Threads,
 };
 use rayon::prelude::*;
 
@@ -33,6 +34,16 @@ struct LocalPairs {
     q: Vec<f64>,
 }
 
+/// A pair of slots `a`, `b` as found, with its canonical key `(number[a],
+/// number[b])` in one integer.
+#[derive(Clone, Copy, Debug, Default)]
+struct Staged {
+    key: u64,
+    a: u32,
+    b: u32,
+    sep: Separation,
+}
+
 /// A disc of a component's block: its velocity (16 bytes, so that four share a
 /// cache line).
 #[derive(Clone, Copy, Debug)]
@@ -40,21 +51,51 @@ struct LocalDisc {
     v: [f64; 2],
 }
 
-/// The components of one step and their buffers (kept between steps).
+/// The components of one step and their buffers (kept between steps). The discs
+/// are seen by *slot*: their places in a spatial order (the contact grid's
+/// cells), so that the discs of a component, and the passes over them, lie close
+/// together in memory; `number[slot]` is a disc's vector position, which alone
+/// decides the canonical order.
 #[derive(Clone, Debug, Default)]
 pub(super) struct Components {
-    sets: DisjointSets,
+    /// By slot: the union-find's parent ([`SlotSets`]).
+    parent: Vec<u32>,
+    /// By slot: its set's root.
+    root: Vec<u32>,
+    /// By root slot: its component's number among the marked roots of its
+    /// part, or `NONE`.
+    rank: Vec<u32>,
+    /// By part of [`Components::label_components`]: the pairs that reach a
+    /// later part's slots.
+    crossing: Vec<Vec<(u32, u32)>>,
+    /// By slot: the disc's component, or `NONE`.
     label: Vec<u32>,
+    /// By slot: the disc's position in `members` (its place in its component's
+    /// block plus the component's first position).
     local: Vec<u32>,
     member_start: Vec<u32>,
+    /// Each component's discs (vector positions), in slot order, component by
+    /// component.
     members: Vec<u32>,
-    depth: Vec<u32>,
-    levels: Vec<u32>,
-    run: Vec<u32>,
-    keys: Vec<u32>,
     counts: Vec<u32>,
-    run_base: Vec<u32>,
-    run_start: Vec<u32>,
+    /// Each component's first pair (in `staged` and in `pairs`).
+    pair_start: Vec<u32>,
+    /// The pairs by component, in the order found.
+    staged: Vec<Staged>,
+    /// By member position: one more than the level of the disc's latest pair.
+    depth: Vec<u32>,
+    /// Each component's pairs in canonical order: `key << 32 | position`
+    /// (within the component's range of `staged`).
+    order: Vec<u128>,
+    /// The bucket offsets of a large component's sorts (scratch).
+    sort_start: Vec<u32>,
+    /// By pair, in canonical order: its level.
+    level: Vec<u32>,
+    /// Each component's number of levels.
+    levels: Vec<u32>,
+    /// Component `c`'s level bounds (pair positions), `levels[c] + 1` of them
+    /// from `pair_start[c] + c` (room for one more than its pairs).
+    run_bounds: Vec<u32>,
     pairs: LocalPairs,
     wall_start: Vec<u32>,
     walls: Vec<(u32, Walls)>,
@@ -63,185 +104,170 @@ pub(super) struct Components {
 
 const NONE: u32 = u32::MAX;
 
+/// A component with at least `1 / LARGE_SHARE` of the discs' number in pairs
+/// is sorted by counting sorts over all the discs ([`LevelColumns::sort_large`]).
+const LARGE_SHARE: usize = 4;
+
 impl Components {
-    /// Splits the discs in a contact or on a wall into components. A component is
-    /// numbered by its smallest disc; its walls keep the order of `walls`
-    /// (ascending) and its pairs run level by level, each level in the order of
-    /// `contacts` (lexicographic): see the module's text. Its discs are stored in
-    /// the order of `nearby` (all discs, neighbours close together), so that the
-    /// velocities one pair after another reads are close in memory; where a disc
-    /// is stored does not change what is computed.
+    /// Splits the discs in a contact or on a wall into components. `found`
+    /// holds the pairs (slots, roles by vector position) as the search found
+    /// them (the rows of [`ContactGrid::search`]), `walls` the discs (slots,
+    /// ascending) on a wall, `number` every slot's disc (a permutation of
+    /// `0..n`). A component's walls keep the order of `walls` (any order would
+    /// do: a wall touches one disc), and its pairs run level by level, the
+    /// levels taken in canonical order (by the vector positions of `(a, b)`):
+    /// see the module's text. The components are found in parts over the
+    /// threads ([`Components::label_components`]). Each component sorts and
+    /// levels its own pairs, in parallel with the others; a large one (a dense
+    /// packing has one with nearly all the pairs) after them, with counting
+    /// sorts in parts over the threads. Its discs are stored in slot order;
+    /// where a disc is stored, and how the components are numbered, do not
+    /// change what is computed.
+    ///
+    /// [`ContactGrid::search`]: super::ContactGrid::search
     pub(super) fn group(
         &mut self,
-        n: usize,
-        contacts: &[Contact],
+        found: &[Vec<Contact>],
         walls: &[(u32, Walls)],
-        nearby: &[u32],
+        number: &[u32],
         threads: &Threads,
     ) {
-        // the disjoint writes below rely on every disc being in `nearby` once
-        assert_eq!(nearby.len(), n, "nearby must list every disc once");
-        debug_assert!({
-            let mut seen = vec![false; n];
-            nearby
-                .iter()
-                .all(|&k| !std::mem::replace(&mut seen[k as usize], true))
-        });
-        // two passes over the pairs, two tasks of the pool: the union-find, and
-        // in canonical order each pair's level (one more than the highest level
-        // among the earlier pairs sharing a disc with it; `depth` holds, per
-        // disc, one more than the level of its latest pair)
-        let (sets, depth, levels) = (&mut self.sets, &mut self.depth, &mut self.levels);
-        threads.install(|| {
-            rayon::join(
-                || {
-                    sets.reset(n, threads);
-                    for c in contacts {
-                        sets.union(c.a, c.b);
-                    }
-                },
-                || {
-                    fill_indexed(depth, n, Some(threads), |_| 0);
-                    levels.clear();
-                    for c in contacts {
-                        let (a, b) = (c.a as usize, c.b as usize);
-                        let level = depth[a].max(depth[b]);
-                        depth[a] = level + 1;
-                        depth[b] = level + 1;
-                        levels.push(level);
-                    }
-                },
-            )
-        });
-        // the discs in a component (on a wall, or in a pair) by their component,
-        // numbered in the order of its smallest disc, its root
-        fill_indexed(&mut self.label, n, Some(threads), |_| NONE);
-        for &(k, _) in walls {
-            self.label[k as usize] = 0;
-        }
-        let components = self.number_components();
+        let n = number.len();
+        let components = self.label_components(found, walls, n, threads);
 
-        // discs by component, in `nearby` order within each (a stable counting
-        // sort; the discs in no component go to a last bucket, left out)
+        // the discs by component, in slot order within each (a stable
+        // counting sort by label, the discs of no component last), and each
+        // slot's position in `members`
+        self.members.resize(n, 0);
+        self.local.resize(n, 0);
         let label = &self.label;
-        fill_in_parts(&mut self.keys, nearby.len(), Some(threads), |range| {
-            nearby[range].iter().map(|&k| match label[k as usize] {
-                NONE => components as u32,
-                c => c,
-            })
-        });
-        // every slot is overwritten by the sort: only a longer tail is filled
-        self.members.resize(nearby.len(), 0);
-        let members = DisjointSlice::new(&mut self.members);
-        let keys = &self.keys;
-        // SAFETY: every slot is given once, below the column's length
-        let place = |k: usize, slot| *unsafe { members.get_unchecked(slot) } = nearby[k];
-        // SAFETY: the keys are a slice, the same on both passes
+        let (members, local) = (
+            DisjointSlice::new(&mut self.members),
+            DisjointSlice::new(&mut self.local),
+        );
+        let outside = components as u32;
+        // SAFETY: the key reads `label`, unchanged during the sort
         unsafe {
             counting_sort_with(
-                keys.len(),
-                |k| keys[k],
+                n,
+                |k| match label[k] {
+                    NONE => outside,
+                    c => c,
+                },
                 components + 1,
                 Some(threads),
                 &mut self.member_start,
                 &mut self.counts,
+                |k, position| {
+                    // SAFETY: every position (below n) is given once, and
+                    // every slot `k < n` once
+                    *members.get_unchecked(position) = number[k];
+                    *local.get_unchecked(k) = position as u32;
+                },
+            );
+        }
+        self.member_start.truncate(components + 1);
+        let in_components = self.member_start[components] as usize;
+        self.members.truncate(in_components);
+        let label = &self.label;
+
+        // pairs by component, in the order found within each
+        let m: usize = found.iter().map(Vec::len).sum();
+        self.staged.resize(m, Staged::default());
+        let staged = DisjointSlice::new(&mut self.staged);
+        let place = |c: &Contact, slot| {
+            let key = (u64::from(number[c.a as usize]) << 32) | u64::from(number[c.b as usize]);
+            let pair = Staged {
+                key,
+                a: c.a,
+                b: c.b,
+                sep: c.sep,
+            };
+            // SAFETY: every slot is given once, below the column's length
+            *unsafe { staged.get_unchecked(slot) } = pair;
+        };
+        let groups = row_groups(found, sort_parts(m, components, Some(threads)));
+        // SAFETY: the rows and labels do not change during the sort
+        unsafe {
+            counting_sort_parts(
+                groups.len(),
+                |g| found[groups[g].clone()].iter().flatten(),
+                |c| label[c.a as usize],
+                components,
+                Some(threads),
+                &mut self.pair_start,
+                &mut self.counts,
                 place,
             );
         }
-        self.member_start.pop();
-        let member_start = &self.member_start;
-        let members = member_start[components] as usize;
-        self.members.truncate(members);
-        // each component's number of levels: the largest `depth` of its discs,
-        // since a disc's depth is one more than the highest level of its pairs
-        let (placed, depth) = (&self.members, &self.depth);
-        // (`run_base[c + 1]`, summed below; `run_base[0]` is 0)
-        fill_indexed(
-            &mut self.run_base,
-            components + 1,
-            Some(threads),
-            |e| match e {
-                0 => 0,
-                c_plus_1 => {
-                    let range =
-                        member_start[c_plus_1 - 1] as usize..member_start[c_plus_1] as usize;
-                    placed[range]
-                        .iter()
-                        .map(|&k| depth[k as usize])
-                        .max()
-                        .unwrap_or(0)
-                }
-            },
-        );
-        fill_indexed(&mut self.local, n, Some(threads), |_| NONE);
-        let placed = &self.members;
-        // SAFETY: a disc is a member of one component, once: `nearby` is a
-        // permutation of the discs (asserted above)
-        unsafe {
-            scatter_in_parts(&mut self.local, members, Some(threads), |slots| {
-                placed[slots.clone()].iter().zip(slots).map(|(&k, slot)| {
-                    let k = k as usize;
-                    (k, slot as u32 - member_start[label[k] as usize])
-                })
-            });
-        }
 
-        // pairs by component and level (a run), in canonical order within a run
-        for c in 0..components {
-            self.run_base[c + 1] += self.run_base[c];
-        }
-        let (run_base, label, levels) = (&self.run_base, &self.label, &self.levels);
-        fill_in_parts(&mut self.run, contacts.len(), Some(threads), |range| {
-            contacts[range.clone()]
-                .iter()
-                .zip(&levels[range])
-                .map(|(c, &level)| level + run_base[label[c.a as usize] as usize])
-        });
+        // each component on its own: its pairs in canonical order, their levels
+        // (one more than the highest level among the earlier pairs sharing a
+        // disc), then by level into the columns
         let pairs = &mut self.pairs;
-        let m = contacts.len();
-        for column in [&mut pairs.a, &mut pairs.b] {
+        for column in [&mut pairs.a, &mut pairs.b, &mut self.level] {
             column.resize(m, 0);
         }
         for column in [&mut pairs.dx, &mut pairs.dy, &mut pairs.q] {
             column.resize(m, 0.0);
         }
-        let [a, b] = [&mut pairs.a, &mut pairs.b].map(|c| DisjointSlice::new(c));
-        let [dx, dy, q] =
-            [&mut pairs.dx, &mut pairs.dy, &mut pairs.q].map(|c| DisjointSlice::new(c));
-        let local = &self.local;
-        let run = &self.run;
-        let place = |p: usize, slot| {
-            let c = &contacts[p];
-            // SAFETY: every slot is given once, below the columns' length
-            unsafe {
-                *a.get_unchecked(slot) = local[c.a as usize];
-                *b.get_unchecked(slot) = local[c.b as usize];
-                *dx.get_unchecked(slot) = c.sep.dx;
-                *dy.get_unchecked(slot) = c.sep.dy;
-                *q.get_unchecked(slot) = c.sep.q;
-            }
+        self.order.resize(m, 0);
+        self.depth.resize(in_components, 0);
+        self.run_bounds.resize(m + components, 0);
+        self.levels.resize(components, 0);
+        let columns = LevelColumns {
+            staged: DisjointSlice::new(&mut self.staged),
+            order: DisjointSlice::new(&mut self.order),
+            level: DisjointSlice::new(&mut self.level),
+            depth: DisjointSlice::new(&mut self.depth),
+            bounds: DisjointSlice::new(&mut self.run_bounds),
+            a: DisjointSlice::new(&mut pairs.a),
+            b: DisjointSlice::new(&mut pairs.b),
+            dx: DisjointSlice::new(&mut pairs.dx),
+            dy: DisjointSlice::new(&mut pairs.dy),
+            q: DisjointSlice::new(&mut pairs.q),
         };
-        // SAFETY: the runs are a slice, the same on both passes
-        unsafe {
-            counting_sort_with(
-                m,
-                |p| run[p],
-                self.run_base[components] as usize,
-                Some(threads),
-                &mut self.run_start,
-                &mut self.counts,
-                place,
-            );
+        let (pair_start, member_start, local) = (&self.pair_start, &self.member_start, &self.local);
+        // a component with a large share of the pairs (a dense packing has one
+        // with nearly all) is sorted after the others, by counting sorts in
+        // parts over the threads, rather than by one task
+        let large = |c: usize| is_large(pair_start, c, n);
+        let pairs_of = |c: usize| pair_start[c] as usize..pair_start[c + 1] as usize;
+        let discs_of = |c: usize| member_start[c] as usize..member_start[c + 1] as usize;
+        threads.install(|| {
+            self.levels
+                .par_iter_mut()
+                .enumerate()
+                .filter(|&(c, _)| !large(c))
+                .for_each(|(c, levels)| {
+                    // SAFETY: the components' pairs, discs and bounds are disjoint
+                    *levels = unsafe { columns.level(c, pairs_of(c), discs_of(c), local, false) };
+                });
+        });
+        for c in (0..components).filter(|&c| large(c)) {
+            // SAFETY: one component at a time
+            unsafe {
+                columns.sort_large(
+                    pairs_of(c),
+                    n,
+                    threads,
+                    &mut self.sort_start,
+                    &mut self.counts,
+                );
+                self.levels[c] = columns.level(c, pairs_of(c), discs_of(c), local, true);
+            }
         }
 
         // walls by component, in the order of `walls` within each
         self.walls.clear();
         self.walls.resize(walls.len(), (0, Walls::default()));
-        let (label, local) = (&self.label, &self.local);
+        let (label, local, member_start) = (&self.label, &self.local, &self.member_start);
         let placed = DisjointSlice::new(&mut self.walls);
         // SAFETY: every slot is given once, below the column's length
         let place = |i: usize, slot| {
-            *unsafe { placed.get_unchecked(slot) } = (local[walls[i].0 as usize], walls[i].1)
+            let (k, walls) = (walls[i].0 as usize, walls[i].1);
+            let position = local[k] - member_start[label[k] as usize];
+            *unsafe { placed.get_unchecked(slot) } = (position, walls)
         };
         // SAFETY: the key reads `walls` and `label`, unchanged during the sort
         unsafe {
@@ -257,43 +283,166 @@ impl Components {
         }
     }
 
-    /// Labels every disc marked in `label` (any value but `NONE`) or with a
-    /// pair (`depth > 0`) with its component's number, and every other disc
-    /// with `NONE`; returns the number of components. Component `c` is the one
-    /// with the `c`-th smallest root (a root is its set's smallest disc). One
-    /// serial pass in disc order, each root numbered as it comes (it comes
-    /// before the rest of its set), each other disc taking its root's number,
-    /// the paths halved on the way: on the 100000-disc benchmark this took 0.54
-    /// ms a step against 0.89-0.95 for three passes in parts on one thread and
-    /// 0.73-0.82 on two.
-    fn number_components(&mut self) -> usize {
-        let mut count = 0;
-        for k in 0..self.label.len() {
-            if self.label[k] == NONE && self.depth[k] == 0 {
-                continue;
-            }
-            let root = self.sets.root(k as u32) as usize;
-            self.label[k] = if root == k {
-                count += 1;
-                count - 1
-            } else {
-                self.label[root]
-            };
+    /// Numbers the components of the slots `0..n`, in parts over the
+    /// threads: the sets joined by the pairs in `found` (rows of the search,
+    /// see [`ContactGrid::search`]), those with a pair or a disc in `walls`
+    /// (ascending slots). Sets `label[k]` to slot `k`'s component, or `NONE`,
+    /// and returns their number. Component `c` is the one with the `c`-th
+    /// smallest root (a root is its set's smallest slot), whatever the
+    /// thread count.
+    ///
+    /// A pair's lower slot is its home disc's, and the rows hold their pairs
+    /// by home slot, ascending: consecutive rows hold the pairs whose lower
+    /// slots lie in one range. Each part takes its rows' range of slots and
+    /// joins the pairs that lie within it, writing only its own parents
+    /// (every root is its set's smallest slot); the pairs that reach a later
+    /// range are joined after, in one thread. Then each part finds its slots'
+    /// roots (the parents only read) and numbers its marked roots; a second
+    /// pass labels every slot with its root's number after the marked roots
+    /// of the parts before the root's.
+    ///
+    /// [`ContactGrid::search`]: super::ContactGrid::search
+    fn label_components(
+        &mut self,
+        found: &[Vec<Contact>],
+        walls: &[(u32, Walls)],
+        n: usize,
+        threads: &Threads,
+    ) -> usize {
+        let groups = row_groups(found, threads.count());
+        // part g's slots: from the first pair's lower slot in its rows (the
+        // next part's start if it has none) to the next part's start
+        let mut bounds = vec![n; groups.len() + 1];
+        for g in (1..groups.len()).rev() {
+            let first = found[groups[g].clone()].iter().flatten().next();
+            bounds[g] = first.map_or(bounds[g + 1], |c| c.a.min(c.b) as usize);
         }
-        count as usize
+        bounds[0] = 0;
+        let parts: Vec<std::ops::Range<usize>> = bounds.windows(2).map(|w| w[0]..w[1]).collect();
+        self.parent.resize(n, 0);
+        self.label.resize(n, 0);
+        self.root.resize(n, 0);
+        self.rank.resize(n, 0);
+        self.crossing.resize_with(parts.len(), Vec::new);
+
+        // the pairs within each part's slots, joined, their roots and the
+        // discs on a wall marked (every disc in a pair is then either not a
+        // root or a marked one), the others kept for later
+        let (parent, label) = (
+            DisjointSlice::new(&mut self.parent),
+            DisjointSlice::new(&mut self.label),
+        );
+        let crossing = DisjointSlice::new(&mut self.crossing);
+        map_parts(Some(threads), parts.len(), |g| {
+            let slots = parts[g].clone();
+            // SAFETY: the parts' slots are disjoint, and part g alone takes
+            // `crossing[g]`
+            let (parent, label, crossing) = unsafe {
+                (
+                    parent.range(slots.clone()),
+                    label.range(slots.clone()),
+                    crossing.get(g),
+                )
+            };
+            for (p, k) in parent.iter_mut().zip(slots.clone()) {
+                *p = k as u32;
+            }
+            label.fill(NONE);
+            crossing.clear();
+            let mut sets = SlotSets {
+                parent,
+                first: slots.start,
+            };
+            for c in found[groups[g].clone()].iter().flatten() {
+                let (low, high) = (c.a.min(c.b) as usize, c.a.max(c.b) as usize);
+                assert!(slots.contains(&low), "a pair outside its rows' slots");
+                if high < slots.end {
+                    label[sets.union(low, high) - slots.start] = 0;
+                } else {
+                    crossing.push((low as u32, high as u32));
+                }
+            }
+            let first_wall = walls.partition_point(|&(k, _)| (k as usize) < slots.start);
+            for &(k, _) in walls[first_wall..]
+                .iter()
+                .take_while(|&&(k, _)| (k as usize) < slots.end)
+            {
+                label[k as usize - slots.start] = 0;
+            }
+        });
+        let mut sets = SlotSets {
+            parent: &mut self.parent,
+            first: 0,
+        };
+        for &(low, high) in self.crossing.iter().flatten() {
+            self.label[sets.union(low as usize, high as usize)] = 0;
+        }
+
+        // each slot's root, and each part's marked roots numbered within the
+        // part in slot order (the other roots `NONE`)
+        let (parent, label) = (&self.parent, &self.label);
+        let (roots, ranks) = (
+            DisjointSlice::new(&mut self.root),
+            DisjointSlice::new(&mut self.rank),
+        );
+        let counts = map_parts(Some(threads), parts.len(), |g| {
+            let slots = parts[g].clone();
+            // SAFETY: the parts' slots are disjoint
+            let (roots, ranks) =
+                unsafe { (roots.range(slots.clone()), ranks.range(slots.clone())) };
+            let mut count = 0;
+            for k in slots.clone() {
+                let up = parent[k] as usize;
+                // (a parent within the part comes before: its root is known)
+                let root = if up == k {
+                    ranks[k - slots.start] = if label[k] == NONE {
+                        NONE
+                    } else {
+                        count += 1;
+                        count - 1
+                    };
+                    k
+                } else if up >= slots.start {
+                    roots[up - slots.start] as usize
+                } else {
+                    root_of(parent, up)
+                };
+                roots[k - slots.start] = root as u32;
+            }
+            count
+        });
+        // every slot labelled with its root's number: the root's rank after
+        // the marked roots of the parts before the root's
+        let firsts = exclusive_sums(&counts);
+        let (root, rank) = (&self.root, &self.rank);
+        let labels = DisjointSlice::new(&mut self.label);
+        map_parts(Some(threads), parts.len(), |g| {
+            let slots = parts[g].clone();
+            // SAFETY: the parts' slots are disjoint
+            let labels = unsafe { labels.range(slots.clone()) };
+            for (l, &r) in labels.iter_mut().zip(&root[slots.clone()]) {
+                let r = r as usize;
+                *l = match rank[r] {
+                    NONE => NONE,
+                    within if r >= slots.start => firsts[g] + within,
+                    within => firsts[parts.partition_point(|p| p.end <= r)] + within,
+                };
+            }
+        });
+        counts.iter().sum::<u32>() as usize
     }
 
     /// Runs the canonical loop in every component, in parallel, and writes the new
-    /// velocities back. Returns the largest sweep count (at least 1), or the
-    /// smallest disc and the size of the first component (by number) that had not
-    /// settled within `max_sweeps`.
+    /// velocities back. Returns the largest sweep count (at least 1), or,
+    /// of the components that had not settled within `max_sweeps`, the one with
+    /// the smallest disc: that disc and the component's size.
     pub(super) fn resolve(
         &mut self,
         v: &mut [[f64; 2]],
         max_sweeps: u64,
         threads: &Threads,
     ) -> Result<u64, (usize, usize)> {
-        let components = self.member_start.len().saturating_sub(1);
+        let components = self.levels.len();
         let read: &[[f64; 2]] = v;
         let (members, member_start) = (&self.members, &self.member_start);
         fill_in_parts(&mut self.discs, members.len(), Some(threads), |range| {
@@ -301,30 +450,33 @@ impl Components {
                 v: read[k as usize],
             })
         });
-        let (pairs, walls) = (&self.pairs, &self.walls);
-        let (run_base, run_start, wall_start) = (&self.run_base, &self.run_start, &self.wall_start);
-        // (largest sweep count, first component that did not settle)
+        let (pairs, walls, wall_start) = (&self.pairs, &self.walls, &self.wall_start);
+        let (pair_start, levels, run_bounds) = (&self.pair_start, &self.levels, &self.run_bounds);
+        // (largest sweep count, (smallest disc, size) of the components that did
+        // not settle)
         let shared = DisjointSlice::new(&mut self.discs);
         let (sweeps, failed) = threads.install(|| {
             (0..components)
                 .into_par_iter()
                 .map(|c| {
+                    let range = member_start[c] as usize..member_start[c + 1] as usize;
                     // SAFETY: the components' member ranges are disjoint
-                    let block = unsafe {
-                        shared.range(member_start[c] as usize..member_start[c + 1] as usize)
-                    };
-                    let runs = &run_start[run_base[c] as usize..=run_base[c + 1] as usize];
+                    let block = unsafe { shared.range(range.clone()) };
+                    let runs = runs_of(pair_start, levels, run_bounds, c);
                     let component = Component {
                         walls: &walls[wall_start[c] as usize..wall_start[c + 1] as usize],
                         pairs: pairs.columns(runs[0] as usize..runs[runs.len() - 1] as usize),
                         runs,
                     };
                     match component.settle(block, max_sweeps) {
-                        Some(sweeps) => (sweeps, NONE),
-                        None => (0, c as u32),
+                        Some(sweeps) => (sweeps, (NONE, 0)),
+                        None => {
+                            let first = members[range.clone()].iter().min().copied();
+                            (0, (first.unwrap_or(0), range.len()))
+                        }
                     }
                 })
-                .reduce(|| (1, NONE), |a, b| (a.0.max(b.0), a.1.min(b.1)))
+                .reduce(|| (1, (NONE, 0)), |a, b| (a.0.max(b.0), a.1.min(b.1)))
         });
         let discs = &self.discs;
         // SAFETY: a disc is a member of one component, once
@@ -336,44 +488,244 @@ impl Components {
                     .map(|(&k, disc)| (k as usize, disc.v))
             });
         }
-        if failed != NONE {
-            let c = failed as usize;
-            let range = self.member_start[c] as usize..self.member_start[c + 1] as usize;
-            let first = self.members[range].iter().min().copied().unwrap_or(0) as usize;
-            let size = (self.member_start[c + 1] - self.member_start[c]) as usize;
-            return Err((first, size));
+        match failed {
+            (NONE, _) => Ok(sweeps),
+            (first, size) => Err((first as usize, size)),
         }
-        Ok(sweeps)
     }
 }
 
-/// Union-find over `0..n` in which every root is the smallest element of its set.
-#[derive(Clone, Debug, Default)]
-pub(super) struct DisjointSets {
-    parent: Vec<u32>,
+/// Whether component `c` (pairs from `pair_start[c]`) holds at least `1 /
+/// LARGE_SHARE` of `n`, the number of discs, in pairs (and more than one).
+fn is_large(pair_start: &[u32], c: usize, n: usize) -> bool {
+    let pairs = (pair_start[c + 1] - pair_start[c]) as usize;
+    pairs > 1 && pairs >= n / LARGE_SHARE
 }
 
-impl DisjointSets {
-    /// `n` singletons (written in parts on `threads`).
-    pub(super) fn reset(&mut self, n: usize, threads: &Threads) {
-        fill_indexed(&mut self.parent, n, Some(threads), |k| k as u32);
+/// Component `c`'s level bounds in `run_bounds` (see [`Components`]):
+/// `levels[c] + 1` pair positions, level `k`'s pairs from the `k`-th to the next.
+fn runs_of<'a>(pair_start: &[u32], levels: &[u32], run_bounds: &'a [u32], c: usize) -> &'a [u32] {
+    let first = pair_start[c] as usize + c;
+    &run_bounds[first..=first + levels[c] as usize]
+}
+
+/// The columns [`Components::group`] writes component by component, shared
+/// between the components' tasks (each writes its own ranges).
+struct LevelColumns<'a> {
+    staged: DisjointSlice<'a, Staged>,
+    order: DisjointSlice<'a, u128>,
+    level: DisjointSlice<'a, u32>,
+    depth: DisjointSlice<'a, u32>,
+    bounds: DisjointSlice<'a, u32>,
+    a: DisjointSlice<'a, u32>,
+    b: DisjointSlice<'a, u32>,
+    dx: DisjointSlice<'a, f64>,
+    dy: DisjointSlice<'a, f64>,
+    q: DisjointSlice<'a, f64>,
+}
+
+impl LevelColumns<'_> {
+    /// Puts the staged `pairs` of one component into canonical order in
+    /// `order` (`key << 32 | position`, as [`LevelColumns::level`] reads them
+    /// when given `sorted`): a counting sort by `number[a]` (`n` discs), then
+    /// each disc's few pairs sorted by `number[b]`, both in parts on
+    /// `threads`. `start` and `counts` are scratch.
+    ///
+    /// # Safety
+    /// No other call reaches this component's range at once.
+    unsafe fn sort_large(
+        &self,
+        pairs: std::ops::Range<usize>,
+        n: usize,
+        threads: &Threads,
+        start: &mut Vec<u32>,
+        counts: &mut Vec<u32>,
+    ) {
+        // SAFETY: the caller's promise
+        let (staged, order) = unsafe {
+            (
+                &*self.staged.range(pairs.clone()),
+                self.order.range(pairs.clone()),
+            )
+        };
+        let slots = DisjointSlice::new(order);
+        // SAFETY: the keys read `staged`, unchanged during the sort; every
+        // slot is given once, below the number of pairs
+        unsafe {
+            counting_sort_with(
+                staged.len(),
+                |i| (staged[i].key >> 32) as u32,
+                n,
+                Some(threads),
+                start,
+                counts,
+                |i, slot| {
+                    *slots.get_unchecked(slot) = (u128::from(staged[i].key) << 32) | i as u128
+                },
+            );
+        }
+        let (start, discs) = (&*start, part_ranges(n, parts_for(Some(threads))));
+        map_parts(Some(threads), discs.len(), |p| {
+            for disc in discs[p].clone() {
+                let (first, end) = (start[disc] as usize, start[disc + 1] as usize);
+                if end - first > 1 {
+                    // SAFETY: the discs' ranges of `order` are disjoint
+                    unsafe { slots.range(first..end) }.sort_unstable();
+                }
+            }
+        });
     }
 
-    /// Joins the sets of `a` and `b`; the smaller root stays the root.
-    pub(super) fn union(&mut self, a: u32, b: u32) {
+    /// Component `c`, whose staged pairs are `pairs` and whose discs are the
+    /// member positions `discs`: sorts its pairs into canonical order (by
+    /// `(number[a], number[b])`; unless `sorted`: then `order` already holds
+    /// them in that order), gives each its level, places them
+    /// level by level (canonical order within a level) into the columns, with
+    /// local disc positions, and writes the level bounds; returns the number
+    /// of levels.
+    ///
+    /// # Safety
+    /// No two calls at once may share a component, and the ranges of different
+    /// components must be disjoint (as [`Components::group`] makes them).
+    unsafe fn level(
+        &self,
+        c: usize,
+        pairs: std::ops::Range<usize>,
+        discs: std::ops::Range<usize>,
+        local: &[u32],
+        sorted: bool,
+    ) -> u32 {
+        let first = pairs.start + c;
+        // SAFETY: the caller's promise
+        let staged = unsafe { self.staged.range(pairs.clone()) };
+        // the disc positions within the block
+        let block = |slot: u32| local[slot as usize] - discs.start as u32;
+        let levels = if let [p] = staged {
+            // one pair (most components): one level
+            // SAFETY: the caller's promise
+            unsafe { self.place(pairs.start, p, block(p.a), block(p.b)) };
+            1
+        } else {
+            // SAFETY: the caller's promise
+            let (level, depth) = unsafe {
+                (
+                    self.level.range(pairs.clone()),
+                    self.depth.range(discs.clone()),
+                )
+            };
+            // the canonical order: the keys with their positions, sorted (16
+            // bytes to move instead of a pair's 40)
+            // SAFETY: the caller's promise
+            let order = unsafe { self.order.range(pairs.clone()) };
+            if !sorted {
+                for (k, (o, p)) in order.iter_mut().zip(staged.iter()).enumerate() {
+                    *o = (u128::from(p.key) << 32) | k as u128;
+                }
+                order.sort_unstable();
+            }
+            depth.fill(0);
+            let mut levels = 0;
+            for (o, l) in order.iter_mut().zip(level.iter_mut()) {
+                let p = &mut staged[*o as u32 as usize];
+                // (the slots are not needed after this: the positions replace them)
+                (p.a, p.b) = (block(p.a), block(p.b));
+                let (a, b) = (p.a as usize, p.b as usize);
+                *l = depth[a].max(depth[b]);
+                depth[a] = *l + 1;
+                depth[b] = *l + 1;
+                levels = levels.max(*l + 1);
+            }
+            // a counting sort by level: `bounds[l]` first counts level l - 1,
+            // then is level l's cursor, then (shifted by one) its first position
+            // SAFETY: `levels <= pairs.len()`, within the component's room
+            let bounds = unsafe { self.bounds.range(first..first + levels as usize + 1) };
+            bounds.fill(0);
+            for &l in level.iter() {
+                bounds[l as usize + 1] += 1;
+            }
+            for k in 1..bounds.len() {
+                bounds[k] += bounds[k - 1];
+            }
+            for (o, &l) in order.iter().zip(level.iter()) {
+                let p = &staged[*o as u32 as usize];
+                let cursor = &mut bounds[l as usize];
+                // SAFETY: the slot lies in the component's pairs, given once
+                unsafe { self.place(pairs.start + *cursor as usize, p, p.a, p.b) };
+                *cursor += 1;
+            }
+            for k in (1..levels as usize).rev() {
+                bounds[k] = bounds[k - 1];
+            }
+            bounds[0] = 0;
+            levels
+        };
+        // SAFETY: as above
+        let bounds = unsafe { self.bounds.range(first..first + levels as usize + 1) };
+        if levels == 1 {
+            bounds.copy_from_slice(&[0, pairs.len() as u32]);
+        }
+        for bound in bounds.iter_mut() {
+            *bound += pairs.start as u32;
+        }
+        levels
+    }
+
+    /// Writes pair `p` into the columns at `slot`, with the block positions `a`
+    /// and `b` of its discs.
+    ///
+    /// # Safety
+    /// `slot` is below the columns' length, and no other call writes it at once.
+    #[inline]
+    unsafe fn place(&self, slot: usize, p: &Staged, a: u32, b: u32) {
+        // SAFETY: the caller's promise
+        unsafe {
+            *self.a.get_unchecked(slot) = a;
+            *self.b.get_unchecked(slot) = b;
+            *self.dx.get_unchecked(slot) = p.sep.dx;
+            *self.dy.get_unchecked(slot) = p.sep.dy;
+            *self.q.get_unchecked(slot) = p.sep.q;
+        }
+    }
+}
+
+/// A union-find over the slots `first..first + parent.len()` (one part's, or
+/// all), `parent` by slot from `first`, in which every root is the smallest
+/// slot of its set: a parent is never above its child.
+pub(super) struct SlotSets<'a> {
+    pub(super) parent: &'a mut [u32],
+    pub(super) first: usize,
+}
+
+impl SlotSets<'_> {
+    /// Joins the sets of `a` and `b`; the smaller root stays the root, and is
+    /// returned.
+    pub(super) fn union(&mut self, a: usize, b: usize) -> usize {
         let (ra, rb) = (self.root(a), self.root(b));
-        self.parent[ra.max(rb) as usize] = ra.min(rb);
+        self.parent[ra.max(rb) - self.first] = ra.min(rb) as u32;
+        ra.min(rb)
     }
 
-    /// The root of `k`'s set (its smallest element), halving the path on the way.
-    pub(super) fn root(&mut self, mut k: u32) -> u32 {
-        while self.parent[k as usize] != k {
-            let grand = self.parent[self.parent[k as usize] as usize];
-            self.parent[k as usize] = grand;
-            k = grand;
+    /// The root of `k`'s set (its smallest slot), halving the path on the way.
+    pub(super) fn root(&mut self, mut k: usize) -> usize {
+        loop {
+            let up = self.parent[k - self.first] as usize;
+            if up == k {
+                return k;
+            }
+            let grand = self.parent[up - self.first];
+            self.parent[k - self.first] = grand;
+            k = grand as usize;
         }
-        k
     }
+}
+
+/// The root of slot `k`'s set in `parent` (a union-find of [`SlotSets`] over
+/// all the slots), without changing it.
+fn root_of(parent: &[u32], mut k: usize) -> usize {
+    while parent[k] as usize != k {
+        k = parent[k] as usize;
+    }
+    k
 }
 
 /// One component's pairs: the columns of [`LocalPairs`] over its range.
@@ -476,11 +828,43 @@ mod tests {
     use super::*;
     use crate::models::billiards::ContactGrid;
     use crate::random::Rng;
+    use proptest::prelude::*;
+
+    /// What [`Components::group`] is given, and the pairs by vector position.
+    struct Scene {
+        n: usize,
+        /// The pairs by vector position, in canonical order ([`ContactGrid::find`]).
+        contacts: Vec<Contact>,
+        /// The same pairs as the search found them (slots).
+        found: Vec<Vec<Contact>>,
+        /// The discs on a wall, by slot, ascending.
+        walls: Vec<(u32, Walls)>,
+        /// Each slot's disc.
+        number: Vec<u32>,
+    }
+
+    impl Scene {
+        /// Each disc's slot.
+        fn slot_of(&self) -> Vec<u32> {
+            let mut slot_of = vec![0; self.n];
+            for (k, &d) in self.number.iter().enumerate() {
+                slot_of[d as usize] = k as u32;
+            }
+            slot_of
+        }
+
+        fn group(&self, threads: usize) -> Components {
+            let mut components = Components::default();
+            let pool = Threads::new(threads).unwrap();
+            components.group(&self.found, &self.walls, &self.number, &pool);
+            components
+        }
+    }
 
     /// 2000 discs at random in a 60 x 60 square, in contact within `q <= limit`,
     /// the last five far from everything; every 97th disc and the far ones on a
     /// wall, so that some components are walls only.
-    fn scattered_discs(limit: f64) -> (usize, Vec<Contact>, Vec<(u32, Walls)>, ContactGrid) {
+    fn scattered_discs(limit: f64) -> Scene {
         let mut rng = Rng::new(5);
         let n = 2000;
         let mut x: Vec<f64> = (0..n).map(|_| rng.uniform() * 60.0).collect();
@@ -490,32 +874,46 @@ mod tests {
             (x[k], y[k]) = (500.0 + 10.0 * k as f64, 500.0);
         }
         let mut contacts = Vec::new();
-        let mut grid = ContactGrid::default();
+        // (the cells over the square alone: the search's rows then split its
+        // pairs into parts of the slots, with pairs across them)
+        let mut grid = ContactGrid::default().with_region([0.0; 2], [60.0; 2]);
         grid.find(&x, &y, limit, &Threads::single(), &mut contacts);
         // some discs on a wall, some of them without a pair: components of walls only
         let wall = Walls {
             low_x: true,
             ..Walls::default()
         };
+        let number = grid.nearby_order().to_vec();
         let walls: Vec<(u32, Walls)> = (0..n as u32)
-            .filter(|&k| k % 97 == 0 || k as usize >= n - 5)
+            .filter(|&k| number[k as usize] % 97 == 0 || number[k as usize] as usize >= n - 5)
             .map(|k| (k, wall))
             .collect();
-        (n, contacts, walls, grid)
+        Scene {
+            n,
+            contacts,
+            found: grid.found().to_vec(),
+            walls,
+            number,
+        }
     }
 
     #[test]
-    fn components_are_the_connected_sets_numbered_by_their_smallest_disc() {
+    fn components_are_the_connected_sets_numbered_by_their_smallest_slot() {
         // about 1.7 contacts per disc: many components, some of them large
-        let (n, contacts, walls, grid) = scattered_discs(1.0);
+        let scene = scattered_discs(1.0);
+        let n = scene.n;
         // the reference: connected sets by a search over the contact graph
         let mut neighbours = vec![Vec::new(); n];
-        for c in &contacts {
+        for c in &scene.contacts {
             neighbours[c.a as usize].push(c.b as usize);
             neighbours[c.b as usize].push(c.a as usize);
         }
-        let on_wall: std::collections::HashSet<usize> =
-            walls.iter().map(|&(k, _)| k as usize).collect();
+        let slot_of = scene.slot_of();
+        let on_wall: std::collections::HashSet<usize> = scene
+            .walls
+            .iter()
+            .map(|&(k, _)| scene.number[k as usize] as usize)
+            .collect();
         let mut seen = vec![false; n];
         let mut expected: Vec<Vec<u32>> = Vec::new();
         for first in 0..n {
@@ -535,12 +933,11 @@ mod tests {
             set.sort_unstable();
             expected.push(set);
         }
+        expected.sort_by_key(|set| set.iter().map(|&d| slot_of[d as usize]).min());
         assert!(expected.len() > 100 && expected.iter().any(|set| set.len() > 10));
-        for threads in [1, 2, 3] {
-            let mut components = Components::default();
-            let pool = Threads::new(threads).unwrap();
-            components.group(n, &contacts, &walls, grid.nearby_order(), &pool);
-            let c = &components;
+        // (the search's rows split in 2, 3 and 7 parts: pairs across parts)
+        for threads in [1, 2, 3, 7] {
+            let c = scene.group(threads);
             let found: Vec<Vec<u32>> = c
                 .member_start
                 .windows(2)
@@ -556,37 +953,35 @@ mod tests {
 
     #[test]
     fn levels_share_no_disc_and_every_disc_meets_its_pairs_in_canonical_order() {
-        let (n, contacts, walls, grid) = scattered_discs(4.0);
-        let mut components = Components::default();
-        components.group(
-            n,
-            &contacts,
-            &walls,
-            grid.nearby_order(),
-            &Threads::single(),
-        );
-        // the same grouping, to the bit, on two threads
-        let mut on_two = Components::default();
-        let two = Threads::new(2).unwrap();
-        on_two.group(n, &contacts, &walls, grid.nearby_order(), &two);
-        assert_eq!(on_two.members, components.members);
-        assert_eq!(on_two.member_start, components.member_start);
-        assert_eq!(on_two.run_start, components.run_start);
-        assert_eq!(on_two.run_base, components.run_base);
-        assert_eq!(on_two.wall_start, components.wall_start);
-        assert_eq!(on_two.walls, components.walls);
-        let p = (&on_two.pairs, &components.pairs);
-        assert!(p.0.a == p.1.a && p.0.b == p.1.b && p.0.q == p.1.q);
-        assert!(p.0.dx == p.1.dx && p.0.dy == p.1.dy);
-        let c = &components;
-        assert_eq!(c.pairs.a.len(), contacts.len());
-        assert_eq!(c.walls.len(), walls.len());
-        let mut wall_only = 0;
+        // about 7 contacts per disc: one large component, sorted by counting
+        // sorts, beside small ones
+        let scene = scattered_discs(4.0);
+        let c = &scene.group(1);
         let components_count = c.member_start.len() - 1;
+        let large = (0..components_count).filter(|&k| is_large(&c.pair_start, k, scene.n));
+        assert_eq!(large.count(), 1, "the test should have one large component");
+        // the same grouping, to the bit, on two and three threads
+        for threads in [2, 3] {
+            let other = scene.group(threads);
+            assert_eq!(other.members, c.members);
+            assert_eq!(other.member_start, c.member_start);
+            assert_eq!(other.pair_start, c.pair_start);
+            assert_eq!(other.levels, c.levels);
+            assert_eq!(other.run_bounds, c.run_bounds);
+            assert_eq!(other.wall_start, c.wall_start);
+            assert_eq!(other.walls, c.walls);
+            let p = (&other.pairs, &c.pairs);
+            assert!(p.0.a == p.1.a && p.0.b == p.1.b && p.0.q == p.1.q);
+            assert!(p.0.dx == p.1.dx && p.0.dy == p.1.dy);
+        }
+        assert_eq!(c.pairs.a.len(), scene.contacts.len());
+        assert_eq!(c.walls.len(), scene.walls.len());
+        let mut wall_only = 0;
         let mut largest_run = 0;
+        let mut rows: Vec<(u32, u32, [u64; 3])> = Vec::new();
         for comp in 0..components_count {
             let global = |local: u32| c.members[(c.member_start[comp] + local) as usize];
-            let runs = &c.run_start[c.run_base[comp] as usize..=c.run_base[comp + 1] as usize];
+            let runs = runs_of(&c.pair_start, &c.levels, &c.run_bounds, comp);
             wall_only += usize::from(runs.len() == 1);
             // the (a, b) of this component's pairs in the order they run
             let order: Vec<(u32, u32)> = (runs[0]..runs[runs.len() - 1])
@@ -616,6 +1011,11 @@ mod tests {
                     last_seen.insert(d, (a, b));
                 }
             }
+            for i in runs[0] as usize..runs[runs.len() - 1] as usize {
+                let p = &c.pairs;
+                let sep = [p.dx[i], p.dy[i], p.q[i]].map(f64::to_bits);
+                rows.push((global(p.a[i]), global(p.b[i]), sep));
+            }
         }
         assert!(
             largest_run >= 8,
@@ -626,21 +1026,73 @@ mod tests {
             "the test should have components of walls only"
         );
         // the rows (global a, b, separation) are exactly the contacts
-        let mut rows: Vec<(u32, u32, [u64; 3])> = Vec::new();
-        for comp in 0..components_count {
-            let global = |local: u32| c.members[(c.member_start[comp] + local) as usize];
-            let runs = &c.run_start[c.run_base[comp] as usize..=c.run_base[comp + 1] as usize];
-            for i in runs[0] as usize..runs[runs.len() - 1] as usize {
-                let p = &c.pairs;
-                let sep = [p.dx[i], p.dy[i], p.q[i]].map(f64::to_bits);
-                rows.push((global(p.a[i]), global(p.b[i]), sep));
-            }
-        }
         rows.sort_unstable();
-        let expected: Vec<(u32, u32, [u64; 3])> = contacts
+        let expected: Vec<(u32, u32, [u64; 3])> = scene
+            .contacts
             .iter()
             .map(|k| (k.a, k.b, [k.sep.dx, k.sep.dy, k.sep.q].map(f64::to_bits)))
             .collect();
         assert_eq!(rows, expected);
+    }
+
+    /// Distinct pairs `(a, b)`, `a != b`, of discs below `n`, in any order.
+    fn pairs() -> impl Strategy<Value = (usize, Vec<(u32, u32)>)> {
+        (2usize..60).prop_flat_map(|n| {
+            let pair = (0..n as u32, 0..n as u32).prop_filter("two discs", |(a, b)| a != b);
+            (
+                Just(n),
+                prop::collection::vec(pair, 0..300).prop_map(|mut pairs| {
+                    let mut seen = std::collections::HashSet::new();
+                    pairs.retain(|&p| seen.insert(p));
+                    pairs
+                }),
+            )
+        })
+    }
+
+    proptest! {
+        #[test]
+        fn the_counting_sorts_of_a_large_component_give_the_canonical_order(
+            (n, pairs) in pairs(),
+            threads in 1usize..4,
+        ) {
+            let m = pairs.len();
+            let mut staged: Vec<Staged> = pairs
+                .iter()
+                .map(|&(a, b)| Staged {
+                    key: (u64::from(a) << 32) | u64::from(b),
+                    ..Staged::default()
+                })
+                .collect();
+            let (mut order, mut level, mut depth, mut bounds) =
+                (vec![0u128; m], vec![0; m], vec![0; n], vec![0; m + 1]);
+            let (mut a, mut b) = (vec![0; m], vec![0; m]);
+            let (mut dx, mut dy, mut q) = (vec![0.0; m], vec![0.0; m], vec![0.0; m]);
+            let columns = LevelColumns {
+                staged: DisjointSlice::new(&mut staged),
+                order: DisjointSlice::new(&mut order),
+                level: DisjointSlice::new(&mut level),
+                depth: DisjointSlice::new(&mut depth),
+                bounds: DisjointSlice::new(&mut bounds),
+                a: DisjointSlice::new(&mut a),
+                b: DisjointSlice::new(&mut b),
+                dx: DisjointSlice::new(&mut dx),
+                dy: DisjointSlice::new(&mut dy),
+                q: DisjointSlice::new(&mut q),
+            };
+            let pool = Threads::new(threads).unwrap();
+            // SAFETY: one call, over all the columns
+            unsafe {
+                columns.sort_large(0..m, n, &pool, &mut Vec::new(), &mut Vec::new());
+            }
+            let mut expected: Vec<(u32, u32)> = pairs.clone();
+            expected.sort_unstable();
+            let sorted: Vec<(u32, u32)> = order.iter().map(|&o| pairs[o as u32 as usize]).collect();
+            prop_assert_eq!(sorted, expected);
+            // the keys ride along, as the comparison sort leaves them
+            for &o in &order {
+                prop_assert_eq!((o >> 32) as u64, staged[o as u32 as usize].key);
+            }
+        }
     }
 }

@@ -96,30 +96,17 @@ impl ContactGrid {
         threads: &Threads,
         out: &mut Vec<Contact>,
     ) {
-        assert_eq!(x.len(), y.len());
         out.clear();
         let n = x.len();
-        if limit.is_nan() || limit < 0.0 {
-            return;
-        }
-        self.bin(x, y, limit, threads);
-        if n < 2 {
-            return;
-        }
-        // search cell by cell (neighbouring discs are close in memory), each
-        // disc's pairs together and sorted by b
-        let ranges = Threads::chunks(self.dims[0] * self.dims[1]);
-        let mut rows = std::mem::take(&mut self.rows);
-        rows.resize_with(ranges.len(), Vec::new);
-        let grid = &*self;
-        threads.install(|| {
-            ranges.zip(rows.par_iter_mut()).for_each(|(cells, found)| {
-                found.clear();
-                for cell in cells {
-                    grid.contacts_in(cell, limit, found);
-                }
-            });
-        });
+        self.search(x, y, limit, threads);
+        let rows = std::mem::take(&mut self.rows);
+        let sorted = &self.sorted;
+        // the pairs by vector position (the found ones hold slots)
+        let number = |c: &Contact| Contact {
+            a: sorted[c.a as usize],
+            b: sorted[c.b as usize],
+            sep: c.sep,
+        };
         // then place the pairs row by row in the order of a (a counting sort,
         // stable, reading the rows where they are), each row sorted by b; both
         // in parts over the threads
@@ -129,7 +116,7 @@ impl ContactGrid {
         let room = DisjointSlice::new(&mut out.spare_capacity_mut()[..m]);
         // SAFETY: every slot is given once, below the number of pairs
         let place = |c: &Contact, slot| {
-            unsafe { room.get_unchecked(slot) }.write(*c);
+            unsafe { room.get_unchecked(slot) }.write(number(c));
         };
         // SAFETY: the rows do not change during the sort, so a group yields the
         // same pairs, with the same keys, on both passes
@@ -137,7 +124,7 @@ impl ContactGrid {
             counting_sort_parts(
                 groups.len(),
                 |g| rows[groups[g].clone()].iter().flatten(),
-                |c| c.a,
+                |c| sorted[c.a as usize],
                 n,
                 Some(threads),
                 &mut self.offsets,
@@ -169,6 +156,50 @@ impl ContactGrid {
                 }
             }
         });
+    }
+
+    /// Finds all pairs with `q <= limit` as the search meets them: cell by cell,
+    /// in parts over the threads, `Contact { a, b, sep }` holding the *slots* of
+    /// the two discs in [`ContactGrid::nearby_order`] (disc
+    /// `nearby_order()[a]`), with the roles by vector position (the disc of slot
+    /// `a` before the disc of slot `b`) and the separation of the second from
+    /// the first, as [`ContactGrid::find`] gives them. Read them with
+    /// [`ContactGrid::found`]. Positions must be finite. What is found, and in
+    /// which order, does not depend on the thread count. A pair is found from
+    /// its lower slot (its home disc), the other slot lying later in the same
+    /// cell or in a later cell; the rows hold consecutive cells, in cell order,
+    /// so the pairs' lower slots ascend through the rows.
+    pub fn search(&mut self, x: &[f64], y: &[f64], limit: f64, threads: &Threads) {
+        assert_eq!(x.len(), y.len());
+        self.bin(x, y, limit, threads);
+        let mut rows = std::mem::take(&mut self.rows);
+        rows.iter_mut().for_each(Vec::clear);
+        if x.len() >= 2 && limit >= 0.0 {
+            // cell by cell (neighbouring discs are close in memory)
+            let ranges = Threads::chunks(self.dims[0] * self.dims[1]);
+            rows.resize_with(ranges.len(), Vec::new);
+            let grid = &*self;
+            threads.install(|| {
+                ranges.zip(rows.par_iter_mut()).for_each(|(cells, found)| {
+                    for cell in cells {
+                        grid.contacts_in(cell, limit, found);
+                    }
+                });
+            });
+        }
+        self.rows = rows;
+    }
+
+    /// The pairs of the last [`ContactGrid::search`], in the order found, in
+    /// consecutive pieces (slots of [`ContactGrid::nearby_order`]).
+    pub fn found(&self) -> &[Vec<Contact>] {
+        &self.rows
+    }
+
+    /// The positions of the discs by slot of [`ContactGrid::nearby_order`], as
+    /// of the last search.
+    pub fn slot_positions(&self) -> (&[f64], &[f64]) {
+        (&self.sorted_x, &self.sorted_y)
     }
 
     /// Lays the cells out as `shape` (squares by default). The pairs found are the
@@ -299,7 +330,8 @@ impl ContactGrid {
     /// above it (squares: the three above, half of the 3 x 3 block; bricks: the
     /// two that overlap it, columns `c, c + 1` above an even row and `c - 1, c`
     /// above an odd one), so that every pair of neighbouring cells is seen once,
-    /// as `(min, max)` with the separation of `max` from `min`. The rest of the
+    /// as the slots of `(min, max)` (by vector position) with the separation of
+    /// `max` from `min`. The rest of the
     /// cell and the one to its right are consecutive in cell order, and so are the
     /// cells above: two runs per disc.
     fn contacts_in(&self, cell: usize, limit: f64, found: &mut Vec<Contact>) {
@@ -329,16 +361,19 @@ impl ContactGrid {
                     let pb = [self.sorted_x[m], self.sorted_y[m]];
                     let sep = Separation::between(pa, pb);
                     if sep.q <= limit {
-                        let b = self.sorted[m];
                         // the roles by vector position: the separation of max from
                         // min, computed in that order (negating would turn +0.0
                         // into -0.0)
-                        found.push(if a < b {
-                            Contact { a, b, sep }
+                        found.push(if a < self.sorted[m] {
+                            Contact {
+                                a: slot as u32,
+                                b: m as u32,
+                                sep,
+                            }
                         } else {
                             Contact {
-                                a: b,
-                                b: a,
+                                a: m as u32,
+                                b: slot as u32,
                                 sep: Separation::between(pb, pa),
                             }
                         });
@@ -351,7 +386,7 @@ impl ContactGrid {
 
 /// `parts` runs of consecutive rows (covering every row) holding about equal
 /// numbers of values.
-fn row_groups<T>(rows: &[Vec<T>], parts: usize) -> Vec<std::ops::Range<usize>> {
+pub(super) fn row_groups<T>(rows: &[Vec<T>], parts: usize) -> Vec<std::ops::Range<usize>> {
     let mut ends = Vec::with_capacity(rows.len());
     let mut total = 0;
     for row in rows {

@@ -118,7 +118,6 @@ pub struct Billiards {
     pub v: Vec<[f64; 2]>,
     max_sweeps: u64,
     grid: ContactGrid,
-    contacts: Vec<Contact>,
     walls: Vec<(u32, Walls)>,
     components: Components,
 }
@@ -164,7 +163,6 @@ impl Billiards {
             v,
             max_sweeps: DEFAULT_MAX_SWEEPS,
             grid: table.grid(),
-            contacts: Vec::new(),
             walls: Vec::new(),
             components: Components::default(),
         })
@@ -217,14 +215,9 @@ impl Billiards {
         threads.install(|| {
             self.advance(step, Some(threads))?;
             let table = self.table;
-            self.grid.find(
-                &self.x,
-                &self.y,
-                table.contact(),
-                threads,
-                &mut self.contacts,
-            );
-            let (x, y) = (&self.x, &self.y);
+            self.grid.search(&self.x, &self.y, table.contact(), threads);
+            // the walls by slot of the grid's spatial order, as the pairs
+            let (x, y) = self.grid.slot_positions();
             let parts = part_ranges(x.len(), threads.count());
             let sizes: Vec<usize> = parts.iter().map(|part| part.len()).collect();
             collect_in_order_into(&mut self.walls, &sizes, threads, |p, out| {
@@ -233,13 +226,9 @@ impl Billiards {
                     out.push_if((k as u32, walls), walls.any());
                 }
             });
-            self.components.group(
-                self.len(),
-                &self.contacts,
-                &self.walls,
-                self.grid.nearby_order(),
-                threads,
-            );
+            let number = self.grid.nearby_order();
+            self.components
+                .group(self.grid.found(), &self.walls, number, threads);
             let sweeps = self
                 .components
                 .resolve(&mut self.v, self.max_sweeps, threads)
@@ -251,7 +240,7 @@ impl Billiards {
                 })?;
             Ok(StepStats {
                 wall_discs: self.walls.len(),
-                pairs: self.contacts.len(),
+                pairs: self.grid.found().iter().map(Vec::len).sum(),
                 sweeps,
             })
         })
