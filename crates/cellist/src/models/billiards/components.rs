@@ -75,7 +75,7 @@ pub(super) struct Components {
     local: Vec<u32>,
     member_start: Vec<u32>,
     /// Each component's discs (vector positions), in slot order, component by
-    /// component.
+    /// component (up to `member_start[components]`; room for all the discs).
     members: Vec<u32>,
     counts: Vec<u32>,
     /// Each component's first pair (in `staged` and in `pairs`).
@@ -136,8 +136,8 @@ impl Components {
         let components = self.label_components(found, walls, n, threads);
 
         // the discs by component, in slot order within each (a stable
-        // counting sort by label, the discs of no component last), and each
-        // slot's position in `members`
+        // counting sort of the labelled slots by label), and each slot's
+        // position in `members` (which keeps room for all the discs)
         self.members.resize(n, 0);
         self.local.resize(n, 0);
         let label = &self.label;
@@ -145,16 +145,14 @@ impl Components {
             DisjointSlice::new(&mut self.members),
             DisjointSlice::new(&mut self.local),
         );
-        let outside = components as u32;
-        // SAFETY: the key reads `label`, unchanged during the sort
+        let slots = part_ranges(n, sort_parts(n, components, Some(threads)));
+        // SAFETY: the parts' slots and `label` do not change during the sort
         unsafe {
-            counting_sort_with(
-                n,
-                |k| match label[k] {
-                    NONE => outside,
-                    c => c,
-                },
-                components + 1,
+            counting_sort_parts(
+                slots.len(),
+                |p| slots[p].clone().filter(|&k| label[k] != NONE),
+                |&k| label[k],
+                components,
                 Some(threads),
                 &mut self.member_start,
                 &mut self.counts,
@@ -166,9 +164,7 @@ impl Components {
                 },
             );
         }
-        self.member_start.truncate(components + 1);
         let in_components = self.member_start[components] as usize;
-        self.members.truncate(in_components);
         let label = &self.label;
 
         // pairs by component, in the order found within each
@@ -444,7 +440,8 @@ impl Components {
     ) -> Result<u64, (usize, usize)> {
         let components = self.levels.len();
         let read: &[[f64; 2]] = v;
-        let (members, member_start) = (&self.members, &self.member_start);
+        let member_start = &self.member_start;
+        let members = &self.members[..member_start[components] as usize];
         fill_in_parts(&mut self.discs, members.len(), Some(threads), |range| {
             members[range].iter().map(|&k| LocalDisc {
                 v: read[k as usize],
