@@ -65,6 +65,8 @@ pub(super) struct Components {
     /// By root slot: its component's number among the marked roots of its
     /// part, or `NONE`.
     rank: Vec<u32>,
+    /// By root slot: the size of its set.
+    size: Vec<u32>,
     /// By part of [`Components::label_components`]: the pairs that reach a
     /// later part's slots.
     crossing: Vec<Vec<(u32, u32)>>,
@@ -135,34 +137,26 @@ impl Components {
         let n = number.len();
         let components = self.label_components(found, walls, n, threads);
 
-        // the discs by component, in slot order within each (a stable
-        // counting sort of the labelled slots by label), and each slot's
-        // position in `members` (which keeps room for all the discs)
+        // the discs by component, in slot order within each (the sizes, in
+        // `member_start[c + 1]`, summed into first positions), and each slot's
+        // position in `members` (which keeps room for all the discs): one
+        // pass in slot order
+        self.member_start[0] = 0;
+        for c in 1..=components {
+            self.member_start[c] += self.member_start[c - 1];
+        }
         self.members.resize(n, 0);
         self.local.resize(n, 0);
-        let label = &self.label;
-        let (members, local) = (
-            DisjointSlice::new(&mut self.members),
-            DisjointSlice::new(&mut self.local),
-        );
-        let slots = part_ranges(n, sort_parts(n, components, Some(threads)));
-        // SAFETY: the parts' slots and `label` do not change during the sort
-        unsafe {
-            counting_sort_parts(
-                slots.len(),
-                |p| slots[p].clone().filter(|&k| label[k] != NONE),
-                |&k| label[k],
-                components,
-                Some(threads),
-                &mut self.member_start,
-                &mut self.counts,
-                |k, position| {
-                    // SAFETY: every position (below n) is given once, and
-                    // every slot `k < n` once
-                    *members.get_unchecked(position) = number[k];
-                    *local.get_unchecked(k) = position as u32;
-                },
-            );
+        self.counts.clear();
+        self.counts
+            .extend_from_slice(&self.member_start[..components]);
+        for (k, &c) in self.label.iter().enumerate() {
+            if c != NONE {
+                let position = &mut self.counts[c as usize];
+                self.members[*position as usize] = number[k];
+                self.local[k] = *position;
+                *position += 1;
+            }
         }
         let in_components = self.member_start[components] as usize;
         let label = &self.label;
@@ -283,7 +277,8 @@ impl Components {
     /// threads: the sets joined by the pairs in `found` (rows of the search,
     /// see [`ContactGrid::search`]), those with a pair or a disc in `walls`
     /// (ascending slots). Sets `label[k]` to slot `k`'s component, or `NONE`,
-    /// and returns their number. Component `c` is the one with the `c`-th
+    /// and `member_start[c + 1]` to component `c`'s size (its root's set's,
+    /// counted by the union-find), and returns their number. Component `c` is the one with the `c`-th
     /// smallest root (a root is its set's smallest slot), whatever the
     /// thread count.
     ///
@@ -319,24 +314,27 @@ impl Components {
         self.label.resize(n, 0);
         self.root.resize(n, 0);
         self.rank.resize(n, 0);
+        self.size.resize(n, 0);
         self.crossing.resize_with(parts.len(), Vec::new);
 
         // the pairs within each part's slots, joined, their roots and the
         // discs on a wall marked (every disc in a pair is then either not a
         // root or a marked one), the others kept for later
-        let (parent, label) = (
+        let (parent, label, size) = (
             DisjointSlice::new(&mut self.parent),
             DisjointSlice::new(&mut self.label),
+            DisjointSlice::new(&mut self.size),
         );
         let crossing = DisjointSlice::new(&mut self.crossing);
         map_parts(Some(threads), parts.len(), |g| {
             let slots = parts[g].clone();
             // SAFETY: the parts' slots are disjoint, and part g alone takes
             // `crossing[g]`
-            let (parent, label, crossing) = unsafe {
+            let (parent, label, size, crossing) = unsafe {
                 (
                     parent.range(slots.clone()),
                     label.range(slots.clone()),
+                    size.range(slots.clone()),
                     crossing.get(g),
                 )
             };
@@ -344,6 +342,7 @@ impl Components {
                 *p = k as u32;
             }
             label.fill(NONE);
+            size.fill(1);
             crossing.clear();
             let mut sets = SlotSets {
                 parent,
@@ -353,7 +352,12 @@ impl Components {
                 let (low, high) = (c.a.min(c.b) as usize, c.a.max(c.b) as usize);
                 assert!(slots.contains(&low), "a pair outside its rows' slots");
                 if high < slots.end {
-                    label[sets.union(low, high) - slots.start] = 0;
+                    let (kept, gone) = sets.union(low, high);
+                    let (kept, gone) = (kept - slots.start, gone - slots.start);
+                    if kept != gone {
+                        size[kept] += size[gone];
+                    }
+                    label[kept] = 0;
                 } else {
                     crossing.push((low as u32, high as u32));
                 }
@@ -371,7 +375,11 @@ impl Components {
             first: 0,
         };
         for &(low, high) in self.crossing.iter().flatten() {
-            self.label[sets.union(low as usize, high as usize)] = 0;
+            let (kept, gone) = sets.union(low as usize, high as usize);
+            if kept != gone {
+                self.size[kept] += self.size[gone];
+            }
+            self.label[kept] = 0;
         }
 
         // each slot's root, and each part's marked roots numbered within the
@@ -408,24 +416,38 @@ impl Components {
             count
         });
         // every slot labelled with its root's number: the root's rank after
-        // the marked roots of the parts before the root's
+        // the marked roots of the parts before the root's; and each
+        // component's size, its root's, after its number
         let firsts = exclusive_sums(&counts);
-        let (root, rank) = (&self.root, &self.rank);
-        let labels = DisjointSlice::new(&mut self.label);
+        let components = counts.iter().sum::<u32>() as usize;
+        self.member_start.resize(components + 1, 0);
+        let (root, rank, size) = (&self.root, &self.rank, &self.size);
+        let (labels, sizes) = (
+            DisjointSlice::new(&mut self.label),
+            DisjointSlice::new(&mut self.member_start),
+        );
         map_parts(Some(threads), parts.len(), |g| {
             let slots = parts[g].clone();
             // SAFETY: the parts' slots are disjoint
             let labels = unsafe { labels.range(slots.clone()) };
-            for (l, &r) in labels.iter_mut().zip(&root[slots.clone()]) {
+            for ((l, &r), k) in labels
+                .iter_mut()
+                .zip(&root[slots.clone()])
+                .zip(slots.clone())
+            {
                 let r = r as usize;
                 *l = match rank[r] {
                     NONE => NONE,
                     within if r >= slots.start => firsts[g] + within,
                     within => firsts[parts.partition_point(|p| p.end <= r)] + within,
                 };
+                if r == k && *l != NONE {
+                    // SAFETY: a part's roots' numbers are its own
+                    *unsafe { sizes.get(*l as usize + 1) } = size[k];
+                }
             }
         });
-        counts.iter().sum::<u32>() as usize
+        components
     }
 
     /// Runs the canonical loop in every component, in parallel, and writes the new
@@ -694,12 +716,13 @@ pub(super) struct SlotSets<'a> {
 }
 
 impl SlotSets<'_> {
-    /// Joins the sets of `a` and `b`; the smaller root stays the root, and is
-    /// returned.
-    pub(super) fn union(&mut self, a: usize, b: usize) -> usize {
+    /// Joins the sets of `a` and `b`; the smaller root stays the root.
+    /// Returns it and the other root (the same if `a` and `b` were joined
+    /// already).
+    pub(super) fn union(&mut self, a: usize, b: usize) -> (usize, usize) {
         let (ra, rb) = (self.root(a), self.root(b));
         self.parent[ra.max(rb) - self.first] = ra.min(rb) as u32;
-        ra.min(rb)
+        (ra.min(rb), ra.max(rb))
     }
 
     /// The root of `k`'s set (its smallest slot), halving the path on the way.
