@@ -958,6 +958,9 @@ mod tests {
         // (the search's rows split in 2, 3 and 7 parts: pairs across parts)
         for threads in [1, 2, 3, 7] {
             let c = scene.group(threads);
+            // (the case the parts exist for: pairs joined across them)
+            let across: usize = c.crossing.iter().map(Vec::len).sum();
+            assert_eq!(across > 0, threads > 1, "{threads} thread(s)");
             let found: Vec<Vec<u32>> = c
                 .member_start
                 .windows(2)

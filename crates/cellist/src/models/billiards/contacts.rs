@@ -13,7 +13,9 @@ use crate::threads::{
 };
 use rayon::prelude::*;
 
-/// One overlapping pair: vector positions `a < b` and their frozen separation.
+/// One overlapping pair and its frozen separation: vector positions `a < b`
+/// from [`ContactGrid::find`]; from [`ContactGrid::search`], the slots of the
+/// two discs, the roles still by vector position (so `a > b` may be).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Contact {
     /// The first disc (role "1").
@@ -223,7 +225,8 @@ impl ContactGrid {
     }
 
     /// All discs, cell by cell (neighbours close together), as of the last
-    /// [`ContactGrid::find`].
+    /// [`ContactGrid::find`] or [`ContactGrid::search`]: disc `nearby_order()[k]`
+    /// holds slot `k`.
     pub fn nearby_order(&self) -> &[u32] {
         &self.sorted
     }
