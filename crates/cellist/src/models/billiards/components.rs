@@ -60,16 +60,13 @@ struct LocalDisc {
 pub(super) struct Components {
     /// By slot: the union-find's parent ([`SlotSets`]).
     parent: Vec<u32>,
-    /// By slot: its set's root.
-    root: Vec<u32>,
-    /// By root slot: its component's number among the marked roots of its
-    /// part, or `NONE`.
-    rank: Vec<u32>,
     /// By root slot: the size of its set.
     size: Vec<u32>,
     /// By part of [`Components::label_components`]: the pairs that reach a
     /// later part's slots.
     crossing: Vec<Vec<(u32, u32)>>,
+    /// By part: the slots whose label waits for a root in an earlier part.
+    pending: Vec<Vec<u32>>,
     /// By slot: the disc's component, or `NONE`.
     label: Vec<u32>,
     /// By slot: the disc's position in `members` (its place in its component's
@@ -105,6 +102,9 @@ pub(super) struct Components {
 }
 
 const NONE: u32 = u32::MAX;
+
+/// A label not yet known (see [`Components::label_components`]).
+const PENDING: u32 = u32::MAX - 1;
 
 /// A component with at least `1 / LARGE_SHARE` of the discs' number in pairs
 /// is sorted by counting sorts over all the discs ([`LevelColumns::sort_large`]).
@@ -278,19 +278,21 @@ impl Components {
     /// see [`ContactGrid::search`]), those with a pair or a disc in `walls`
     /// (ascending slots). Sets `label[k]` to slot `k`'s component, or `NONE`,
     /// and `member_start[c + 1]` to component `c`'s size (its root's set's,
-    /// counted by the union-find), and returns their number. Component `c` is the one with the `c`-th
-    /// smallest root (a root is its set's smallest slot), whatever the
-    /// thread count.
+    /// counted by the union-find), and returns their number. Component `c`
+    /// is the one with the `c`-th smallest root (a root is its set's smallest
+    /// slot), whatever the thread count.
     ///
     /// A pair's lower slot is its home disc's, and the rows hold their pairs
     /// by home slot, ascending: consecutive rows hold the pairs whose lower
     /// slots lie in one range. Each part takes its rows' range of slots and
     /// joins the pairs that lie within it, writing only its own parents
     /// (every root is its set's smallest slot); the pairs that reach a later
-    /// range are joined after, in one thread. Then each part finds its slots'
-    /// roots (the parents only read) and numbers its marked roots; a second
-    /// pass labels every slot with its root's number after the marked roots
-    /// of the parts before the root's.
+    /// range are joined after, in one thread. Then each part counts its
+    /// marked roots, and a second pass labels its slots in slot order (a
+    /// parent comes before its child): a root numbered after the marked
+    /// roots before it, another slot its parent's label. The slots whose
+    /// parent lies in an earlier part, and those below them, are labelled
+    /// after, in one thread, from their roots.
     ///
     /// [`ContactGrid::search`]: super::ContactGrid::search
     fn label_components(
@@ -300,6 +302,7 @@ impl Components {
         n: usize,
         threads: &Threads,
     ) -> usize {
+        assert!(n < PENDING as usize, "at most 2^32 - 2 discs");
         let groups = row_groups(found, threads.count());
         // part g's slots: from the first pair's lower slot in its rows (the
         // next part's start if it has none) to the next part's start
@@ -312,10 +315,9 @@ impl Components {
         let parts: Vec<std::ops::Range<usize>> = bounds.windows(2).map(|w| w[0]..w[1]).collect();
         self.parent.resize(n, 0);
         self.label.resize(n, 0);
-        self.root.resize(n, 0);
-        self.rank.resize(n, 0);
         self.size.resize(n, 0);
         self.crossing.resize_with(parts.len(), Vec::new);
+        self.pending.resize_with(parts.len(), Vec::new);
 
         // the pairs within each part's slots, joined, their roots and the
         // discs on a wall marked (every disc in a pair is then either not a
@@ -382,71 +384,65 @@ impl Components {
             self.label[kept] = 0;
         }
 
-        // each slot's root, and each part's marked roots numbered within the
-        // part in slot order (the other roots `NONE`)
+        // each part's marked roots (a streaming pass), so that each part
+        // knows its first component number
         let (parent, label) = (&self.parent, &self.label);
-        let (roots, ranks) = (
-            DisjointSlice::new(&mut self.root),
-            DisjointSlice::new(&mut self.rank),
-        );
         let counts = map_parts(Some(threads), parts.len(), |g| {
             let slots = parts[g].clone();
-            // SAFETY: the parts' slots are disjoint
-            let (roots, ranks) =
-                unsafe { (roots.range(slots.clone()), ranks.range(slots.clone())) };
-            let mut count = 0;
-            for k in slots.clone() {
-                let up = parent[k] as usize;
-                // (a parent within the part comes before: its root is known)
-                let root = if up == k {
-                    ranks[k - slots.start] = if label[k] == NONE {
-                        NONE
-                    } else {
-                        count += 1;
-                        count - 1
-                    };
-                    k
-                } else if up >= slots.start {
-                    roots[up - slots.start] as usize
-                } else {
-                    root_of(parent, up)
-                };
-                roots[k - slots.start] = root as u32;
-            }
-            count
+            let marked = parent[slots.clone()]
+                .iter()
+                .zip(&label[slots.clone()])
+                .zip(slots)
+                .filter(|&((&up, &mark), k)| up as usize == k && mark != NONE);
+            marked.count() as u32
         });
-        // every slot labelled with its root's number: the root's rank after
-        // the marked roots of the parts before the root's; and each
-        // component's size, its root's, after its number
         let firsts = exclusive_sums(&counts);
         let components = counts.iter().sum::<u32>() as usize;
         self.member_start.resize(components + 1, 0);
-        let (root, rank, size) = (&self.root, &self.rank, &self.size);
+
+        // every slot labelled with its root's number in one pass in slot
+        // order: a root numbered as it comes (with its size after its
+        // number), any other slot taking its parent's label, which comes
+        // before it; a slot whose parent lies in an earlier part (its set
+        // crosses parts) is left `PENDING`, and so are the slots below it,
+        // to be labelled after, in one thread
+        let (parent, size) = (&self.parent, &self.size);
         let (labels, sizes) = (
             DisjointSlice::new(&mut self.label),
             DisjointSlice::new(&mut self.member_start),
         );
+        let pending = DisjointSlice::new(&mut self.pending);
         map_parts(Some(threads), parts.len(), |g| {
             let slots = parts[g].clone();
-            // SAFETY: the parts' slots are disjoint
-            let labels = unsafe { labels.range(slots.clone()) };
-            for ((l, &r), k) in labels
-                .iter_mut()
-                .zip(&root[slots.clone()])
-                .zip(slots.clone())
-            {
-                let r = r as usize;
-                *l = match rank[r] {
-                    NONE => NONE,
-                    within if r >= slots.start => firsts[g] + within,
-                    within => firsts[parts.partition_point(|p| p.end <= r)] + within,
+            // SAFETY: the parts' slots are disjoint, and part g alone takes
+            // `pending[g]`
+            let (labels, pending) = unsafe { (labels.range(slots.clone()), pending.get(g)) };
+            pending.clear();
+            let mut next = firsts[g];
+            for k in slots.clone() {
+                let up = parent[k] as usize;
+                let l = if up == k {
+                    if labels[k - slots.start] == NONE {
+                        NONE
+                    } else {
+                        // SAFETY: a part's roots' numbers are its own
+                        *unsafe { sizes.get(next as usize + 1) } = size[k];
+                        next += 1;
+                        next - 1
+                    }
+                } else if up >= slots.start && labels[up - slots.start] != PENDING {
+                    labels[up - slots.start]
+                } else {
+                    pending.push(k as u32);
+                    PENDING
                 };
-                if r == k && *l != NONE {
-                    // SAFETY: a part's roots' numbers are its own
-                    *unsafe { sizes.get(*l as usize + 1) } = size[k];
-                }
+                labels[k - slots.start] = l;
             }
         });
+        for &k in self.pending.iter().flatten() {
+            let root = root_of(&self.parent, k as usize);
+            self.label[k as usize] = self.label[root];
+        }
         components
     }
 
