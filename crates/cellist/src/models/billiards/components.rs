@@ -279,8 +279,9 @@ impl Components {
     /// (ascending slots). Sets `label[k]` to slot `k`'s component, or `NONE`,
     /// and `member_start[c + 1]` to component `c`'s size (its root's set's,
     /// counted by the union-find), and returns their number. Component `c`
-    /// is the one with the `c`-th smallest root (a root is its set's smallest
-    /// slot), whatever the thread count.
+    /// is the one with the `c`-th smallest marked root (a root is its set's
+    /// smallest slot; it is marked if its set has a pair or a wall disc),
+    /// whatever the thread count.
     ///
     /// A pair's lower slot is its home disc's, and the rows hold their pairs
     /// by home slot, ascending: consecutive rows hold the pairs whose lower
@@ -291,8 +292,8 @@ impl Components {
     /// marked roots, and a second pass labels its slots in slot order (a
     /// parent comes before its child): a root numbered after the marked
     /// roots before it, another slot its parent's label. The slots whose
-    /// parent lies in an earlier part, and those below them, are labelled
-    /// after, in one thread, from their roots.
+    /// parent lies in an earlier part, and their descendants, are labelled
+    /// after, in one thread, in slot order, from their parents.
     ///
     /// [`ContactGrid::search`]: super::ContactGrid::search
     fn label_components(
@@ -302,7 +303,7 @@ impl Components {
         n: usize,
         threads: &Threads,
     ) -> usize {
-        assert!(n < PENDING as usize, "at most 2^32 - 2 discs");
+        assert!(n <= PENDING as usize, "at most 2^32 - 2 discs");
         let groups = row_groups(found, threads.count());
         // part g's slots: from the first pair's lower slot in its rows (the
         // next part's start if it has none) to the next part's start
@@ -439,9 +440,10 @@ impl Components {
                 labels[k - slots.start] = l;
             }
         });
+        // (in slot order, so a parent, below its child, is labelled first)
         for &k in self.pending.iter().flatten() {
-            let root = root_of(&self.parent, k as usize);
-            self.label[k as usize] = self.label[root];
+            let up = self.parent[k as usize] as usize;
+            self.label[k as usize] = self.label[up];
         }
         components
     }
@@ -733,15 +735,6 @@ impl SlotSets<'_> {
             k = grand as usize;
         }
     }
-}
-
-/// The root of slot `k`'s set in `parent` (a union-find of [`SlotSets`] over
-/// all the slots), without changing it.
-fn root_of(parent: &[u32], mut k: usize) -> usize {
-    while parent[k] as usize != k {
-        k = parent[k] as usize;
-    }
-    k
 }
 
 /// One component's pairs: the columns of [`LocalPairs`] over its range.
