@@ -355,12 +355,7 @@ impl Components {
                 let (low, high) = (c.a.min(c.b) as usize, c.a.max(c.b) as usize);
                 assert!(slots.contains(&low), "a pair outside its rows' slots");
                 if high < slots.end {
-                    let (kept, gone) = sets.union(low, high);
-                    let (kept, gone) = (kept - slots.start, gone - slots.start);
-                    if kept != gone {
-                        size[kept] += size[gone];
-                    }
-                    label[kept] = 0;
+                    join_marked(&mut sets, size, label, low, high);
                 } else {
                     crossing.push((low as u32, high as u32));
                 }
@@ -378,11 +373,13 @@ impl Components {
             first: 0,
         };
         for &(low, high) in self.crossing.iter().flatten() {
-            let (kept, gone) = sets.union(low as usize, high as usize);
-            if kept != gone {
-                self.size[kept] += self.size[gone];
-            }
-            self.label[kept] = 0;
+            join_marked(
+                &mut sets,
+                &mut self.size,
+                &mut self.label,
+                low as usize,
+                high as usize,
+            );
         }
 
         // each part's marked roots (a streaming pass), so that each part
@@ -405,8 +402,8 @@ impl Components {
         // order: a root numbered as it comes (with its size after its
         // number), any other slot taking its parent's label, which comes
         // before it; a slot whose parent lies in an earlier part (its set
-        // crosses parts) is left `PENDING`, and so are the slots below it,
-        // to be labelled after, in one thread
+        // crosses parts) is left `PENDING`, and so are its descendants, to be
+        // labelled after, in one thread
         let (parent, size) = (&self.parent, &self.size);
         let (labels, sizes) = (
             DisjointSlice::new(&mut self.label),
@@ -735,6 +732,19 @@ impl SlotSets<'_> {
             k = grand as usize;
         }
     }
+}
+
+/// Joins the sets of slots `a` and `b`, adds the size of the root that stops
+/// being one to the kept root's, and marks the kept root (`label` 0): a set
+/// joined by a pair is a component. `size` and `label` are indexed like
+/// `sets.parent`, from slot `sets.first`.
+fn join_marked(sets: &mut SlotSets, size: &mut [u32], label: &mut [u32], a: usize, b: usize) {
+    let (kept, gone) = sets.union(a, b);
+    let (kept, gone) = (kept - sets.first, gone - sets.first);
+    if kept != gone {
+        size[kept] += size[gone];
+    }
+    label[kept] = 0;
 }
 
 /// One component's pairs: the columns of [`LocalPairs`] over its range.
