@@ -121,8 +121,9 @@ impl Components {
     /// see the module's text. The components are found in parts over the
     /// threads ([`Components::label_components`]). Each component sorts and
     /// levels its own pairs, in parallel with the others; a large one (a dense
-    /// packing has one with nearly all the pairs) after them, with counting
-    /// sorts in parts over the threads. Its discs are stored in slot order;
+    /// packing has one with nearly all the pairs) is sorted first, with
+    /// counting sorts in parts over the threads, and levelled in one task
+    /// while the other threads level the rest. Its discs are stored in slot order;
     /// where a disc is stored, and how the components are numbered, do not
     /// change what is computed.
     ///
@@ -219,23 +220,14 @@ impl Components {
         };
         let (pair_start, member_start, local) = (&self.pair_start, &self.member_start, &self.local);
         // a component with a large share of the pairs (a dense packing has one
-        // with nearly all) is sorted after the others, by counting sorts in
-        // parts over the threads, rather than by one task
+        // with nearly all) is sorted first, by counting sorts in parts over the
+        // threads, rather than by one task; then it is levelled in one task
+        // while the others are levelled in tasks of their own
         let large = |c: usize| is_large(pair_start, c, n);
         let pairs_of = |c: usize| pair_start[c] as usize..pair_start[c + 1] as usize;
         let discs_of = |c: usize| member_start[c] as usize..member_start[c + 1] as usize;
-        threads.install(|| {
-            self.levels
-                .par_iter_mut()
-                .enumerate()
-                .filter(|&(c, _)| !large(c))
-                .for_each(|(c, levels)| {
-                    // SAFETY: the components' pairs, discs and bounds are disjoint
-                    *levels = unsafe { columns.level(c, pairs_of(c), discs_of(c), local, false) };
-                });
-        });
         for c in (0..components).filter(|&c| large(c)) {
-            // SAFETY: one component at a time
+            // SAFETY: one component at a time, before the tasks below
             unsafe {
                 columns.sort_large(
                     pairs_of(c),
@@ -244,9 +236,32 @@ impl Components {
                     &mut self.sort_start,
                     &mut self.counts,
                 );
-                self.levels[c] = columns.level(c, pairs_of(c), discs_of(c), local, true);
             }
         }
+        let level = |c: usize| {
+            // SAFETY: the components' pairs, discs and bounds are disjoint
+            unsafe { columns.level(c, pairs_of(c), discs_of(c), local, large(c)) }
+        };
+        let levels = DisjointSlice::new(&mut self.levels);
+        threads.install(|| {
+            rayon::join(
+                || {
+                    for c in (0..components).filter(|&c| large(c)) {
+                        // SAFETY: each component's level count is written once
+                        *unsafe { levels.get(c) } = level(c);
+                    }
+                },
+                || {
+                    (0..components)
+                        .into_par_iter()
+                        .filter(|&c| !large(c))
+                        .for_each(|c| {
+                            // SAFETY: as above
+                            *unsafe { levels.get(c) } = level(c);
+                        })
+                },
+            )
+        });
 
         // walls by component, in the order of `walls` within each
         self.walls.clear();
