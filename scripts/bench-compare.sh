@@ -39,6 +39,7 @@ cases=(
     "gravity-direct|gravity --solver direct --n 20000 --repeat 3"
     "gravity-bh|gravity --solver barnes-hut --n 100000 --theta 0.5 --repeat 1"
     "vortex-direct|vortex --solver direct --n 20000 --threads 1 --repeat 3"
+    "vortex-bh|vortex --solver barnes-hut --n 100000 --threads 1 --repeat 3"
 )
 seconds() {
     python3 -c 'import json,sys
