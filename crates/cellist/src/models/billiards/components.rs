@@ -103,6 +103,16 @@ pub(super) struct Components {
 
 const NONE: u32 = u32::MAX;
 
+/// What [`Components::label_components`] found: the number of components,
+/// the parts of the slots it worked in, and the first component number of
+/// each part's roots (the components rooted in part `g` are `firsts[g]..`
+/// `firsts[g + 1]`; a slot of part `g` with a smaller label is `pending`).
+struct Labels {
+    components: usize,
+    parts: Vec<std::ops::Range<usize>>,
+    firsts: Vec<u32>,
+}
+
 /// A label not yet known (see [`Components::label_components`]).
 const PENDING: u32 = u32::MAX - 1;
 
@@ -136,12 +146,18 @@ impl Components {
         threads: &Threads,
     ) {
         let n = number.len();
-        let components = self.label_components(found, walls, n, threads);
+        let Labels {
+            components,
+            parts,
+            firsts,
+        } = self.label_components(found, walls, n, threads);
 
         // the discs by component, in slot order within each (the sizes, in
         // `member_start[c + 1]`, summed into first positions), and each slot's
-        // position in `members` (which keeps room for all the discs): one
-        // pass in slot order
+        // position in `members` (which keeps room for all the discs): each
+        // part places the discs of the components rooted in it, which come
+        // first in their components; then the slots of components rooted in
+        // an earlier part (`pending`), in one thread, in slot order
         self.member_start[0] = 0;
         for c in 1..=components {
             self.member_start[c] += self.member_start[c - 1];
@@ -151,13 +167,33 @@ impl Components {
         self.counts.clear();
         self.counts
             .extend_from_slice(&self.member_start[..components]);
-        for (k, &c) in self.label.iter().enumerate() {
-            if c != NONE {
-                let position = &mut self.counts[c as usize];
-                self.members[*position as usize] = number[k];
-                self.local[k] = *position;
-                *position += 1;
+        let label = &self.label;
+        let (members, local, cursors) = (
+            DisjointSlice::new(&mut self.members),
+            DisjointSlice::new(&mut self.local),
+            DisjointSlice::new(&mut self.counts),
+        );
+        map_parts(Some(threads), parts.len(), |g| {
+            for k in parts[g].clone() {
+                let c = label[k];
+                if c != NONE && c >= firsts[g] {
+                    // SAFETY: component c is rooted in part g, so its cursor
+                    // and the positions it gives are this part's alone, and
+                    // so is slot k
+                    unsafe {
+                        let position = cursors.get(c as usize);
+                        *members.get(*position as usize) = number[k];
+                        *local.get(k) = *position;
+                        *position += 1;
+                    }
+                }
             }
+        });
+        for &k in self.pending.iter().flatten() {
+            let position = &mut self.counts[self.label[k as usize] as usize];
+            self.members[*position as usize] = number[k as usize];
+            self.local[k as usize] = *position;
+            *position += 1;
         }
         let in_components = self.member_start[components] as usize;
         let label = &self.label;
@@ -293,7 +329,8 @@ impl Components {
     /// see [`ContactGrid::search`]), those with a pair or a disc in `walls`
     /// (ascending slots). Sets `label[k]` to slot `k`'s component, or `NONE`,
     /// and `member_start[c + 1]` to component `c`'s size (its root's set's,
-    /// counted by the union-find), and returns their number. Component `c`
+    /// counted by the union-find), and returns their number with the parts
+    /// and each part's first component ([`Labels`]). Component `c`
     /// is the one with the `c`-th smallest marked root (a root is its set's
     /// smallest slot; it is marked if its set has a pair or a wall disc),
     /// whatever the thread count.
@@ -317,7 +354,7 @@ impl Components {
         walls: &[(u32, Walls)],
         n: usize,
         threads: &Threads,
-    ) -> usize {
+    ) -> Labels {
         assert!(n <= PENDING as usize, "at most 2^32 - 2 discs");
         let groups = row_groups(found, threads.count());
         // part g's slots: from the first pair's lower slot in its rows (the
@@ -457,7 +494,11 @@ impl Components {
             let up = self.parent[k as usize] as usize;
             self.label[k as usize] = self.label[up];
         }
-        components
+        Labels {
+            components,
+            parts,
+            firsts,
+        }
     }
 
     /// Runs the canonical loop in every component, in parallel, and writes the new
