@@ -230,7 +230,7 @@ pub fn check_step(
     parent.extend(0..n as u32);
     let mut sets = SlotSets { parent, first: 0 };
     for p in near.iter() {
-        sets.union(p.a as usize, p.b as usize);
+        sets.union(p.a as usize, p.b as usize, |_| {});
     }
     // per group (indexed by its root, the smallest id): sums in id order
     let (r, l) = (table.radius_f(), table.side_f());

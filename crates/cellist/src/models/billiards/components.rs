@@ -60,8 +60,6 @@ struct LocalDisc {
 pub(super) struct Components {
     /// By slot: the union-find's parent ([`SlotSets`]).
     parent: Vec<u32>,
-    /// By root slot: the size of its set.
-    size: Vec<u32>,
     /// By part of [`Components::label_components`]: the pairs that reach a
     /// later part's slots.
     crossing: Vec<Vec<(u32, u32)>>,
@@ -328,22 +326,22 @@ impl Components {
     /// threads: the sets joined by the pairs in `found` (rows of the search,
     /// see [`ContactGrid::search`]), those with a pair or a disc in `walls`
     /// (ascending slots). Sets `label[k]` to slot `k`'s component, or `NONE`,
-    /// and `member_start[c + 1]` to component `c`'s size (its root's set's,
-    /// counted by the union-find), and returns their number with the parts
+    /// and `member_start[c + 1]` to component `c`'s size (counted as its
+    /// slots are labelled), and returns their number with the parts
     /// and each part's first component ([`Labels`]). Component `c`
     /// is the one with the `c`-th smallest marked root (a root is its set's
-    /// smallest slot; it is marked if its set has a pair or a wall disc),
-    /// whatever the thread count.
+    /// smallest slot; it is marked if its set has a pair, so that it was made
+    /// a parent, or a wall disc), whatever the thread count.
     ///
     /// A pair's lower slot is its home disc's, and the rows hold their pairs
     /// by home slot, ascending: consecutive rows hold the pairs whose lower
     /// slots lie in one range. Each part takes its rows' range of slots and
-    /// joins the pairs that lie within it, writing only its own parents
-    /// (every root is its set's smallest slot); the pairs that reach a later
-    /// range are joined after, in one thread. Then each part counts its
-    /// marked roots, and a second pass labels its slots in slot order (a
-    /// parent comes before its child): a root numbered after the marked
-    /// roots before it, another slot its parent's label. The slots whose
+    /// joins the pairs that lie within it ([`SlotSets::union`]), writing only
+    /// its own parents (every root is its set's smallest slot); the pairs
+    /// that reach a later range are joined after, in one thread. Then each
+    /// part counts its marked roots, and a second pass labels its slots in
+    /// slot order (a parent comes before its child): a root numbered after
+    /// the marked roots before it, another slot its parent's label. The slots whose
     /// parent lies in an earlier part, and their descendants, are labelled
     /// after, in one thread, in slot order, from their parents.
     ///
@@ -368,28 +366,25 @@ impl Components {
         let parts: Vec<std::ops::Range<usize>> = bounds.windows(2).map(|w| w[0]..w[1]).collect();
         self.parent.resize(n, 0);
         self.label.resize(n, 0);
-        self.size.resize(n, 0);
         self.crossing.resize_with(parts.len(), Vec::new);
         self.pending.resize_with(parts.len(), Vec::new);
 
-        // the pairs within each part's slots, joined, their roots and the
-        // discs on a wall marked (every disc in a pair is then either not a
-        // root or a marked one), the others kept for later
-        let (parent, label, size) = (
+        // the pairs within each part's slots joined, every slot made a
+        // parent marked (`label` 0: the root of a set of two or more is one)
+        // and so are the discs on a wall, the other pairs kept for later
+        let (parent, label) = (
             DisjointSlice::new(&mut self.parent),
             DisjointSlice::new(&mut self.label),
-            DisjointSlice::new(&mut self.size),
         );
         let crossing = DisjointSlice::new(&mut self.crossing);
         map_parts(Some(threads), parts.len(), |g| {
             let slots = parts[g].clone();
             // SAFETY: the parts' slots are disjoint, and part g alone takes
             // `crossing[g]`
-            let (parent, label, size, crossing) = unsafe {
+            let (parent, label, crossing) = unsafe {
                 (
                     parent.range(slots.clone()),
                     label.range(slots.clone()),
-                    size.range(slots.clone()),
                     crossing.get(g),
                 )
             };
@@ -397,7 +392,6 @@ impl Components {
                 *p = k as u32;
             }
             label.fill(NONE);
-            size.fill(1);
             crossing.clear();
             let mut sets = SlotSets {
                 parent,
@@ -407,7 +401,7 @@ impl Components {
                 let (low, high) = (c.a.min(c.b) as usize, c.a.max(c.b) as usize);
                 assert!(slots.contains(&low), "a pair outside its rows' slots");
                 if high < slots.end {
-                    join_marked(&mut sets, size, label, low, high);
+                    sets.union(low, high, |p| label[p - slots.start] = 0);
                 } else {
                     crossing.push((low as u32, high as u32));
                 }
@@ -424,14 +418,9 @@ impl Components {
             parent: &mut self.parent,
             first: 0,
         };
+        let label = &mut self.label;
         for &(low, high) in self.crossing.iter().flatten() {
-            join_marked(
-                &mut sets,
-                &mut self.size,
-                &mut self.label,
-                low as usize,
-                high as usize,
-            );
+            sets.union(low as usize, high as usize, |p| label[p] = 0);
         }
 
         // each part's marked roots (a streaming pass), so that each part
@@ -456,7 +445,7 @@ impl Components {
         // before it; a slot whose parent lies in an earlier part (its set
         // crosses parts) is left `PENDING`, and so are its descendants, to be
         // labelled after, in one thread
-        let (parent, size) = (&self.parent, &self.size);
+        let parent = &self.parent;
         let (labels, sizes) = (
             DisjointSlice::new(&mut self.label),
             DisjointSlice::new(&mut self.member_start),
@@ -476,12 +465,15 @@ impl Components {
                         NONE
                     } else {
                         // SAFETY: a part's roots' numbers are its own
-                        *unsafe { sizes.get(next as usize + 1) } = size[k];
+                        *unsafe { sizes.get(next as usize + 1) } = 1;
                         next += 1;
                         next - 1
                     }
                 } else if up >= slots.start && labels[up - slots.start] != PENDING {
-                    labels[up - slots.start]
+                    let l = labels[up - slots.start];
+                    // SAFETY: as above (the root of `l` is in this part)
+                    *unsafe { sizes.get(l as usize + 1) } += 1;
+                    l
                 } else {
                     pending.push(k as u32);
                     PENDING
@@ -491,8 +483,9 @@ impl Components {
         });
         // (in slot order, so a parent, below its child, is labelled first)
         for &k in self.pending.iter().flatten() {
-            let up = self.parent[k as usize] as usize;
-            self.label[k as usize] = self.label[up];
+            let l = self.label[self.parent[k as usize] as usize];
+            self.label[k as usize] = l;
+            self.member_start[l as usize + 1] += 1;
         }
         Labels {
             components,
@@ -767,13 +760,37 @@ pub(super) struct SlotSets<'a> {
 }
 
 impl SlotSets<'_> {
-    /// Joins the sets of `a` and `b`; the smaller root stays the root.
-    /// Returns it and the other root (the same if `a` and `b` were joined
-    /// already).
-    pub(super) fn union(&mut self, a: usize, b: usize) -> (usize, usize) {
-        let (ra, rb) = (self.root(a), self.root(b));
-        self.parent[ra.max(rb) - self.first] = ra.min(rb) as u32;
-        (ra.min(rb), ra.max(rb))
+    /// Joins the sets of `a` and `b` by Rem's algorithm with splicing: the
+    /// two paths are climbed together, the slot whose parent is the larger
+    /// taking the other's parent (so a parent stays below its child) and
+    /// the climb going on from its old parent, until the parents meet (one
+    /// set) or a root takes the other's parent (the sets joined; the smaller
+    /// root stays the root). `adopted(p)` is called with every slot `p` made
+    /// a parent: the root of a set of more than one slot is among them.
+    #[inline]
+    pub(super) fn union(&mut self, a: usize, b: usize, mut adopted: impl FnMut(usize)) {
+        let first = self.first;
+        let (mut x, mut y) = (a, b);
+        loop {
+            let (px, py) = (
+                self.parent[x - first] as usize,
+                self.parent[y - first] as usize,
+            );
+            if px == py {
+                return;
+            }
+            let (climber, old, new) = if px > py {
+                (&mut x, px, py)
+            } else {
+                (&mut y, py, px)
+            };
+            self.parent[*climber - first] = new as u32;
+            adopted(new);
+            if *climber == old {
+                return;
+            }
+            *climber = old;
+        }
     }
 
     /// The root of `k`'s set (its smallest slot), halving the path on the way.
@@ -788,19 +805,6 @@ impl SlotSets<'_> {
             k = grand as usize;
         }
     }
-}
-
-/// Joins the sets of slots `a` and `b`, adds the size of the root that stops
-/// being one to the kept root's, and marks the kept root (`label` 0): a set
-/// joined by a pair is a component. `size` and `label` are indexed like
-/// `sets.parent`, from slot `sets.first`.
-fn join_marked(sets: &mut SlotSets, size: &mut [u32], label: &mut [u32], a: usize, b: usize) {
-    let (kept, gone) = sets.union(a, b);
-    let (kept, gone) = (kept - sets.first, gone - sets.first);
-    if kept != gone {
-        size[kept] += size[gone];
-    }
-    label[kept] = 0;
 }
 
 /// One component's pairs: the columns of [`LocalPairs`] over its range.
@@ -1170,6 +1174,48 @@ mod tests {
             // the keys ride along, as the comparison sort leaves them
             for &o in &order {
                 prop_assert_eq!((o >> 32) as u64, staged[o as u32 as usize].key);
+            }
+        }
+
+        #[test]
+        fn the_union_gives_the_connected_sets_rooted_at_their_smallest_slot(
+            (n, pairs) in pairs(),
+        ) {
+            let mut parent: Vec<u32> = (0..n as u32).collect();
+            let mut adopted = vec![false; n];
+            let mut sets = SlotSets { parent: &mut parent, first: 0 };
+            for &(a, b) in &pairs {
+                sets.union(a as usize, b as usize, |p| adopted[p] = true);
+            }
+            // the connected sets by a graph search: each slot's smallest
+            // reachable slot
+            let mut next = vec![Vec::new(); n];
+            for &(a, b) in &pairs {
+                next[a as usize].push(b as usize);
+                next[b as usize].push(a as usize);
+            }
+            let mut smallest = vec![usize::MAX; n];
+            for start in 0..n {
+                if smallest[start] == usize::MAX {
+                    let mut stack = vec![start];
+                    smallest[start] = start;
+                    while let Some(k) = stack.pop() {
+                        for &j in &next[k] {
+                            if smallest[j] == usize::MAX {
+                                smallest[j] = start;
+                                stack.push(j);
+                            }
+                        }
+                    }
+                }
+            }
+            for k in 0..n {
+                prop_assert!(sets.parent[k] as usize <= k, "a parent above its child");
+                prop_assert_eq!(sets.root(k), smallest[k]);
+                // a root of a set of two or more was made a parent
+                if smallest[k] == k {
+                    prop_assert_eq!(adopted[k], !next[k].is_empty());
+                }
             }
         }
     }
