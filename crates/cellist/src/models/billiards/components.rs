@@ -63,7 +63,8 @@ pub(super) struct Components {
     /// By part of [`Components::label_components`]: the pairs that reach a
     /// later part's slots.
     crossing: Vec<Vec<(u32, u32)>>,
-    /// By part: the slots whose label waits for a root in an earlier part.
+    /// By part: the slots whose label waits for a root in an earlier part
+    /// (their components' discs that are placed after the parts').
     pending: Vec<Vec<u32>>,
     /// By slot: the disc's component, or `NONE`.
     label: Vec<u32>,
@@ -104,11 +105,38 @@ const NONE: u32 = u32::MAX;
 /// What [`Components::label_components`] found: the number of components,
 /// the parts of the slots it worked in, and the first component number of
 /// each part's roots (the components rooted in part `g` are `firsts[g]..`
-/// `firsts[g + 1]`; a slot of part `g` with a smaller label is `pending`).
+/// `firsts[g + 1]`, or `..components` for the last part; a slot of part `g`
+/// with a smaller label is `pending`).
 struct Labels {
     components: usize,
     parts: Vec<std::ops::Range<usize>>,
     firsts: Vec<u32>,
+}
+
+/// The columns [`Components::group`] places the discs into, by component: each
+/// component's next position (its cursor), the discs by position, and each
+/// slot's position.
+struct Placed<'a> {
+    members: DisjointSlice<'a, u32>,
+    local: DisjointSlice<'a, u32>,
+    cursors: DisjointSlice<'a, u32>,
+}
+
+impl Placed<'_> {
+    /// Places slot `k`, disc `disc` of component `c`, at the component's next
+    /// position.
+    ///
+    /// # Safety
+    /// No other call reaches component `c` or slot `k` at once.
+    unsafe fn next(&self, k: usize, c: u32, disc: u32) {
+        // SAFETY: the caller's promise
+        unsafe {
+            let position = self.cursors.get(c as usize);
+            *self.members.get(*position as usize) = disc;
+            *self.local.get(k) = *position;
+            *position += 1;
+        }
+    }
 }
 
 /// A label not yet known (see [`Components::label_components`]).
@@ -131,9 +159,9 @@ impl Components {
     /// levels its own pairs, in parallel with the others; a large one (a dense
     /// packing has one with nearly all the pairs) is sorted first, with
     /// counting sorts in parts over the threads, and levelled in one task
-    /// while the other threads level the rest. Its discs are stored in slot order;
-    /// where a disc is stored, and how the components are numbered, do not
-    /// change what is computed.
+    /// while the others are levelled in tasks of their own. Each component's
+    /// discs are stored in slot order; where a disc is stored, and how the
+    /// components are numbered, do not change what is computed.
     ///
     /// [`ContactGrid::search`]: super::ContactGrid::search
     pub(super) fn group(
@@ -165,12 +193,12 @@ impl Components {
         self.counts.clear();
         self.counts
             .extend_from_slice(&self.member_start[..components]);
-        let label = &self.label;
-        let (members, local, cursors) = (
-            DisjointSlice::new(&mut self.members),
-            DisjointSlice::new(&mut self.local),
-            DisjointSlice::new(&mut self.counts),
-        );
+        let (label, pending) = (&self.label, &self.pending);
+        let placed = Placed {
+            members: DisjointSlice::new(&mut self.members),
+            local: DisjointSlice::new(&mut self.local),
+            cursors: DisjointSlice::new(&mut self.counts),
+        };
         map_parts(Some(threads), parts.len(), |g| {
             for k in parts[g].clone() {
                 let c = label[k];
@@ -178,20 +206,14 @@ impl Components {
                     // SAFETY: component c is rooted in part g, so its cursor
                     // and the positions it gives are this part's alone, and
                     // so is slot k
-                    unsafe {
-                        let position = cursors.get(c as usize);
-                        *members.get(*position as usize) = number[k];
-                        *local.get(k) = *position;
-                        *position += 1;
-                    }
+                    unsafe { placed.next(k, c, number[k]) };
                 }
             }
         });
-        for &k in self.pending.iter().flatten() {
-            let position = &mut self.counts[self.label[k as usize] as usize];
-            self.members[*position as usize] = number[k as usize];
-            self.local[k as usize] = *position;
-            *position += 1;
+        for &k in pending.iter().flatten() {
+            let k = k as usize;
+            // SAFETY: one thread, after the parts
+            unsafe { placed.next(k, label[k], number[k]) };
         }
         let in_components = self.member_start[components] as usize;
         let label = &self.label;
@@ -440,11 +462,12 @@ impl Components {
         self.member_start.resize(components + 1, 0);
 
         // every slot labelled with its root's number in one pass in slot
-        // order: a root numbered as it comes (with its size after its
-        // number), any other slot taking its parent's label, which comes
-        // before it; a slot whose parent lies in an earlier part (its set
-        // crosses parts) is left `PENDING`, and so are its descendants, to be
-        // labelled after, in one thread
+        // order: a root numbered as it comes (its size, in
+        // `member_start[number + 1]`, started at one), any other slot taking
+        // its parent's label, which comes before it, and adding one to that
+        // size; a slot whose parent lies in an earlier part (its set crosses
+        // parts) is left `PENDING`, and so are its descendants, to be
+        // labelled (and counted) after, in one thread
         let parent = &self.parent;
         let (labels, sizes) = (
             DisjointSlice::new(&mut self.label),
@@ -766,7 +789,9 @@ impl SlotSets<'_> {
     /// the climb going on from its old parent, until the parents meet (one
     /// set) or a root takes the other's parent (the sets joined; the smaller
     /// root stays the root). `adopted(p)` is called with every slot `p` made
-    /// a parent: the root of a set of more than one slot is among them.
+    /// a parent, so that, over the calls, the root of every set of two or
+    /// more slots has been passed to it (as long as `parent` started as the
+    /// identity and changed only here and in [`SlotSets::root`]).
     #[inline]
     pub(super) fn union(&mut self, a: usize, b: usize, mut adopted: impl FnMut(usize)) {
         let first = self.first;
@@ -1020,6 +1045,9 @@ mod tests {
             // (the case the parts exist for: pairs joined across them)
             let across: usize = c.crossing.iter().map(Vec::len).sum();
             assert_eq!(across > 0, threads > 1, "{threads} thread(s)");
+            // (and slots of components rooted in an earlier part)
+            let pending: usize = c.pending.iter().map(Vec::len).sum();
+            assert_eq!(pending > 0, threads > 1, "{threads} thread(s)");
             let found: Vec<Vec<u32>> = c
                 .member_start
                 .windows(2)
@@ -1180,12 +1208,14 @@ mod tests {
         #[test]
         fn the_union_gives_the_connected_sets_rooted_at_their_smallest_slot(
             (n, pairs) in pairs(),
+            first in 0usize..100,
         ) {
-            let mut parent: Vec<u32> = (0..n as u32).collect();
+            // slots `first..first + n`, as one part's
+            let mut parent: Vec<u32> = (first as u32..(first + n) as u32).collect();
             let mut adopted = vec![false; n];
-            let mut sets = SlotSets { parent: &mut parent, first: 0 };
+            let mut sets = SlotSets { parent: &mut parent, first };
             for &(a, b) in &pairs {
-                sets.union(a as usize, b as usize, |p| adopted[p] = true);
+                sets.union(first + a as usize, first + b as usize, |p| adopted[p - first] = true);
             }
             // the connected sets by a graph search: each slot's smallest
             // reachable slot
@@ -1210,8 +1240,8 @@ mod tests {
                 }
             }
             for k in 0..n {
-                prop_assert!(sets.parent[k] as usize <= k, "a parent above its child");
-                prop_assert_eq!(sets.root(k), smallest[k]);
+                prop_assert!(sets.parent[k] as usize <= first + k, "a parent above its child");
+                prop_assert_eq!(sets.root(first + k), first + smallest[k]);
                 // a root of a set of two or more was made a parent
                 if smallest[k] == k {
                     prop_assert_eq!(adopted[k], !next[k].is_empty());
