@@ -2,19 +2,25 @@
 //! quantities vesin returns: what `cellist neighbors` prints and what the Python
 //! module's `neighbors` returns.
 //!
-//! The rows are found in cell order, so that the search streams through memory:
-//! each particle's neighbours `j > i` over the full stencil, sorted by `j`, are
-//! appended to a buffer of its chunk of cells. The prefix sums of the row
-//! lengths, in input order, then place every row, and each row is copied once
-//! into its place. No global sort, and the same bits for any thread count.
+//! The pairs are found over the half stencil in cell order, as the list as found
+//! is, and each is filed under its row: the slot of its particle with the smaller
+//! input number. A counting sort by that slot gathers the rows; slot order is
+//! cell order, so its writes stay near the search's. The prefix sums of the row
+//! lengths, in input order, then place every row, sorted by `j`, once. No global
+//! sort, and the same bits for any thread count. A pair's separation is the one
+//! the full stencil gives from the row's particle: the half stencil's, negated
+//! when the row is the other particle's, `(x_a - x_b) + (-s) = -((x_b - x_a) + s)`
+//! exactly in binary64.
 
 use super::cell_list::CellList;
-use super::grid::{StencilKind, StencilRun};
-use super::pairs::expected_pairs;
-use super::traverse::{for_each_in_row, for_each_row_in_cell, CutoffTest, ScanScratch};
+use super::grid::StencilKind;
+use super::pairs::{balanced_cell_runs, expected_pairs, share_of, tasks_for};
+use super::traverse::{for_each_row_in_cell, CutoffTest};
 use crate::geometry::{norm2, Domain};
-use crate::memory::large_vec;
-use crate::threads::{DisjointSlice, Threads};
+use crate::memory::{large_vec, large_zeroed, prefetch};
+use crate::threads::{
+    counting_sort_parts, map_parts, part_ranges, parts_for, DisjointSlice, Threads,
+};
 use rayon::prelude::*;
 
 /// Which quantities of each pair [`sorted_half_list`] returns, besides `i` and `j`.
@@ -116,15 +122,22 @@ impl PairArrays {
     }
 }
 
-/// The rows of one chunk of cells, slot after slot: the neighbours `j > i`
-/// sorted by `j` and, when asked for, their squared distances and separations.
+/// Pairs filed under their rows: each pair's second input number `j` and,
+/// when the quantities need them, its `r^2` and its separation `x_j - x_i`
+/// (minimum image) from the row's particle `i`.
 #[derive(Default)]
-struct ChunkRows<const D: usize> {
-    first_slot: usize,
-    lengths: Vec<u32>,
+struct RowEntries<const D: usize> {
     js: Vec<u32>,
     r2s: Vec<f64>,
     separations: Vec<[f64; D]>,
+}
+
+/// The pairs one task of the search found, in the order found: each pair's
+/// row (the slot of its particle with the smaller input number) and its entry
+/// in that row.
+struct FoundPairs<const D: usize> {
+    rows: Vec<u32>,
+    entries: RowEntries<D>,
 }
 
 /// Every pair `(i, j)`, `i < j` in input numbering, with `|x_j - x_i| < cutoff`
@@ -144,85 +157,17 @@ pub fn sorted_half_list<const D: usize>(
     threads: &Threads,
 ) -> PairArrays {
     let test = checked_test(cells, points, cutoff);
-    let order = cells.order();
-    let n = cells.len();
-    let chunks = find_rows(cells, &test, quantities, threads);
-    // each row's place, in input order
-    let mut start = vec![0usize; n + 1];
-    for chunk in &chunks {
-        for (k, &length) in chunk.lengths.iter().enumerate() {
-            start[order[chunk.first_slot + k] as usize + 1] = length as usize;
-        }
-    }
-    for k in 0..n {
-        start[k + 1] += start[k];
-    }
-    let total = start[n];
-    let mut out = PairArrays {
-        i: vec![0; total],
-        j: vec![0; total],
-        distances: vec![0.0; if quantities.distances { total } else { 0 }],
-        vectors: vec![0.0; if quantities.vectors { total * D } else { 0 }],
-        shifts: vec![0; if quantities.shifts { total * D } else { 0 }],
-    };
-    let is = DisjointSlice::new(&mut out.i);
-    let js = DisjointSlice::new(&mut out.j);
-    let rs = DisjointSlice::new(&mut out.distances);
-    let ds = DisjointSlice::new(&mut out.vectors);
-    let ss = DisjointSlice::new(&mut out.shifts);
-    let domain = cells.domain();
-    let place = |chunk: &ChunkRows<D>| {
-        let mut at = 0;
-        for (k, &length) in chunk.lengths.iter().enumerate() {
-            let i = order[chunk.first_slot + k] as usize;
-            let row = at..at + length as usize;
-            at = row.end;
-            let place = start[i]..start[i + 1];
-            // SAFETY: the rows partition 0..total (prefix sums of the row
-            // lengths), and row `i` belongs to exactly one chunk, which places it
-            // once.
-            unsafe {
-                is.range(place.clone()).fill(i as i64);
-                for (slot, &j) in js
-                    .range(place.clone())
-                    .iter_mut()
-                    .zip(&chunk.js[row.clone()])
-                {
-                    *slot = j as i64;
-                }
-                if quantities.distances {
-                    let r2s = &chunk.r2s[row.clone()];
-                    for (r, r2) in rs.range(place.clone()).iter_mut().zip(r2s) {
-                        *r = r2.sqrt();
-                    }
-                }
-                if !quantities.separations() {
-                    continue;
-                }
-                let seps = &chunk.separations[row.clone()];
-                if quantities.vectors {
-                    let v = ds.range(place.start * D..place.end * D);
-                    for (slot, d) in v.chunks_exact_mut(D).zip(seps) {
-                        slot.copy_from_slice(d);
-                    }
-                }
-                if quantities.shifts {
-                    let s = ss.range(place.start * D..place.end * D);
-                    let rows = s.chunks_exact_mut(D).zip(&chunk.js[row.clone()]).zip(seps);
-                    for ((slot, &j), d) in rows {
-                        let shift = image_shift(domain, &points[i], &points[j as usize], d);
-                        slot.copy_from_slice(&shift);
-                    }
-                }
-            }
-        }
-    };
-    if threads.count() == 1 {
-        chunks.iter().for_each(place);
+    // the bare index list gets its own search loop, as in `as_found`
+    let found = if quantities == PairQuantities::default() {
+        find_pairs::<D, false>(cells, &test, quantities, threads)
     } else {
-        threads.install(|| chunks.par_iter().for_each(place));
-    }
-    out
+        find_pairs::<D, true>(cells, &test, quantities, threads)
+    };
+    let (start, rows) = gather_rows(&found, cells.len(), quantities, threads);
+    // the found pairs are copied into the rows: their memory goes before the
+    // output's is taken
+    drop(found);
+    place_rows(cells, points, &start, &rows, quantities, threads)
 }
 
 /// The same pairs and quantities as [`sorted_half_list`], in the order the half
@@ -329,95 +274,229 @@ fn image_shift<const D: usize>(
     })
 }
 
-/// The rows of every particle, chunk of cells by chunk of cells (in parallel),
-/// the chunks in cell order; squared distances and separations kept when the
-/// `quantities` need them.
-fn find_rows<const D: usize>(
+/// Every pair over the half stencil, in cell order, filed under its row, in
+/// parts (balanced runs of cells, in parallel): the parts in cell order. The
+/// quantities are left out at compile time unless `QUANTITIES`.
+fn find_pairs<const D: usize, const QUANTITIES: bool>(
     cells: &CellList<D>,
     test: &CutoffTest,
     quantities: PairQuantities,
     threads: &Threads,
-) -> Vec<ChunkRows<D>> {
-    let num_cells = cells.grid().num_cells();
-    let rows = |homes: std::ops::Range<usize>| {
-        let first_slot = if homes.is_empty() {
-            0
-        } else {
-            cells.cell_range(homes.start).start
-        };
-        let mut chunk = ChunkRows {
-            first_slot,
-            ..ChunkRows::default()
-        };
-        for home in homes {
-            rows_of_cell(cells, home, test, quantities, &mut chunk);
-        }
-        chunk
-    };
-    if threads.count() == 1 {
-        return vec![rows(0..num_cells)];
-    }
-    threads.install(|| Threads::chunks(num_cells).map(rows).collect())
-}
-
-/// Appends to `chunk` the row of every particle of cell `home`: its neighbours
-/// `j > i` (input numbering) over the full stencil, sorted by `j`.
-fn rows_of_cell<const D: usize>(
-    cells: &CellList<D>,
-    home: usize,
-    test: &CutoffTest,
-    quantities: PairQuantities,
-    chunk: &mut ChunkRows<D>,
-) {
-    let (keep_r2, keep_separations) = (quantities.distances, quantities.separations());
+) -> Vec<FoundPairs<D>> {
     let order = cells.order();
-    let mut runs = [StencilRun::<D>::default(); 27];
-    let count = cells
-        .grid()
-        .stencil_runs(home, StencilKind::Full, &mut runs);
-    let mut scratch = ScanScratch::default();
-    // (j << 32 | position in the row found): sorting these sorts the row by j
-    let mut keys: Vec<u64> = Vec::with_capacity(64);
-    let mut found: Vec<[f64; D]> = Vec::with_capacity(64);
-    let mut found_r2: Vec<f64> = Vec::with_capacity(64);
-    for slot in cells.cell_range(home) {
-        let i = order[slot];
-        keys.clear();
-        found.clear();
-        found_r2.clear();
-        for_each_in_row(
-            cells,
-            slot,
-            &runs[..count],
-            StencilKind::Full,
-            test,
-            &mut scratch,
-            |other, _, d, r2| {
-                let j = order[other];
-                if j > i {
-                    keys.push(((j as u64) << 32) | keys.len() as u64);
+    let (keep_r2, keep_separations) = (quantities.distances, quantities.separations());
+    let guess = expected_pairs(cells, test.cutoff());
+    let find = |homes: &std::ops::Range<usize>| {
+        let room = share_of(guess, cells, homes);
+        let mut found = FoundPairs {
+            rows: large_vec(room),
+            entries: RowEntries {
+                js: large_vec(room),
+                r2s: large_vec(if QUANTITIES && keep_r2 { room } else { 0 }),
+                separations: large_vec(if QUANTITIES && keep_separations {
+                    room
+                } else {
+                    0
+                }),
+            },
+        };
+        for home in homes.clone() {
+            for_each_row_in_cell(cells, home, StencilKind::Half, test, |a, b, _, d, r2| {
+                let (ia, ib) = (order[a], order[b]);
+                let forward = ia < ib;
+                found.rows.push(if forward { a } else { b } as u32);
+                found.entries.js.push(ia.max(ib));
+                if QUANTITIES {
                     if keep_r2 {
-                        found_r2.push(r2);
+                        found.entries.r2s.push(r2);
                     }
                     if keep_separations {
-                        found.push(*d);
+                        let d = if forward { *d } else { d.map(|x| -x) };
+                        found.entries.separations.push(d);
                     }
+                }
+            });
+        }
+        found
+    };
+    let runs = balanced_cell_runs(cells, tasks_for(threads));
+    if threads.count() == 1 {
+        return runs.iter().map(find).collect();
+    }
+    threads.install(|| runs.par_iter().map(find).collect())
+}
+
+/// The `found` pairs gathered row by row (the rows are the `n` slots) by a
+/// stable counting sort in parts: `start` (returned first) holds the `n + 1`
+/// offsets of the rows' entries, in the order found within a row.
+fn gather_rows<const D: usize>(
+    found: &[FoundPairs<D>],
+    n: usize,
+    quantities: PairQuantities,
+    threads: &Threads,
+) -> (Vec<u32>, RowEntries<D>) {
+    let total: usize = found.iter().map(|part| part.rows.len()).sum();
+    let room = |wanted: bool| if wanted { total } else { 0 };
+    let mut rows = RowEntries::<D> {
+        js: large_vec(total),
+        r2s: large_vec(room(quantities.distances)),
+        separations: large_vec(room(quantities.separations())),
+    };
+    let js = DisjointSlice::new(&mut rows.js.spare_capacity_mut()[..total]);
+    let r2s = DisjointSlice::new(&mut rows.r2s.spare_capacity_mut()[..room(quantities.distances)]);
+    let separations = DisjointSlice::new(
+        &mut rows.separations.spare_capacity_mut()[..room(quantities.separations())],
+    );
+    let (mut start, mut counts) = (Vec::new(), Vec::new());
+    // SAFETY: each part's items are its found pairs, in order, with their
+    // rows as keys: the same on both passes
+    unsafe {
+        counting_sort_parts(
+            found.len(),
+            |p| (0..found[p].rows.len()).map(move |k| (p, k)),
+            |&(p, k)| found[p].rows[k],
+            n,
+            Some(threads),
+            &mut start,
+            &mut counts,
+            |(p, k), slot| {
+                // SAFETY: every slot below `total` is given to one pair; the
+                // columns of the quantities asked for are `total` long
+                let entries = &found[p].entries;
+                js.get_unchecked(slot).write(entries.js[k]);
+                if quantities.distances {
+                    r2s.get_unchecked(slot).write(entries.r2s[k]);
+                }
+                if quantities.separations() {
+                    separations
+                        .get_unchecked(slot)
+                        .write(entries.separations[k]);
                 }
             },
         );
-        keys.sort_unstable();
-        chunk.lengths.push(keys.len() as u32);
-        chunk.js.extend(keys.iter().map(|k| (k >> 32) as u32));
-        let found_at = |k: &u64| (k & 0xffff_ffff) as usize;
-        if keep_r2 {
-            chunk.r2s.extend(keys.iter().map(|k| found_r2[found_at(k)]));
-        }
-        if keep_separations {
-            chunk
-                .separations
-                .extend(keys.iter().map(|k| found[found_at(k)]));
-        }
     }
+    // SAFETY: the counting sort gave out exactly the slots 0..total, each once
+    unsafe {
+        rows.js.set_len(total);
+        rows.r2s.set_len(room(quantities.distances));
+        rows.separations.set_len(room(quantities.separations()));
+    }
+    (start, rows)
+}
+
+/// How many rows ahead [`place_rows`] asks for a row's entries.
+const ROWS_AHEAD: usize = 8;
+
+/// The rows (entries `start[s]..start[s + 1]` of `rows` for slot `s`) sorted by
+/// `j` and placed in input order, with the `quantities` asked for: the sorted
+/// half list. The rows are taken in input order, in parts (in parallel), so
+/// that each part writes its stretch of the output from start to end; only
+/// the rows' reads jump.
+fn place_rows<const D: usize>(
+    cells: &CellList<D>,
+    points: &[[f64; D]],
+    start: &[u32],
+    rows: &RowEntries<D>,
+    quantities: PairQuantities,
+    threads: &Threads,
+) -> PairArrays {
+    let order = cells.order();
+    let n = cells.len();
+    // where each particle's row begins in `rows` and in the output
+    let mut entries_of = vec![0u32; n];
+    let mut place_of = vec![0usize; n + 1];
+    for (slot, &i) in order.iter().enumerate() {
+        entries_of[i as usize] = start[slot];
+        place_of[i as usize + 1] = (start[slot + 1] - start[slot]) as usize;
+    }
+    for i in 0..n {
+        place_of[i + 1] += place_of[i];
+    }
+    let total = place_of[n];
+    let mut out = PairArrays {
+        i: large_zeroed(vec![0; total]),
+        j: large_zeroed(vec![0; total]),
+        distances: large_zeroed(vec![0.0; if quantities.distances { total } else { 0 }]),
+        vectors: large_zeroed(vec![0.0; if quantities.vectors { total * D } else { 0 }]),
+        shifts: large_zeroed(vec![0; if quantities.shifts { total * D } else { 0 }]),
+    };
+    let is = DisjointSlice::new(&mut out.i);
+    let js = DisjointSlice::new(&mut out.j);
+    let rs = DisjointSlice::new(&mut out.distances);
+    let ds = DisjointSlice::new(&mut out.vectors);
+    let ss = DisjointSlice::new(&mut out.shifts);
+    let domain = cells.domain();
+    let with_quantities = quantities != PairQuantities::default();
+    let ranges = part_ranges(n, parts_for(Some(threads)));
+    map_parts(Some(threads), ranges.len(), |p| {
+        // (j << 32 | entry in the row): sorting these sorts the row by j
+        let mut keys: Vec<u64> = Vec::with_capacity(64);
+        let mut sorted_js: Vec<u32> = Vec::with_capacity(64);
+        for i in ranges[p].clone() {
+            let place = place_of[i]..place_of[i + 1];
+            let entries = entries_of[i] as usize..entries_of[i] as usize + place.len();
+            // the rows are read in random places: ask for one a few rows ahead
+            if let Some(&ahead) = entries_of.get(i + ROWS_AHEAD) {
+                prefetch(&rows.js, ahead as usize, 2);
+            }
+            // SAFETY: the rows partition 0..total (prefix sums of the row
+            // lengths), and each row is placed once, by the part of its `i`
+            let (out_i, out_j) = unsafe { (is.range(place.clone()), js.range(place.clone())) };
+            out_i.fill(i as i64);
+            if !with_quantities {
+                sorted_js.clear();
+                sorted_js.extend_from_slice(&rows.js[entries]);
+                sorted_js.sort_unstable();
+                for (out, &j) in out_j.iter_mut().zip(&sorted_js) {
+                    *out = j as i64;
+                }
+                continue;
+            }
+            keys.clear();
+            keys.extend(
+                rows.js[entries.clone()]
+                    .iter()
+                    .enumerate()
+                    .map(|(k, &j)| ((j as u64) << 32) | k as u64),
+            );
+            keys.sort_unstable();
+            let entry = |key: &u64| entries.start + (key & 0xffff_ffff) as usize;
+            for (out, key) in out_j.iter_mut().zip(&keys) {
+                *out = (key >> 32) as i64;
+            }
+            // SAFETY: as above, `D` numbers per pair for the vectors and shifts
+            let (out_r, out_d, out_s) = unsafe {
+                (
+                    rs.range(if quantities.distances {
+                        place.clone()
+                    } else {
+                        0..0
+                    }),
+                    ds.range(if quantities.vectors {
+                        place.start * D..place.end * D
+                    } else {
+                        0..0
+                    }),
+                    ss.range(if quantities.shifts {
+                        place.start * D..place.end * D
+                    } else {
+                        0..0
+                    }),
+                )
+            };
+            for (r, key) in out_r.iter_mut().zip(&keys) {
+                *r = rows.r2s[entry(key)].sqrt();
+            }
+            for (d, key) in out_d.chunks_exact_mut(D).zip(&keys) {
+                d.copy_from_slice(&rows.separations[entry(key)]);
+            }
+            for (s, key) in out_s.chunks_exact_mut(D).zip(&keys) {
+                let (j, d) = ((key >> 32) as usize, &rows.separations[entry(key)]);
+                s.copy_from_slice(&image_shift(domain, &points[i], &points[j], d));
+            }
+        }
+    });
+    out
 }
 
 /// The sorted half list of points that move between calls, kept with a skin:
