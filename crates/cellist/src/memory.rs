@@ -11,17 +11,6 @@ pub fn large_vec<T>(capacity: usize) -> Vec<T> {
     v
 }
 
-/// `zeros`, a fresh `vec![0; n]` not yet written to, advised as [`large_vec`]:
-/// large zeroed vectors come straight from the kernel's zeroed pages (no
-/// `memset`), so the advice still decides how the first write backs them.
-pub fn large_zeroed<T>(zeros: Vec<T>) -> Vec<T> {
-    advise_huge_pages(
-        zeros.as_ptr() as usize,
-        zeros.capacity() * std::mem::size_of::<T>(),
-    );
-    zeros
-}
-
 /// Asks the CPU to bring the first `lines` cache lines (64 bytes each) from
 /// `values[at]` on into its cache, for a read soon after: a hint with no
 /// effect on results (none at all off x86-64, or past the end of `values`).

@@ -17,7 +17,7 @@ use super::grid::StencilKind;
 use super::pairs::{balanced_cell_runs, expected_pairs, share_of, tasks_for};
 use super::traverse::{for_each_row_in_cell, CutoffTest};
 use crate::geometry::{norm2, Domain};
-use crate::memory::{large_vec, large_zeroed, prefetch};
+use crate::memory::{large_vec, prefetch};
 use crate::threads::{
     counting_sort_parts, map_parts, part_ranges, parts_for, DisjointSlice, Threads,
 };
@@ -413,12 +413,15 @@ fn place_rows<const D: usize>(
         place_of[i + 1] += place_of[i];
     }
     let total = place_of[n];
+    // ordinary zeroed memory, not advised to use huge pages as `large_vec` is:
+    // returned to numpy and freed between calls, huge pages came back cold
+    // more often than small ones (docs/benchmarks.md, 2026-11-27 evening)
     let mut out = PairArrays {
-        i: large_zeroed(vec![0; total]),
-        j: large_zeroed(vec![0; total]),
-        distances: large_zeroed(vec![0.0; if quantities.distances { total } else { 0 }]),
-        vectors: large_zeroed(vec![0.0; if quantities.vectors { total * D } else { 0 }]),
-        shifts: large_zeroed(vec![0; if quantities.shifts { total * D } else { 0 }]),
+        i: vec![0; total],
+        j: vec![0; total],
+        distances: vec![0.0; if quantities.distances { total } else { 0 }],
+        vectors: vec![0.0; if quantities.vectors { total * D } else { 0 }],
+        shifts: vec![0; if quantities.shifts { total * D } else { 0 }],
     };
     let is = DisjointSlice::new(&mut out.i);
     let js = DisjointSlice::new(&mut out.j);
