@@ -17,7 +17,7 @@ use super::grid::StencilKind;
 use super::pairs::{balanced_cell_runs, expected_pairs, share_of, tasks_for};
 use super::traverse::{for_each_row_in_cell, CutoffTest};
 use crate::geometry::{norm2, Domain};
-use crate::memory::{large_vec, prefetch};
+use crate::memory::{large_vec, populate, prefetch};
 use crate::threads::{
     counting_sort_parts, map_parts, part_ranges, parts_for, DisjointSlice, Threads,
 };
@@ -435,6 +435,22 @@ fn place_rows<const D: usize>(
         // (j << 32 | entry in the row): sorting these sorts the row by j
         let mut keys: Vec<u64> = Vec::with_capacity(64);
         let mut sorted_js: Vec<u32> = Vec::with_capacity(64);
+        // this part's stretch of the output, mapped in one call per array
+        let stretch = place_of[ranges[p].start]..place_of[ranges[p].end];
+        let wide = stretch.start * D..stretch.end * D;
+        // SAFETY: the parts' stretches are disjoint; the slices end here,
+        // before the rows' own are taken
+        unsafe {
+            populate(is.range(stretch.clone()));
+            populate(js.range(stretch.clone()));
+            populate(rs.range(if quantities.distances { stretch } else { 0..0 }));
+            populate(ds.range(if quantities.vectors {
+                wide.clone()
+            } else {
+                0..0
+            }));
+            populate(ss.range(if quantities.shifts { wide } else { 0..0 }));
+        }
         for i in ranges[p].clone() {
             let place = place_of[i]..place_of[i + 1];
             let entries = entries_of[i] as usize..entries_of[i] as usize + place.len();
