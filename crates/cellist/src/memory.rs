@@ -1,5 +1,8 @@
-//! Large result buffers backed by transparent huge pages where the system offers
-//! them: a fresh 200 MB pair list is otherwise tens of thousands of page faults.
+//! Memory hints for large buffers, none of which changes a result: huge pages
+//! for large result buffers where the system offers them (a fresh 200 MB pair
+//! list is otherwise tens of thousands of page faults), the pages of a fresh
+//! buffer mapped in one call before its first writes, and a read-ahead hint
+//! for reads in random places.
 
 /// An empty vector with room for `capacity` elements. On Linux, buffers of 4 MiB or
 /// more are advised to use huge pages (`madvise(MADV_HUGEPAGE)`), which cuts the
@@ -13,16 +16,17 @@ pub fn large_vec<T>(capacity: usize) -> Vec<T> {
 
 /// Asks the kernel to map the whole pages inside `values` at once, before a
 /// first write: one `madvise(MADV_POPULATE_WRITE)` instead of one page fault
-/// per 4 KiB page as the writes reach them. The contents are unchanged (fresh
+/// per page (4 KiB on x86-64) as the writes reach them. The contents are unchanged (fresh
 /// zeroed memory stays zero); a hint, ignored where refused (Linux before
 /// 5.14) or elsewhere.
 pub fn populate<T>(values: &mut [T]) {
     #[cfg(target_os = "linux")]
     {
-        const PAGE: usize = 4096;
+        // SAFETY: sysconf only reads a system constant
+        let page = unsafe { libc::sysconf(libc::_SC_PAGESIZE) }.max(1) as usize;
         let start = values.as_mut_ptr() as usize;
-        let first = start.next_multiple_of(PAGE);
-        let end = (start + std::mem::size_of_val(values)) / PAGE * PAGE;
+        let first = start.next_multiple_of(page);
+        let end = (start + std::mem::size_of_val(values)) / page * page;
         if end > first {
             // SAFETY: the range lies inside `values`, which this call borrows
             // mutably; MADV_POPULATE_WRITE only faults its pages in, as a

@@ -362,8 +362,14 @@ pub unsafe fn counting_sort_with(
 /// zeroes its row; the offsets are summed in blocks of buckets) stay within a
 /// few (8) per item, which bounds their memory and the work of summing them.
 pub fn sort_parts(n: usize, buckets: usize, threads: Option<&Threads>) -> usize {
-    let most = (COUNTS_PER_ITEM * n / buckets.max(1)).max(1);
-    parts_for(threads).min(most)
+    parts_for(threads).min(most_sort_parts(n, buckets))
+}
+
+/// The most parts a counting sort of `n` items into `buckets` may have, so
+/// that its parts x buckets counts stay within a few (8) per item (at least
+/// one part).
+pub fn most_sort_parts(n: usize, buckets: usize) -> usize {
+    (COUNTS_PER_ITEM * n / buckets.max(1)).max(1)
 }
 
 /// The stable counting sort under [`counting_sort_with`], of items given in

@@ -121,6 +121,15 @@ fn check_all_paths<const D: usize>(domain: &Domain<D>, cutoff: f64, points: &[[f
     };
     let sorted = sorted_half_list(&cells, points, cutoff, all, &one);
     assert_eq!(sorted, sorted_half_list(&cells, points, cutoff, all, &two));
+    let three = Threads::new(3).unwrap();
+    assert_eq!(
+        sorted,
+        sorted_half_list(&cells, points, cutoff, all, &three)
+    );
+    // the indices alone (their own search loop and row sort): the same pairs
+    let bare = sorted_half_list(&cells, points, cutoff, PairQuantities::default(), &three);
+    assert_eq!((&bare.i, &bare.j), (&sorted.i, &sorted.j));
+    assert!(bare.distances.is_empty() && bare.vectors.is_empty() && bare.shifts.is_empty());
     let listed: Vec<(u32, u32, u64)> = (0..sorted.len())
         .map(|k| {
             (

@@ -19,7 +19,7 @@ use super::traverse::{for_each_row_in_cell, CutoffTest};
 use crate::geometry::{norm2, Domain};
 use crate::memory::{large_vec, populate, prefetch};
 use crate::threads::{
-    counting_sort_parts, map_parts, part_ranges, parts_for, DisjointSlice, Threads,
+    counting_sort_parts, map_parts, most_sort_parts, part_ranges, parts_for, DisjointSlice, Threads,
 };
 use rayon::prelude::*;
 
@@ -147,8 +147,9 @@ struct FoundPairs<const D: usize> {
 /// `S_a = round((d_a - (x_{j,a} - x_{i,a})) / L_a)`.
 ///
 /// # Panics
-/// If `cutoff` exceeds the cutoff the cell list was built for, or `points` is
-/// not the cell list's particle count.
+/// If `cutoff` exceeds the cutoff the cell list was built for, if `points` is
+/// not the cell list's particle count, or at `2^32 - 1` pairs or more (the
+/// rows are gathered with `u32` offsets).
 pub fn sorted_half_list<const D: usize>(
     cells: &CellList<D>,
     points: &[[f64; D]],
@@ -319,7 +320,10 @@ fn find_pairs<const D: usize, const QUANTITIES: bool>(
         }
         found
     };
-    let runs = balanced_cell_runs(cells, tasks_for(threads));
+    // the gather's counting sort keeps a row of n counts per part: at most
+    // a few counts per expected pair, however many threads
+    let tasks = tasks_for(threads).min(most_sort_parts(guess, cells.len()));
+    let runs = balanced_cell_runs(cells, tasks);
     if threads.count() == 1 {
         return runs.iter().map(find).collect();
     }
@@ -328,7 +332,8 @@ fn find_pairs<const D: usize, const QUANTITIES: bool>(
 
 /// The `found` pairs gathered row by row (the rows are the `n` slots) by a
 /// stable counting sort in parts: `start` (returned first) holds the `n + 1`
-/// offsets of the rows' entries, in the order found within a row.
+/// offsets of the rows' entries, in the order found within a row. The sort's
+/// parts are the search's (see [`find_pairs`] for their number).
 fn gather_rows<const D: usize>(
     found: &[FoundPairs<D>],
     n: usize,
@@ -337,32 +342,32 @@ fn gather_rows<const D: usize>(
 ) -> (Vec<u32>, RowEntries<D>) {
     let total: usize = found.iter().map(|part| part.rows.len()).sum();
     let room = |wanted: bool| if wanted { total } else { 0 };
+    let (r2_room, separation_room) = (room(quantities.distances), room(quantities.separations()));
     let mut rows = RowEntries::<D> {
         js: large_vec(total),
-        r2s: large_vec(room(quantities.distances)),
-        separations: large_vec(room(quantities.separations())),
+        r2s: large_vec(r2_room),
+        separations: large_vec(separation_room),
     };
     let js = DisjointSlice::new(&mut rows.js.spare_capacity_mut()[..total]);
-    let r2s = DisjointSlice::new(&mut rows.r2s.spare_capacity_mut()[..room(quantities.distances)]);
-    let separations = DisjointSlice::new(
-        &mut rows.separations.spare_capacity_mut()[..room(quantities.separations())],
-    );
+    let r2s = DisjointSlice::new(&mut rows.r2s.spare_capacity_mut()[..r2_room]);
+    let separations =
+        DisjointSlice::new(&mut rows.separations.spare_capacity_mut()[..separation_room]);
     let (mut start, mut counts) = (Vec::new(), Vec::new());
     // SAFETY: each part's items are its found pairs, in order, with their
-    // rows as keys: the same on both passes
+    // rows as keys: the same on both passes. Every slot below `total` is
+    // given to one pair (the columns of the quantities asked for are `total`
+    // long), so `place` writes each slot once.
     unsafe {
         counting_sort_parts(
             found.len(),
-            |p| (0..found[p].rows.len()).map(move |k| (p, k)),
-            |&(p, k)| found[p].rows[k],
+            |q| (0..found[q].rows.len()).map(move |k| (q, k)),
+            |&(q, k)| found[q].rows[k],
             n,
             Some(threads),
             &mut start,
             &mut counts,
-            |(p, k), slot| {
-                // SAFETY: every slot below `total` is given to one pair; the
-                // columns of the quantities asked for are `total` long
-                let entries = &found[p].entries;
+            |(q, k), slot| {
+                let entries = &found[q].entries;
                 js.get_unchecked(slot).write(entries.js[k]);
                 if quantities.distances {
                     r2s.get_unchecked(slot).write(entries.r2s[k]);
@@ -378,8 +383,8 @@ fn gather_rows<const D: usize>(
     // SAFETY: the counting sort gave out exactly the slots 0..total, each once
     unsafe {
         rows.js.set_len(total);
-        rows.r2s.set_len(room(quantities.distances));
-        rows.separations.set_len(room(quantities.separations()));
+        rows.r2s.set_len(r2_room);
+        rows.separations.set_len(separation_room);
     }
     (start, rows)
 }
@@ -430,6 +435,17 @@ fn place_rows<const D: usize>(
     let ss = DisjointSlice::new(&mut out.shifts);
     let domain = cells.domain();
     let with_quantities = quantities != PairQuantities::default();
+    // the elements of the quantities' columns that hold the pairs `pairs`
+    // (`D` per pair for the vectors and shifts; none for those not asked for)
+    let quantity_ranges = |pairs: std::ops::Range<usize>| {
+        let wide = pairs.start * D..pairs.end * D;
+        let only = |wanted: bool, range| if wanted { range } else { 0..0 };
+        (
+            only(quantities.distances, pairs),
+            only(quantities.vectors, wide.clone()),
+            only(quantities.shifts, wide),
+        )
+    };
     let ranges = part_ranges(n, parts_for(Some(threads)));
     map_parts(Some(threads), ranges.len(), |p| {
         // (j << 32 | entry in the row): sorting these sorts the row by j
@@ -437,19 +453,15 @@ fn place_rows<const D: usize>(
         let mut sorted_js: Vec<u32> = Vec::with_capacity(64);
         // this part's stretch of the output, mapped in one call per array
         let stretch = place_of[ranges[p].start]..place_of[ranges[p].end];
-        let wide = stretch.start * D..stretch.end * D;
+        let (r, d, s) = quantity_ranges(stretch.clone());
         // SAFETY: the parts' stretches are disjoint; the slices end here,
         // before the rows' own are taken
         unsafe {
             populate(is.range(stretch.clone()));
-            populate(js.range(stretch.clone()));
-            populate(rs.range(if quantities.distances { stretch } else { 0..0 }));
-            populate(ds.range(if quantities.vectors {
-                wide.clone()
-            } else {
-                0..0
-            }));
-            populate(ss.range(if quantities.shifts { wide } else { 0..0 }));
+            populate(js.range(stretch));
+            populate(rs.range(r));
+            populate(ds.range(d));
+            populate(ss.range(s));
         }
         for i in ranges[p].clone() {
             let place = place_of[i]..place_of[i + 1];
@@ -483,26 +495,9 @@ fn place_rows<const D: usize>(
             for (out, key) in out_j.iter_mut().zip(&keys) {
                 *out = (key >> 32) as i64;
             }
-            // SAFETY: as above, `D` numbers per pair for the vectors and shifts
-            let (out_r, out_d, out_s) = unsafe {
-                (
-                    rs.range(if quantities.distances {
-                        place.clone()
-                    } else {
-                        0..0
-                    }),
-                    ds.range(if quantities.vectors {
-                        place.start * D..place.end * D
-                    } else {
-                        0..0
-                    }),
-                    ss.range(if quantities.shifts {
-                        place.start * D..place.end * D
-                    } else {
-                        0..0
-                    }),
-                )
-            };
+            let (r, d, s) = quantity_ranges(place);
+            // SAFETY: as above
+            let (out_r, out_d, out_s) = unsafe { (rs.range(r), ds.range(d), ss.range(s)) };
             for (r, key) in out_r.iter_mut().zip(&keys) {
                 *r = rows.r2s[entry(key)].sqrt();
             }
@@ -626,6 +621,22 @@ impl<const D: usize> SkinList<D> {
 mod tests {
     use super::*;
     use crate::random::Rng;
+
+    #[test]
+    fn no_points_give_no_pairs() {
+        let none: Vec<[f64; 3]> = Vec::new();
+        let domain = Domain::for_points(&none, [5.0; 3], [0.0; 3], [true; 3]).unwrap();
+        let cells = CellList::build(&domain, 1.5, &none).unwrap();
+        let all = PairQuantities {
+            distances: true,
+            vectors: true,
+            shifts: true,
+        };
+        for threads in [Threads::single(), Threads::new(2).unwrap()] {
+            let pairs = sorted_half_list(&cells, &none, 1.5, all, &threads);
+            assert_eq!(pairs, PairArrays::default());
+        }
+    }
 
     #[test]
     fn the_skin_list_follows_moving_points_with_few_searches() {
