@@ -16,30 +16,22 @@ pub fn large_vec<T>(capacity: usize) -> Vec<T> {
 
 /// Asks the kernel to map the whole pages inside `values` at once, before a
 /// first write: one `madvise(MADV_POPULATE_WRITE)` instead of one page fault
-/// per page (4 KiB on x86-64) as the writes reach them. The contents are unchanged (fresh
-/// zeroed memory stays zero); a hint, ignored where refused (Linux before
-/// 5.14) or elsewhere.
+/// per page (4 KiB on x86-64) as the writes reach them. The contents are
+/// unchanged (fresh zeroed memory stays zero); a hint, ignored where refused
+/// (Linux before 5.14) or elsewhere.
 pub fn populate<T>(values: &mut [T]) {
     #[cfg(target_os = "linux")]
     {
         // SAFETY: sysconf only reads a system constant
         let page = unsafe { libc::sysconf(libc::_SC_PAGESIZE) }.max(1) as usize;
-        let start = values.as_mut_ptr() as usize;
-        let first = start.next_multiple_of(page);
-        let end = (start + std::mem::size_of_val(values)) / page * page;
-        if end > first {
-            // SAFETY: the range lies inside `values`, which this call borrows
-            // mutably; MADV_POPULATE_WRITE only faults its pages in, as a
-            // write of their own contents would. The result is ignored: the
-            // writes fault the pages in themselves otherwise.
-            unsafe {
-                libc::madvise(
-                    first as *mut libc::c_void,
-                    end - first,
-                    libc::MADV_POPULATE_WRITE,
-                );
-            }
-        }
+        // MADV_POPULATE_WRITE only faults the pages in, as a write of their
+        // own contents would; `values` is borrowed mutably meanwhile
+        advise_whole_pages(
+            values.as_mut_ptr() as usize,
+            std::mem::size_of_val(values),
+            page,
+            libc::MADV_POPULATE_WRITE,
+        );
     }
     #[cfg(not(target_os = "linux"))]
     let _ = values;
@@ -71,17 +63,25 @@ pub fn prefetch<T>(values: &[T], at: usize, lines: usize) {
 #[cfg(target_os = "linux")]
 fn advise_huge_pages(start: usize, bytes: usize) {
     const HUGE: usize = 2 << 20;
-    if bytes < 2 * HUGE {
-        return;
+    if bytes >= 2 * HUGE {
+        // MADV_HUGEPAGE changes only how the kernel backs the memory
+        advise_whole_pages(start, bytes, HUGE, libc::MADV_HUGEPAGE);
     }
-    let first = start.next_multiple_of(HUGE);
-    let end = (start + bytes) / HUGE * HUGE;
+}
+
+/// `madvise(advice)` over the whole pages of `page` bytes
+/// inside the `bytes` from `start`, if any. `advice` must leave the contents
+/// of the range as they are (the callers' hints do); the result is ignored,
+/// since the memory works the same without the hint.
+#[cfg(target_os = "linux")]
+fn advise_whole_pages(start: usize, bytes: usize, page: usize, advice: libc::c_int) {
+    let first = start.next_multiple_of(page);
+    let end = (start + bytes) / page * page;
     if end > first {
-        // SAFETY: the range lies inside the vector's own allocation; madvise with
-        // MADV_HUGEPAGE changes only how the kernel backs it, never its contents.
-        // Its result is ignored: without huge pages the memory works the same.
+        // SAFETY: the range lies inside the caller's own memory, and the
+        // advice changes none of its contents (the caller's promise)
         unsafe {
-            libc::madvise(first as *mut libc::c_void, end - first, libc::MADV_HUGEPAGE);
+            libc::madvise(first as *mut libc::c_void, end - first, advice);
         }
     }
 }

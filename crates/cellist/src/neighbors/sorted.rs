@@ -100,7 +100,7 @@ impl PairArrays {
             self.distances.push(r2.sqrt());
         }
         if quantities.separations() {
-            let d = if a < b { *d } else { d.map(|x| -x) };
+            let d = from_first(a, b, d);
             if quantities.vectors {
                 self.vectors.extend_from_slice(&d);
             }
@@ -122,14 +122,40 @@ impl PairArrays {
     }
 }
 
+/// The separation of a pair found from the particle numbered `a` (input
+/// numbering), `d = (x_b - x_a) + s`, seen from the pair's particle with the
+/// smaller number: `d` itself, or `-d` when that is `b`. The negation is what
+/// a search from `b` computes, to the bit: `(x_a - x_b) + (-s) = -((x_b - x_a)
+/// + s)` in binary64, and `r^2` is the same either way.
+#[inline(always)]
+fn from_first<const D: usize>(a: u32, b: u32, d: &[f64; D]) -> [f64; D] {
+    if a < b {
+        *d
+    } else {
+        d.map(|x| -x)
+    }
+}
+
 /// Pairs filed under their rows: each pair's second input number `j` and,
 /// when the quantities need them, its `r^2` and its separation `x_j - x_i`
 /// (minimum image) from the row's particle `i`.
-#[derive(Default)]
 struct RowEntries<const D: usize> {
     js: Vec<u32>,
     r2s: Vec<f64>,
     separations: Vec<[f64; D]>,
+}
+
+impl<const D: usize> RowEntries<D> {
+    /// Empty columns with room for `pairs` entries, those of the quantities
+    /// not asked for without room (large buffers advised to use huge pages).
+    fn with_capacity(pairs: usize, quantities: PairQuantities) -> Self {
+        let room = |wanted: bool| if wanted { pairs } else { 0 };
+        RowEntries {
+            js: large_vec(pairs),
+            r2s: large_vec(room(quantities.distances)),
+            separations: large_vec(room(quantities.separations())),
+        }
+    }
 }
 
 /// The pairs one task of the search found, in the order found: each pair's
@@ -291,29 +317,19 @@ fn find_pairs<const D: usize, const QUANTITIES: bool>(
         let room = share_of(guess, cells, homes);
         let mut found = FoundPairs {
             rows: large_vec(room),
-            entries: RowEntries {
-                js: large_vec(room),
-                r2s: large_vec(if QUANTITIES && keep_r2 { room } else { 0 }),
-                separations: large_vec(if QUANTITIES && keep_separations {
-                    room
-                } else {
-                    0
-                }),
-            },
+            entries: RowEntries::with_capacity(room, quantities),
         };
         for home in homes.clone() {
             for_each_row_in_cell(cells, home, StencilKind::Half, test, |a, b, _, d, r2| {
                 let (ia, ib) = (order[a], order[b]);
-                let forward = ia < ib;
-                found.rows.push(if forward { a } else { b } as u32);
+                found.rows.push(if ia < ib { a } else { b } as u32);
                 found.entries.js.push(ia.max(ib));
                 if QUANTITIES {
                     if keep_r2 {
                         found.entries.r2s.push(r2);
                     }
                     if keep_separations {
-                        let d = if forward { *d } else { d.map(|x| -x) };
-                        found.entries.separations.push(d);
+                        found.entries.separations.push(from_first(ia, ib, d));
                     }
                 }
             });
@@ -343,11 +359,7 @@ fn gather_rows<const D: usize>(
     let total: usize = found.iter().map(|part| part.rows.len()).sum();
     let room = |wanted: bool| if wanted { total } else { 0 };
     let (r2_room, separation_room) = (room(quantities.distances), room(quantities.separations()));
-    let mut rows = RowEntries::<D> {
-        js: large_vec(total),
-        r2s: large_vec(r2_room),
-        separations: large_vec(separation_room),
-    };
+    let mut rows = RowEntries::<D>::with_capacity(total, quantities);
     let js = DisjointSlice::new(&mut rows.js.spare_capacity_mut()[..total]);
     let r2s = DisjointSlice::new(&mut rows.r2s.spare_capacity_mut()[..r2_room]);
     let separations =
@@ -418,23 +430,6 @@ fn place_rows<const D: usize>(
         place_of[i + 1] += place_of[i];
     }
     let total = place_of[n];
-    // ordinary zeroed memory, not advised to use huge pages as `large_vec` is:
-    // returned to numpy and freed between calls, huge pages came back cold
-    // more often than small ones (docs/benchmarks.md, 2026-11-27 evening)
-    let mut out = PairArrays {
-        i: vec![0; total],
-        j: vec![0; total],
-        distances: vec![0.0; if quantities.distances { total } else { 0 }],
-        vectors: vec![0.0; if quantities.vectors { total * D } else { 0 }],
-        shifts: vec![0; if quantities.shifts { total * D } else { 0 }],
-    };
-    let is = DisjointSlice::new(&mut out.i);
-    let js = DisjointSlice::new(&mut out.j);
-    let rs = DisjointSlice::new(&mut out.distances);
-    let ds = DisjointSlice::new(&mut out.vectors);
-    let ss = DisjointSlice::new(&mut out.shifts);
-    let domain = cells.domain();
-    let with_quantities = quantities != PairQuantities::default();
     // the elements of the quantities' columns that hold the pairs `pairs`
     // (`D` per pair for the vectors and shifts; none for those not asked for)
     let quantity_ranges = |pairs: std::ops::Range<usize>| {
@@ -446,6 +441,24 @@ fn place_rows<const D: usize>(
             only(quantities.shifts, wide),
         )
     };
+    // ordinary zeroed memory, not advised to use huge pages as `large_vec` is:
+    // returned to numpy and freed between calls, huge pages came back cold
+    // more often than small ones (docs/benchmarks.md, 2026-11-27 evening)
+    let (r, d, s) = quantity_ranges(0..total);
+    let mut out = PairArrays {
+        i: vec![0; total],
+        j: vec![0; total],
+        distances: vec![0.0; r.len()],
+        vectors: vec![0.0; d.len()],
+        shifts: vec![0; s.len()],
+    };
+    let is = DisjointSlice::new(&mut out.i);
+    let js = DisjointSlice::new(&mut out.j);
+    let rs = DisjointSlice::new(&mut out.distances);
+    let ds = DisjointSlice::new(&mut out.vectors);
+    let ss = DisjointSlice::new(&mut out.shifts);
+    let domain = cells.domain();
+    let with_quantities = quantities != PairQuantities::default();
     let ranges = part_ranges(n, parts_for(Some(threads)));
     map_parts(Some(threads), ranges.len(), |p| {
         // (j << 32 | entry in the row): sorting these sorts the row by j
