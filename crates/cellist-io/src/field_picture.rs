@@ -1,8 +1,8 @@
 //! Pictures of a scalar field carried by particles: each particle paints the square
 //! of one lattice spacing around it in a blue-white-red colour for its value (blue
 //! negative, white zero, red positive, saturating at a fixed scale, so that frames
-//! of one run compare). The frames go to [`crate::GifAnimation`] and
-//! [`crate::write_png`] with [`FieldPainter::palette`].
+//! of one run compare). The frames go to [`crate::GifAnimation`] and into the
+//! field charts ([`crate::field_chart()`]), with [`FieldPainter::palette`].
 
 const BACKGROUND: u8 = 0;
 const FIRST_LEVEL: u8 = 1;

@@ -340,7 +340,7 @@ pub struct GsdWriter {
 #[allow(clippy::len_without_is_empty)] // `len` is a file length, not a count
 impl GsdWriter {
     /// Creates (or empties) `path` as a GSD file of the `hoomd` schema, version
-    /// 1.4, from application "cellist <version>", with no frames.
+    /// 1.4, from application `"cellist <version>"`, with no frames.
     pub fn create(path: &Path) -> io::Result<Self> {
         let mut file = OpenOptions::new()
             .read(true)

@@ -96,7 +96,7 @@ pub fn velocity_at(
 
 /// `u_i += sum_j Gamma_j K_sigma(x_i - x_j)` at every target `i` over the
 /// sources given (positions and circulations; a source at the target's
-/// position adds nothing), one side of each pair only, in [`LANES`] SIMD
+/// position adds nothing), one side of each pair only, in `LANES` SIMD
 /// lanes with the far-field shortcut of the direct solver: what a rank of a
 /// distributed direct sum adds up while the other ranks' particles pass by in
 /// a ring. Each target's sum runs in an order fixed by the sources, so the
@@ -145,7 +145,7 @@ const BLOCK: usize = 256;
 /// Partners computed together: one AVX2 vector.
 const LANES: usize = 4;
 
-/// All pairs of particles, each once: blocks of [`BLOCK`] particles meet in the
+/// All pairs of particles, each once: blocks of `BLOCK` particles meet in the
 /// rounds of a round-robin tournament, the block pairs of a round in parallel.
 #[derive(Clone, Debug)]
 pub struct DirectBiotSavart {

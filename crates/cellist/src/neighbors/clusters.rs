@@ -29,7 +29,7 @@ pub const CLUSTER: usize = 4;
 
 /// One cluster's positions or forces, an array of lanes per axis: lane `l` of
 /// axis `a` is component `a` of the cluster's slot `first + l`. Lanes beyond
-/// the cluster's size hold 0 in forces and [`PADDING`] in positions.
+/// the cluster's size hold 0 in forces and `PADDING` in positions.
 pub type Lanes<const D: usize> = [[f64; CLUSTER]; D];
 
 /// A half cluster pair list over the slots of a [`CellList`], in CSR form: row
@@ -482,7 +482,7 @@ pub fn separation<const D: usize>(xi: &Lanes<D>, i: usize, xj: &[F64x4; D]) -> (
 }
 
 /// `|d|^2` lane by lane, `d_0 d_0` then one fused multiply-add per further
-/// axis: the `r^2` of [`separation`].
+/// axis: the `r^2` of `separation`.
 #[inline(always)]
 pub fn squared_length<const D: usize>(d: &[F64x4; D]) -> F64x4 {
     d[1..]
