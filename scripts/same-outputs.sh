@@ -1,0 +1,84 @@
+#!/usr/bin/env bash
+# The output folders of this build against another binary's, file by file: a
+# refactor must change no output byte.
+#
+#   BASELINE=/path/to/older/cellist bash scripts/same-outputs.sh
+#   BASELINE=... BASELINE_MPI=/path/to/older/mpi/cellist bash scripts/same-outputs.sh
+#   CASES="lj-melt billiards" BASELINE=... bash scripts/same-outputs.sh
+#
+# Cases: every scenario in examples/ (`cellist run`, 2 threads), the collision
+# benchmark's sample input (`billiards run --viz --gif --png --output`), and with
+# BASELINE_MPI (and Open MPI) `mpirun -np 2 cellist run` of the md melt and the
+# pse sine, each with this build's MPI binary (`--features mpi`). CASES picks
+# some of them by name. Each case runs with both binaries into folders of their
+# own; the script prints `same` or the files that differ (or exist on one side
+# only) per case, and exits with 1 if any case differs. Standard output is not
+# compared (it holds wall times); the files are.
+set -euo pipefail
+here=$(cd "$(dirname "$0")/.." && pwd)
+: "${BASELINE:?set BASELINE to the cellist binary to compare with}"
+work=${WORK:-$(mktemp -d)}
+mkdir -p "$work/bin"
+echo "outputs in $work"
+
+cargo build --release -q --manifest-path "$here/Cargo.toml" -p cellist-cli
+cp "$here/target/release/cellist" "$work/bin/current"
+if [ -n "${BASELINE_MPI:-}" ]; then
+    cargo build --release -q --manifest-path "$here/Cargo.toml" -p cellist-cli --features mpi
+    cp "$here/target/release/cellist" "$work/bin/current-mpi"
+    # leave target/release/cellist as the plain build
+    cargo build --release -q --manifest-path "$here/Cargo.toml" -p cellist-cli
+fi
+
+sample="$here/../shared/testdata/billiards/inputs/sample.in"
+cases=()
+for scenario in "$here"/examples/*.toml; do
+    cases+=("$(basename "$scenario" .toml)")
+done
+cases+=(billiards)
+[ -n "${BASELINE_MPI:-}" ] && cases+=(mpi-md mpi-pse)
+wanted=" ${CASES:-${cases[*]}} "
+
+# run_case NAME BINARY MPI_BINARY FOLDER
+run_case() {
+    local name=$1 binary=$2 mpi=$3 out=$4
+    rm -rf "$out"
+    mkdir -p "$out"
+    case $name in
+        billiards)
+            "$binary" billiards run "$sample" --threads 2 --viz "$out/steps.out" \
+                --gif "$out/run.gif" --png "$out/final.png" --output "$out/final.out" \
+                > "$out.log" 2>&1
+            ;;
+        mpi-md)
+            mpirun --allow-run-as-root --oversubscribe -np 2 "$mpi" run \
+                "$here/examples/lj-melt.toml" --threads 1 --set run.steps=200 \
+                --out "$out" > "$out.log" 2>&1
+            ;;
+        mpi-pse)
+            mpirun --allow-run-as-root --oversubscribe -np 2 "$mpi" run \
+                "$here/examples/pse-sine.toml" --threads 1 --out "$out" > "$out.log" 2>&1
+            ;;
+        *)
+            "$binary" run "$here/examples/$name.toml" --threads 2 --out "$out" \
+                > "$out.log" 2>&1
+            ;;
+    esac
+}
+
+differ=0
+for name in "${cases[@]}"; do
+    [[ $wanted == *" $name "* ]] || continue
+    run_case "$name" "$BASELINE" "${BASELINE_MPI:-}" "$work/baseline/$name" \
+        || echo "$name: the baseline failed (see $work/baseline/$name.log)"
+    run_case "$name" "$work/bin/current" "$work/bin/current-mpi" "$work/current/$name" \
+        || echo "$name: this build failed (see $work/current/$name.log)"
+    if report=$(diff -rq "$work/baseline/$name" "$work/current/$name"); then
+        echo "$name: same ($(find "$work/current/$name" -type f | wc -l) files)"
+    else
+        echo "$name: DIFFERS"
+        echo "$report" | sed 's/^/    /'
+        differ=1
+    fi
+done
+exit "$differ"
