@@ -97,7 +97,7 @@ impl Simulation {
                     }
                 };
                 let facts = (
-                    session.model().name().to_string(),
+                    session.model().info().name.to_string(),
                     session.model().dt(),
                     warnings,
                 );
@@ -468,7 +468,7 @@ impl Simulation {
         let (step, columns, values) = self.call(py, |e| {
             let step = e.session.step();
             let model = e.session.model();
-            (step, model.thermo_columns().to_vec(), model.thermo(step))
+            (step, model.info().thermo_columns.to_vec(), model.thermo(step))
         })?;
         let dict = PyDict::new(py);
         dict.set_item("step", step)?;

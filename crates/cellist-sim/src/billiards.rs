@@ -4,10 +4,11 @@
 
 use crate::driver::{self, recorded, CheckpointKeys, Job, LastFrame};
 use crate::error::{SimError, SimResult};
+use crate::hosted::Hosted;
 use crate::observers::{open_stream, ChartAnimation, Observer, OutputPlan, Recorded, TableStyle};
 use crate::{RunContext, RunSummary};
 use cellist::models::billiards::{Billiards, BilliardsModel, CellShape, Table, DEFAULT_MAX_SWEEPS};
-use cellist::models::Model;
+
 use cellist::Threads;
 use cellist_io::{
     palette_rgb, read_billiards_input, write_chart, write_state, AtomicFile, BilliardsInput,
@@ -126,6 +127,7 @@ pub(crate) fn billiards_job(
 ) -> Job<BilliardsModel> {
     Job {
         model: BilliardsModel::new(system, input.ids.clone()),
+        ranks: Default::default(),
         steps: input.steps,
         dir,
         checkpoint,
@@ -348,6 +350,7 @@ pub fn run(run: &BilliardsRun, threads: &Threads) -> SimResult {
     let initial = BilliardsModel::new(system.clone(), input.ids.clone());
     let mut job = Job {
         model: BilliardsModel::new(system, input.ids.clone()),
+        ranks: Default::default(),
         steps,
         dir: PathBuf::new(),
         checkpoint: run.checkpoint.as_ref().map(|(file, every)| CheckpointKeys {

@@ -17,8 +17,10 @@
 //! ```
 
 use crate::error::{SimError, SimResult};
+use crate::hosted::Hosted;
 use crate::observers::{frame, write_field_csv, Observer, Recorded};
 use crate::progress::progress_bar;
+use crate::ranks::Ranks;
 use cellist::models::{check, Blowup, Model};
 use cellist::state::State;
 use cellist::Threads;
@@ -78,9 +80,11 @@ pub enum LastFrame {
 
 /// A run ready to go: the model (at its first step), how far to run, and what to
 /// write.
-pub struct Job<M: Model> {
+pub struct Job<M: Hosted> {
     /// The model, as built from its scenario or input.
     pub model: M,
+    /// Where the model lives: in this process, or over MPI ranks.
+    pub ranks: Ranks,
     /// The last step.
     pub steps: u64,
     /// The output folder.
@@ -109,10 +113,11 @@ pub struct JobSpec {
 }
 
 impl JobSpec {
-    /// The run of `model` with these settings.
-    pub fn with<M: Model>(self, model: M) -> Job<M> {
+    /// The run of `model`, in this process, with these settings.
+    pub fn with<M: Hosted>(self, model: M) -> Job<M> {
         Job {
             model,
+            ranks: Ranks::One,
             steps: self.steps,
             dir: self.dir,
             checkpoint: self.checkpoint,
@@ -126,6 +131,8 @@ impl JobSpec {
 pub struct Report<M> {
     /// The model in its final state.
     pub model: M,
+    /// Where it lived.
+    pub ranks: Ranks,
     /// The first step of this run (0, or the checkpoint's step).
     pub first: u64,
     /// Wall time of the loop.
@@ -158,11 +165,11 @@ pub fn restore<M: Model>(
 ) -> SimResult<Checkpoint> {
     let c = read_checkpoint(path)?;
     let at = path.display();
-    if c.model != model.name() {
+    let name = model.info().name;
+    if c.model != name {
         return Err(SimError::Input(format!(
-            "{at}: a checkpoint of model '{}'; this run is model '{}'",
+            "{at}: a checkpoint of model '{}'; this run is model '{name}'",
             c.model,
-            model.name()
         )));
     }
     if let Some(m) = physics_difference(&c.physics, physics) {
@@ -222,7 +229,12 @@ fn physics_difference(saved: &[(String, String)], now: &[(String, String)]) -> O
         })
 }
 
-impl<M: Model> Job<M> {
+impl<M: Hosted> Job<M> {
+    /// The same run with its model held on `ranks`.
+    pub fn on(self, ranks: Ranks) -> Self {
+        Job { ranks, ..self }
+    }
+
     /// Runs to the last step with `observers`, from step 0 or from the step of
     /// `restored`, the checkpoint the model's state came from (whose step's
     /// outputs are already written). `quiet` hides the progress bar.
@@ -276,7 +288,7 @@ impl<M: Model> Job<M> {
 
 /// A run under way: the model at its current step with its observers, its last
 /// good state and its timers; [`Live::advance`] steps it on, as far as asked.
-pub struct Live<M: Model> {
+pub struct Live<M: Hosted> {
     job: Job<M>,
     scenario_steps: u64,
     observers: Vec<Box<dyn Observer<M>>>,
@@ -290,7 +302,7 @@ pub struct Live<M: Model> {
     blowup: Option<Blowup>,
 }
 
-impl<M: Model> Live<M> {
+impl<M: Hosted> Live<M> {
     /// The model in its current state.
     pub fn model(&self) -> &M {
         &self.job.model
@@ -334,12 +346,14 @@ impl<M: Model> Live<M> {
                 .as_ref()
                 .is_some_and(|c| step % c.every == 0 || step == last);
             let observe = observers.iter().any(|o| o.needs_observables(step, last))
-                || (job.model.observe_when_due()
+                || (job.ranks.observe_when_due()
                     && (checkpoint || observers.iter().any(|o| o.due(step, last))));
-            let stepped = job
-                .model
-                .step(step, observe, threads)
-                .and_then(|()| check(&job.model, step, self.count));
+            let stepped = if observe {
+                job.model.step_observed(step, threads)
+            } else {
+                job.model.step(step, threads)
+            };
+            let stepped = stepped.and_then(|()| check(&job.model, step, self.count));
             if let Err(blowup) = stepped {
                 self.bar.abandon();
                 self.step = self.good.step;
@@ -349,7 +363,7 @@ impl<M: Model> Live<M> {
             self.step = step;
             let t = Instant::now();
             let written = job.output(step, last, checkpoint, observers, &self.bar, &mut self.good);
-            agreed(&job.model, written)?;
+            agreed(&job.ranks, written)?;
             self.output_time += t.elapsed();
             self.bar.inc(1);
         }
@@ -393,6 +407,7 @@ impl<M: Model> Live<M> {
             .unwrap_or_default();
         Ok(Report {
             model: self.job.model,
+            ranks: self.job.ranks,
             first: self.first,
             loop_time: self.loop_time,
             output_time: self.output_time,
@@ -430,7 +445,7 @@ fn snapshot<M: Model>(
     })
 }
 
-impl<M: Model> Job<M> {
+impl<M: Hosted> Job<M> {
     /// Runs the observers due at `step`, keeps the state as the last good one if
     /// one fired or a checkpoint is due, and writes the checkpoint.
     fn output(
@@ -450,7 +465,7 @@ impl<M: Model> Job<M> {
         if fired || checkpoint {
             *good = snapshot(&self.model, step, observers)?;
         }
-        if checkpoint && self.model.writes_output() {
+        if checkpoint && self.ranks.writes_output() {
             let file = self
                 .checkpoint
                 .as_ref()
@@ -471,7 +486,7 @@ impl<M: Model> Job<M> {
     /// The checkpoint of the state `good`.
     fn checkpoint_of(&self, good: &Snapshot) -> Checkpoint {
         Checkpoint {
-            model: self.model.name().to_string(),
+            model: self.model.info().name.to_string(),
             step: good.step,
             physics: self.physics.clone(),
             outputs: good.outputs.clone(),
@@ -495,7 +510,7 @@ impl<M: Model> Job<M> {
             }
         }
         let mut written = Vec::new();
-        if !self.model.writes_output() {
+        if !self.ranks.writes_output() {
             return SimError::BlowUp(format!("{blowup}"));
         }
         match self.model.restore(&good.state, threads) {
@@ -533,7 +548,7 @@ impl<M: Model> Job<M> {
                 let path = self.dir.join(file);
                 let what = path.display().to_string();
                 let particles = self.model.particles(step, false).ok_or_else(|| {
-                    SimError::Internal(format!("model {} has no particles", self.model.name()))
+                    SimError::Internal(format!("model {} has no particles", self.model.info().name))
                 })?;
                 let mut out = AtomicFile::create(&path).map_err(SimError::output(what.clone()))?;
                 write_lammps_frame(out.writer(), &frame(&particles, step), columns)
@@ -544,7 +559,7 @@ impl<M: Model> Job<M> {
             LastFrame::Field { file } => {
                 let path = self.dir.join(file);
                 let field = self.model.field().ok_or_else(|| {
-                    SimError::Internal(format!("model {} has no field", self.model.name()))
+                    SimError::Internal(format!("model {} has no field", self.model.info().name))
                 })?;
                 write_field_csv(&path, &field)?;
                 Ok(path.display().to_string())
@@ -555,9 +570,9 @@ impl<M: Model> Job<M> {
 
 /// `result` made one for every rank of a distributed model: a rank that did
 /// not fail returns the failure of the lowest rank that did.
-pub(crate) fn agreed<M: Model, T>(model: &M, result: SimResult<T>) -> SimResult<T> {
+pub(crate) fn agreed<T>(ranks: &Ranks, result: SimResult<T>) -> SimResult<T> {
     let failure = result.as_ref().err().map(ToString::to_string);
-    match (model.agree(failure), result) {
+    match (ranks.agree(failure), result) {
         (Some(message), Ok(_)) => Err(SimError::Input(message)),
         (_, result) => result,
     }
@@ -582,16 +597,19 @@ pub(crate) fn stages<M: Model>(
     stages
 }
 
-/// Prints the loop's speed and its time per stage.
-pub(crate) fn print_timings<M: Model>(
+/// Prints the loop's speed (the model's line, completed by its `ranks`) and
+/// its time per stage.
+pub(crate) fn print_timings<M: Hosted>(
     model: &M,
+    ranks: &Ranks,
     steps: u64,
     loop_time: Duration,
     stages: &[(&'static str, Duration)],
     threads: &Threads,
 ) {
     let total = loop_time.as_secs_f64();
-    println!("\n{}", model.speed(total, steps, threads.count()));
+    let line = ranks.speed(model.speed(total, steps, threads.count()), total);
+    println!("\n{line}");
     println!("{:<10} | {:>10} | {:>6}", "Section", "time (s)", "%total");
     for (name, d) in stages {
         let s = d.as_secs_f64();

@@ -11,9 +11,11 @@ pub mod billiards;
 pub mod distributed;
 pub mod driver;
 pub mod error;
+pub mod hosted;
 pub mod models;
 pub mod observers;
 pub mod progress;
+pub mod ranks;
 pub mod scenario;
 pub mod session;
 pub mod study;
@@ -25,6 +27,7 @@ pub use scenario::Scenario;
 use cellist::models::{Field, Model, Particles};
 use cellist::Threads;
 use driver::{recorded, Job, Live};
+use hosted::Hosted;
 use indicatif::ProgressBar;
 use observers::OutputPlan;
 use std::cell::RefCell;
@@ -185,7 +188,7 @@ pub trait Launch {
 
     /// Takes the built `job` with the outputs of `plan`, in `context`; the
     /// set-up began at `started`.
-    fn launch<M: Model + 'static>(
+    fn launch<M: Hosted + 'static>(
         self,
         job: Job<M>,
         plan: &OutputPlan,
@@ -201,7 +204,7 @@ pub struct Execute;
 impl Launch for Execute {
     type Output = RunSummary;
 
-    fn launch<M: Model + 'static>(
+    fn launch<M: Hosted + 'static>(
         self,
         job: Job<M>,
         plan: &OutputPlan,
@@ -215,7 +218,7 @@ impl Launch for Execute {
 /// Runs `job` with the observers of `plan` in `context` (from its checkpoint if
 /// given, checked before anything is written), prints the timings and the closing
 /// line, and returns the run's summary.
-pub(crate) fn execute<M: Model + 'static>(
+pub(crate) fn execute<M: Hosted + 'static>(
     job: Job<M>,
     plan: &OutputPlan,
     context: &RunContext,
@@ -243,7 +246,14 @@ pub(crate) fn execute<M: Model + 'static>(
     let stages = driver::stages(model, report.loop_time, report.output_time);
     if !context.quiet {
         if steps > 0 {
-            driver::print_timings(model, steps, report.loop_time, &stages, threads);
+            driver::print_timings(
+                model,
+                &report.ranks,
+                steps,
+                report.loop_time,
+                &stages,
+                threads,
+            );
         }
         println!(
             "total wall time {:.2} s; results in {}",
@@ -265,7 +275,7 @@ pub(crate) fn execute<M: Model + 'static>(
 /// checkpoint's step at most `last`), its output folder made, its observers
 /// created (continuing the files the checkpoint recorded) and step 0 observed
 /// on a new run.
-pub(crate) fn begin<M: Model + 'static>(
+pub(crate) fn begin<M: Hosted + 'static>(
     mut job: Job<M>,
     plan: &OutputPlan,
     context: &RunContext,
@@ -277,13 +287,13 @@ pub(crate) fn begin<M: Model + 'static>(
     let checkpoint = restart
         .map(|path| driver::restore(&mut job.model, path, &job.physics, last, &job.dir, threads))
         .transpose();
-    let checkpoint = driver::agreed(&job.model, checkpoint)?;
+    let checkpoint = driver::agreed(&job.ranks, checkpoint)?;
     let dir = job.dir.clone();
     if let Some(path) = restart {
         let first = checkpoint.as_ref().map_or(0, |c| c.step);
         context.say(format!("restart: from step {first} of {}", path.display()));
     }
-    let observers = if job.model.writes_output() {
+    let observers = if job.ranks.writes_output() {
         let mut plan = plan.clone();
         plan.quiet = context.quiet;
         std::fs::create_dir_all(&dir)
@@ -292,7 +302,7 @@ pub(crate) fn begin<M: Model + 'static>(
     } else {
         Ok(Vec::new())
     };
-    let observers = driver::agreed(&job.model, observers)?;
+    let observers = driver::agreed(&job.ranks, observers)?;
     job.start(checkpoint.as_ref(), observers, bar)
 }
 
@@ -301,13 +311,13 @@ impl RunSummary {
     /// steps, times or thermo rows yet.
     fn of<M: Model>(model: &M, last: u64, context: &RunContext, threads: &Threads) -> Self {
         RunSummary {
-            model: model.name(),
+            model: model.info().name,
             dt: model.dt(),
             steps: 0,
             threads: threads.count(),
             loop_time: Duration::ZERO,
             stages: Vec::new(),
-            thermo_columns: model.thermo_columns().to_vec(),
+            thermo_columns: model.info().thermo_columns.to_vec(),
             thermo: Vec::new(),
             particles: model.particles(last, false),
             field: model.field(),

@@ -247,7 +247,7 @@ impl Thermo {
         quiet: bool,
     ) -> SimResult<Self> {
         let mut columns = vec!["step"];
-        columns.extend_from_slice(model.thermo_columns());
+        columns.extend_from_slice(model.info().thermo_columns);
         let (mut file, continued) = open_stream(dir, THERMO_FILE, recorded)?;
         let rows = if continued {
             read_rows(&dir.join(THERMO_FILE), columns.len())?
@@ -468,7 +468,7 @@ impl<M: Model> Observer<M> for Dump {
         let Some(particles) = model.particles(step, self.energies()) else {
             return Err(SimError::Internal(format!(
                 "model {} has no particle columns to dump",
-                model.name()
+                model.info().name
             )));
         };
         let frame = frame(&particles, step);
@@ -614,9 +614,9 @@ impl FieldFiles {
             size,
             chart: labels,
         } = plan.clone();
-        let field = model
-            .field()
-            .ok_or_else(|| SimError::Internal(format!("model {} has no field", model.name())))?;
+        let field = model.field().ok_or_else(|| {
+            SimError::Internal(format!("model {} has no field", model.info().name))
+        })?;
         let lo = [field.origin[0], field.origin[1]];
         let mut chart = FieldChart::new(lo, field.side, field.spacing, field.scale);
         chart.width = chart.width.max(size);
@@ -759,7 +759,7 @@ impl<M: Model> Observer<M> for BodyPictures {
         let Some(particles) = model.particles(step, false) else {
             return Err(SimError::Internal(format!(
                 "model {} has no particles to draw",
-                model.name()
+                model.info().name
             )));
         };
         let (x, v) = (&particles.positions, &particles.velocities);

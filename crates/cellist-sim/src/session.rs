@@ -5,6 +5,7 @@
 
 use crate::driver::{Job, Live};
 use crate::error::{SimError, SimResult};
+use crate::hosted::Hosted;
 use crate::observers::OutputPlan;
 use crate::scenario::Scenario;
 use crate::{begin, launch_scenario, Launch, RunContext};
@@ -37,7 +38,7 @@ pub trait Session {
     fn last_blowup(&self) -> Option<&Blowup>;
 
     /// Replaces the per-particle array `name` by `values`, where the model
-    /// allows it ([`Model::set_array`]).
+    /// allows it ([`Hosted::set_array`]).
     fn set_array(&mut self, name: &str, values: &[f64], threads: &Threads) -> SimResult;
 
     /// The checkpoint of the current state.
@@ -53,7 +54,7 @@ pub trait Session {
     fn finish_outputs(&mut self) -> SimResult;
 }
 
-impl<M: Model + 'static> Session for Live<M> {
+impl<M: Hosted + 'static> Session for Live<M> {
     fn model(&self) -> &dyn Model {
         Live::<M>::model(self)
     }
@@ -94,7 +95,7 @@ pub struct Open;
 impl Launch for Open {
     type Output = Box<dyn Session>;
 
-    fn launch<M: Model + 'static>(
+    fn launch<M: Hosted + 'static>(
         self,
         job: Job<M>,
         plan: &OutputPlan,

@@ -105,7 +105,7 @@ impl TrajectoryFrame {
         Self::of(model, step).ok_or_else(|| {
             SimError::Input(format!(
                 "model {} has neither particles nor a field to write as {format}",
-                model.name()
+                model.info().name
             ))
         })
     }

@@ -22,6 +22,7 @@
 //! imbalance (largest over mean atoms per rank, averaged over the rebuilds).
 
 use super::{agree, agree_blowup, migrate, GhostPlan, LocalParticles};
+use crate::hosted::Hosted;
 use cellist::decomposition::Decomposition;
 use cellist::geometry::Domain;
 use cellist::interactions::{LennardJones, PairPotential};
@@ -30,7 +31,7 @@ use cellist::models::md::{
     ordered_forces, save_atoms, AtomForce, Atoms, Integrator, ListCounts, MdError, PairTally,
     StageTimes, Thermo, REMEDY,
 };
-use cellist::models::{check, Blowup, Checked, Model, Particles};
+use cellist::models::{check, md, Blowup, Checked, Model, ModelInfo, Particles};
 use cellist::neighbors::{CellGrid, OrderedRows, Rebuild, RebuildRule};
 use cellist::state::{State, StateError};
 use cellist::Threads;
@@ -381,41 +382,17 @@ fn atoms_of<const D: usize>(p: &LocalParticles) -> Atoms<D> {
     }
 }
 
-impl<const D: usize> Model for DistributedMd<D> {
-    fn name(&self) -> &'static str {
-        "md"
-    }
+/// What a distributed md model is: md's, with an atom count per rank that
+/// changes as atoms migrate.
+const INFO: ModelInfo = ModelInfo {
+    count_may_change: true,
+    ..md::INFO
+};
 
-    fn particle_word(&self) -> &'static str {
-        "atom"
-    }
-
-    /// The atoms this rank owns (the global count is checked by the step).
-    fn len(&self) -> usize {
-        self.atoms.len()
-    }
-
-    fn count_may_change(&self) -> bool {
-        true
-    }
-
-    fn observe_when_due(&self) -> bool {
-        true
-    }
-
-    fn writes_output(&self) -> bool {
-        self.world.rank() == 0
-    }
-
-    fn agree(&self, failure: Option<String>) -> Option<String> {
-        agree(&self.world, failure)
-    }
-
-    fn dt(&self) -> f64 {
-        self.dt
-    }
-
-    fn step(&mut self, step: u64, observe: bool, threads: &Threads) -> Result<(), Blowup> {
+impl<const D: usize> DistributedMd<D> {
+    /// Advances to `step` on every rank; the atoms are gathered on rank 0 when
+    /// any rank `observe`s.
+    fn advance(&mut self, step: u64, observe: bool, threads: &Threads) -> Result<(), Blowup> {
         let t = Instant::now();
         self.integrator
             .first_half(&mut self.atoms, self.dt, threads);
@@ -483,9 +460,28 @@ impl<const D: usize> Model for DistributedMd<D> {
         }
         Ok(())
     }
+}
 
-    fn thermo_columns(&self) -> &'static [&'static str] {
-        &["temp", "pe", "ke", "etotal", "press"]
+impl<const D: usize> Model for DistributedMd<D> {
+    fn info(&self) -> &ModelInfo {
+        &INFO
+    }
+
+    /// The atoms this rank owns (the global count is checked by the step).
+    fn len(&self) -> usize {
+        self.atoms.len()
+    }
+
+    fn dt(&self) -> f64 {
+        self.dt
+    }
+
+    fn step(&mut self, step: u64, threads: &Threads) -> Result<(), Blowup> {
+        self.advance(step, false, threads)
+    }
+
+    fn step_observed(&mut self, step: u64, threads: &Threads) -> Result<(), Blowup> {
+        self.advance(step, true, threads)
     }
 
     /// Summed on rank 0 over the gathered atoms in id order.
@@ -499,20 +495,8 @@ impl<const D: usize> Model for DistributedMd<D> {
         vec![th.temp, th.pe, th.ke, th.etotal, th.press]
     }
 
-    fn checked(&self) -> Vec<Checked<'_>> {
-        checked_atoms(&self.atoms)
-    }
-
-    fn id_of(&self, index: usize) -> u64 {
-        self.atoms.ids[index]
-    }
-
-    fn walls(&self) -> Vec<(usize, f64, f64)> {
-        self.decomposition.domain.walls()
-    }
-
-    fn remedy(&self) -> &'static str {
-        REMEDY
+    fn checked(&self) -> Checked<'_> {
+        checked_atoms(&self.atoms, &self.decomposition.domain)
     }
 
     /// On rank 0 the gathered atoms (sorted by id, positions wrapped); `None`
@@ -530,28 +514,6 @@ impl<const D: usize> Model for DistributedMd<D> {
 
     fn stage_times(&self) -> Vec<(&'static str, Duration)> {
         self.times.stages()
-    }
-
-    fn speed(&self, loop_seconds: f64, steps: u64, threads: usize) -> String {
-        let n = self.total;
-        let ranks = self.world.size();
-        let per = loop_seconds * 1e6 / (n as f64 * steps.max(1) as f64);
-        let rebuilds = self.imbalance_count.max(1) as f64;
-        let imbalance = self.imbalance_sum / rebuilds;
-        let ghosts = self.ghosts_sum / rebuilds;
-        format!(
-            "Loop time of {loop_seconds:.4} s on {ranks} ranks x {threads} thread(s) for {steps} \
-             steps with {n} atoms: {per:.4} us/atom-step, {} neighbour-list rebuilds{}\n\
-             Communication {:.4} s on rank 0 ({:.1}% of the loop; inside the sections below); \
-             load imbalance {imbalance:.3} (largest over mean atoms per rank, mean over the rebuilds); \
-             rank 0 holds {ghosts:.0} ghosts for {} own atoms ({:.0} bytes of positions received per step)",
-            self.counts.rebuilds,
-            late_note(self.counts.late_builds),
-            self.communication.as_secs_f64(),
-            100.0 * self.communication.as_secs_f64() / loop_seconds.max(1e-300),
-            self.atoms.len(),
-            ghosts * (D * 8) as f64,
-        )
     }
 
     /// On rank 0 the global state sorted by id, in the single-process layout
@@ -590,5 +552,31 @@ impl<const D: usize> Model for DistributedMd<D> {
             }
         });
         Ok(())
+    }
+}
+
+impl<const D: usize> Hosted for DistributedMd<D> {
+    /// Microseconds per atom-step over the ranks, the communication, the load
+    /// imbalance and the ghosts.
+    fn speed(&self, loop_seconds: f64, steps: u64, threads: usize) -> String {
+        let n = self.total;
+        let ranks = self.world.size();
+        let per = loop_seconds * 1e6 / (n as f64 * steps.max(1) as f64);
+        let rebuilds = self.imbalance_count.max(1) as f64;
+        let imbalance = self.imbalance_sum / rebuilds;
+        let ghosts = self.ghosts_sum / rebuilds;
+        format!(
+            "Loop time of {loop_seconds:.4} s on {ranks} ranks x {threads} thread(s) for {steps} \
+             steps with {n} atoms: {per:.4} us/atom-step, {} neighbour-list rebuilds{}\n\
+             Communication {:.4} s on rank 0 ({:.1}% of the loop; inside the sections below); \
+             load imbalance {imbalance:.3} (largest over mean atoms per rank, mean over the rebuilds); \
+             rank 0 holds {ghosts:.0} ghosts for {} own atoms ({:.0} bytes of positions received per step)",
+            self.counts.rebuilds,
+            late_note(self.counts.late_builds),
+            self.communication.as_secs_f64(),
+            100.0 * self.communication.as_secs_f64() / loop_seconds.max(1e-300),
+            self.atoms.len(),
+            ghosts * (D * 8) as f64,
+        )
     }
 }

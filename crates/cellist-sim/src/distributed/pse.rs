@@ -12,11 +12,12 @@
 //! single-process layout) are those of a plain run.
 
 use super::{agree, agree_blowup, exchange, GhostPlan, LocalParticles};
+use crate::hosted::Hosted;
 use cellist::decomposition::Decomposition;
 use cellist::models::pse::{
-    advance, ordered_rate, row_weights, Method, PairWeight, PseError, PseModel,
+    self, advance, ordered_rate, row_weights, Method, PairWeight, PseError, PseModel,
 };
-use cellist::models::{Blowup, Checked, Field, Model, Particles};
+use cellist::models::{Blowup, Checked, CheckedArray, Field, Ids, Model, ModelInfo};
 use cellist::neighbors::OrderedRows;
 use cellist::state::{State, StateError};
 use cellist::Threads;
@@ -184,41 +185,17 @@ impl<const D: usize> DistributedPse<D> {
     }
 }
 
-impl<const D: usize> Model for DistributedPse<D> {
-    fn name(&self) -> &'static str {
-        "pse"
-    }
+/// What a distributed pse model is: pse's, with a particle count per rank
+/// that is not the run's.
+const INFO: ModelInfo = ModelInfo {
+    count_may_change: true,
+    ..pse::INFO
+};
 
-    fn particle_word(&self) -> &'static str {
-        "particle"
-    }
-
-    /// The particles this rank owns (they never move between ranks).
-    fn len(&self) -> usize {
-        self.ids.len()
-    }
-
-    fn count_may_change(&self) -> bool {
-        true
-    }
-
-    fn observe_when_due(&self) -> bool {
-        true
-    }
-
-    fn writes_output(&self) -> bool {
-        self.replica.is_some()
-    }
-
-    fn agree(&self, failure: Option<String>) -> Option<String> {
-        agree(&self.world, failure)
-    }
-
-    fn dt(&self) -> f64 {
-        self.dt
-    }
-
-    fn step(&mut self, step: u64, observe: bool, threads: &Threads) -> Result<(), Blowup> {
+impl<const D: usize> DistributedPse<D> {
+    /// Advances to `step` on every rank; the field is gathered into rank 0's
+    /// replica when any rank `observe`s.
+    fn advance(&mut self, step: u64, observe: bool, threads: &Threads) -> Result<(), Blowup> {
         let t = Instant::now();
         let DistributedPse {
             world,
@@ -244,11 +221,7 @@ impl<const D: usize> Model for DistributedPse<D> {
         self.step_time += t.elapsed();
         let bad = self.phi.iter().position(|v| !v.is_finite()).map(|k| {
             let index = self.ids[k] as usize;
-            Blowup::new(
-                step,
-                PseError::NotFinite { index }.to_string(),
-                PseModel::<D>::REMEDY,
-            )
+            Blowup::new(step, PseError::NotFinite { index }.to_string(), INFO.remedy)
         });
         let c = Instant::now();
         let agreed = agree_blowup(&self.world, step, bad);
@@ -264,9 +237,28 @@ impl<const D: usize> Model for DistributedPse<D> {
         }
         Ok(())
     }
+}
 
-    fn thermo_columns(&self) -> &'static [&'static str] {
-        PseModel::<D>::THERMO_COLUMNS
+impl<const D: usize> Model for DistributedPse<D> {
+    fn info(&self) -> &ModelInfo {
+        &INFO
+    }
+
+    /// The particles this rank owns (they never move between ranks).
+    fn len(&self) -> usize {
+        self.ids.len()
+    }
+
+    fn dt(&self) -> f64 {
+        self.dt
+    }
+
+    fn step(&mut self, step: u64, threads: &Threads) -> Result<(), Blowup> {
+        self.advance(step, false, threads)
+    }
+
+    fn step_observed(&mut self, step: u64, threads: &Threads) -> Result<(), Blowup> {
+        self.advance(step, true, threads)
     }
 
     /// Rank 0's replica's thermo (its field gathered at this step).
@@ -277,24 +269,13 @@ impl<const D: usize> Model for DistributedPse<D> {
     }
 
     /// The own particles' field (checked by the step on every rank).
-    fn checked(&self) -> Vec<Checked<'_>> {
-        vec![Checked {
+    fn checked(&self) -> Checked<'_> {
+        let field = CheckedArray {
             quantity: "field",
             values: &self.phi,
             per_particle: 1,
-        }]
-    }
-
-    fn id_of(&self, index: usize) -> u64 {
-        self.ids[index]
-    }
-
-    fn remedy(&self) -> &'static str {
-        PseModel::<D>::REMEDY
-    }
-
-    fn particles(&self, _step: u64, _energies: bool) -> Option<Particles> {
-        None
+        };
+        Checked::new(Ids::U64(&self.ids), vec![field])
     }
 
     fn field(&self) -> Option<Field> {
@@ -303,22 +284,6 @@ impl<const D: usize> Model for DistributedPse<D> {
 
     fn stage_times(&self) -> Vec<(&'static str, Duration)> {
         vec![("Rates", self.step_time)]
-    }
-
-    fn speed(&self, loop_seconds: f64, steps: u64, threads: usize) -> String {
-        let evaluations = self.entries * self.integrator.stages() * steps;
-        format!(
-            "Loop time of {loop_seconds:.4} s on {} ranks x {threads} thread(s) for {steps} steps \
-             with {} particles: {:.3e} row entries per second (each pair on both sides)\n\
-             Communication {:.4} s on rank 0 ({:.1}% of the loop); load imbalance {:.3} \
-             (largest over mean row entries per rank)",
-            self.world.size(),
-            self.total,
-            evaluations as f64 / loop_seconds.max(1e-12),
-            self.communication.as_secs_f64(),
-            100.0 * self.communication.as_secs_f64() / loop_seconds.max(1e-300),
-            self.imbalance,
-        )
     }
 
     /// Rank 0's replica's state: the global field in the single-process layout.
@@ -344,5 +309,25 @@ impl<const D: usize> Model for DistributedPse<D> {
             *v = by_input[id as usize];
         }
         Ok(())
+    }
+}
+
+impl<const D: usize> Hosted for DistributedPse<D> {
+    /// Row entries per second over the ranks, the communication and the load
+    /// imbalance.
+    fn speed(&self, loop_seconds: f64, steps: u64, threads: usize) -> String {
+        let evaluations = self.entries * self.integrator.stages() * steps;
+        format!(
+            "Loop time of {loop_seconds:.4} s on {} ranks x {threads} thread(s) for {steps} steps \
+             with {} particles: {:.3e} row entries per second (each pair on both sides)\n\
+             Communication {:.4} s on rank 0 ({:.1}% of the loop); load imbalance {:.3} \
+             (largest over mean row entries per rank)",
+            self.world.size(),
+            self.total,
+            evaluations as f64 / loop_seconds.max(1e-12),
+            self.communication.as_secs_f64(),
+            100.0 * self.communication.as_secs_f64() / loop_seconds.max(1e-300),
+            self.imbalance,
+        )
     }
 }

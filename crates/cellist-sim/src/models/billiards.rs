@@ -19,11 +19,14 @@
 use crate::billiards::{billiards_job, disc_columns, read, ENERGY_TABLE};
 use crate::driver::CheckpointKeys;
 use crate::error::SimResult;
+use crate::hosted::Hosted;
 use crate::observers::{DumpFormat, DumpPlan, OutputPlan};
 use crate::scenario::Scenario;
 use crate::trajectory::{SeriesKeys, TrajectoryKeys};
 use crate::{Launch, RunContext};
+use cellist::models::billiards::BilliardsModel;
 use cellist::models::billiards::{CellShape, DEFAULT_MAX_SWEEPS};
+use cellist::models::Model;
 use serde::Deserialize;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -140,4 +143,18 @@ pub fn run<L: Launch>(
         trajectories,
     };
     launch.launch(job, &plan, context, started)
+}
+
+impl Hosted for BilliardsModel {
+    /// Steps per second and the hardest step's sweeps.
+    fn speed(&self, loop_seconds: f64, steps: u64, threads: usize) -> String {
+        format!(
+            "billiards: {} particles, {steps} steps in {loop_seconds:.3} s ({:.1} steps/s) on {threads} \
+             thread(s); hardest step {} needed {} sweeps",
+            self.len(),
+            steps as f64 / loop_seconds.max(1e-12),
+            self.hardest.0,
+            self.hardest.1
+        )
+    }
 }

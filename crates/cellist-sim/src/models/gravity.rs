@@ -5,8 +5,10 @@
 
 use crate::driver::{CheckpointKeys, JobSpec, LastFrame};
 use crate::error::{SimError, SimResult};
+use crate::hosted::Hosted;
 use crate::models::field_output::{check_picture_size, SnapshotKeys};
 use crate::observers::{BodyPlan, DumpFormat, DumpPlan, OutputPlan, PlotSpec, TableStyle};
+use crate::ranks::Ranks;
 use crate::scenario::Scenario;
 use crate::trajectory::{SeriesKeys, TrajectoryKeys};
 use crate::{Launch, RunContext};
@@ -17,6 +19,7 @@ use cellist::models::gravity::{
     plummer, two_body_seed004, Bodies, GravityError, GravityModel, GravitySystem, Integrator,
     Solver, SolverChoice,
 };
+use cellist::models::Model;
 use cellist_io::{read_bodies, BodyChart, Plane, GRAVITY_DUMP_COLUMNS};
 use serde::Deserialize;
 use std::path::PathBuf;
@@ -535,26 +538,28 @@ fn run_setup<L: Launch>(
     let solver =
         Solver::new(&setup.choice, setup.law, setup.bodies.len()).map_err(|e| scenario.error(e))?;
     #[cfg(feature = "mpi")]
-    let (solver, ring) = match crate::distributed::replicated::gravity_ring(setup.law) {
-        Some((ring_solver, ring)) => {
+    let (solver, ranks) = match crate::distributed::replicated::gravity_ring(setup.law) {
+        Some((ring_solver, ranks)) => {
             if setup.choice != SolverChoice::Direct {
                 return Err(scenario.error(format!(
                     "solver {} does not run on {} MPI ranks: only solver = \"direct\" runs \
                      distributed (by the ring pass); run the others in one process",
                     setup.solver_name,
-                    ring.ranks()
+                    ranks.count()
                 )));
             }
             context.say(format!(
                 "mpi: {} ranks; the direct sum by the ring pass, each rank summing for a block of \
                  about {} bodies (the bodies held by every rank)",
-                ring.ranks(),
-                setup.bodies.len() / ring.ranks() as usize
+                ranks.count(),
+                setup.bodies.len() / ranks.count() as usize
             ));
-            (ring_solver, Some(ring))
+            (ring_solver, ranks)
         }
-        None => (solver, None),
+        None => (solver, Ranks::One),
     };
+    #[cfg(not(feature = "mpi"))]
+    let ranks = Ranks::One;
     let system = GravitySystem::with_solver(setup.law, setup.bodies.clone(), solver, threads)
         .map_err(|e| match e {
             GravityError::NotFinite { .. } => {
@@ -624,9 +629,16 @@ fn run_setup<L: Launch>(
             columns: dump_columns(),
         },
     };
-    #[cfg(feature = "mpi")]
-    if let Some(ring) = ring {
-        return launch.launch(spec.with(ring.wrap(model)), &plan, context, started);
+    launch.launch(spec.with(model).on(ranks), &plan, context, started)
+}
+
+impl Hosted for GravityModel {
+    /// Seconds per step.
+    fn speed(&self, loop_seconds: f64, steps: u64, threads: usize) -> String {
+        format!(
+            "Loop time of {loop_seconds:.4} s on {threads} thread(s) for {steps} steps with {} bodies: {:.4e} s per step",
+            self.len(),
+            loop_seconds / steps.max(1) as f64
+        )
     }
-    launch.launch(spec.with(model), &plan, context, started)
 }

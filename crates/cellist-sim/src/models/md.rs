@@ -4,6 +4,7 @@
 
 use crate::driver::{CheckpointKeys, JobSpec, LastFrame};
 use crate::error::{SimError, SimResult};
+use crate::hosted::Hosted;
 use crate::observers::{DumpFormat, DumpPlan, OutputPlan, PlotSpec, TableStyle};
 use crate::scenario::Scenario;
 use crate::trajectory::{SeriesKeys, TrajectoryKeys};
@@ -11,10 +12,12 @@ use crate::{Launch, RunContext};
 use cellist::geometry::{Boundary, Domain};
 use cellist::interactions::{LennardJones, PairPotential};
 use cellist::models::md::{
-    create_velocities, lattice, Atoms, Integrator, Langevin, LatticeKind, MdModel, MdSystem,
-    VelocityDistribution,
+    create_velocities, late_note, lattice, Atoms, Integrator, Langevin, LatticeKind, MdModel,
+    MdSystem, VelocityDistribution,
 };
+use cellist::models::Model;
 use cellist::neighbors::RebuildRule;
+use cellist::Threads;
 use cellist_io::{read_data, DUMP_COLUMNS};
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
@@ -235,6 +238,7 @@ fn run_in<const D: usize, L: Launch>(
     #[cfg(feature = "mpi")]
     if let Some(world) = crate::distributed::world_of_many() {
         use crate::distributed::md::DistributedMd;
+        let ranks = crate::ranks::Ranks::Spread(mpi::traits::Communicator::duplicate(&world));
         let model = DistributedMd::new(
             world,
             setup.domain,
@@ -255,7 +259,7 @@ fn run_in<const D: usize, L: Launch>(
         for note in &setup.notes {
             context.warn(note);
         }
-        let job = job_spec(&setup, scenario, context)?.with(model);
+        let job = job_spec(&setup, scenario, context)?.with(model).on(ranks);
         return launch.launch(job, &output_plan(&setup), context, started);
     }
     let mut system = MdSystem::new(setup.domain, atoms, setup.potential, setup.skin, threads)
@@ -623,4 +627,23 @@ fn print_header<const D: usize>(setup: &Setup<D>, atoms: usize, context: &RunCon
         threads.count(),
         out_dir.display()
     ));
+}
+
+impl<const D: usize> Hosted for MdModel<D> {
+    /// Microseconds per atom-step and the neighbour-list rebuilds.
+    fn speed(&self, loop_seconds: f64, steps: u64, threads: usize) -> String {
+        let n = self.len();
+        let per = loop_seconds * 1e6 / (n as f64 * steps.max(1) as f64);
+        format!(
+            "Loop time of {loop_seconds:.4} s on {threads} thread(s) for {steps} steps with {n} atoms: \
+             {per:.4} us/atom-step, {} neighbour-list rebuilds{}",
+            self.system.rebuilds(),
+            late_note(self.system.late_builds())
+        )
+    }
+
+    /// Positions or velocities in id order ([`MdModel::set_array`]).
+    fn set_array(&mut self, name: &str, values: &[f64], threads: &Threads) -> Result<(), String> {
+        MdModel::set_array(self, name, values, threads)
+    }
 }

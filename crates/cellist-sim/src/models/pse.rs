@@ -4,6 +4,7 @@
 
 use crate::driver::{CheckpointKeys, JobSpec, LastFrame};
 use crate::error::SimResult;
+use crate::hosted::Hosted;
 use crate::models::field_output::FieldScenario;
 use crate::observers::{ChartLabels, Every, FieldPlan, OutputPlan, PlotSpec, TableStyle};
 use crate::scenario::Scenario;
@@ -12,6 +13,7 @@ use crate::{Launch, RunContext};
 use cellist::models::pse::{
     lattice, InitialField, Integrator, Method, PseModel, PseParams, PseSystem,
 };
+use cellist::models::Model;
 use cellist::Domain;
 use cellist_io::read_field;
 use serde::Deserialize;
@@ -386,9 +388,23 @@ fn run_in<const D: usize, L: Launch>(
     };
     #[cfg(feature = "mpi")]
     if let Some(world) = crate::distributed::world_of_many() {
+        let ranks = crate::ranks::Ranks::Spread(mpi::traits::Communicator::duplicate(&world));
         let model = crate::distributed::pse::DistributedPse::new(world, model, threads)
             .map_err(|e| scenario.error(e))?;
-        return launch.launch(spec.with(model), &plan, context, started);
+        return launch.launch(spec.with(model).on(ranks), &plan, context, started);
     }
     launch.launch(spec.with(model), &plan, context, started)
+}
+
+impl<const D: usize> Hosted for PseModel<D> {
+    /// Pair kernels evaluated per second.
+    fn speed(&self, loop_seconds: f64, steps: u64, threads: usize) -> String {
+        let evaluations = self.system.pairs_per_rate() * self.integrator.stages() * steps;
+        format!(
+            "Loop time of {loop_seconds:.4} s on {threads} thread(s) for {steps} steps with {} particles: \
+             {:.3e} pair kernels per second",
+            self.len(),
+            evaluations as f64 / loop_seconds.max(1e-12)
+        )
+    }
 }

@@ -5,8 +5,10 @@
 
 use crate::driver::{JobSpec, LastFrame};
 use crate::error::SimResult;
+use crate::hosted::Hosted;
 use crate::models::field_output::FieldScenario;
 use crate::observers::{ChartLabels, FieldPlan, OutputPlan, PlotSpec, TableStyle};
+use crate::ranks::Ranks;
 use crate::scenario::Scenario;
 use crate::{Launch, RunContext};
 use cellist::longrange::{BlobKernel, TreeParams, VicBoundary, VicParams};
@@ -14,6 +16,7 @@ use cellist::models::vortex::{
     seed, Extras, InitialVorticity, VelocityEngine, VelocitySolver, VortexModel, VortexParams,
     VortexSystem,
 };
+use cellist::models::Model;
 use cellist_io::read_field_of;
 use serde::Deserialize;
 use std::path::PathBuf;
@@ -485,23 +488,22 @@ pub fn run<L: Launch>(
             return Err(err(format!(
                 "velocity.solver does not run on {} MPI ranks unless it is \"direct\" (by the \
                  ring pass); run the tree and mesh solvers in one process",
-                r.ranks()
+                r.count()
             )));
         }
         context.say(format!(
             "mpi: {} ranks; the direct velocity by the ring pass, each rank summing for a block of \
              about {} particles (the particles held by every rank)",
-            r.ranks(),
-            n / r.ranks() as usize
+            r.count(),
+            n / r.count() as usize
         ));
     }
     let engine = VelocityEngine::new(params.solver, BlobKernel::new(params.sigma), n)
         .map_err(|e| err(format!("system: {e}")))?;
     #[cfg(feature = "mpi")]
-    let (engine, ring) = match ring {
-        Some((ring_engine, r)) => (ring_engine, Some(r)),
-        None => (engine, None),
-    };
+    let (engine, ranks) = ring.unwrap_or((engine, Ranks::One));
+    #[cfg(not(feature = "mpi"))]
+    let ranks = Ranks::One;
     let system = VortexSystem::with_engine(params, seeded.positions, seeded.gamma, engine, threads)
         .map_err(|e| err(format!("system: {e}")))?;
     let solver_name = match velocity {
@@ -589,9 +591,20 @@ pub fn run<L: Launch>(
         physics: scenario.physics_keys()?,
         last_frame: LastFrame::Field { file: "last.csv" },
     };
-    #[cfg(feature = "mpi")]
-    if let Some(r) = ring {
-        return launch.launch(spec.with(r.wrap(model)), &plan, context, started);
+    launch.launch(spec.with(model).on(ranks), &plan, context, started)
+}
+
+impl Hosted for VortexModel {
+    /// Seconds per velocity evaluation and the circulation that remeshing
+    /// dropped.
+    fn speed(&self, loop_seconds: f64, steps: u64, threads: usize) -> String {
+        let stages = self.integrator.stages() * steps;
+        format!(
+            "Loop time of {loop_seconds:.4} s on {threads} thread(s) for {steps} steps with {} particles \
+             (at the end): {:.4} s per velocity evaluation; circulation dropped by remeshing {:.3e}",
+            self.len(),
+            self.system.times().velocity.as_secs_f64() / stages.max(1) as f64,
+            self.system.dropped()
+        )
     }
-    launch.launch(spec.with(model), &plan, context, started)
 }

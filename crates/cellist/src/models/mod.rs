@@ -7,4 +7,4 @@ pub mod model;
 pub mod pse;
 pub mod vortex;
 
-pub use model::{check, Blowup, Checked, Field, Model, Particles};
+pub use model::{check, Blowup, Checked, CheckedArray, Field, Ids, Model, ModelInfo, Particles};

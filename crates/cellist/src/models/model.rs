@@ -54,13 +54,78 @@ impl std::error::Error for Blowup {}
 
 /// A per-particle array the driver checks after every step: `values` holds
 /// `per_particle` numbers per particle, all of which must be finite.
-pub struct Checked<'a> {
+pub struct CheckedArray<'a> {
     /// The quantity ("position", "velocity", "force", "strength").
     pub quantity: &'static str,
     /// The values, particle by particle.
     pub values: &'a [f64],
     /// Numbers per particle (the dimension for vectors, 1 for scalars).
     pub per_particle: usize,
+}
+
+/// The ids that name the particles of the checked arrays in messages: particle
+/// `k` of the arrays is `ids[k]`.
+#[derive(Clone, Copy, Debug)]
+pub enum Ids<'a> {
+    /// Particle `k` is called `k` (its place in the input, 0-based).
+    Index,
+    /// Ids as the model keeps them (md's atom ids).
+    U64(&'a [u64]),
+    /// Ids as the model keeps them (the collision benchmark's input ids, the
+    /// input places of pse's particles in cell order).
+    U32(&'a [u32]),
+}
+
+impl Ids<'_> {
+    /// The id of particle `k`.
+    pub fn of(&self, k: usize) -> u64 {
+        match self {
+            Ids::Index => k as u64,
+            Ids::U64(ids) => ids[k],
+            Ids::U32(ids) => ids[k] as u64,
+        }
+    }
+}
+
+/// What the driver checks after every step: the arrays that must stay finite,
+/// the ids that name their particles, and the bounds `(axis, lo, hi)` that the
+/// `"position"` array must stay within (the non-periodic walls of a box; empty
+/// for none).
+pub struct Checked<'a> {
+    /// The arrays.
+    pub arrays: Vec<CheckedArray<'a>>,
+    /// The ids of their particles.
+    pub ids: Ids<'a>,
+    /// Walls `(axis, lo, hi)` of the positions.
+    pub walls: Vec<(usize, f64, f64)>,
+}
+
+impl<'a> Checked<'a> {
+    /// `arrays` of particles named by `ids`, within no walls.
+    pub fn new(ids: Ids<'a>, arrays: Vec<CheckedArray<'a>>) -> Self {
+        Checked {
+            arrays,
+            ids,
+            walls: Vec::new(),
+        }
+    }
+}
+
+/// What a model is, for the driver's messages, tables and checkpoints: fixed
+/// when the model is built.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ModelInfo {
+    /// The scenario's model name ("md"); checkpoints record it.
+    pub name: &'static str,
+    /// What one particle is called in messages ("atom", "body", "particle").
+    pub particle: &'static str,
+    /// The thermo columns after `step`, in the order of [`Model::thermo`].
+    pub thermo_columns: &'static [&'static str],
+    /// What to try when values stop being finite.
+    pub remedy: &'static str,
+    /// Whether the particle count may change from step to step (a vortex run
+    /// that remeshes); for other models a changed count is a blow-up.
+    pub count_may_change: bool,
 }
 
 /// The particles as a dump frame shows them (3 components, sorted as the model
@@ -126,81 +191,48 @@ pub struct Field {
 }
 
 /// A simulation the driver can run: state, one step, what it reports, and its
-/// complete state for checkpoints.
+/// complete state for checkpoints. Every method serves every model; what only
+/// some models have (particles for dumps, a field for pictures) is asked for
+/// and may be `None`.
+// the driver counts particles but never asks whether there are none
+#[allow(clippy::len_without_is_empty)]
 pub trait Model {
-    /// The scenario's model name ("md").
-    fn name(&self) -> &'static str;
-
-    /// What one particle is called in messages ("atom", "body", "particle", "disc").
-    fn particle_word(&self) -> &'static str;
+    /// What the model is: its name, particle word, thermo columns and remedy.
+    fn info(&self) -> &ModelInfo;
 
     /// Number of particles.
     fn len(&self) -> usize;
 
-    /// True without particles.
-    fn is_empty(&self) -> bool {
-        self.len() == 0
-    }
-
-    /// Whether the particle count may change from step to step (a vortex run that
-    /// remeshes); for other models a changed count is a blow-up.
-    fn count_may_change(&self) -> bool {
-        false
-    }
-
-    /// True for a model whose state is spread over MPI ranks and gathered for
-    /// output: the driver then asks for `observe` on every step where an
-    /// observer fires or a checkpoint is written, not only where thermo or
-    /// energies are needed.
-    fn observe_when_due(&self) -> bool {
-        false
-    }
-
-    /// False on the ranks of a distributed run other than rank 0: they write no
-    /// output (rank 0 writes the gathered state).
-    fn writes_output(&self) -> bool {
-        true
-    }
-
-    /// The outcome of a stage of the run made one for every rank of a
-    /// distributed model: the failure of the lowest rank that failed, or `None`.
-    /// In one process, `failure` itself.
-    fn agree(&self, failure: Option<String>) -> Option<String> {
-        failure
-    }
-
     /// The time step; the time of step `s` is `s * dt`.
     fn dt(&self) -> f64;
 
-    /// Advances from step `step - 1` to `step`. With `observe`, the step also
-    /// computes what [`Model::thermo`] and energy columns need (energies, virial).
-    fn step(&mut self, step: u64, observe: bool, threads: &Threads) -> Result<(), Blowup>;
+    /// Advances from step `step - 1` to `step`.
+    fn step(&mut self, step: u64, threads: &Threads) -> Result<(), Blowup>;
 
-    /// Names of the thermo columns after `step`.
-    fn thermo_columns(&self) -> &'static [&'static str];
-
-    /// The thermo values of the current state (after a step with `observe`, or
-    /// step 0), one per column of [`Model::thermo_columns`].
-    fn thermo(&self, step: u64) -> Vec<f64>;
-
-    /// The arrays checked for finite values after every step.
-    fn checked(&self) -> Vec<Checked<'_>>;
-
-    /// The id of particle `index` of the checked arrays.
-    fn id_of(&self, index: usize) -> u64;
-
-    /// Bounds `(lo, hi)` per axis that positions (the `"position"` array) must stay
-    /// within: the non-periodic walls of a box. Empty for none.
-    fn walls(&self) -> Vec<(usize, f64, f64)> {
-        Vec::new()
+    /// [`Model::step`] after which the driver reads [`Model::thermo`] or
+    /// per-particle energies. A model whose observables cost work that a plain
+    /// step leaves out (md: the energy and virial sums of the force pass; the
+    /// vortex model: its invariants) does that work here; for the others it is
+    /// the plain step.
+    fn step_observed(&mut self, step: u64, threads: &Threads) -> Result<(), Blowup> {
+        self.step(step, threads)
     }
 
-    /// What to try when values stop being finite.
-    fn remedy(&self) -> &'static str;
+    /// The thermo values of the current state (after [`Model::step_observed`],
+    /// or at step 0), one per column of [`ModelInfo::thermo_columns`].
+    fn thermo(&self, step: u64) -> Vec<f64>;
+
+    /// The arrays checked for finite values after every step, with the ids and
+    /// walls of their particles.
+    fn checked(&self) -> Checked<'_>;
 
     /// The particles for a dump frame at `step`; `energies` asks for per-particle
-    /// energies (needs a step with `observe`). `None` for models without dumps.
-    fn particles(&self, step: u64, energies: bool) -> Option<Particles>;
+    /// energies (after [`Model::step_observed`]). `None` for models without
+    /// particle dumps.
+    fn particles(&self, step: u64, energies: bool) -> Option<Particles> {
+        let _ = (step, energies);
+        None
+    }
 
     /// The field the particles carry, if the model has one.
     fn field(&self) -> Option<Field> {
@@ -210,33 +242,19 @@ pub trait Model {
     /// Wall time per stage of the steps so far, in the model's own breakdown.
     fn stage_times(&self) -> Vec<(&'static str, Duration)>;
 
-    /// One line on the speed of the loop, e.g. microseconds per atom-step.
-    fn speed(&self, loop_seconds: f64, steps: u64, threads: usize) -> String;
-
     /// The complete state: enough that [`Model::restore`] followed by the same steps
     /// gives the same bits as the run that saved it.
     fn save(&self, state: &mut State);
 
     /// Replaces the state by a saved one (of a model built from the same scenario).
     fn restore(&mut self, state: &State, threads: &Threads) -> Result<(), StateError>;
-
-    /// Replaces the per-particle array `name` ("positions", "velocities") by
-    /// `values`, `dimension` numbers per particle in the order of
-    /// [`Model::particles`], and recomputes what depends on it. Models that
-    /// allow none refuse, naming themselves.
-    fn set_array(&mut self, name: &str, values: &[f64], threads: &Threads) -> Result<(), String> {
-        let _ = (values, threads);
-        Err(format!(
-            "model {} does not allow setting its {name}",
-            self.name()
-        ))
-    }
 }
 
 /// The first non-finite value of `model`'s checked arrays, or a position outside its
 /// walls, or a particle count other than `count` (unless the model's count may
 /// change), as the blow-up of `step`.
-pub fn check(model: &dyn Model, step: u64, count: usize) -> Result<(), Blowup> {
+pub fn check(model: &(impl Model + ?Sized), step: u64, count: usize) -> Result<(), Blowup> {
+    let info = model.info();
     let blowup = |what: String, value: Option<(String, f64)>, remedy: &str| Blowup {
         step,
         what,
@@ -244,11 +262,11 @@ pub fn check(model: &dyn Model, step: u64, count: usize) -> Result<(), Blowup> {
         value,
         remedy: remedy.to_string(),
     };
-    if !model.count_may_change() && model.len() != count {
+    if !info.count_may_change && model.len() != count {
         return Err(blowup(
             format!(
                 "the number of {}s changed from {count} to {}",
-                model.particle_word(),
+                info.particle,
                 model.len()
             ),
             None,
@@ -256,8 +274,8 @@ pub fn check(model: &dyn Model, step: u64, count: usize) -> Result<(), Blowup> {
         ));
     }
     const AXES: [&str; 3] = ["x", "y", "z"];
-    let walls = model.walls();
-    for checked in model.checked() {
+    let Checked { arrays, ids, walls } = model.checked();
+    for checked in arrays {
         // one fast pass over all values; the culprit is looked for only on failure
         if checked.values.iter().all(|v| v.is_finite()) {
             if checked.quantity == "position" && !walls.is_empty() {
@@ -268,12 +286,12 @@ pub fn check(model: &dyn Model, step: u64, count: usize) -> Result<(), Blowup> {
                         .find(|&&(a, lo, hi)| !(lo..=hi).contains(&x[a]))
                     {
                         return Err(Blowup {
-                            particle: Some(model.id_of(k)),
+                            particle: Some(ids.of(k)),
                             ..blowup(
                                 format!(
                                     "{} {} left the box through the non-periodic {} boundary",
-                                    model.particle_word(),
-                                    model.id_of(k),
+                                    info.particle,
+                                    ids.of(k),
                                     AXES[axis]
                                 ),
                                 Some((AXES[axis].to_string(), x[axis])),
@@ -300,19 +318,19 @@ pub fn check(model: &dyn Model, step: u64, count: usize) -> Result<(), Blowup> {
             format!(" {}", at % n)
         };
         return Err(Blowup {
-            particle: Some(model.id_of(at / n)),
+            particle: Some(ids.of(at / n)),
             ..blowup(
                 format!(
                     "{} {} has a non-finite {} (the run blew up)",
-                    model.particle_word(),
-                    model.id_of(at / n),
+                    info.particle,
+                    ids.of(at / n),
                     checked.quantity
                 ),
                 Some((
                     format!("{}{component}", checked.quantity),
                     checked.values[at],
                 )),
-                model.remedy(),
+                info.remedy,
             )
         });
     }

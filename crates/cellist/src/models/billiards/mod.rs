@@ -24,7 +24,7 @@ mod rules;
 pub use check::{check_step, CheckFailure, DiscState, StepChecker};
 pub use contacts::{CellShape, Contact, ContactGrid};
 pub use generate::{separated_discs, uniform_discs, Drawn};
-pub use model::BilliardsModel;
+pub use model::{BilliardsModel, INFO};
 pub use rules::{Separation, Table, Walls, APPROACH};
 
 use crate::threads::{

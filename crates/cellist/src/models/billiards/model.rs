@@ -1,7 +1,7 @@
 //! The collision benchmark behind the driver's [`Model`] interface.
 
 use super::{not_converged_what, overflow_what, Billiards, BilliardsError};
-use crate::models::{Blowup, Checked, Model, Particles};
+use crate::models::{Blowup, Checked, CheckedArray, Ids, Model, ModelInfo, Particles};
 use crate::state::{State, StateError};
 use crate::threads::Threads;
 use std::time::{Duration, Instant};
@@ -30,13 +30,19 @@ impl BilliardsModel {
     }
 }
 
-impl Model for BilliardsModel {
-    fn name(&self) -> &'static str {
-        "billiards"
-    }
+/// What the collision benchmark's model is: discs and their energy.
+pub const INFO: ModelInfo = ModelInfo {
+    name: "billiards",
+    particle: "particle",
+    thermo_columns: &["energy"],
+    remedy: "the input's speeds or overlaps are beyond what the benchmark's rules settle: \
+             check the input, or raise --max-sweeps",
+    count_may_change: false,
+};
 
-    fn particle_word(&self) -> &'static str {
-        "particle"
+impl Model for BilliardsModel {
+    fn info(&self) -> &ModelInfo {
+        &INFO
     }
 
     fn len(&self) -> usize {
@@ -48,7 +54,7 @@ impl Model for BilliardsModel {
         1.0
     }
 
-    fn step(&mut self, step: u64, _observe: bool, threads: &Threads) -> Result<(), Blowup> {
+    fn step(&mut self, step: u64, threads: &Threads) -> Result<(), Blowup> {
         let t = Instant::now();
         let result = self.system.step(step, threads);
         self.step_time += t.elapsed();
@@ -63,7 +69,7 @@ impl Model for BilliardsModel {
                 } => not_converged_what(sweeps, first, size),
                 other => other.to_string(),
             };
-            Blowup::new(step, what, self.remedy())
+            Blowup::new(step, what, INFO.remedy)
         })?;
         if stats.sweeps > self.hardest.1 {
             self.hardest = (step, stats.sweeps);
@@ -71,43 +77,32 @@ impl Model for BilliardsModel {
         Ok(())
     }
 
-    fn thermo_columns(&self) -> &'static [&'static str] {
-        &["energy"]
-    }
 
     /// The benchmark's energy `sum (vx^2 + vy^2)`.
     fn thermo(&self, _step: u64) -> Vec<f64> {
         vec![self.system.energy()]
     }
 
-    fn checked(&self) -> Vec<Checked<'_>> {
+    fn checked(&self) -> Checked<'_> {
         let s = &self.system;
-        vec![
-            Checked {
+        let arrays = vec![
+            CheckedArray {
                 quantity: "x",
                 values: &s.x,
                 per_particle: 1,
             },
-            Checked {
+            CheckedArray {
                 quantity: "y",
                 values: &s.y,
                 per_particle: 1,
             },
-            Checked {
+            CheckedArray {
                 quantity: "velocity",
                 values: s.v.as_flattened(),
                 per_particle: 2,
             },
-        ]
-    }
-
-    fn id_of(&self, index: usize) -> u64 {
-        self.ids[index] as u64
-    }
-
-    fn remedy(&self) -> &'static str {
-        "the input's speeds or overlaps are beyond what the benchmark's rules settle: \
-         check the input, or raise --max-sweeps"
+        ];
+        Checked::new(Ids::U32(&self.ids), arrays)
     }
 
     /// In vector order, the box `[0, L]^2` (walls, not periodic), z = 0.
@@ -128,17 +123,6 @@ impl Model for BilliardsModel {
 
     fn stage_times(&self) -> Vec<(&'static str, Duration)> {
         vec![("Step", self.step_time)]
-    }
-
-    fn speed(&self, loop_seconds: f64, steps: u64, threads: usize) -> String {
-        format!(
-            "billiards: {} particles, {steps} steps in {loop_seconds:.3} s ({:.1} steps/s) on {threads} \
-             thread(s); hardest step {} needed {} sweeps",
-            self.len(),
-            steps as f64 / loop_seconds.max(1e-12),
-            self.hardest.0,
-            self.hardest.1
-        )
     }
 
     fn save(&self, state: &mut State) {

@@ -8,7 +8,7 @@ mod initial;
 mod model;
 
 pub use initial::{plummer, two_body_seed004, Bodies};
-pub use model::GravityModel;
+pub use model::{GravityModel, INFO};
 
 use crate::interactions::GravityLaw;
 use crate::longrange::{

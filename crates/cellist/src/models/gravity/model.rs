@@ -1,7 +1,7 @@
 //! Self-gravitating bodies behind the driver's [`Model`] interface.
 
 use super::{Bodies, GravitySystem, Integrator};
-use crate::models::{Blowup, Checked, Model, Particles};
+use crate::models::{Blowup, Checked, CheckedArray, Ids, Model, ModelInfo, Particles};
 use crate::state::{State, StateError};
 use crate::threads::Threads;
 use std::time::{Duration, Instant};
@@ -35,13 +35,30 @@ impl GravityModel {
     }
 }
 
-impl Model for GravityModel {
-    fn name(&self) -> &'static str {
-        "gravity"
-    }
+/// What a gravity model is: bodies, their energies and momenta.
+pub const INFO: ModelInfo = ModelInfo {
+    name: "gravity",
+    particle: "body",
+    thermo_columns: &[
+        "time",
+        "ke",
+        "pe",
+        "etotal",
+        "rel_energy_error",
+        "px",
+        "py",
+        "pz",
+        "lx",
+        "ly",
+        "lz",
+    ],
+    remedy: "two bodies came too close for the step: try a smaller run.dt or a larger system.softening",
+    count_may_change: false,
+};
 
-    fn particle_word(&self) -> &'static str {
-        "body"
+impl Model for GravityModel {
+    fn info(&self) -> &ModelInfo {
+        &INFO
     }
 
     fn len(&self) -> usize {
@@ -52,27 +69,11 @@ impl Model for GravityModel {
         self.dt
     }
 
-    fn step(&mut self, step: u64, _observe: bool, threads: &Threads) -> Result<(), Blowup> {
+    fn step(&mut self, step: u64, threads: &Threads) -> Result<(), Blowup> {
         let t = Instant::now();
         let result = self.system.step(self.dt, self.integrator, threads);
         self.step_time += t.elapsed();
-        result.map_err(|e| Blowup::new(step, e.to_string(), self.remedy()))
-    }
-
-    fn thermo_columns(&self) -> &'static [&'static str] {
-        &[
-            "time",
-            "ke",
-            "pe",
-            "etotal",
-            "rel_energy_error",
-            "px",
-            "py",
-            "pz",
-            "lx",
-            "ly",
-            "lz",
-        ]
+        result.map_err(|e| Blowup::new(step, e.to_string(), INFO.remedy))
     }
 
     /// Energies, `(E - E0) / |E0|` (or `E - E0` when `E0 = 0`), momentum and angular
@@ -101,35 +102,28 @@ impl Model for GravityModel {
         ]
     }
 
-    fn checked(&self) -> Vec<Checked<'_>> {
+    /// Bodies are named by their index in the input (0-based), as the engine's
+    /// errors name them.
+    fn checked(&self) -> Checked<'_> {
         let b = self.system.bodies();
-        fn vector<'a>(quantity: &'static str, v: &'a [[f64; 3]]) -> Checked<'a> {
-            Checked {
+        fn vector<'a>(quantity: &'static str, v: &'a [[f64; 3]]) -> CheckedArray<'a> {
+            CheckedArray {
                 quantity,
                 values: v.as_flattened(),
                 per_particle: 3,
             }
         }
-        vec![
+        let arrays = vec![
             vector("position", &b.position),
             vector("velocity", &b.velocity),
             vector("acceleration", self.system.accelerations()),
-            Checked {
+            CheckedArray {
                 quantity: "potential",
                 values: self.system.potentials(),
                 per_particle: 1,
             },
-        ]
-    }
-
-    /// Bodies are named by their index in the input (0-based), as the engine's
-    /// errors name them.
-    fn id_of(&self, index: usize) -> u64 {
-        index as u64
-    }
-
-    fn remedy(&self) -> &'static str {
-        "two bodies came too close for the step: try a smaller run.dt or a larger system.softening"
+        ];
+        Checked::new(Ids::Index, arrays)
     }
 
     /// In input order with ids 1..=N; the box is the bodies' bounding box.
@@ -155,14 +149,6 @@ impl Model for GravityModel {
 
     fn stage_times(&self) -> Vec<(&'static str, Duration)> {
         vec![("Step", self.step_time)]
-    }
-
-    fn speed(&self, loop_seconds: f64, steps: u64, threads: usize) -> String {
-        format!(
-            "Loop time of {loop_seconds:.4} s on {threads} thread(s) for {steps} steps with {} bodies: {:.4e} s per step",
-            self.len(),
-            loop_seconds / steps.max(1) as f64
-        )
     }
 
     fn save(&self, state: &mut State) {

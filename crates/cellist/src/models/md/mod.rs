@@ -23,7 +23,8 @@ use atoms::PermuteScratch;
 pub use integrate::{Integrator, Langevin};
 pub use lattice::{lattice, LatticeKind};
 pub use model::{
-    blowup_of, checked_atoms, dump_particles, late_note, load_atoms, save_atoms, MdModel, REMEDY,
+    blowup_of, checked_atoms, dump_particles, late_note, load_atoms, save_atoms, MdModel, INFO,
+    REMEDY,
 };
 pub use subdomain::{ordered_forces, AtomForce};
 

@@ -2,7 +2,7 @@
 
 use super::{Atoms, Integrator, ListCounts, MdError, MdSystem, StageTimes};
 use crate::geometry::Domain;
-use crate::models::{Blowup, Checked, Model, Particles};
+use crate::models::{Blowup, Checked, CheckedArray, Ids, Model, ModelInfo, Particles};
 use crate::state::{State, StateError};
 use crate::threads::Threads;
 use std::time::Duration;
@@ -74,24 +74,19 @@ pub fn blowup_of(e: &MdError, step: u64) -> Blowup {
     }
 }
 
-impl<const D: usize> Model for MdModel<D> {
-    fn name(&self) -> &'static str {
-        "md"
-    }
+/// What an md model is: atoms, LAMMPS's thermo columns, its remedy.
+pub const INFO: ModelInfo = ModelInfo {
+    name: "md",
+    particle: "atom",
+    thermo_columns: &["temp", "pe", "ke", "etotal", "press"],
+    remedy: REMEDY,
+    count_may_change: false,
+};
 
-    fn particle_word(&self) -> &'static str {
-        "atom"
-    }
-
-    fn len(&self) -> usize {
-        self.system.atoms().len()
-    }
-
-    fn dt(&self) -> f64 {
-        self.dt
-    }
-
-    fn step(&mut self, step: u64, observe: bool, threads: &Threads) -> Result<(), Blowup> {
+impl<const D: usize> MdModel<D> {
+    /// Advances to `step`, the energy and virial summed in the force pass when
+    /// `observe`.
+    fn advance(&mut self, step: u64, observe: bool, threads: &Threads) -> Result<(), Blowup> {
         self.system
             .step(
                 &self.integrator,
@@ -104,76 +99,10 @@ impl<const D: usize> Model for MdModel<D> {
             .map_err(|e| blowup_of(&e, step))
     }
 
-    fn thermo_columns(&self) -> &'static [&'static str] {
-        &["temp", "pe", "ke", "etotal", "press"]
-    }
-
-    fn thermo(&self, _step: u64) -> Vec<f64> {
-        let th = self.system.thermo();
-        vec![th.temp, th.pe, th.ke, th.etotal, th.press]
-    }
-
-    fn checked(&self) -> Vec<Checked<'_>> {
-        checked_atoms(self.system.atoms())
-    }
-
-    fn id_of(&self, index: usize) -> u64 {
-        self.system.atoms().ids[index]
-    }
-
-    fn walls(&self) -> Vec<(usize, f64, f64)> {
-        self.system.domain().walls()
-    }
-
-    fn remedy(&self) -> &'static str {
-        REMEDY
-    }
-
-    /// Sorted by id, positions wrapped into the box.
-    fn particles(&self, _step: u64, energies: bool) -> Option<Particles> {
-        let system = &self.system;
-        let slots = system.atoms().slots_by_id();
-        let energies = energies.then(|| {
-            let pe = system.per_atom_energy();
-            slots.iter().map(|&k| pe[k]).collect()
-        });
-        let sorted = system.atoms().select(&slots);
-        Some(dump_particles(
-            &sorted,
-            energies,
-            system.domain(),
-            self.z_bounds,
-        ))
-    }
-
-    fn stage_times(&self) -> Vec<(&'static str, Duration)> {
-        self.times.stages()
-    }
-
-    fn speed(&self, loop_seconds: f64, steps: u64, threads: usize) -> String {
-        let n = self.len();
-        let per = loop_seconds * 1e6 / (n as f64 * steps.max(1) as f64);
-        format!(
-            "Loop time of {loop_seconds:.4} s on {threads} thread(s) for {steps} steps with {n} atoms: \
-             {per:.4} us/atom-step, {} neighbour-list rebuilds{}",
-            self.system.rebuilds(),
-            late_note(self.system.late_builds())
-        )
-    }
-
-    fn save(&self, state: &mut State) {
-        let system = &self.system;
-        save_atoms(
-            state,
-            system.atoms(),
-            system.list_reference(),
-            system.list_counts(),
-        );
-    }
-
-    /// Positions or velocities in id order; the system is set up anew (the
-    /// checks of a new run, the neighbour list, the forces).
-    fn set_array(&mut self, name: &str, values: &[f64], threads: &Threads) -> Result<(), String> {
+    /// Replaces the positions or velocities (`name`) by `values`, `D` numbers
+    /// per atom in id order; the system is set up anew (the checks of a new
+    /// run, the neighbour list, the forces).
+    pub fn set_array(&mut self, name: &str, values: &[f64], threads: &Threads) -> Result<(), String> {
         let system = &self.system;
         let n = system.atoms().len();
         if values.len() != n * D {
@@ -207,6 +136,68 @@ impl<const D: usize> Model for MdModel<D> {
         self.system.set_rebuild_rule(rule);
         Ok(())
     }
+}
+
+impl<const D: usize> Model for MdModel<D> {
+    fn info(&self) -> &ModelInfo {
+        &INFO
+    }
+
+    fn len(&self) -> usize {
+        self.system.atoms().len()
+    }
+
+    fn dt(&self) -> f64 {
+        self.dt
+    }
+
+    fn step(&mut self, step: u64, threads: &Threads) -> Result<(), Blowup> {
+        self.advance(step, false, threads)
+    }
+
+    fn step_observed(&mut self, step: u64, threads: &Threads) -> Result<(), Blowup> {
+        self.advance(step, true, threads)
+    }
+
+    fn thermo(&self, _step: u64) -> Vec<f64> {
+        let th = self.system.thermo();
+        vec![th.temp, th.pe, th.ke, th.etotal, th.press]
+    }
+
+    fn checked(&self) -> Checked<'_> {
+        checked_atoms(self.system.atoms(), self.system.domain())
+    }
+
+    /// Sorted by id, positions wrapped into the box.
+    fn particles(&self, _step: u64, energies: bool) -> Option<Particles> {
+        let system = &self.system;
+        let slots = system.atoms().slots_by_id();
+        let energies = energies.then(|| {
+            let pe = system.per_atom_energy();
+            slots.iter().map(|&k| pe[k]).collect()
+        });
+        let sorted = system.atoms().select(&slots);
+        Some(dump_particles(
+            &sorted,
+            energies,
+            system.domain(),
+            self.z_bounds,
+        ))
+    }
+
+    fn stage_times(&self) -> Vec<(&'static str, Duration)> {
+        self.times.stages()
+    }
+
+    fn save(&self, state: &mut State) {
+        let system = &self.system;
+        save_atoms(
+            state,
+            system.atoms(),
+            system.list_reference(),
+            system.list_counts(),
+        );
+    }
 
     fn restore(&mut self, state: &State, threads: &Threads) -> Result<(), StateError> {
         let (atoms, reference, counts) = load_atoms(state, self.len())?;
@@ -216,20 +207,24 @@ impl<const D: usize> Model for MdModel<D> {
     }
 }
 
-/// The arrays of `atoms` the driver checks for finite values: positions,
-/// velocities, forces.
-pub fn checked_atoms<const D: usize>(atoms: &Atoms<D>) -> Vec<Checked<'_>> {
-    [
+/// What the driver checks of `atoms` in `domain`: positions, velocities and
+/// forces finite, the atoms named by their ids, positions within the walls.
+pub fn checked_atoms<'a, const D: usize>(atoms: &'a Atoms<D>, domain: &Domain<D>) -> Checked<'a> {
+    let arrays = [
         ("position", &atoms.positions),
         ("velocity", &atoms.velocities),
         ("force", &atoms.forces),
     ]
-    .map(|(quantity, v)| Checked {
+    .map(|(quantity, v)| CheckedArray {
         quantity,
         values: v.as_flattened(),
         per_particle: D,
     })
-    .into()
+    .into();
+    Checked {
+        walls: domain.walls(),
+        ..Checked::new(Ids::U64(&atoms.ids), arrays)
+    }
 }
 
 /// The dump frame of `atoms` (in their order): positions wrapped into

@@ -16,7 +16,7 @@ mod pairs;
 
 pub use exact::InitialField;
 pub use kernel::{exp_nonpositive, PairWeight};
-pub use model::PseModel;
+pub use model::{PseModel, INFO};
 
 use crate::geometry::norm2;
 use crate::geometry::{Domain, GeometryError};

@@ -1,7 +1,7 @@
 //! Diffusion by particle strength exchange behind the driver's [`Model`] interface.
 
 use super::{InitialField, Integrator, PseSystem};
-use crate::models::{Blowup, Checked, Field, Model, Particles};
+use crate::models::{Blowup, Checked, CheckedArray, Field, Ids, Model, ModelInfo};
 use crate::state::{State, StateError};
 use crate::threads::Threads;
 use std::time::{Duration, Instant};
@@ -23,13 +23,17 @@ pub struct PseModel<const D: usize> {
     step_time: Duration,
 }
 
+/// What a pse model is: a field on particles, its total and its errors
+/// against the exact solution.
+pub const INFO: ModelInfo = ModelInfo {
+    name: "pse",
+    particle: "particle",
+    thermo_columns: &["time", "total", "l2_error", "max_error"],
+    remedy: "run.dt is above the stability limit of the integrator for this kernel and spacing: use a smaller run.dt",
+    count_may_change: false,
+};
+
 impl<const D: usize> PseModel<D> {
-    /// The thermo columns.
-    pub const THERMO_COLUMNS: &'static [&'static str] = &["time", "total", "l2_error", "max_error"];
-
-    /// What to try when the field stops being finite.
-    pub const REMEDY: &'static str = "run.dt is above the stability limit of the integrator for this kernel and spacing: use a smaller run.dt";
-
     /// The model of `system`; the pictures' scale is the largest `|phi|` now.
     pub fn new(
         system: PseSystem<D>,
@@ -52,12 +56,8 @@ impl<const D: usize> PseModel<D> {
 }
 
 impl<const D: usize> Model for PseModel<D> {
-    fn name(&self) -> &'static str {
-        "pse"
-    }
-
-    fn particle_word(&self) -> &'static str {
-        "particle"
+    fn info(&self) -> &ModelInfo {
+        &INFO
     }
 
     fn len(&self) -> usize {
@@ -68,15 +68,11 @@ impl<const D: usize> Model for PseModel<D> {
         self.dt
     }
 
-    fn step(&mut self, step: u64, _observe: bool, threads: &Threads) -> Result<(), Blowup> {
+    fn step(&mut self, step: u64, threads: &Threads) -> Result<(), Blowup> {
         let t = Instant::now();
         let result = self.system.step(self.integrator, self.dt, threads);
         self.step_time += t.elapsed();
-        result.map_err(|e| Blowup::new(step, e.to_string(), self.remedy()))
-    }
-
-    fn thermo_columns(&self) -> &'static [&'static str] {
-        Self::THERMO_COLUMNS
+        result.map_err(|e| Blowup::new(step, e.to_string(), INFO.remedy))
     }
 
     fn thermo(&self, step: u64) -> Vec<f64> {
@@ -97,24 +93,13 @@ impl<const D: usize> Model for PseModel<D> {
         vec![time, self.system.total(), l2, max]
     }
 
-    fn checked(&self) -> Vec<Checked<'_>> {
-        vec![Checked {
+    fn checked(&self) -> Checked<'_> {
+        let field = CheckedArray {
             quantity: "field",
             values: self.system.slot_phi(),
             per_particle: 1,
-        }]
-    }
-
-    fn id_of(&self, index: usize) -> u64 {
-        self.system.order()[index] as u64
-    }
-
-    fn remedy(&self) -> &'static str {
-        Self::REMEDY
-    }
-
-    fn particles(&self, _step: u64, _energies: bool) -> Option<Particles> {
-        None
+        };
+        Checked::new(Ids::U32(self.system.order()), vec![field])
     }
 
     fn field(&self) -> Option<Field> {
@@ -142,16 +127,6 @@ impl<const D: usize> Model for PseModel<D> {
 
     fn stage_times(&self) -> Vec<(&'static str, Duration)> {
         vec![("Rates", self.step_time)]
-    }
-
-    fn speed(&self, loop_seconds: f64, steps: u64, threads: usize) -> String {
-        let evaluations = self.system.pairs_per_rate() * self.integrator.stages() * steps;
-        format!(
-            "Loop time of {loop_seconds:.4} s on {threads} thread(s) for {steps} steps with {} particles: \
-             {:.3e} pair kernels per second",
-            self.len(),
-            evaluations as f64 / loop_seconds.max(1e-12)
-        )
     }
 
     fn save(&self, state: &mut State) {

@@ -2,7 +2,7 @@
 
 use super::{energy_and_enstrophy, lamb_oseen_vorticity, Moments, VortexError, VortexSystem};
 use crate::models::pse::Integrator;
-use crate::models::{Blowup, Checked, Field, Model, Particles};
+use crate::models::{Blowup, Checked, CheckedArray, Field, Ids, Model, ModelInfo};
 use crate::state::{State, StateError};
 use crate::threads::Threads;
 use std::f64::consts::PI;
@@ -51,6 +51,7 @@ pub enum Extras {
 }
 
 impl Extras {
+    /// The thermo columns of a run with these extras.
     fn columns(&self) -> &'static [&'static str] {
         match self {
             Extras::None => columns!(),
@@ -80,7 +81,12 @@ pub struct VortexModel {
     angle: f64,
     /// The thermo values of the last observed state (without the time).
     observed: Vec<f64>,
+    info: ModelInfo,
 }
+
+/// What to try when a vortex run blows up.
+const REMEDY: &str = "the step is too large for the flow (a particle should move less than a spacing per \
+                      step, and nu dt / sigma^2 stay below about 0.5): use a smaller run.dt";
 
 impl VortexModel {
     /// The model of `system`, its diagnostics computed for step 0; pictures show the
@@ -97,7 +103,15 @@ impl VortexModel {
         let scale = system.gamma().iter().fold(0.0f64, |m, g| m.max(g.abs())) / h2;
         let moments = Moments::of(system.positions(), system.gamma());
         let angle = moments.ellipse().1;
+        let info = ModelInfo {
+            name: "vortex",
+            particle: "particle",
+            thermo_columns: extras.columns(),
+            remedy: REMEDY,
+            count_may_change: system.params().remesh_every > 0,
+        };
         let mut model = VortexModel {
+            info,
             system,
             integrator,
             dt,
@@ -175,28 +189,9 @@ impl VortexModel {
     }
 }
 
-impl Model for VortexModel {
-    fn name(&self) -> &'static str {
-        "vortex"
-    }
-
-    fn particle_word(&self) -> &'static str {
-        "particle"
-    }
-
-    fn len(&self) -> usize {
-        self.system.len()
-    }
-
-    fn count_may_change(&self) -> bool {
-        self.system.params().remesh_every > 0
-    }
-
-    fn dt(&self) -> f64 {
-        self.dt
-    }
-
-    fn step(&mut self, step: u64, observe: bool, threads: &Threads) -> Result<(), Blowup> {
+impl VortexModel {
+    /// Advances to `step`, its invariants computed when `observe`.
+    fn advance(&mut self, step: u64, observe: bool, threads: &Threads) -> Result<(), Blowup> {
         match self.system.step(self.integrator, self.dt, step, threads) {
             // the driver's check names the particle, the quantity and its value
             Err(VortexError::NotFinite { .. }) => return Ok(()),
@@ -205,7 +200,7 @@ impl Model for VortexModel {
         .map_err(|e| {
             let remedy = match e {
                 VortexError::Parameter(_) => "this is a bug in the model",
-                _ => self.remedy(),
+                _ => REMEDY,
             };
             Blowup::new(step, e.to_string(), remedy)
         })?;
@@ -214,9 +209,27 @@ impl Model for VortexModel {
         }
         Ok(())
     }
+}
 
-    fn thermo_columns(&self) -> &'static [&'static str] {
-        self.extras.columns()
+impl Model for VortexModel {
+    fn info(&self) -> &ModelInfo {
+        &self.info
+    }
+
+    fn len(&self) -> usize {
+        self.system.len()
+    }
+
+    fn dt(&self) -> f64 {
+        self.dt
+    }
+
+    fn step(&mut self, step: u64, threads: &Threads) -> Result<(), Blowup> {
+        self.advance(step, false, threads)
+    }
+
+    fn step_observed(&mut self, step: u64, threads: &Threads) -> Result<(), Blowup> {
+        self.advance(step, true, threads)
     }
 
     fn thermo(&self, step: u64) -> Vec<f64> {
@@ -225,37 +238,25 @@ impl Model for VortexModel {
         row
     }
 
-    fn checked(&self) -> Vec<Checked<'_>> {
-        vec![
-            Checked {
+    fn checked(&self) -> Checked<'_> {
+        let arrays = vec![
+            CheckedArray {
                 quantity: "position",
                 values: self.system.positions().as_flattened(),
                 per_particle: 2,
             },
-            Checked {
+            CheckedArray {
                 quantity: "circulation",
                 values: self.system.gamma(),
                 per_particle: 1,
             },
-            Checked {
+            CheckedArray {
                 quantity: "velocity",
                 values: self.system.velocity().as_flattened(),
                 per_particle: 2,
             },
-        ]
-    }
-
-    fn id_of(&self, index: usize) -> u64 {
-        index as u64
-    }
-
-    fn remedy(&self) -> &'static str {
-        "the step is too large for the flow (a particle should move less than a spacing per \
-         step, and nu dt / sigma^2 stay below about 0.5): use a smaller run.dt"
-    }
-
-    fn particles(&self, _step: u64, _energies: bool) -> Option<Particles> {
-        None
+        ];
+        Checked::new(Ids::Index, arrays)
     }
 
     fn field(&self) -> Option<Field> {
@@ -288,17 +289,6 @@ impl Model for VortexModel {
             ("Diffusion", t.diffusion),
             ("Remesh", t.remesh),
         ]
-    }
-
-    fn speed(&self, loop_seconds: f64, steps: u64, threads: usize) -> String {
-        let stages = self.integrator.stages() * steps;
-        format!(
-            "Loop time of {loop_seconds:.4} s on {threads} thread(s) for {steps} steps with {} particles \
-             (at the end): {:.4} s per velocity evaluation; circulation dropped by remeshing {:.3e}",
-            self.len(),
-            self.system.times().velocity.as_secs_f64() / stages.max(1) as f64,
-            self.system.dropped()
-        )
     }
 
     fn save(&self, state: &mut State) {

@@ -1,0 +1,103 @@
+//! How a run's model is held across MPI ranks, and what the driver does about
+//! it: the policy of a [`Job`](crate::driver::Job), not of the model. In one
+//! process every rank question has the trivial answer; with the `mpi` feature a
+//! distributed run says who writes, how failures are agreed and when the
+//! spread state must be gathered.
+
+#[cfg(feature = "mpi")]
+use crate::distributed::{agree, ring::Waited};
+#[cfg(feature = "mpi")]
+use mpi::topology::SimpleCommunicator;
+#[cfg(feature = "mpi")]
+use mpi::traits::Communicator;
+
+/// Where a job's model lives.
+#[derive(Default)]
+pub enum Ranks {
+    /// In this process alone.
+    #[default]
+    One,
+    /// Spread over the ranks of `world` by domain decomposition (md, pse): each
+    /// rank steps its own particles, and rank 0 gathers the state whenever an
+    /// observer or a checkpoint is due.
+    #[cfg(feature = "mpi")]
+    Spread(SimpleCommunicator),
+    /// Held whole on every rank of `world`, which advance it alike and divide
+    /// its all-pairs sums by the ring pass (gravity and vortex with their
+    /// direct solvers); `waited` is the ring's waiting time.
+    #[cfg(feature = "mpi")]
+    Replicated {
+        /// The ranks.
+        world: SimpleCommunicator,
+        /// The time rank 0 waited for blocks and results.
+        waited: Waited,
+    },
+}
+
+impl Ranks {
+    /// The number of ranks.
+    pub fn count(&self) -> i32 {
+        match self {
+            Ranks::One => 1,
+            #[cfg(feature = "mpi")]
+            Ranks::Spread(world) | Ranks::Replicated { world, .. } => world.size(),
+        }
+    }
+
+    /// False on the ranks other than 0 of a distributed run: they write no
+    /// output (rank 0 writes the gathered state).
+    pub fn writes_output(&self) -> bool {
+        match self {
+            Ranks::One => true,
+            #[cfg(feature = "mpi")]
+            Ranks::Spread(world) | Ranks::Replicated { world, .. } => world.rank() == 0,
+        }
+    }
+
+    /// The outcome of a stage of the run made one for every rank: the failure
+    /// of the lowest rank that failed, or `None`. In one process, `failure`
+    /// itself.
+    pub fn agree(&self, failure: Option<String>) -> Option<String> {
+        match self {
+            Ranks::One => failure,
+            #[cfg(feature = "mpi")]
+            Ranks::Spread(world) | Ranks::Replicated { world, .. } => agree(world, failure),
+        }
+    }
+
+    /// True when the state is spread over the ranks and gathered for output:
+    /// every step where an observer fires or a checkpoint is written is then
+    /// an observed step, not only those that need thermo values or energies.
+    pub fn observe_when_due(&self) -> bool {
+        match self {
+            Ranks::One => false,
+            #[cfg(feature = "mpi")]
+            Ranks::Spread(_) => true,
+            #[cfg(feature = "mpi")]
+            Ranks::Replicated { .. } => false,
+        }
+    }
+
+    /// The speed line `line` of the model completed with what the ranks
+    /// cost: a replicated run's ring pass (its waiting time over the loop's
+    /// `loop_seconds`).
+    pub fn speed(&self, line: String, loop_seconds: f64) -> String {
+        match self {
+            #[cfg(feature = "mpi")]
+            Ranks::Replicated { world, waited } => {
+                let waited = waited.lock().map_or(std::time::Duration::ZERO, |w| *w);
+                format!(
+                    "{line} (per rank)\nRing pass on {} ranks: {:.4} s on rank 0 waiting for blocks and \
+                     gathering the results ({:.1}% of the loop)",
+                    world.size(),
+                    waited.as_secs_f64(),
+                    100.0 * waited.as_secs_f64() / loop_seconds.max(1e-300)
+                )
+            }
+            _ => {
+                let _ = loop_seconds;
+                line
+            }
+        }
+    }
+}
