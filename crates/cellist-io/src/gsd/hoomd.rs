@@ -4,7 +4,8 @@
 
 use std::io;
 
-use super::{check_shape, invalid_input, GsdData, GsdWriter};
+use super::file::{invalid_input, GsdData};
+use super::writer::{check_shape, GsdWriter};
 
 /// One frame of the `hoomd` schema (version 1.4): an orthorhombic box and
 /// per-particle data. Positions are given in the caller's box `[lo, lo + L)`;

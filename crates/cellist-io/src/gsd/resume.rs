@@ -6,10 +6,10 @@ use std::fs::{File, OpenOptions};
 use std::io::{self, Write};
 use std::path::Path;
 
-use super::{
-    invalid_data, read_at, write_at, write_zeros, Entry, GsdWriter, Header, ENTRY_BYTES,
-    HEADER_BYTES,
+use super::file::{
+    invalid_data, read_at, write_at, write_zeros, Entry, Header, ENTRY_BYTES, HEADER_BYTES,
 };
+use super::writer::GsdWriter;
 
 impl GsdWriter {
     /// Continues a file that a checkpoint recorded at `length` bytes (what

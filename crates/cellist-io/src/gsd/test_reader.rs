@@ -2,7 +2,7 @@
 
 use std::path::Path;
 
-use super::{Entry, Header};
+use super::file::{Entry, Header};
 
 /// A GSD file read back and checked the way the GSD C reader checks one.
 pub(super) struct Parsed {
