@@ -1,6 +1,8 @@
 //! The workspace's module structure, read from the source files on disk:
 //!
-//! - `no_module_cycles`: no import cycle between the modules of any crate;
+//! - `no_module_cycles`: no import cycle between the modules of any crate (a
+//!   module and its ancestors are one tree, not peers: a child that uses what
+//!   its parent defines while the parent re-exports the child is no cycle);
 //! - `layers_point_one_way`: engine, then files, then simulation, then the
 //!   command-line tool and the Python module, which use only the simulation;
 //! - `no_long_files`: no source file over 1,000 lines;
@@ -335,9 +337,18 @@ fn crate_modules(root: &Path) -> Vec<Module> {
     modules
 }
 
-/// The imports between `modules`: (from, to) indices, each with the first line
-/// of `from` that refers to `to` through a `use` or a path in code.
-fn edges(modules: &[Module]) -> BTreeMap<(usize, usize), usize> {
+/// True when one of the modules `a` and `b` is the other's ancestor (the crate
+/// root `""` is everyone's): a parent and its children are one tree, so what
+/// passes between them is not an import between peers.
+fn related(a: &str, b: &str) -> bool {
+    let within =
+        |inner: &str, outer: &str| outer.is_empty() || inner.starts_with(&format!("{outer}::"));
+    within(a, b) || within(b, a)
+}
+
+/// The references between `modules`: (from, to) indices, each with the first
+/// line of `from` that refers to `to` through a `use` or a path in code.
+fn references(modules: &[Module]) -> BTreeMap<(usize, usize), usize> {
     let names = modules
         .iter()
         .enumerate()
@@ -390,11 +401,13 @@ fn bfs(adj: &[Vec<usize>], from: usize) -> Vec<Option<usize>> {
     parent
 }
 
-/// Each import cycle among `modules`: one message per strongly connected
+/// Each import cycle among `modules` (peers only: [`related`] modules are one
+/// tree): one message per strongly connected
 /// component of more than one module, with a shortest cycle through its first
 /// module, its files, and every import inside it with an example line.
 fn cycles(modules: &[Module]) -> Vec<String> {
-    let edges = edges(modules);
+    let mut edges = references(modules);
+    edges.retain(|&(from, to), _| !related(&modules[from].name, &modules[to].name));
     let mut adj = vec![Vec::new(); modules.len()];
     for &(from, to) in edges.keys() {
         adj[from].push(to);
@@ -579,7 +592,7 @@ mod scanner {
             modules.push(Module::new(name.trim_start_matches("crate"), name, source));
         }
         let edge = |&(a, b): &(usize, usize)| [modules[a].shown(), modules[b].shown()].join(" -> ");
-        edges(&modules).keys().map(edge).collect()
+        references(&modules).keys().map(edge).collect()
     }
 
     #[test]
@@ -618,27 +631,31 @@ mod scanner {
 
     #[test]
     fn a_cycle_is_found_with_its_lines() {
-        let parent = "mod child;\npub use child::Thing;\npub struct Shared;";
-        let child = "use super::Shared;\npub struct Thing;";
+        let b = "use super::c::Thing;\npub struct Shared;";
+        let c = "use crate::a::b::Shared;\npub struct Thing;";
         let found = cycles(&[
-            Module::new("", "lib.rs", parent),
-            Module::new("child", "c.rs", child),
+            Module::new("", "lib.rs", "mod a;"),
+            Module::new("a", "a/mod.rs", "mod b;\nmod c;"),
+            Module::new("a::b", "a/b.rs", b),
+            Module::new("a::c", "a/c.rs", c),
         ]);
         let text = found.join("");
         assert_eq!(found.len(), 1, "{text}");
+        assert!(text.starts_with("\ncycle a::b -> a::c -> a::b\n"), "{text}");
         assert!(
-            text.starts_with("\ncycle crate -> child -> crate\n"),
+            text.contains("\n  a::b -> a::c: a/b.rs:1: use super::c::Thing;"),
             "{text}"
         );
         assert!(
-            text.contains("\n  crate -> child: lib.rs:2: pub use child::Thing;"),
+            text.contains("\n  a::c -> a::b: a/c.rs:1: use crate::a::b::Shared;"),
             "{text}"
         );
-        assert!(
-            text.contains("\n  child -> crate: c.rs:1: use super::Shared;"),
-            "{text}"
-        );
-        let parent = "mod child;\npub struct Shared;";
+    }
+
+    #[test]
+    fn a_parent_and_its_child_are_no_cycle() {
+        let parent = "mod child;\npub use child::Thing;\npub struct Shared;";
+        let child = "use super::Shared;\npub struct Thing;";
         assert!(cycles(&[
             Module::new("", "lib.rs", parent),
             Module::new("child", "c.rs", child)
