@@ -3,7 +3,7 @@
 //! that blew up (with its step, particle and quantity), `RuntimeError` for a
 //! failed self-check.
 
-use cellist::models::Blowup;
+use cellist_sim::Blowup;
 use cellist_sim::SimError;
 use pyo3::exceptions::{PyOSError, PyRuntimeError, PyValueError};
 use pyo3::prelude::*;

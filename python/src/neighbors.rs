@@ -3,10 +3,10 @@
 
 use crate::errors::value_error;
 use crate::threads::pool;
-use cellist::neighbors::{
-    half_list_as_found, sorted_half_list, PairArrays, PairQuantities, SkinList,
+use cellist_sim::neighbors::{
+    half_list_in_box, GeometryError, Order, PairArrays, PairQuantities, SkinList,
 };
-use cellist::{CellList, Domain, Threads};
+use cellist_sim::Threads;
 use numpy::{AllowTypeChange, IntoPyArray, PyArrayLike2, PyArrayMethods, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::PyTuple;
@@ -232,15 +232,9 @@ fn search<const D: usize>(
     sorted: bool,
     pool: &Threads,
 ) -> PyResult<PairArrays> {
-    let domain = Domain::for_points(points, length, [0.0; D], periodic)
-        .map_err(|e| value_error(format!("box: {e}")))?;
-    let cells = CellList::build_in(&domain, cutoff, points, pool)
-        .map_err(|e| value_error(format!("cutoff {cutoff}: {e}")))?;
-    Ok(if sorted {
-        sorted_half_list(&cells, points, cutoff, wanted, pool)
-    } else {
-        half_list_as_found(&cells, points, cutoff, wanted, pool)
-    })
+    let order = if sorted { Order::Sorted } else { Order::AsFound };
+    half_list_in_box(points, length, periodic, cutoff, wanted, order, pool)
+        .map_err(|e| value_error(e.flagged("cutoff").to_string()))
 }
 
 /// The lists of one dimension.
@@ -356,7 +350,7 @@ impl NeighborList {
             });
         }
         let (wanted, pool) = (self.wanted, &self.pool);
-        let box_error = |e: cellist::GeometryError| value_error(format!("box: {e}"));
+        let box_error = |e: GeometryError| value_error(format!("box: {e}"));
         match &mut self.list {
             Some(Skin::Two(l)) => {
                 let p = flat.as_chunks::<2>().0;

@@ -5,11 +5,10 @@
 
 use crate::errors::{sim_error, value_error};
 use crate::threads::pool;
-use cellist::models::Blowup;
-use cellist_io::checkpoint::encode;
 use cellist_sim::session::{self, Session};
 use cellist_sim::trajectory::TrajectoryFrame;
-use cellist_sim::{Scenario, SimError, SimResult};
+use cellist_sim::checkpoint::encode;
+use cellist_sim::{Blowup, Scenario, SimError, SimResult};
 use numpy::{AllowTypeChange, IntoPyArray, PyArrayLike2, PyArrayMethods, PyUntypedArrayMethods};
 use pyo3::exceptions::PyRuntimeError;
 use pyo3::prelude::*;
@@ -23,7 +22,7 @@ use std::thread::JoinHandle;
 /// What the worker thread owns: the session and its threads.
 struct Engine {
     session: Box<dyn Session>,
-    threads: cellist::Threads,
+    threads: cellist_sim::Threads,
 }
 
 /// The wall time a `run` call works between looks at Python's signals.
@@ -31,9 +30,6 @@ const SLICE: std::time::Duration = std::time::Duration::from_millis(200);
 
 /// A request to the worker.
 type Task = Box<dyn FnOnce(&mut Engine) + Send>;
-
-/// A named per-particle array in user order: name, values, columns.
-type Named = (String, Vec<f64>, usize);
 
 /// What a scenario needs to be rebuilt (for pickling).
 #[derive(Clone)]
@@ -174,7 +170,7 @@ impl Simulation {
 
     /// The named arrays of the current state, converted to read-only numpy arrays.
     fn arrays<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let named = self.call(py, |e| named_arrays(e.session.model(), e.session.step()))?;
+        let named = self.call(py, |e| e.session.arrays())?;
         let dict = PyDict::new(py);
         for (name, values, columns) in named {
             let rows = values.len() / columns.max(1);
@@ -241,63 +237,6 @@ impl Simulation {
             }
         }
     }
-}
-
-/// The per-particle arrays of `model` at `step`, in the user's particle order:
-/// the particles' (positions, velocities, forces, masses, ...) or the field's
-/// (positions, the field values under their own name, the extra columns), and
-/// the model's own names for them (strengths, circulations).
-fn named_arrays(model: &dyn cellist::models::Model, step: u64) -> Vec<Named> {
-    let mut out: Vec<Named> = Vec::new();
-    let vectors = |v: &[[f64; 3]], d: usize| -> Vec<f64> {
-        v.iter().flat_map(|x| x[..d].iter().copied()).collect()
-    };
-    if let Some(p) = model.particles(step, false) {
-        let d = p.dimension;
-        out.push(("ids".into(), p.ids.iter().map(|&i| i as f64).collect(), 1));
-        if !p.types.is_empty() {
-            out.push((
-                "types".into(),
-                p.types.iter().map(|&t| t as f64).collect(),
-                1,
-            ));
-        }
-        out.push(("positions".into(), vectors(&p.positions, d), d));
-        out.push(("velocities".into(), vectors(&p.velocities, d), d));
-        if !p.forces.is_empty() {
-            out.push(("forces".into(), vectors(&p.forces, d), d));
-        }
-        if let Some(m) = p.masses {
-            out.push(("masses".into(), m, 1));
-        }
-        if let Some(a) = p.accelerations {
-            out.push(("accelerations".into(), vectors(&a, d), d));
-        }
-        if let Some(phi) = p.potentials {
-            out.push(("potentials".into(), phi, 1));
-        }
-    } else if let Some(f) = model.field() {
-        let d = f.dimension;
-        out.push(("positions".into(), vectors(&f.positions, d), d));
-        if let Some(strengths) = f.strengths {
-            out.push(("strengths".into(), strengths, 1));
-        }
-        out.push((f.value_name.to_string(), f.values, 1));
-        let extra = |name: &str| f.extra.iter().find(|(n, _)| *n == name).map(|(_, v)| v);
-        if let (Some(u), Some(v)) = (extra("u"), extra("v")) {
-            let velocities = u.iter().zip(v).flat_map(|(&a, &b)| [a, b]).collect();
-            out.push(("velocities".into(), velocities, 2));
-        }
-        if let Some(gamma) = extra("gamma") {
-            out.push(("circulations".into(), gamma.clone(), 1));
-        }
-        for (name, values) in &f.extra {
-            if !matches!(*name, "u" | "v" | "gamma") {
-                out.push((name.to_string(), values.clone(), 1));
-            }
-        }
-    }
-    out
 }
 
 /// Reads a scenario argument: a path (str or os.PathLike) to a TOML file, or

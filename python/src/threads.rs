@@ -1,7 +1,7 @@
 //! The worker threads of a call.
 
 use crate::errors::value_error;
-use cellist::Threads;
+use cellist_sim::Threads;
 use pyo3::prelude::*;
 
 /// A pool of `threads` workers; `None` gives one per core of the machine.

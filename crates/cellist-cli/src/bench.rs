@@ -1,53 +1,38 @@
-//! `cellist bench ...`: timings on standard workloads, medians of repeated runs.
+//! `cellist bench ...`: the simulation layer's benchmarks, their flags in and
+//! their figures out, as a line of text or one JSON object.
 
-use crate::cli::{BenchLjArgs, BenchNeighborsArgs};
-use crate::error::{positive, threads, CliError, CliResult};
-use cellist::interactions::LennardJones;
-use cellist::models::md::{
-    create_velocities, late_note, lattice, Atoms, Integrator, LatticeKind, MdSystem, StageTimes,
-    VelocityDistribution,
+use crate::cli::{
+    BenchBilliardsArgs, BenchGravityArgs, BenchLjArgs, BenchNeighborsArgs, BenchPseArgs,
+    BenchVortexArgs, GravitySolverArg, PseMethodArg, VortexSolverArg,
 };
-use cellist::neighbors::{half_list_as_found, half_pairs, sorted_half_list, RebuildRule};
-use cellist::random::Rng;
-use cellist::{CellList, Domain, Threads};
-use cellist_sim::study::median;
-use std::time::Instant;
-
-/// `n` uniform random points in the periodic box `[0, L)^D` with `L = (n / rho)^(1/D)`.
-pub fn uniform_points<const D: usize>(
-    n: usize,
-    density: f64,
-    seed: u64,
-) -> (Domain<D>, Vec<[f64; D]>) {
-    let side = (n as f64 / density).powf(1.0 / D as f64);
-    let mut rng = Rng::new(seed);
-    let points = (0..n)
-        .map(|_| std::array::from_fn(|_| rng.uniform() * side))
-        .collect();
-    let domain = Domain::periodic([side; D]).expect("a positive side");
-    (domain, points)
-}
+use crate::error::{threads, CliResult};
+use cellist_sim::bench::{self, GravitySolver, PseMethod, VortexBenchSolver};
+use cellist_sim::bench::{late_note, RebuildRule};
+use cellist_sim::neighbors::Order;
 
 /// `cellist bench neighbors`.
 pub fn neighbors(args: &BenchNeighborsArgs) -> CliResult {
-    positive("--density", args.density)?;
-    positive("--cutoff", args.cutoff)?;
-    if args.n < 2 {
-        return Err(CliError::Input("--n must be at least 2".into()));
-    }
-    if args.repeat == 0 {
-        return Err(CliError::Input("--repeat must be at least 1".into()));
-    }
     let pool = threads(Some(args.threads))?;
-    let (seconds, pairs) = match args.dim {
-        2 => time_half_list::<2>(args, &pool)?,
-        _ => time_half_list::<3>(args, &pool)?,
+    let arrays = match (args.sorted, args.as_found) {
+        (true, _) => Some(Order::Sorted),
+        (_, true) => Some(Order::AsFound),
+        _ => None,
     };
-    let ns_per_pair = seconds * 1e9 / pairs.max(1) as f64;
+    let request = bench::NeighborsRequest {
+        n: args.n,
+        dim: args.dim,
+        density: args.density,
+        cutoff: args.cutoff,
+        seed: args.seed,
+        repeat: args.repeat,
+        arrays,
+    };
+    let b = bench::neighbors(&request, &pool)?;
+    let ns_per_pair = b.seconds * 1e9 / b.pairs.max(1) as f64;
     if args.json {
         let mut obj = serde_json::json!({
-            "n": args.n, "dim": args.dim, "threads": args.threads, "pairs": pairs,
-            "seconds": seconds, "ns_per_pair": ns_per_pair,
+            "n": args.n, "dim": args.dim, "threads": args.threads, "pairs": b.pairs,
+            "seconds": b.seconds, "ns_per_pair": ns_per_pair,
         });
         if args.sorted {
             obj["sorted"] = true.into();
@@ -59,147 +44,258 @@ pub fn neighbors(args: &BenchNeighborsArgs) -> CliResult {
     } else {
         println!(
             "neighbors{}: n {} dim {} threads {}: median {:.4} s over {} runs, {} pairs, {:.2} ns/pair",
-            match (args.sorted, args.as_found) {
-                (true, _) => " (sorted)",
-                (_, true) => " (as found, int64)",
-                _ => "",
+            match arrays {
+                Some(Order::Sorted) => " (sorted)",
+                Some(Order::AsFound) => " (as found, int64)",
+                None => "",
             },
-            args.n, args.dim, args.threads, seconds, args.repeat, pairs, ns_per_pair
+            args.n,
+            args.dim,
+            args.threads,
+            b.seconds,
+            args.repeat,
+            b.pairs,
+            ns_per_pair
         );
     }
     Ok(())
 }
 
-/// Median wall time of cell-list build plus half pair list, and the pair count.
-fn time_half_list<const D: usize>(
-    args: &BenchNeighborsArgs,
-    pool: &Threads,
-) -> CliResult<(f64, usize)> {
-    let (domain, points) = uniform_points::<D>(args.n, args.density, args.seed);
-    let mut times = Vec::with_capacity(args.repeat);
-    let mut count = 0;
-    for _ in 0..args.repeat {
-        let start = Instant::now();
-        let cells = CellList::build_in(&domain, args.cutoff, &points, pool)
-            .map_err(|e| CliError::Input(format!("--cutoff {}: {e}", args.cutoff)))?;
-        count = if args.sorted || args.as_found {
-            let list = if args.sorted {
-                sorted_half_list
-            } else {
-                half_list_as_found
-            };
-            let pairs = list(&cells, &points, args.cutoff, Default::default(), pool);
-            times.push(start.elapsed().as_secs_f64());
-            pairs.len()
-        } else {
-            let pairs = half_pairs(&cells, args.cutoff, pool, |i, j, _| [i, j]);
-            times.push(start.elapsed().as_secs_f64());
-            pairs.len()
-        };
-    }
-    Ok((median(&times), count))
-}
-
-/// The peak resident set of this process (`VmHWM` of `/proc/self/status`), in
-/// bytes; None where the file is not there (not Linux).
-fn peak_resident_bytes() -> Option<u64> {
-    let status = std::fs::read_to_string("/proc/self/status").ok()?;
-    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
-    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
-    Some(kib * 1024)
-}
-
-/// `cellist bench lj`: the loop time of the LAMMPS melt, as LAMMPS reports it (set-up
-/// excluded), median over `--repeat` runs from the same start.
+/// `cellist bench lj`: the loop time of the LAMMPS melt, as LAMMPS reports it
+/// (set-up excluded), median over `--repeat` runs from the same start.
 pub fn lj(args: &BenchLjArgs) -> CliResult {
-    if args.atoms_per_side > 1000 {
-        return Err(CliError::Input(
-            "--atoms-per-side must be at most 1000".into(),
-        ));
-    }
-    if args.atoms_per_side < 4 {
-        return Err(CliError::Input(
-            "--atoms-per-side must be at least 4 (the box must hold twice cutoff + skin)".into(),
-        ));
-    }
-    if args.repeat == 0 {
-        return Err(CliError::Input("--repeat must be at least 1".into()));
-    }
     let pool = threads(Some(args.threads))?;
-    let n = args.atoms_per_side;
-    // the start is made anew for every repetition rather than kept as a copy,
-    // so that the peak memory is the run's own
-    let melt_start = || {
-        let (domain, points) = lattice(LatticeKind::Fcc, 0.8442, [n; 3])
-            .map_err(|e| CliError::Internal(format!("melt lattice: {e}")))?;
-        let mut atoms = Atoms::at_rest(points, 1.0);
-        create_velocities(&mut atoms, 3.0, 87287, VelocityDistribution::Uniform);
-        Ok::<_, CliError>((domain, atoms))
-    };
-    let lj = LennardJones::new(1.0, 1.0, 2.5, false)
-        .map_err(|e| CliError::Internal(format!("melt potential: {e}")))?;
     let rule = RebuildRule {
         every: args.every,
         check: !args.no_check,
     };
-    let mut samples = Vec::with_capacity(args.repeat);
-    let mut last = None;
-    let mut atoms_n = 0;
-    for _ in 0..args.repeat {
-        let (domain, atoms) = melt_start()?;
-        atoms_n = atoms.len();
-        let mut system = MdSystem::new(domain, atoms, lj, 0.3, &pool)
-            .map_err(|e| CliError::Internal(format!("melt set-up: {e}")))?;
-        system.set_rebuild_rule(rule);
-        let mut times = StageTimes::default();
-        let start = Instant::now();
-        for step in 1..=args.steps {
-            system
-                .step(
-                    &Integrator::VelocityVerlet,
-                    0.005,
-                    step,
-                    step == args.steps,
-                    &pool,
-                    &mut times,
-                )
-                .map_err(|e| CliError::Internal(format!("the melt blew up: {e}")))?;
-        }
-        samples.push(start.elapsed().as_secs_f64());
-        last = Some((system.list_counts(), times));
-    }
-    let (counts, times) = last.expect("at least one repetition");
-    let rebuilds = counts.rebuilds;
-    let peak_rss = peak_resident_bytes();
-    let seconds = median(&samples);
-    let us = seconds * 1e6 / (atoms_n as f64 * args.steps.max(1) as f64);
+    let request = bench::LjRequest {
+        atoms_per_side: args.atoms_per_side,
+        steps: args.steps,
+        repeat: args.repeat,
+        rule,
+    };
+    let b = bench::lj(&request, &pool)?;
+    let atoms = b.atoms;
     if args.json {
         let obj = serde_json::json!({
-            "atoms": atoms_n, "steps": args.steps, "threads": args.threads,
-            "loop_seconds": seconds, "us_per_atom_step": us, "rebuilds": rebuilds,
-            "force_seconds": times.force.as_secs_f64(), "neighbor_seconds": times.neighbor.as_secs_f64(),
-            "every": rule.every, "check": rule.check, "late_builds": counts.late_builds,
-            "peak_rss_bytes": peak_rss,
-            "peak_rss_bytes_per_atom": peak_rss.map(|b| b as f64 / atoms_n as f64),
+            "atoms": atoms, "steps": args.steps, "threads": args.threads,
+            "loop_seconds": b.seconds, "us_per_atom_step": b.us_per_atom_step, "rebuilds": b.rebuilds,
+            "force_seconds": b.force_seconds, "neighbor_seconds": b.neighbor_seconds,
+            "every": rule.every, "check": rule.check, "late_builds": b.late_builds,
+            "peak_rss_bytes": b.peak_rss_bytes,
+            "peak_rss_bytes_per_atom": b.peak_rss_bytes.map(|m| m as f64 / atoms as f64),
         });
         println!("{obj}");
     } else {
-        let memory = peak_rss.map_or(String::new(), |b| {
+        let memory = b.peak_rss_bytes.map_or(String::new(), |m| {
             format!(
                 ", peak resident memory {:.1} MB ({:.0} bytes/atom)",
-                b as f64 / 1e6,
-                b as f64 / atoms_n as f64
+                m as f64 / 1e6,
+                m as f64 / atoms as f64
             )
         });
         println!(
-            "lj: {atoms_n} atoms, {} steps, {} thread(s), list every {} check {}: loop time {seconds:.4} s \
-             (median of {}), {us:.4} us/atom-step, {rebuilds} rebuilds{}{memory}",
+            "lj: {atoms} atoms, {} steps, {} thread(s), list every {} check {}: loop time {:.4} s \
+             (median of {}), {:.4} us/atom-step, {} rebuilds{}{memory}",
             args.steps,
             args.threads,
             rule.every,
             if rule.check { "yes" } else { "no" },
+            b.seconds,
             args.repeat,
-            late_note(counts.late_builds),
+            b.us_per_atom_step,
+            b.rebuilds,
+            late_note(b.late_builds),
+        );
+    }
+    Ok(())
+}
+
+/// `cellist bench pse`.
+pub fn pse(args: &BenchPseArgs) -> CliResult {
+    let pool = threads(Some(args.threads))?;
+    let method = match args.method {
+        PseMethodArg::Direct => PseMethod::Direct,
+        PseMethodArg::CellList => PseMethod::CellList,
+    };
+    let request = bench::PseRequest {
+        n_per_side: args.n_per_side,
+        dim: args.dim,
+        method,
+        eps_over_h: args.eps_over_h,
+        cutoff_factor: args.cutoff_factor,
+        steps: args.steps,
+        repeat: args.repeat,
+    };
+    let b = bench::pse(&request, &pool)?;
+    let (seconds, pairs, n) = (b.seconds_per_step, b.pairs_per_step, b.particles);
+    let per_second = pairs as f64 / seconds;
+    let method = method.name();
+    if args.json {
+        let obj = serde_json::json!({
+            "n_per_side": args.n_per_side, "particles": n, "dim": args.dim, "method": method,
+            "eps_over_h": args.eps_over_h, "cutoff_factor": args.cutoff_factor,
+            "threads": args.threads, "seconds_per_step": seconds, "pairs_per_step": pairs,
+            "pair_kernels_per_second": per_second,
+        });
+        println!("{obj}");
+    } else {
+        println!(
+            "pse: {n} particles ({}^{}), {method}, eps/h {}, {} thread(s): {seconds:.4e} s per step \
+             (median of {}), {pairs} pair kernels per step, {per_second:.3e} pair kernels per second",
+            args.n_per_side, args.dim, args.eps_over_h, args.threads, args.repeat
+        );
+    }
+    Ok(())
+}
+
+/// `cellist bench gravity`.
+pub fn gravity(args: &BenchGravityArgs) -> CliResult {
+    let pool = threads(Some(args.threads))?;
+    let solver = match args.solver {
+        GravitySolverArg::Direct => GravitySolver::Direct,
+        GravitySolverArg::BarnesHut => GravitySolver::BarnesHut {
+            theta: args.theta,
+            quadrupole: !args.monopole,
+            leaf_size: args.leaf_size,
+            group_size: args.group_size,
+        },
+        GravitySolverArg::Pm => GravitySolver::Pm { grid: args.grid },
+        GravitySolverArg::P3m => GravitySolver::P3m {
+            grid: args.grid,
+            split: args.split,
+        },
+    };
+    let request = bench::GravityRequest {
+        solver,
+        n: args.n,
+        softening: args.softening,
+        seed: args.seed,
+        repeat: args.repeat,
+    };
+    let b = bench::gravity(&request, &pool)?;
+    let (name, seconds) = (solver.name(), b.seconds);
+    if args.json {
+        let mut obj = serde_json::json!({
+            "solver": name, "n": args.n, "threads": args.threads, "softening": args.softening,
+            "seconds_per_force": seconds, "repeat": args.repeat, "seed": args.seed,
+        });
+        match solver {
+            GravitySolver::Direct => {
+                obj["ns_per_pair"] = serde_json::json!(seconds / b.pairs * 1e9);
+            }
+            GravitySolver::BarnesHut {
+                theta,
+                quadrupole,
+                leaf_size,
+                group_size,
+            } => {
+                obj["theta"] = serde_json::json!(theta);
+                obj["quadrupole"] = serde_json::json!(quadrupole);
+                obj["leaf_size"] = serde_json::json!(leaf_size);
+                obj["group_size"] = serde_json::json!(group_size);
+            }
+            GravitySolver::Pm { grid } => obj["grid"] = serde_json::json!(grid),
+            GravitySolver::P3m { grid, split } => {
+                obj["grid"] = serde_json::json!(grid);
+                obj["split_cells"] = serde_json::json!(split);
+            }
+        }
+        if let Some(r) = b.rms_relative_error {
+            obj["rms_relative_force_error"] = serde_json::json!(r);
+        }
+        if let Some((nodes, particles)) = b.interactions {
+            obj["node_interactions"] = serde_json::json!(nodes);
+            obj["particle_interactions"] = serde_json::json!(particles);
+        }
+        println!("{obj}");
+    } else {
+        let mut line = format!(
+            "gravity {name}: {} bodies (Plummer, seed {}, softening {}), {} thread(s): {seconds:.4e} s per force evaluation (median of {})",
+            args.n, args.seed, args.softening, args.threads, args.repeat
+        );
+        if solver == GravitySolver::Direct {
+            line += &format!(", {:.3} ns per pair", seconds / b.pairs * 1e9);
+        }
+        if let Some(r) = b.rms_relative_error {
+            line += &format!(", RMS relative force error against direct {r:.3e}");
+        }
+        if let Some((nodes, particles)) = b.interactions {
+            line += &format!(", {nodes} node and {particles} body interactions");
+        }
+        println!("{line}");
+    }
+    Ok(())
+}
+
+/// `cellist bench vortex`.
+pub fn vortex(args: &BenchVortexArgs) -> CliResult {
+    let pool = threads(Some(args.threads))?;
+    let solver = match args.solver {
+        VortexSolverArg::Direct => VortexBenchSolver::Direct,
+        VortexSolverArg::BarnesHut => VortexBenchSolver::BarnesHut { theta: args.theta },
+        VortexSolverArg::Mesh => VortexBenchSolver::Mesh { grid: args.grid },
+    };
+    let b = bench::vortex(solver, args.n, args.repeat, args.sample, &pool)?;
+    if args.json {
+        let obj = serde_json::json!({
+            "solver": b.solver, "n": b.n, "threads": args.threads, "spacing": b.spacing,
+            "sigma": 1.5 * b.spacing, "seconds_per_velocity": b.seconds, "repeat": args.repeat,
+            "error_targets": b.targets,
+            "rms_relative_velocity_error": b.rms_relative_error,
+            "max_error_over_peak_speed": b.max_error_over_peak_speed,
+        });
+        println!("{obj}");
+    } else {
+        println!(
+            "vortex {}: {} particles (two Gaussian vortices, h {:.3e}, sigma 1.5 h), {} thread(s): \
+             {:.4e} s per velocity evaluation (median of {}); against direct on {} particles: \
+             RMS relative error {:.3e}, largest error / peak speed {:.3e}",
+            b.solver,
+            b.n,
+            b.spacing,
+            args.threads,
+            b.seconds,
+            args.repeat,
+            b.targets,
+            b.rms_relative_error,
+            b.max_error_over_peak_speed
+        );
+    }
+    Ok(())
+}
+
+/// `cellist bench billiards`: median wall time of whole runs.
+pub fn billiards(args: &BenchBilliardsArgs) -> CliResult {
+    let pool = threads(Some(args.threads))?;
+    let request = bench::BilliardsRequest {
+        input: &args.input,
+        steps: args.steps,
+        repeat: args.repeat,
+        cells: args.cells.shape(),
+    };
+    let b = bench::billiards(&request, &pool)?;
+    let (seconds, steps, n) = (b.seconds, b.steps, b.particles);
+    let per_second = steps as f64 / seconds.max(1e-12);
+    if args.json {
+        let obj = serde_json::json!({
+            "input": args.input.display().to_string(), "particles": n, "steps": steps,
+            "threads": args.threads, "seconds": seconds, "steps_per_second": per_second,
+            "max_sweeps": b.hardest.1, "hardest_step": b.hardest.0, "repeat": args.repeat,
+            "cells": args.cells.name(),
+        });
+        println!("{obj}");
+    } else {
+        println!(
+            "billiards: {} ({n} particles, {steps} steps), {} thread(s), {} cells: {seconds:.4} s \
+             (median of {}), {per_second:.1} steps/s; hardest step {} needed {} sweeps",
+            args.input.display(),
+            args.threads,
+            args.cells.name(),
+            args.repeat,
+            b.hardest.0,
+            b.hardest.1
         );
     }
     Ok(())

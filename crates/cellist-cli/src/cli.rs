@@ -1,5 +1,6 @@
 //! The command line: subcommands and their flags.
 
+use cellist_sim::CellShape;
 use clap::{Args, Parser, Subcommand};
 use std::path::PathBuf;
 
@@ -449,8 +450,8 @@ pub struct BenchBilliardsArgs {
     /// Cells of the contact search: `square`, or `hex` (seed 001's experiment:
     /// rows of cells shifted by half a cell, 3 neighbour cells to search instead of
     /// 4). The output bits are the same either way; only the time differs.
-    #[arg(long, value_enum, default_value_t = crate::billiards::CellsArg::Square)]
-    pub cells: crate::billiards::CellsArg,
+    #[arg(long, value_enum, default_value_t = CellsArg::Square)]
+    pub cells: CellsArg,
     /// Print one JSON object instead of text.
     #[arg(long)]
     pub json: bool,
@@ -566,7 +567,7 @@ pub struct BilliardsSweepArgs {
     pub threads: Option<Vec<usize>>,
     /// Cells of the contact search: square, hex, or square,hex (both timed).
     #[arg(long, value_enum, value_delimiter = ',', num_args = 1.., default_value = "square")]
-    pub cells: Vec<crate::billiards::CellsArg>,
+    pub cells: Vec<CellsArg>,
     /// Seed of the random numbers (the same for every combination).
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
@@ -615,13 +616,13 @@ pub struct BilliardsRunArgs {
     #[arg(long, default_value_t = 600)]
     pub picture_size: u32,
     /// Stop when one step needs more sweeps than this.
-    #[arg(long, default_value_t = cellist::models::billiards::DEFAULT_MAX_SWEEPS)]
+    #[arg(long, default_value_t = cellist_sim::DEFAULT_MAX_SWEEPS)]
     pub max_sweeps: u64,
     /// Cells of the contact search: `square`, or `hex` (seed 001's experiment:
     /// rows of cells shifted by half a cell, 3 neighbour cells to search instead of
     /// 4). The output bits are the same either way; only the time differs.
-    #[arg(long, value_enum, default_value_t = crate::billiards::CellsArg::Square)]
-    pub cells: crate::billiards::CellsArg,
+    #[arg(long, value_enum, default_value_t = CellsArg::Square)]
+    pub cells: CellsArg,
     /// Write a checkpoint (the complete state) to this file every
     /// --checkpoint-every steps and at the last step; the previous one is kept as
     /// FILE.prev.
@@ -635,6 +636,35 @@ pub struct BilliardsRunArgs {
     /// bytes of an uninterrupted run.
     #[arg(long)]
     pub restart: Option<PathBuf>,
+}
+
+/// The `--cells` of `cellist billiards run` and `cellist bench billiards`: the
+/// layout of the contact search's cells ([`CellShape`]).
+#[derive(clap::ValueEnum, Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum CellsArg {
+    /// Squares of side just above the contact distance 2R; 4 neighbour squares
+    /// searched per square.
+    #[default]
+    Square,
+    /// Seed 001's hexagon arrangement: rows just over 2R high, every other row
+    /// shifted by half a cell, cells twice as wide as high (so that 6 neighbours
+    /// hold every contact); 3 neighbour cells searched per cell.
+    Hex,
+}
+
+impl CellsArg {
+    /// The engine's layout.
+    pub fn shape(self) -> CellShape {
+        match self {
+            CellsArg::Square => CellShape::Square,
+            CellsArg::Hex => CellShape::Hex,
+        }
+    }
+
+    /// The name on the command line.
+    pub fn name(self) -> &'static str {
+        self.shape().name()
+    }
 }
 
 /// The state formats of `cellist billiards run`.

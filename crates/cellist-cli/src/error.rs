@@ -32,12 +32,6 @@ impl CliError {
     pub fn is_broken_pipe(&self) -> bool {
         matches!(self, CliError::Output(e, _) if e.kind() == std::io::ErrorKind::BrokenPipe)
     }
-
-    /// An output error with what was being written.
-    pub fn output(what: impl Into<String>) -> impl FnOnce(std::io::Error) -> CliError {
-        let what = what.into();
-        move |e| CliError::Output(e, what)
-    }
 }
 
 impl fmt::Display for CliError {
@@ -47,12 +41,6 @@ impl fmt::Display for CliError {
             CliError::Internal(m) => write!(f, "internal check failed (a bug in cellist): {m}"),
             CliError::Output(e, what) => write!(f, "cannot write {what}: {e}"),
         }
-    }
-}
-
-impl From<cellist_io::InputError> for CliError {
-    fn from(e: cellist_io::InputError) -> Self {
-        CliError::Input(e.to_string())
     }
 }
 
@@ -72,13 +60,13 @@ impl From<cellist_sim::SimError> for CliError {
 pub type CliResult<T = ()> = Result<T, CliError>;
 
 /// A thread pool for `--threads` (default: every core).
-pub fn threads(requested: Option<usize>) -> CliResult<cellist::Threads> {
+pub fn threads(requested: Option<usize>) -> CliResult<cellist_sim::Threads> {
     let count = match requested {
         Some(0) => return Err(CliError::Input("--threads must be at least 1".into())),
         Some(n) => n,
         None => (cellist_sim::study::cores() / ranks_on_this_machine()).max(1),
     };
-    cellist::Threads::new(count)
+    cellist_sim::Threads::new(count)
         .map_err(|e| CliError::Input(format!("cannot start {count} threads: {e}")))
 }
 
@@ -90,15 +78,4 @@ fn ranks_on_this_machine() -> usize {
         .find_map(|k| std::env::var(k).ok()?.parse().ok())
         .unwrap_or(1usize)
         .max(1)
-}
-
-/// Checks a `--cutoff` value.
-pub fn positive(flag: &str, value: f64) -> CliResult<f64> {
-    if value.is_finite() && value > 0.0 {
-        Ok(value)
-    } else {
-        Err(CliError::Input(format!(
-            "{flag} must be a finite number > 0, got {value}"
-        )))
-    }
 }

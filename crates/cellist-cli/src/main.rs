@@ -4,12 +4,9 @@ mod bench;
 mod billiards;
 mod cli;
 mod error;
-mod gravity;
 mod neighbors;
-mod pse;
 mod run;
 mod study;
-mod vortex;
 
 use clap::Parser;
 use cli::{BenchCommand, BilliardsCommand, Cli, Command};
@@ -38,10 +35,10 @@ fn main() -> ExitCode {
         Command::Bench { which } => match which {
             BenchCommand::Neighbors(args) => bench::neighbors(&args),
             BenchCommand::Lj(args) => bench::lj(&args),
-            BenchCommand::Billiards(args) => billiards::bench(&args),
-            BenchCommand::Pse(args) => pse::bench(&args),
-            BenchCommand::Gravity(args) => gravity::bench(&args),
-            BenchCommand::Vortex(args) => vortex::bench(&args),
+            BenchCommand::Billiards(args) => bench::billiards(&args),
+            BenchCommand::Pse(args) => bench::pse(&args),
+            BenchCommand::Gravity(args) => bench::gravity(&args),
+            BenchCommand::Vortex(args) => bench::vortex(&args),
         },
     };
     match result {

@@ -77,13 +77,19 @@ fn reference_pair_lists_2d_and_3d() {
     }
 }
 
+/// `n` points uniform in `[0, side)^dim` from `seed` (SplitMix64), as text.
 fn write_random_points(path: &Path, n: usize, dim: usize, side: f64, seed: u64) {
-    let mut rng = cellist::random::Rng::new(seed);
+    let mut state = seed;
+    let mut uniform = || {
+        state = state.wrapping_add(0x9e37_79b9_7f4a_7c15);
+        let mut z = state;
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+    };
     let mut text = String::from("# random points\n");
     for _ in 0..n {
-        let coords: Vec<String> = (0..dim)
-            .map(|_| format!("{}", rng.uniform() * side))
-            .collect();
+        let coords: Vec<String> = (0..dim).map(|_| format!("{}", uniform() * side)).collect();
         text.push_str(&coords.join(" "));
         text.push('\n');
     }

@@ -154,8 +154,8 @@ fn billiards_restarts_bit_for_bit_with_its_trajectory_and_animation() {
     // the checkpoints name the output files by the paths given, which differ
     // between the two folders: compare their steps and states, the rest byte for byte
     for name in ["state.ckpt", "state.ckpt.prev"] {
-        let a = cellist_io::read_checkpoint(&whole.join(name)).unwrap();
-        let b = cellist_io::read_checkpoint(&split.join(name)).unwrap();
+        let a = cellist_sim::checkpoint::read_checkpoint(&whole.join(name)).unwrap();
+        let b = cellist_sim::checkpoint::read_checkpoint(&split.join(name)).unwrap();
         assert_eq!((a.step, &a.state), (b.step, &b.state), "{name}");
         std::fs::remove_file(whole.join(name)).unwrap();
         std::fs::remove_file(split.join(name)).unwrap();

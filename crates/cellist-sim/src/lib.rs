@@ -13,6 +13,7 @@ pub mod driver;
 pub mod error;
 pub mod hosted;
 pub mod models;
+pub mod neighbors;
 pub mod observers;
 pub mod progress;
 pub mod ranks;
@@ -24,8 +25,13 @@ pub mod trajectory;
 pub use error::{SimError, SimResult};
 pub use scenario::Scenario;
 
+// the engine's types that the command line and the Python module name
+pub use cellist::models::billiards::{CellShape, DEFAULT_MAX_SWEEPS};
+pub use cellist::models::Blowup;
+pub use cellist::Threads;
+pub use cellist_io::{checkpoint, StateFormat};
+
 use cellist::models::{Field, Model, Particles};
-use cellist::Threads;
 use driver::{recorded, Job, Live};
 use hosted::Hosted;
 use indicatif::ProgressBar;

@@ -52,6 +52,72 @@ pub trait Session {
 
     /// Completes the output files that are made at the end (plots, animations).
     fn finish_outputs(&mut self) -> SimResult;
+
+    /// The named per-particle arrays of the current state ([`named_arrays`]).
+    fn arrays(&self) -> Vec<NamedArray> {
+        named_arrays(self.model(), self.step())
+    }
+}
+
+/// A per-particle array in the user's particle order: its name, its values
+/// (row after row) and its columns per particle.
+pub type NamedArray = (String, Vec<f64>, usize);
+
+/// The per-particle arrays of `model` at `step`, in the user's particle order:
+/// the particles' (positions, velocities, forces, masses, ...) or the field's
+/// (positions, the field values under their own name, the extra columns), and
+/// the model's own names for them (strengths, circulations).
+pub fn named_arrays(model: &dyn Model, step: u64) -> Vec<NamedArray> {
+    let mut out: Vec<NamedArray> = Vec::new();
+    let vectors = |v: &[[f64; 3]], d: usize| -> Vec<f64> {
+        v.iter().flat_map(|x| x[..d].iter().copied()).collect()
+    };
+    if let Some(p) = model.particles(step, false) {
+        let d = p.dimension;
+        out.push(("ids".into(), p.ids.iter().map(|&i| i as f64).collect(), 1));
+        if !p.types.is_empty() {
+            out.push((
+                "types".into(),
+                p.types.iter().map(|&t| t as f64).collect(),
+                1,
+            ));
+        }
+        out.push(("positions".into(), vectors(&p.positions, d), d));
+        out.push(("velocities".into(), vectors(&p.velocities, d), d));
+        if !p.forces.is_empty() {
+            out.push(("forces".into(), vectors(&p.forces, d), d));
+        }
+        if let Some(m) = p.masses {
+            out.push(("masses".into(), m, 1));
+        }
+        if let Some(a) = p.accelerations {
+            out.push(("accelerations".into(), vectors(&a, d), d));
+        }
+        if let Some(phi) = p.potentials {
+            out.push(("potentials".into(), phi, 1));
+        }
+    } else if let Some(f) = model.field() {
+        let d = f.dimension;
+        out.push(("positions".into(), vectors(&f.positions, d), d));
+        if let Some(strengths) = f.strengths {
+            out.push(("strengths".into(), strengths, 1));
+        }
+        out.push((f.value_name.to_string(), f.values, 1));
+        let extra = |name: &str| f.extra.iter().find(|(n, _)| *n == name).map(|(_, v)| v);
+        if let (Some(u), Some(v)) = (extra("u"), extra("v")) {
+            let velocities = u.iter().zip(v).flat_map(|(&a, &b)| [a, b]).collect();
+            out.push(("velocities".into(), velocities, 2));
+        }
+        if let Some(gamma) = extra("gamma") {
+            out.push(("circulations".into(), gamma.clone(), 1));
+        }
+        for (name, values) in &f.extra {
+            if !matches!(*name, "u" | "v" | "gamma") {
+                out.push((name.to_string(), values.clone(), 1));
+            }
+        }
+    }
+    out
 }
 
 impl<M: Hosted + 'static> Session for Live<M> {

@@ -77,7 +77,6 @@ impl Model for BilliardsModel {
         Ok(())
     }
 
-
     /// The benchmark's energy `sum (vx^2 + vy^2)`.
     fn thermo(&self, _step: u64) -> Vec<f64> {
         vec![self.system.energy()]

@@ -52,7 +52,8 @@ pub const INFO: ModelInfo = ModelInfo {
         "ly",
         "lz",
     ],
-    remedy: "two bodies came too close for the step: try a smaller run.dt or a larger system.softening",
+    remedy:
+        "two bodies came too close for the step: try a smaller run.dt or a larger system.softening",
     count_may_change: false,
 };
 

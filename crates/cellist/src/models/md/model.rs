@@ -102,7 +102,12 @@ impl<const D: usize> MdModel<D> {
     /// Replaces the positions or velocities (`name`) by `values`, `D` numbers
     /// per atom in id order; the system is set up anew (the checks of a new
     /// run, the neighbour list, the forces).
-    pub fn set_array(&mut self, name: &str, values: &[f64], threads: &Threads) -> Result<(), String> {
+    pub fn set_array(
+        &mut self,
+        name: &str,
+        values: &[f64],
+        threads: &Threads,
+    ) -> Result<(), String> {
         let system = &self.system;
         let n = system.atoms().len();
         if values.len() != n * D {

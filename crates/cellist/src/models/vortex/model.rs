@@ -85,7 +85,8 @@ pub struct VortexModel {
 }
 
 /// What to try when a vortex run blows up.
-const REMEDY: &str = "the step is too large for the flow (a particle should move less than a spacing per \
+const REMEDY: &str =
+    "the step is too large for the flow (a particle should move less than a spacing per \
                       step, and nu dt / sigma^2 stay below about 0.5): use a smaller run.dt";
 
 impl VortexModel {

@@ -2,6 +2,12 @@
 //! trajectory file (`--viz`), its GIF animation, the final picture and state, and
 //! checkpoints that restart bit for bit.
 
+mod check;
+mod generate;
+
+pub use check::{check, Verdict};
+pub use generate::{generate, Generate};
+
 use crate::driver::{self, recorded, CheckpointKeys, Job, LastFrame};
 use crate::error::{SimError, SimResult};
 use crate::hosted::Hosted;
