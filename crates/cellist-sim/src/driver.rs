@@ -21,6 +21,7 @@ use crate::hosted::Hosted;
 use crate::observers::{frame, write_field_csv, Observer, Recorded};
 use crate::progress::progress_bar;
 use crate::ranks::Ranks;
+use crate::scenario::keys::CheckpointKeys;
 use cellist::models::{check, Blowup, Model};
 use cellist::state::State;
 use cellist::Threads;
@@ -29,37 +30,6 @@ use cellist_io::{write_lammps_frame, AtomicFile};
 use indicatif::ProgressBar;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
-
-/// `[output] checkpoint = { every = K, file = "state.ckpt" }`.
-#[derive(Clone, Debug, serde::Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct CheckpointKeys {
-    /// Steps between checkpoints (the last step is always one).
-    pub every: u64,
-    /// File name in the output folder.
-    #[serde(default = "default_checkpoint_file")]
-    pub file: PathBuf,
-}
-
-fn default_checkpoint_file() -> PathBuf {
-    "state.ckpt".into()
-}
-
-impl CheckpointKeys {
-    /// Refuses `every = 0`.
-    pub fn check(&self, key: &str) -> Result<(), String> {
-        check_every(self.every, key)
-    }
-}
-
-/// Refuses `key.every = 0`: outputs every `every >= 1` steps.
-pub fn check_every(every: u64, key: &str) -> Result<(), String> {
-    if every == 0 {
-        Err(format!("{key}.every must be >= 1"))
-    } else {
-        Ok(())
-    }
-}
 
 /// Where a blow-up writes the last good state's particles.
 #[derive(Clone, Debug)]
@@ -595,25 +565,4 @@ pub(crate) fn stages<M: Model>(
     let known: Duration = stages.iter().map(|(_, d)| *d).sum();
     stages.push(("Other", loop_time.saturating_sub(known)));
     stages
-}
-
-/// Prints the loop's speed (the model's line, completed by its `ranks`) and
-/// its time per stage.
-pub(crate) fn print_timings<M: Hosted>(
-    model: &M,
-    ranks: &Ranks,
-    steps: u64,
-    loop_time: Duration,
-    stages: &[(&'static str, Duration)],
-    threads: &Threads,
-) {
-    let total = loop_time.as_secs_f64();
-    let line = ranks.speed(model.speed(total, steps, threads.count()), total);
-    println!("\n{line}");
-    println!("{:<10} | {:>10} | {:>6}", "Section", "time (s)", "%total");
-    for (name, d) in stages {
-        let s = d.as_secs_f64();
-        let pct = if total > 0.0 { 100.0 * s / total } else { 0.0 };
-        println!("{name:<10} | {s:>10.4} | {pct:>6.2}");
-    }
 }

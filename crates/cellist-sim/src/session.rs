@@ -6,9 +6,9 @@
 use crate::driver::{Job, Live};
 use crate::error::{SimError, SimResult};
 use crate::hosted::Hosted;
+use crate::launch::{begin, launch_scenario, Launch, RunContext};
 use crate::observers::OutputPlan;
 use crate::scenario::Scenario;
-use crate::{begin, launch_scenario, Launch, RunContext};
 use cellist::models::{Blowup, Model};
 use cellist::Threads;
 use cellist_io::checkpoint::{write_checkpoint, Checkpoint};

@@ -29,8 +29,8 @@ pub mod ring;
 pub use ring::ring_gravity;
 
 use crate::error::SimError;
+use crate::launch::RunContext;
 use crate::scenario::Scenario;
-use crate::RunContext;
 use cellist::decomposition::Decomposition;
 use cellist::models::Blowup;
 use mpi::collective::SystemOperation;

@@ -17,13 +17,13 @@
 //! ```
 
 use crate::billiards::{billiards_job, disc_columns, read, ENERGY_TABLE};
-use crate::driver::CheckpointKeys;
 use crate::error::SimResult;
 use crate::hosted::Hosted;
+use crate::launch::{Launch, RunContext};
 use crate::observers::{DumpFormat, DumpPlan, OutputPlan};
+use crate::scenario::keys::CheckpointKeys;
+use crate::scenario::keys::{SeriesKeys, TrajectoryKeys};
 use crate::scenario::Scenario;
-use crate::trajectory::{SeriesKeys, TrajectoryKeys};
-use crate::{Launch, RunContext};
 use cellist::models::billiards::BilliardsModel;
 use cellist::models::billiards::{CellShape, DEFAULT_MAX_SWEEPS};
 use cellist::models::Model;
@@ -139,7 +139,6 @@ pub fn run<L: Launch>(
             .collect(),
         field: None,
         bodies: None,
-        quiet: false,
         trajectories,
     };
     launch.launch(job, &plan, context, started)

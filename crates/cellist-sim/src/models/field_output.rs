@@ -4,9 +4,9 @@
 //! CSV snapshots, PNG pictures, the GIF animation, the picture size and
 //! checkpoints), with their defaults and checks.
 
-use crate::driver::CheckpointKeys;
 use crate::observers::Every;
-use crate::trajectory::{SeriesKeys, TrajectoryKeys};
+use crate::scenario::keys::CheckpointKeys;
+use crate::scenario::keys::{SeriesKeys, TrajectoryKeys};
 use cellist::models::pse::Integrator;
 use serde::Deserialize;
 use std::path::PathBuf;

@@ -3,15 +3,16 @@
 //! the outputs (thermo with energies and momenta, LAMMPS dumps with accelerations
 //! and potentials, the energy-error plot).
 
-use crate::driver::{CheckpointKeys, JobSpec, LastFrame};
+use crate::driver::{JobSpec, LastFrame};
 use crate::error::{SimError, SimResult};
 use crate::hosted::Hosted;
+use crate::launch::{Launch, RunContext};
 use crate::models::field_output::{check_picture_size, SnapshotKeys};
 use crate::observers::{BodyPlan, DumpFormat, DumpPlan, OutputPlan, PlotSpec, TableStyle};
 use crate::ranks::Ranks;
+use crate::scenario::keys::CheckpointKeys;
+use crate::scenario::keys::{SeriesKeys, TrajectoryKeys};
 use crate::scenario::Scenario;
-use crate::trajectory::{SeriesKeys, TrajectoryKeys};
-use crate::{Launch, RunContext};
 use cellist::interactions::GravityLaw;
 use cellist::longrange::p3m::SPLIT_CELLS;
 use cellist::longrange::{MeshBoundary, MeshParams, TreeParams};
@@ -614,7 +615,6 @@ fn run_setup<L: Launch>(
             .collect(),
         field: None,
         bodies: body_plan(&setup),
-        quiet: false,
         trajectories: setup.trajectories.clone(),
     };
     let mut model = GravityModel::new(system, setup.integrator, setup.dt);

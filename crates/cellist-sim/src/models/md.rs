@@ -2,13 +2,14 @@
 //! initial state (lattice or LAMMPS data file), and the outputs (thermo, LAMMPS
 //! dumps, extended XYZ, the energy plot).
 
-use crate::driver::{CheckpointKeys, JobSpec, LastFrame};
+use crate::driver::{JobSpec, LastFrame};
 use crate::error::{SimError, SimResult};
 use crate::hosted::Hosted;
+use crate::launch::{Launch, RunContext};
 use crate::observers::{DumpFormat, DumpPlan, OutputPlan, PlotSpec, TableStyle};
+use crate::scenario::keys::CheckpointKeys;
+use crate::scenario::keys::{SeriesKeys, TrajectoryKeys};
 use crate::scenario::Scenario;
-use crate::trajectory::{SeriesKeys, TrajectoryKeys};
-use crate::{Launch, RunContext};
 use cellist::geometry::{Boundary, Domain};
 use cellist::interactions::{LennardJones, PairPotential};
 use cellist::models::md::{
@@ -315,7 +316,6 @@ fn output_plan<const D: usize>(setup: &Setup<D>) -> OutputPlan {
         dumps,
         field: None,
         bodies: None,
-        quiet: false,
         trajectories: setup.trajectories.clone(),
     }
 }

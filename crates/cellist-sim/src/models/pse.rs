@@ -2,14 +2,15 @@
 //! the particles and their field, and the outputs (thermo against the exact
 //! solution, field CSV snapshots, PNG pictures, a GIF animation, the error plot).
 
-use crate::driver::{CheckpointKeys, JobSpec, LastFrame};
+use crate::driver::{JobSpec, LastFrame};
 use crate::error::SimResult;
 use crate::hosted::Hosted;
+use crate::launch::{Launch, RunContext};
 use crate::models::field_output::FieldScenario;
 use crate::observers::{ChartLabels, Every, FieldPlan, OutputPlan, PlotSpec, TableStyle};
+use crate::scenario::keys::CheckpointKeys;
+use crate::scenario::keys::TrajectoryKeys;
 use crate::scenario::Scenario;
-use crate::trajectory::TrajectoryKeys;
-use crate::{Launch, RunContext};
 use cellist::models::pse::{
     lattice, InitialField, Integrator, Method, PseModel, PseParams, PseSystem,
 };
@@ -369,7 +370,6 @@ fn run_in<const D: usize, L: Launch>(
             },
         }),
         bodies: None,
-        quiet: false,
         trajectories: setup.trajectories.clone(),
     };
     let model = PseModel::new(

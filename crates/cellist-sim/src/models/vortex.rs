@@ -6,11 +6,11 @@
 use crate::driver::{JobSpec, LastFrame};
 use crate::error::SimResult;
 use crate::hosted::Hosted;
+use crate::launch::{Launch, RunContext};
 use crate::models::field_output::FieldScenario;
 use crate::observers::{ChartLabels, FieldPlan, OutputPlan, PlotSpec, TableStyle};
 use crate::ranks::Ranks;
 use crate::scenario::Scenario;
-use crate::{Launch, RunContext};
 use cellist::longrange::{BlobKernel, TreeParams, VicBoundary, VicParams};
 use cellist::models::vortex::{
     seed, Extras, InitialVorticity, VelocityEngine, VelocitySolver, VortexModel, VortexParams,
@@ -580,7 +580,6 @@ pub fn run<L: Launch>(
             },
         }),
         bodies: None,
-        quiet: false,
         trajectories: out.trajectories().map_err(err)?,
     };
     let model = VortexModel::new(system, integrator, run.dt, seeded.extras, view, threads);

@@ -16,8 +16,8 @@ pub mod sweep;
 pub mod table;
 
 use crate::error::{SimError, SimResult};
+use crate::launch::{run_scenario, RunContext, RunSummary};
 use crate::scenario::Scenario;
-use crate::{run_scenario, RunContext, RunSummary};
 use cellist::Threads;
 use cellist_io::AtomicFile;
 use std::io::Write;

@@ -9,64 +9,13 @@
 //! vtk = { every = 100, file = "traj.pvd" }   # traj_00000100.vtp, ... beside it
 //! ```
 
-use crate::driver::check_every;
+use super::observer::{Observer, Recorded};
 use crate::error::{SimError, SimResult};
-use crate::observers::{Observer, Recorded};
+use crate::scenario::keys::SeriesKeys;
 use cellist::models::{Field, Model, Particles};
 use cellist_io::{write_hoomd_frame, write_pvd, write_vtp, GsdWriter, HoomdFrame};
 use indicatif::ProgressBar;
 use std::path::{Path, PathBuf};
-
-/// `[output] gsd = { every = K, file = "traj.gsd" }` and the same for `vtk`.
-#[derive(Clone, Debug, serde::Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct SeriesKeys {
-    /// Steps between frames (step 0 is one).
-    pub every: u64,
-    /// File name in the output folder.
-    pub file: PathBuf,
-}
-
-impl SeriesKeys {
-    /// Refuses `every = 0`.
-    pub fn check(&self, key: &str) -> Result<(), String> {
-        check_every(self.every, key)
-    }
-}
-
-/// The trajectories a scenario asks for under `[output]`.
-#[derive(Clone, Debug, Default)]
-pub struct TrajectoryKeys {
-    /// `gsd = { every, file }`.
-    pub gsd: Option<SeriesKeys>,
-    /// `vtk = { every, file }` (the `.pvd` index).
-    pub vtk: Option<SeriesKeys>,
-}
-
-impl TrajectoryKeys {
-    /// The keys `gsd` and `vtk`, checked (`every >= 1`, a `.gsd` and a `.pvd`
-    /// file name without a folder).
-    pub fn checked(gsd: Option<SeriesKeys>, vtk: Option<SeriesKeys>) -> Result<Self, String> {
-        for (keys, key, extension) in [(&gsd, "output.gsd", "gsd"), (&vtk, "output.vtk", "pvd")] {
-            if let Some(k) = keys {
-                k.check(key)?;
-                if k.file.components().count() != 1 {
-                    return Err(format!(
-                        "{key}.file must be a file name in the output folder, got {}",
-                        k.file.display()
-                    ));
-                }
-                if k.file.extension().and_then(|e| e.to_str()) != Some(extension) {
-                    return Err(format!(
-                        "{key}.file must end in .{extension}, got {}",
-                        k.file.display()
-                    ));
-                }
-            }
-        }
-        Ok(TrajectoryKeys { gsd, vtk })
-    }
-}
 
 /// One frame of a model: positions (3 components), its box, and named
 /// per-particle arrays (name, values, components).

@@ -1,11 +1,14 @@
 //! Scenario files (TOML): reading, `--set key=value` overrides, and the model they
-//! name. Each model deserialises its own keys, refusing unknown ones with the line.
+//! name. Each model deserialises its own keys, refusing unknown ones with the line;
+//! the keys every model shares are in [`keys`].
+
+pub mod keys;
 
 use crate::error::{SimError, SimResult};
 use std::path::{Path, PathBuf};
 
 /// The scenario that `cellist run` runs without a file: the LJ melt.
-pub const DEFAULT_SCENARIO: &str = include_str!("../../../examples/lj-melt.toml");
+pub const DEFAULT_SCENARIO: &str = include_str!("../../../../examples/lj-melt.toml");
 
 /// A scenario's text and where it came from.
 pub struct Scenario {

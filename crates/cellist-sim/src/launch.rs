@@ -1,0 +1,346 @@
+//! The launch path of every run: a scenario (or an input) becomes a model and
+//! its job, which is run to the end with its outputs (`cellist run`, the
+//! studies, `cellist billiards run`) or kept under way as a session (Python).
+//! What is printed goes through the [`RunContext`]: standard output, standard
+//! error, or nothing (collected warnings).
+
+use crate::driver::{self, recorded, Job, Live};
+use crate::error::{SimError, SimResult};
+use crate::hosted::Hosted;
+use crate::models;
+use crate::observers::{OutputPlan, Outputs};
+use crate::progress;
+use crate::ranks::Ranks;
+use crate::scenario::Scenario;
+use cellist::models::{Field, Model, Particles};
+use cellist::Threads;
+use indicatif::ProgressBar;
+use std::cell::RefCell;
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+/// The models `cellist run` runs, for messages.
+const MODELS: &str =
+    "md (Lennard-Jones molecular dynamics), pse (diffusion by particle strength exchange), \
+     gravity (self-gravitating bodies), vortex (2D viscous vortex particles), billiards (the hard-disk collision benchmark)";
+
+/// What `cellist run` asks for.
+pub struct RunRequest<'a> {
+    /// The scenario file; `None` runs the built-in LJ melt.
+    pub scenario: Option<&'a Path>,
+    /// `--set key=value` overrides.
+    pub sets: &'a [String],
+    /// The output folder (default `out/<scenario name>/`).
+    pub out: Option<PathBuf>,
+    /// A checkpoint to continue from.
+    pub restart: Option<&'a Path>,
+}
+
+/// Where a run writes, from what it starts, on how many threads, and how much
+/// it prints.
+pub struct RunContext<'a> {
+    /// The output folder.
+    pub out_dir: PathBuf,
+    /// A checkpoint to continue from.
+    pub restart: Option<&'a Path>,
+    /// The worker threads.
+    pub threads: &'a Threads,
+    /// Print nothing (no header, table, progress bar or timings; warnings are
+    /// collected in the summary instead): the studies run scenarios this way.
+    pub quiet: bool,
+    /// Build the model and stop before the loop (nothing written): the studies'
+    /// check of a scenario before they run it.
+    pub build_only: bool,
+    /// Print on standard error rather than standard output (`cellist billiards
+    /// run`, whose standard output is the final state).
+    pub on_stderr: bool,
+    pub(crate) warnings: RefCell<Vec<String>>,
+}
+
+impl<'a> RunContext<'a> {
+    /// A run into `out_dir` on `threads`, from `restart` if given.
+    pub fn new(out_dir: PathBuf, restart: Option<&'a Path>, threads: &'a Threads) -> Self {
+        RunContext {
+            out_dir,
+            restart,
+            threads,
+            quiet: false,
+            build_only: false,
+            on_stderr: false,
+            warnings: RefCell::new(Vec::new()),
+        }
+    }
+
+    /// The same run stopping once the model is built, quiet: its summary has
+    /// the step-0 thermo row, particles and field, and no time.
+    pub fn build_only(mut self) -> Self {
+        self.quiet = true;
+        self.build_only = true;
+        self
+    }
+
+    /// The same run without printing.
+    pub fn quiet(mut self) -> Self {
+        self.quiet = true;
+        self
+    }
+
+    /// The same run printing on standard error.
+    pub fn on_stderr(mut self) -> Self {
+        self.on_stderr = true;
+        self
+    }
+
+    /// Prints a line of the run's header on standard output, or standard error
+    /// (not when quiet).
+    pub fn say(&self, line: impl std::fmt::Display) {
+        match (self.quiet, self.on_stderr) {
+            (true, _) => {}
+            (false, false) => println!("{line}"),
+            (false, true) => eprintln!("{line}"),
+        }
+    }
+
+    /// Says the loop's speed (the model's line, completed by its `ranks`) and
+    /// its time per stage.
+    fn timings<M: Hosted>(
+        &self,
+        model: &M,
+        ranks: &Ranks,
+        steps: u64,
+        loop_time: Duration,
+        stages: &[(&'static str, Duration)],
+    ) {
+        let total = loop_time.as_secs_f64();
+        let line = ranks.speed(model.speed(total, steps, self.threads.count()), total);
+        self.say(format!("\n{line}"));
+        self.say(format!(
+            "{:<10} | {:>10} | {:>6}",
+            "Section", "time (s)", "%total"
+        ));
+        for (name, d) in stages {
+            let s = d.as_secs_f64();
+            let pct = if total > 0.0 { 100.0 * s / total } else { 0.0 };
+            self.say(format!("{name:<10} | {s:>10.4} | {pct:>6.2}"));
+        }
+    }
+
+    /// Prints `warning: ...` on standard error, or keeps it for the summary when
+    /// quiet.
+    pub fn warn(&self, message: impl std::fmt::Display) {
+        if self.quiet {
+            self.warnings.borrow_mut().push(message.to_string());
+        } else {
+            eprintln!("warning: {message}");
+        }
+    }
+}
+
+/// What a finished run leaves for the studies: its times, its thermo rows and its
+/// final particles or field.
+pub struct RunSummary {
+    /// The model's name.
+    pub model: &'static str,
+    /// The time step.
+    pub dt: f64,
+    /// Steps the loop ran.
+    pub steps: u64,
+    /// Worker threads.
+    pub threads: usize,
+    /// Wall time of the loop.
+    pub loop_time: Duration,
+    /// Wall time per stage of the loop: the model's stages, `Output` and `Other`
+    /// (the rest), summing to the loop time.
+    pub stages: Vec<(&'static str, Duration)>,
+    /// The thermo columns after `step`.
+    pub thermo_columns: Vec<&'static str>,
+    /// The thermo rows `(step, values)` of the run, in step order.
+    pub thermo: Vec<(u64, Vec<f64>)>,
+    /// The particles at the last step (models with particles).
+    pub particles: Option<Particles>,
+    /// The field at the last step (field models).
+    pub field: Option<Field>,
+    /// Warnings of a quiet run.
+    pub warnings: Vec<String>,
+}
+
+/// Runs a scenario: loads it, builds its model and runs it to the end.
+pub fn run(request: &RunRequest, threads: &Threads) -> SimResult<RunSummary> {
+    let scenario = Scenario::load(request.scenario, request.sets)?;
+    let out_dir = request
+        .out
+        .clone()
+        .unwrap_or_else(|| Path::new("out").join(&scenario.name));
+    run_scenario(
+        &scenario,
+        &RunContext::new(out_dir, request.restart, threads),
+    )
+}
+
+/// Runs a loaded scenario in `context`.
+pub fn run_scenario(scenario: &Scenario, context: &RunContext) -> SimResult<RunSummary> {
+    launch_scenario(scenario, context, Execute)
+}
+
+/// Builds the model `scenario` names and hands its run to `launch`.
+pub(crate) fn launch_scenario<L: Launch>(
+    scenario: &Scenario,
+    context: &RunContext,
+    launch: L,
+) -> SimResult<L::Output> {
+    let model = scenario.model()?;
+    match model.as_str() {
+        "md" => models::md::run(scenario, context, launch),
+        "pse" => models::pse::run(scenario, context, launch),
+        "gravity" => models::gravity::run(scenario, context, launch),
+        "vortex" => models::vortex::run(scenario, context, launch),
+        "billiards" => models::billiards::run(scenario, context, launch),
+        other => Err(scenario.error(format!(
+            "model '{other}' is unknown; this build runs: {MODELS}"
+        ))),
+    }
+}
+
+/// What becomes of a model once its scenario has built it: run to the end
+/// (`cellist run`, [`Execute`]) or kept under way to be stepped on request (a
+/// Python session, [`session::Open`]).
+pub trait Launch {
+    /// What the launch gives back.
+    type Output;
+
+    /// Takes the built `job` with the outputs of `plan`, in `context`; the
+    /// set-up began at `started`.
+    fn launch<M: Hosted + 'static>(
+        self,
+        job: Job<M>,
+        plan: &OutputPlan,
+        context: &RunContext,
+        started: Instant,
+    ) -> SimResult<Self::Output>;
+}
+
+/// The launch of `cellist run`: the run to its last step, with the timings
+/// printed, summarised.
+pub struct Execute;
+
+impl Launch for Execute {
+    type Output = RunSummary;
+
+    fn launch<M: Hosted + 'static>(
+        self,
+        job: Job<M>,
+        plan: &OutputPlan,
+        context: &RunContext,
+        started: Instant,
+    ) -> SimResult<RunSummary> {
+        execute(job, plan, context, started).map(|(summary, _)| summary)
+    }
+}
+
+/// Runs `job` with the observers `outputs` makes, in `context` (from its
+/// checkpoint if given, checked before anything is written), says the timings
+/// and the closing line, and returns the run's summary and its model at the
+/// last step.
+pub(crate) fn execute<M: Hosted + 'static, P: Outputs<M> + ?Sized>(
+    job: Job<M>,
+    outputs: &P,
+    context: &RunContext,
+    started: Instant,
+) -> SimResult<(RunSummary, M)> {
+    let threads = context.threads;
+    if context.build_only {
+        let summary = RunSummary {
+            stages: driver::stages(&job.model, Duration::ZERO, Duration::ZERO),
+            thermo: vec![(0, job.model.thermo(0))],
+            ..RunSummary::of(&job.model, 0, context, threads)
+        };
+        return Ok((summary, job.model));
+    }
+    let (dir, last) = (job.dir.clone(), job.steps);
+    let bar = if context.quiet {
+        ProgressBar::hidden()
+    } else {
+        progress::progress_bar(0)
+    };
+    let live = begin(job, outputs, context, last, bar.clone())?;
+    bar.set_length(last - live.step());
+    let report = live.run_to(last, threads)?;
+    let model = &report.model;
+    let steps = last - report.first;
+    let stages = driver::stages(model, report.loop_time, report.output_time);
+    if steps > 0 {
+        context.timings(model, &report.ranks, steps, report.loop_time, &stages);
+    }
+    let wall = started.elapsed().as_secs_f64();
+    if dir.as_os_str().is_empty() {
+        context.say(format!("total wall time {wall:.2} s"));
+    } else {
+        context.say(format!(
+            "total wall time {wall:.2} s; results in {}",
+            dir.display()
+        ));
+    }
+    let summary = RunSummary {
+        steps,
+        loop_time: report.loop_time,
+        stages,
+        thermo: report.thermo,
+        ..RunSummary::of(model, last, context, threads)
+    };
+    Ok((summary, report.model))
+}
+
+/// The run of `job` under way in `context`: its state replaced by the
+/// checkpoint's when restarting (checked before anything is written; the
+/// checkpoint's step at most `last`), its output folder made, its observers
+/// created (continuing the files the checkpoint recorded) and step 0 observed
+/// on a new run.
+pub(crate) fn begin<M: Hosted + 'static, P: Outputs<M> + ?Sized>(
+    mut job: Job<M>,
+    outputs: &P,
+    context: &RunContext,
+    last: u64,
+    bar: ProgressBar,
+) -> SimResult<Live<M>> {
+    let threads = context.threads;
+    let restart = context.restart;
+    let checkpoint = restart
+        .map(|path| driver::restore(&mut job.model, path, &job.physics, last, &job.dir, threads))
+        .transpose();
+    let checkpoint = driver::agreed(&job.ranks, checkpoint)?;
+    let dir = job.dir.clone();
+    if let Some(path) = restart {
+        let first = checkpoint.as_ref().map_or(0, |c| c.step);
+        context.say(format!("restart: from step {first} of {}", path.display()));
+    }
+    let observers = if job.ranks.writes_output() {
+        let recorded = recorded(checkpoint.as_ref());
+        std::fs::create_dir_all(&dir)
+            .map_err(SimError::output(format!("folder {}", dir.display())))
+            .and_then(|()| outputs.observers(&job.model, &dir, recorded, context.quiet))
+    } else {
+        Ok(Vec::new())
+    };
+    let observers = driver::agreed(&job.ranks, observers)?;
+    job.start(checkpoint.as_ref(), observers, bar)
+}
+
+impl RunSummary {
+    /// What `model` at step `last` reports, and the warnings of `context`; no
+    /// steps, times or thermo rows yet.
+    fn of<M: Model>(model: &M, last: u64, context: &RunContext, threads: &Threads) -> Self {
+        RunSummary {
+            model: model.info().name,
+            dt: model.dt(),
+            steps: 0,
+            threads: threads.count(),
+            loop_time: Duration::ZERO,
+            stages: Vec::new(),
+            thermo_columns: model.info().thermo_columns.to_vec(),
+            thermo: Vec::new(),
+            particles: model.particles(last, false),
+            field: model.field(),
+            warnings: context.warnings.take(),
+        }
+    }
+}

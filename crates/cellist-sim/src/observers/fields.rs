@@ -1,0 +1,156 @@
+//! Field files: CSV snapshots of the field the particles carry, and its
+//! pictures (the field on a square grid with axes, the time in the title and
+//! a colour bar) as PNG snapshots and GIF frames.
+
+use super::observer::{due, Every, Observer, Recorded};
+use super::pictures::{snapshot_path, snapshot_title, Snapshots};
+use crate::error::{SimError, SimResult};
+use cellist::models::{Field, Model};
+use cellist_io::{write_field_columns, AtomicFile, FieldChart, FieldPainter};
+use indicatif::ProgressBar;
+use std::path::{Path, PathBuf};
+
+/// Writes a field CSV whole or not at all.
+pub fn write_field_csv(path: &Path, field: &Field) -> SimResult {
+    let what = || path.display().to_string();
+    let mut file = AtomicFile::create(path).map_err(SimError::output(what()))?;
+    let mut columns: Vec<(&str, &[f64])> = vec![(field.value_name, &field.values)];
+    columns.extend(field.extra.iter().map(|(name, v)| (*name, &v[..])));
+    write_field_columns(file.writer(), field.dimension, &field.positions, &columns)
+        .map_err(SimError::output(what()))?;
+    file.commit().map_err(SimError::output(what()))
+}
+
+/// The z of the particle layer a 3D field's pictures show: the layer nearest the
+/// middle of the box along z; `None` in 2D.
+fn middle_layer(field: &Field) -> Option<f64> {
+    (field.dimension == 3).then(|| {
+        let middle = field.origin[2] + 0.5 * field.side;
+        field
+            .positions
+            .iter()
+            .map(|x| x[2])
+            .min_by(|a, b| (a - middle).abs().total_cmp(&(b - middle).abs()))
+            .unwrap_or(middle)
+    })
+}
+
+/// The particles to draw: all of a 2D field; in 3D those within half a spacing
+/// of the `layer`.
+fn slice(field: &Field, layer: Option<f64>) -> impl Iterator<Item = ([f64; 2], f64)> + '_ {
+    field
+        .positions
+        .iter()
+        .zip(&field.values)
+        .filter(move |(x, _)| layer.is_none_or(|z| (x[2] - z).abs() < 0.5 * field.spacing))
+        .map(|(x, &v)| ([x[0], x[1]], v))
+}
+
+/// What the field pictures say: the quantity in the title (followed by the
+/// layer in 3D, the time and the step), the colour bar's label and the unit of
+/// the axes.
+#[derive(Clone, Copy, Debug)]
+pub struct ChartLabels {
+    /// The title's quantity ("vorticity").
+    pub title: &'static str,
+    /// The colour bar's label ("ω = Γ/h²").
+    pub value: &'static str,
+    /// The unit of length of the axes ("simulation units"; empty for none).
+    pub unit: &'static str,
+}
+
+/// Field snapshots: CSV files, and PNG pictures and GIF frames as charts (the
+/// field with axes, the time in the title, a colour bar).
+pub struct FieldFiles {
+    dir: PathBuf,
+    csv: Option<Every>,
+    labels: ChartLabels,
+    chart: FieldChart,
+    snapshots: Snapshots,
+}
+
+impl FieldFiles {
+    /// Snapshots of `model`'s field as `plan` asks for them.
+    pub fn new<M: Model>(
+        model: &M,
+        plan: &FieldPlan,
+        dir: &Path,
+        recorded: Recorded,
+    ) -> SimResult<Self> {
+        let FieldPlan {
+            csv,
+            png,
+            gif,
+            size,
+            chart: labels,
+        } = plan.clone();
+        let field = model.field().ok_or_else(|| {
+            SimError::Internal(format!("model {} has no field", model.info().name))
+        })?;
+        let lo = [field.origin[0], field.origin[1]];
+        let mut chart = FieldChart::new(lo, field.side, field.spacing, field.scale);
+        chart.width = chart.width.max(size);
+        chart.value_label = labels.value.to_string();
+        chart.unit = labels.unit.to_string();
+        chart.periodic = field.periodic;
+        let palette = FieldPainter::palette();
+        let snapshots = Snapshots::open(dir, png, None, gif, &chart, &palette, recorded)?;
+        Ok(FieldFiles {
+            dir: dir.to_path_buf(),
+            csv,
+            labels,
+            chart,
+            snapshots,
+        })
+    }
+}
+
+impl<M: Model> Observer<M> for FieldFiles {
+    fn due(&self, step: u64, last: u64) -> bool {
+        due(&self.csv, step, last) || self.snapshots.due(step, last)
+    }
+
+    fn observe(&mut self, model: &M, step: u64, last: u64, _bar: &ProgressBar) -> SimResult {
+        let field = model.field().expect("a model with a field");
+        if let Some(c) = self.csv.as_ref().filter(|c| c.due(step, last)) {
+            write_field_csv(&snapshot_path(&self.dir, &c.file, step, last), &field)?;
+        }
+        if !self.snapshots.due(step, last) {
+            return Ok(());
+        }
+        let layer = middle_layer(&field);
+        let what = match layer {
+            Some(z) => format!("{} in the layer z = {z:.4}", self.labels.title),
+            None => self.labels.title.to_string(),
+        };
+        self.chart.title = snapshot_title(&what, step, model.dt());
+        let pixels = self
+            .chart
+            .render(slice(&field, layer))
+            .map_err(SimError::output("a field picture"))?;
+        self.snapshots.write(step, last, &self.chart, &pixels)
+    }
+
+    fn sync(&mut self) -> SimResult<Vec<(String, u64)>> {
+        self.snapshots.sync()
+    }
+
+    fn finish(&mut self) -> SimResult {
+        self.snapshots.finish()
+    }
+}
+
+/// Field snapshots the scenario asks for.
+#[derive(Clone, Debug)]
+pub struct FieldPlan {
+    /// CSV files.
+    pub csv: Option<Every>,
+    /// PNG pictures.
+    pub png: Option<Every>,
+    /// The GIF animation.
+    pub gif: Option<Every>,
+    /// Picture width in pixels (at least 640).
+    pub size: u32,
+    /// What the pictures say.
+    pub chart: ChartLabels,
+}

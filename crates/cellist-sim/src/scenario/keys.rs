@@ -1,0 +1,86 @@
+//! The scenario keys every model shares: checkpoints and trajectories under
+//! `[output]`, each with its check.
+
+use std::path::PathBuf;
+
+/// `[output] checkpoint = { every = K, file = "state.ckpt" }`.
+#[derive(Clone, Debug, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CheckpointKeys {
+    /// Steps between checkpoints (the last step is always one).
+    pub every: u64,
+    /// File name in the output folder.
+    #[serde(default = "default_checkpoint_file")]
+    pub file: PathBuf,
+}
+
+fn default_checkpoint_file() -> PathBuf {
+    "state.ckpt".into()
+}
+
+impl CheckpointKeys {
+    /// Refuses `every = 0`.
+    pub fn check(&self, key: &str) -> Result<(), String> {
+        check_every(self.every, key)
+    }
+}
+
+/// Refuses `key.every = 0`: outputs every `every >= 1` steps.
+pub fn check_every(every: u64, key: &str) -> Result<(), String> {
+    if every == 0 {
+        Err(format!("{key}.every must be >= 1"))
+    } else {
+        Ok(())
+    }
+}
+
+/// `[output] gsd = { every = K, file = "traj.gsd" }` and the same for `vtk`.
+#[derive(Clone, Debug, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SeriesKeys {
+    /// Steps between frames (step 0 is one).
+    pub every: u64,
+    /// File name in the output folder.
+    pub file: PathBuf,
+}
+
+impl SeriesKeys {
+    /// Refuses `every = 0`.
+    pub fn check(&self, key: &str) -> Result<(), String> {
+        check_every(self.every, key)
+    }
+}
+
+/// The trajectories a scenario asks for under `[output]`.
+#[derive(Clone, Debug, Default)]
+pub struct TrajectoryKeys {
+    /// `gsd = { every, file }`.
+    pub gsd: Option<SeriesKeys>,
+    /// `vtk = { every, file }` (the `.pvd` index).
+    pub vtk: Option<SeriesKeys>,
+}
+
+impl TrajectoryKeys {
+    /// The keys `gsd` and `vtk`, checked (`every >= 1`, a `.gsd` and a `.pvd`
+    /// file name without a folder).
+    pub fn checked(gsd: Option<SeriesKeys>, vtk: Option<SeriesKeys>) -> Result<Self, String> {
+        for (keys, key, extension) in [(&gsd, "output.gsd", "gsd"), (&vtk, "output.vtk", "pvd")] {
+            if let Some(k) = keys {
+                k.check(key)?;
+                if k.file.components().count() != 1 {
+                    return Err(format!(
+                        "{key}.file must be a file name in the output folder, got {}",
+                        k.file.display()
+                    ));
+                }
+                if k.file.extension().and_then(|e| e.to_str()) != Some(extension) {
+                    return Err(format!(
+                        "{key}.file must end in .{extension}, got {}",
+                        k.file.display()
+                    ));
+                }
+            }
+        }
+        Ok(TrajectoryKeys { gsd, vtk })
+    }
+}
