@@ -1,40 +1,21 @@
-//! The launch path of every run: a scenario (or an input) becomes a model and
-//! its job, which is run to the end with its outputs (`cellist run`, the
-//! studies, `cellist billiards run`) or kept under way as a session (Python).
+//! The launch path of every run: a model's job, built from a scenario (or an
+//! input), is run to the end with its outputs (`cellist run`, the studies,
+//! `cellist billiards run`) or kept under way as a session (Python).
 //! What is printed goes through the [`RunContext`]: standard output, standard
 //! error, or nothing (collected warnings).
 
 use crate::driver::{self, recorded, Job, Live};
 use crate::error::{SimError, SimResult};
 use crate::hosted::Hosted;
-use crate::models;
 use crate::observers::{OutputPlan, Outputs};
 use crate::progress;
 use crate::ranks::Ranks;
-use crate::scenario::Scenario;
 use cellist::models::{Field, Model, Particles};
 use cellist::Threads;
 use indicatif::ProgressBar;
 use std::cell::RefCell;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
-
-/// The models `cellist run` runs, for messages.
-const MODELS: &str =
-    "md (Lennard-Jones molecular dynamics), pse (diffusion by particle strength exchange), \
-     gravity (self-gravitating bodies), vortex (2D viscous vortex particles), billiards (the hard-disk collision benchmark)";
-
-/// What `cellist run` asks for.
-pub struct RunRequest<'a> {
-    /// The scenario file; `None` runs the built-in LJ melt.
-    pub scenario: Option<&'a Path>,
-    /// `--set key=value` overrides.
-    pub sets: &'a [String],
-    /// The output folder (default `out/<scenario name>/`).
-    pub out: Option<PathBuf>,
-    /// A checkpoint to continue from.
-    pub restart: Option<&'a Path>,
-}
 
 /// Where a run writes, from what it starts, on how many threads, and how much
 /// it prints.
@@ -162,43 +143,6 @@ pub struct RunSummary {
     pub field: Option<Field>,
     /// Warnings of a quiet run.
     pub warnings: Vec<String>,
-}
-
-/// Runs a scenario: loads it, builds its model and runs it to the end.
-pub fn run(request: &RunRequest, threads: &Threads) -> SimResult<RunSummary> {
-    let scenario = Scenario::load(request.scenario, request.sets)?;
-    let out_dir = request
-        .out
-        .clone()
-        .unwrap_or_else(|| Path::new("out").join(&scenario.name));
-    run_scenario(
-        &scenario,
-        &RunContext::new(out_dir, request.restart, threads),
-    )
-}
-
-/// Runs a loaded scenario in `context`.
-pub fn run_scenario(scenario: &Scenario, context: &RunContext) -> SimResult<RunSummary> {
-    launch_scenario(scenario, context, Execute)
-}
-
-/// Builds the model `scenario` names and hands its run to `launch`.
-pub(crate) fn launch_scenario<L: Launch>(
-    scenario: &Scenario,
-    context: &RunContext,
-    launch: L,
-) -> SimResult<L::Output> {
-    let model = scenario.model()?;
-    match model.as_str() {
-        "md" => models::md::run(scenario, context, launch),
-        "pse" => models::pse::run(scenario, context, launch),
-        "gravity" => models::gravity::run(scenario, context, launch),
-        "vortex" => models::vortex::run(scenario, context, launch),
-        "billiards" => models::billiards::run(scenario, context, launch),
-        other => Err(scenario.error(format!(
-            "model '{other}' is unknown; this build runs: {MODELS}"
-        ))),
-    }
 }
 
 /// What becomes of a model once its scenario has built it: run to the end

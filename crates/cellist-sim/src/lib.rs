@@ -25,7 +25,8 @@ pub mod session;
 pub mod study;
 
 pub use error::{SimError, SimResult};
-pub use launch::{run, run_scenario, RunContext, RunRequest, RunSummary};
+pub use launch::{RunContext, RunSummary};
+pub use models::{run, run_scenario, RunRequest};
 pub use scenario::Scenario;
 
 // the engine's types that the command line and the Python module name

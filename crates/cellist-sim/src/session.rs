@@ -6,7 +6,8 @@
 use crate::driver::{Job, Live};
 use crate::error::{SimError, SimResult};
 use crate::hosted::Hosted;
-use crate::launch::{begin, launch_scenario, Launch, RunContext};
+use crate::launch::{begin, Launch, RunContext};
+use crate::models::launch_scenario;
 use crate::observers::OutputPlan;
 use crate::scenario::Scenario;
 use cellist::models::{Blowup, Model};

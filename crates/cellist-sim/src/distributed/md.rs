@@ -80,26 +80,49 @@ pub struct DistributedMd<const D: usize> {
     ghosts_sum: f64,
 }
 
+/// What a distributed md run is built from: the whole system as one process
+/// would hold it, and how it steps.
+pub struct MdSpec<const D: usize> {
+    /// The box.
+    pub domain: Domain<D>,
+    /// Every atom (the same on every rank).
+    pub atoms: Atoms<D>,
+    /// The pair potential.
+    pub potential: LennardJones,
+    /// The neighbour list's skin.
+    pub skin: f64,
+    /// When the list is rebuilt.
+    pub rule: RebuildRule,
+    /// How the atoms move.
+    pub integrator: Integrator,
+    /// The time step.
+    pub dt: f64,
+    /// The z bounds written in dumps of 2D systems.
+    pub z_bounds: (f64, f64),
+}
+
 impl<const D: usize> DistributedMd<D> {
-    /// The model of this rank: `atoms` (every atom, the same on every rank)
-    /// kept where this rank owns them, ghosts exchanged, forces, energies and
-    /// virials evaluated and gathered on rank 0. Every rank returns the same
-    /// error for a box too small for the cutoff, a subdomain thinner than
-    /// cutoff + skin, an atom outside a non-periodic box or two atoms at one
-    /// position.
-    #[allow(clippy::too_many_arguments)]
+    /// The model of this rank: the atoms of `spec` (every atom, the same on
+    /// every rank) kept where this rank owns them, ghosts exchanged, forces,
+    /// energies and virials evaluated and gathered on rank 0. Every rank
+    /// returns the same error for a box too small for the cutoff, a subdomain
+    /// thinner than cutoff + skin, an atom outside a non-periodic box or two
+    /// atoms at one position.
     pub fn new(
         world: SimpleCommunicator,
-        domain: Domain<D>,
-        atoms: Atoms<D>,
-        potential: LennardJones,
-        skin: f64,
-        rule: RebuildRule,
-        integrator: Integrator,
-        dt: f64,
-        z_bounds: (f64, f64),
+        spec: MdSpec<D>,
         threads: &Threads,
     ) -> Result<Self, String> {
+        let MdSpec {
+            domain,
+            atoms,
+            potential,
+            skin,
+            rule,
+            integrator,
+            dt,
+            z_bounds,
+        } = spec;
         if atoms.is_empty() {
             return Err("the system has no atoms".into());
         }

@@ -30,7 +30,7 @@ pub use ring::ring_gravity;
 
 use crate::error::SimError;
 use crate::launch::RunContext;
-use crate::scenario::Scenario;
+use crate::scenario::{ModelKind, Scenario};
 use cellist::decomposition::Decomposition;
 use cellist::models::Blowup;
 use mpi::collective::SystemOperation;
@@ -67,12 +67,9 @@ impl Cluster {
     }
 }
 
-/// The models that run on several ranks.
-pub const DISTRIBUTED_MODELS: &[&str] = &["md", "pse", "gravity", "vortex"];
-
 /// `cellist run` on more than one rank: every rank reads the scenario, and
 /// unless every rank read it and its model is distributed
-/// ([`DISTRIBUTED_MODELS`]), rank 0 says once why the run cannot go on (a rank
+/// ([`ModelKind::distributed`]), rank 0 says once why the run cannot go on (a rank
 /// that cannot read its input, or a model not distributed yet). Every rank
 /// returns the same error, so that every rank stops with a non-zero status and
 /// none waits for another.
@@ -98,15 +95,20 @@ pub fn refuse_run<C: Communicator>(
             ),
         }
     } else {
-        let model = read.as_deref().unwrap_or("?");
-        if DISTRIBUTED_MODELS.contains(&model) {
+        let model = read.as_ref().map_or("?", |m| m.name());
+        if read.as_ref().is_ok_and(|m| m.distributed()) {
             return None;
         }
+        let distributed: Vec<&str> = ModelKind::ALL
+            .iter()
+            .filter(|m| m.distributed())
+            .map(|m| m.name())
+            .collect();
         format!(
             "model '{model}' does not run on {} MPI ranks yet: run it in one process (without \
              mpirun, or with -np 1); the models that run distributed are: {}",
             world.size(),
-            DISTRIBUTED_MODELS.join(", ")
+            distributed.join(", ")
         )
     };
     Some(SimError::Input(message))

@@ -21,8 +21,7 @@ use crate::error::SimResult;
 use crate::hosted::Hosted;
 use crate::launch::{Launch, RunContext};
 use crate::observers::{DumpFormat, DumpPlan, OutputPlan};
-use crate::scenario::keys::CheckpointKeys;
-use crate::scenario::keys::{SeriesKeys, TrajectoryKeys};
+use crate::scenario::keys::{choice, CheckpointKeys, SeriesKeys, TrajectoryKeys};
 use crate::scenario::Scenario;
 use cellist::models::billiards::BilliardsModel;
 use cellist::models::billiards::{CellShape, DEFAULT_MAX_SWEEPS};
@@ -81,15 +80,12 @@ pub fn run<L: Launch>(
     let keys: BilliardsScenario = scenario.parse()?;
     debug_assert_eq!(keys.model, "billiards");
     let err = |m: String| scenario.error(m);
-    let cells = match keys.run.cells.as_str() {
-        "square" => CellShape::Square,
-        "hex" => CellShape::Hex,
-        other => {
-            return Err(err(format!(
-                "run.cells '{other}' is unknown; expected \"square\" or \"hex\""
-            )))
-        }
-    };
+    let cells = choice(
+        "run.cells",
+        &keys.run.cells,
+        &[("square", CellShape::Square), ("hex", CellShape::Hex)],
+    )
+    .map_err(err)?;
     if keys.run.max_sweeps == 0 {
         return Err(err("run.max_sweeps must be >= 1".into()));
     }

@@ -530,10 +530,6 @@ fn run_setup<L: Launch>(
     context: &RunContext,
     launch: L,
 ) -> SimResult<L::Output> {
-    #[cfg(feature = "mpi")]
-    let silent = crate::distributed::rank_context(context);
-    #[cfg(feature = "mpi")]
-    let context = silent.as_ref().unwrap_or(context);
     let (threads, out_dir) = (context.threads, &context.out_dir);
     let started = Instant::now();
     let solver =

@@ -7,8 +7,7 @@ use crate::error::{SimError, SimResult};
 use crate::hosted::Hosted;
 use crate::launch::{Launch, RunContext};
 use crate::observers::{DumpFormat, DumpPlan, OutputPlan, PlotSpec, TableStyle};
-use crate::scenario::keys::CheckpointKeys;
-use crate::scenario::keys::{SeriesKeys, TrajectoryKeys};
+use crate::scenario::keys::{choice, CheckpointKeys, SeriesKeys, TrajectoryKeys};
 use crate::scenario::Scenario;
 use cellist::geometry::{Boundary, Domain};
 use cellist::interactions::{LennardJones, PairPotential};
@@ -238,23 +237,19 @@ fn run_in<const D: usize, L: Launch>(
     let atoms = std::mem::take(&mut setup.atoms);
     #[cfg(feature = "mpi")]
     if let Some(world) = crate::distributed::world_of_many() {
-        use crate::distributed::md::DistributedMd;
+        use crate::distributed::md::{DistributedMd, MdSpec};
         let ranks = crate::ranks::Ranks::Spread(mpi::traits::Communicator::duplicate(&world));
-        let model = DistributedMd::new(
-            world,
-            setup.domain,
+        let spec = MdSpec {
+            domain: setup.domain,
             atoms,
-            setup.potential,
-            setup.skin,
-            setup.rebuild,
-            setup.integrator,
-            setup.dt,
-            setup.z_bounds,
-            threads,
-        )
-        .map_err(|e| scenario.error(e))?;
-        let silent = crate::distributed::rank_context(context);
-        let context = silent.as_ref().unwrap_or(context);
+            potential: setup.potential,
+            skin: setup.skin,
+            rule: setup.rebuild,
+            integrator: setup.integrator,
+            dt: setup.dt,
+            z_bounds: setup.z_bounds,
+        };
+        let model = DistributedMd::new(world, spec, threads).map_err(|e| scenario.error(e))?;
         print_header(&setup, model.total(), context);
         context.say(model.describe());
         for note in &setup.notes {
@@ -393,21 +388,20 @@ fn build<const D: usize>(scenario: &Scenario, keys: &MdScenario) -> SimResult<Se
                 v.temperature
             )));
         }
-        let dist = match v.distribution.as_str() {
-            "uniform" => VelocityDistribution::Uniform,
-            "gaussian" => VelocityDistribution::Gaussian,
-            other => return Err(err(format!("system.velocity.distribution '{other}' is unknown; expected \"uniform\" or \"gaussian\""))),
-        };
+        let dist = choice(
+            "system.velocity.distribution",
+            &v.distribution,
+            &[
+                ("uniform", VelocityDistribution::Uniform),
+                ("gaussian", VelocityDistribution::Gaussian),
+            ],
+        )
+        .map_err(err)?;
         create_velocities(&mut atoms, v.temperature, v.seed, dist);
     }
 
     let pair = &keys.pair;
-    if pair.style != "lj/cut" {
-        return Err(err(format!(
-            "pair.style '{}' is unknown; expected \"lj/cut\"",
-            pair.style
-        )));
-    }
+    choice("pair.style", &pair.style, &[("lj/cut", ())]).map_err(err)?;
     let potential = LennardJones::new(pair.epsilon, pair.sigma, pair.cutoff, pair.shift)
         .map_err(|m| err(format!("pair: {m}")))?;
     let mut skin = keys.neighbor.skin;

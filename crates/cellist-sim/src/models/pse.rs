@@ -8,8 +8,7 @@ use crate::hosted::Hosted;
 use crate::launch::{Launch, RunContext};
 use crate::models::field_output::FieldScenario;
 use crate::observers::{ChartLabels, Every, FieldPlan, OutputPlan, PlotSpec, TableStyle};
-use crate::scenario::keys::CheckpointKeys;
-use crate::scenario::keys::TrajectoryKeys;
+use crate::scenario::keys::{choice, CheckpointKeys, TrajectoryKeys};
 use crate::scenario::Scenario;
 use cellist::models::pse::{
     lattice, InitialField, Integrator, Method, PseModel, PseParams, PseSystem,
@@ -130,25 +129,22 @@ fn build<const D: usize>(scenario: &Scenario, keys: &PseScenario) -> SimResult<S
     if !(sys.nu.is_finite() && sys.nu >= 0.0) {
         return Err(err(format!("system.nu must be >= 0, got {}", sys.nu)));
     }
-    let method = match sys.method.as_str() {
-        "direct" => Method::Direct,
-        "cell-list" => {
-            if !(sys.cutoff_factor.is_finite() && sys.cutoff_factor >= 2.0) {
-                return Err(err(format!(
-                    "system.cutoff_factor must be >= 2, got {}",
-                    sys.cutoff_factor
-                )));
-            }
-            Method::CellList {
-                cutoff_factor: sys.cutoff_factor,
-            }
-        }
-        other => {
-            return Err(err(format!(
-                "system.method '{other}' is unknown; expected \"cell-list\" or \"direct\""
-            )))
-        }
+    let cell_list = Method::CellList {
+        cutoff_factor: sys.cutoff_factor,
     };
+    let method = choice(
+        "system.method",
+        &sys.method,
+        &[("cell-list", cell_list), ("direct", Method::Direct)],
+    )
+    .map_err(err)?;
+    let cutoff_factor_ok = sys.cutoff_factor.is_finite() && sys.cutoff_factor >= 2.0;
+    if matches!(method, Method::CellList { .. }) && !cutoff_factor_ok {
+        return Err(err(format!(
+            "system.cutoff_factor must be >= 2, got {}",
+            sys.cutoff_factor
+        )));
+    }
     let initial = sys
         .initial
         .as_ref()
@@ -236,8 +232,15 @@ fn build<const D: usize>(scenario: &Scenario, keys: &PseScenario) -> SimResult<S
 
 /// The initial field of the scenario's `initial` table.
 fn initial_field<const D: usize>(keys: &InitialKeys, side: f64) -> Result<InitialField<D>, String> {
-    match keys.kind.as_str() {
-        "sine" => {
+    /// The shapes of an initial field.
+    #[derive(Clone, Copy)]
+    enum Shape {
+        Sine,
+        Gaussian,
+    }
+    let shapes = [("sine", Shape::Sine), ("gaussian", Shape::Gaussian)];
+    match choice("system.initial.kind", &keys.kind, &shapes)? {
+        Shape::Sine => {
             if keys.center.is_some() || keys.width.is_some() {
                 return Err("system.initial: a sine takes only k".into());
             }
@@ -250,7 +253,7 @@ fn initial_field<const D: usize>(keys: &InitialKeys, side: f64) -> Result<Initia
             })?;
             Ok(InitialField::Sine { k })
         }
-        "gaussian" => {
+        Shape::Gaussian => {
             if keys.k.is_some() {
                 return Err("system.initial: a gaussian takes center and width, not k".into());
             }
@@ -269,9 +272,6 @@ fn initial_field<const D: usize>(keys: &InitialKeys, side: f64) -> Result<Initia
             }
             Ok(InitialField::Gaussian { center, width })
         }
-        other => Err(format!(
-            "system.initial.kind '{other}' is unknown; expected \"sine\" or \"gaussian\""
-        )),
     }
 }
 
@@ -281,10 +281,6 @@ fn run_in<const D: usize, L: Launch>(
     context: &RunContext,
     launch: L,
 ) -> SimResult<L::Output> {
-    #[cfg(feature = "mpi")]
-    let silent = crate::distributed::rank_context(context);
-    #[cfg(feature = "mpi")]
-    let context = silent.as_ref().unwrap_or(context);
     let (threads, out_dir) = (context.threads, &context.out_dir);
     let setup = build::<D>(scenario, keys)?;
     let started = Instant::now();

@@ -10,6 +10,7 @@ use crate::launch::{Launch, RunContext};
 use crate::models::field_output::FieldScenario;
 use crate::observers::{ChartLabels, FieldPlan, OutputPlan, PlotSpec, TableStyle};
 use crate::ranks::Ranks;
+use crate::scenario::keys::choice;
 use crate::scenario::Scenario;
 use cellist::longrange::{BlobKernel, TreeParams, VicBoundary, VicParams};
 use cellist::models::vortex::{
@@ -120,29 +121,45 @@ struct Seeded {
     what: String,
 }
 
-/// The keys an initial condition of `kind` takes besides kind, spacing, extent and
-/// center.
-fn allowed(kind: &str) -> Option<&'static [&'static str]> {
-    Some(match kind {
-        "lamb-oseen" => &["circulation", "t0"],
-        "gaussian" => &["circulation", "core"],
-        "pair" => &["circulation", "separation", "core"],
-        "ellipse" => &["peak", "radius", "aspect"],
-        "file" => &["file"],
-        _ => return None,
-    })
+/// The kinds of `system.initial`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Initial {
+    LambOseen,
+    Gaussian,
+    Pair,
+    Ellipse,
+    File,
+}
+
+impl Initial {
+    /// Every kind with its name in a scenario.
+    const NAMES: [(&'static str, Initial); 5] = [
+        ("lamb-oseen", Initial::LambOseen),
+        ("gaussian", Initial::Gaussian),
+        ("pair", Initial::Pair),
+        ("ellipse", Initial::Ellipse),
+        ("file", Initial::File),
+    ];
+
+    /// The keys of `system.initial` this kind takes (besides spacing, extent
+    /// and center).
+    fn keys(self) -> &'static [&'static str] {
+        match self {
+            Initial::LambOseen => &["circulation", "t0"],
+            Initial::Gaussian => &["circulation", "core"],
+            Initial::Pair => &["circulation", "separation", "core"],
+            Initial::Ellipse => &["peak", "radius", "aspect"],
+            Initial::File => &["file"],
+        }
+    }
 }
 
 /// Seeds the particles of `system.initial`.
 fn seed_particles(scenario: &Scenario, sys: &SystemKeys) -> SimResult<Seeded> {
     let err = |m: String| scenario.error(m);
     let i = &sys.initial;
-    let Some(keys) = allowed(&i.kind) else {
-        return Err(err(format!(
-            "system.initial.kind '{}' is unknown; expected \"lamb-oseen\", \"gaussian\", \"pair\", \"ellipse\" or \"file\"",
-            i.kind
-        )));
-    };
+    let kind = choice("system.initial.kind", &i.kind, &Initial::NAMES).map_err(err)?;
+    let keys = kind.keys();
     let given = [
         ("circulation", i.circulation.is_some()),
         ("t0", i.t0.is_some()),
@@ -191,8 +208,8 @@ fn seed_particles(scenario: &Scenario, sys: &SystemKeys) -> SimResult<Seeded> {
             ))),
         }
     };
-    let field = match i.kind.as_str() {
-        "lamb-oseen" => {
+    let field = match kind {
+        Initial::LambOseen => {
             if sys.nu <= 0.0 {
                 return Err(err(format!(
                     "system.initial: a lamb-oseen vortex needs nu > 0 (its core is sqrt(4 nu t0)), got nu = {}; use kind = \"gaussian\" for an inviscid run",
@@ -205,16 +222,16 @@ fn seed_particles(scenario: &Scenario, sys: &SystemKeys) -> SimResult<Seeded> {
                 nu: sys.nu,
             })
         }
-        "gaussian" => Some(InitialVorticity::Gaussian {
+        Initial::Gaussian => Some(InitialVorticity::Gaussian {
             circulation: circulation()?,
             core: positive("core", i.core, None)?,
         }),
-        "pair" => Some(InitialVorticity::Pair {
+        Initial::Pair => Some(InitialVorticity::Pair {
             circulation: circulation()?,
             separation: positive("separation", i.separation, None)?,
             core: positive("core", i.core, None)?,
         }),
-        "ellipse" => {
+        Initial::Ellipse => {
             let aspect = positive("aspect", i.aspect, Some(2.0))?;
             if aspect < 1.0 {
                 return Err(err(format!(
@@ -227,7 +244,7 @@ fn seed_particles(scenario: &Scenario, sys: &SystemKeys) -> SimResult<Seeded> {
                 aspect,
             })
         }
-        _ => None,
+        Initial::File => None,
     };
     let (positions, gamma, view, what) = match &field {
         Some(f) => {
@@ -320,12 +337,24 @@ fn solver(scenario: &Scenario, v: &VelocityKeys, center: [f64; 2]) -> SimResult<
         }
     };
     let check = |r: Result<(), String>| r.map_err(|m| err(format!("system.velocity: {m}")));
-    match v.kind.as_str() {
-        "direct" => {
+    /// The velocity solvers.
+    #[derive(Clone, Copy)]
+    enum Kind {
+        Direct,
+        BarnesHut,
+        Mesh,
+    }
+    let kinds = [
+        ("direct", Kind::Direct),
+        ("barnes-hut", Kind::BarnesHut),
+        ("mesh", Kind::Mesh),
+    ];
+    match choice("system.velocity.kind", &v.kind, &kinds).map_err(err)? {
+        Kind::Direct => {
             only(&[])?;
             Ok(VelocitySolver::Direct)
         }
-        "barnes-hut" => {
+        Kind::BarnesHut => {
             only(&["theta", "leaf_size", "group_size"])?;
             let d = TreeParams::default();
             let params = TreeParams {
@@ -337,7 +366,7 @@ fn solver(scenario: &Scenario, v: &VelocityKeys, center: [f64; 2]) -> SimResult<
             check(params.check())?;
             Ok(VelocitySolver::BarnesHut(params))
         }
-        "mesh" => {
+        Kind::Mesh => {
             only(&["grid", "boundary", "box"])?;
             let boundary = match (v.boundary.as_deref().unwrap_or("unbounded"), v.side) {
                 ("unbounded", None) => VicBoundary::Unbounded,
@@ -375,9 +404,6 @@ fn solver(scenario: &Scenario, v: &VelocityKeys, center: [f64; 2]) -> SimResult<
             check(params.check())?;
             Ok(VelocitySolver::Mesh(params))
         }
-        other => Err(err(format!(
-            "system.velocity.kind '{other}' is unknown; expected \"direct\", \"barnes-hut\" or \"mesh\""
-        ))),
     }
 }
 
@@ -389,10 +415,6 @@ pub fn run<L: Launch>(
 ) -> SimResult<L::Output> {
     let keys: VortexScenario = scenario.parse()?;
     debug_assert_eq!(keys.model, "vortex");
-    #[cfg(feature = "mpi")]
-    let silent = crate::distributed::rank_context(context);
-    #[cfg(feature = "mpi")]
-    let context = silent.as_ref().unwrap_or(context);
     let (threads, out_dir) = (context.threads, &context.out_dir);
     let err = |m: String| scenario.error(m);
     if keys.dimension != 2 {

@@ -84,3 +84,42 @@ impl TrajectoryKeys {
         Ok(TrajectoryKeys { gsd, vtk })
     }
 }
+
+/// The value that the option `key = "name"` stands for among `options` (each a
+/// name and its value): where a scenario's option strings become enums. An
+/// unknown name gives `key 'name' is unknown; expected "a", "b" or "c"`.
+pub fn choice<T: Copy>(key: &str, name: &str, options: &[(&str, T)]) -> Result<T, String> {
+    if let Some(&(_, value)) = options.iter().find(|(n, _)| *n == name) {
+        return Ok(value);
+    }
+    let quoted: Vec<String> = options.iter().map(|(n, _)| format!("\"{n}\"")).collect();
+    let expected = match quoted.split_last() {
+        Some((last, [])) => last.clone(),
+        Some((last, rest)) => format!("{} or {last}", rest.join(", ")),
+        None => "nothing".into(),
+    };
+    Err(format!("{key} '{name}' is unknown; expected {expected}"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_choice_is_found_or_the_options_are_named() {
+        let options = [("square", 4), ("hex", 6), ("round", 0)];
+        assert_eq!(choice("run.cells", "hex", &options), Ok(6));
+        assert_eq!(
+            choice("run.cells", "oval", &options),
+            Err("run.cells 'oval' is unknown; expected \"square\", \"hex\" or \"round\"".into())
+        );
+        assert_eq!(
+            choice("run.cells", "oval", &options[..2]),
+            Err("run.cells 'oval' is unknown; expected \"square\" or \"hex\"".into())
+        );
+        assert_eq!(
+            choice("pair.style", "lj", &[("lj/cut", ())]),
+            Err("pair.style 'lj' is unknown; expected \"lj/cut\"".into())
+        );
+    }
+}

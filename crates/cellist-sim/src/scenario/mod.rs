@@ -3,6 +3,9 @@
 //! the keys every model shares are in [`keys`].
 
 pub mod keys;
+mod registry;
+
+pub use registry::ModelKind;
 
 use crate::error::{SimError, SimResult};
 use std::path::{Path, PathBuf};
@@ -73,11 +76,16 @@ impl Scenario {
         })
     }
 
-    /// The `model` key.
-    pub fn model(&self) -> SimResult<String> {
+    /// The model the `model` key names.
+    pub fn model(&self) -> SimResult<ModelKind> {
         let table: toml::Table = toml::from_str(&self.text).map_err(|e| self.error(e))?;
         match table.get("model") {
-            Some(toml::Value::String(m)) => Ok(m.clone()),
+            Some(toml::Value::String(m)) => ModelKind::from_name(m).ok_or_else(|| {
+                self.error(format!(
+                    "model '{m}' is unknown; this build runs: {}",
+                    ModelKind::list()
+                ))
+            }),
             Some(other) => Err(SimError::Input(format!(
                 "{}: model must be a string such as \"md\", got {other}",
                 self.origin

@@ -16,7 +16,8 @@ pub mod sweep;
 pub mod table;
 
 use crate::error::{SimError, SimResult};
-use crate::launch::{run_scenario, RunContext, RunSummary};
+use crate::launch::{RunContext, RunSummary};
+use crate::models::run_scenario;
 use crate::scenario::Scenario;
 use cellist::Threads;
 use cellist_io::AtomicFile;
