@@ -1,6 +1,6 @@
 //! The Python module of cellist (`cellist._cellist`, re-exported by the
 //! `cellist` package): neighbour lists and simulations, numpy in, numpy out.
-//! It calls the engine and the simulation driver; no physics is written here.
+//! It calls the simulation layer (`cellist-sim`) alone; no physics is written here.
 
 mod errors;
 mod neighbors;

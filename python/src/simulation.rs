@@ -6,7 +6,7 @@
 use crate::errors::{sim_error, value_error};
 use crate::threads::pool;
 use cellist_sim::session::{self, Session};
-use cellist_sim::trajectory::TrajectoryFrame;
+use cellist_sim::observers::TrajectoryFrame;
 use cellist_sim::checkpoint::encode;
 use cellist_sim::{Blowup, Scenario, SimError, SimResult};
 use numpy::{AllowTypeChange, IntoPyArray, PyArrayLike2, PyArrayMethods, PyUntypedArrayMethods};

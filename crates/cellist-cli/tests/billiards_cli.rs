@@ -411,13 +411,13 @@ fn bad_inputs_are_named_with_their_line() {
     // a step that does not settle within the bound stops with the step named
     let path = dir.path().join("pair.in");
     std::fs::write(&path, "2\n20\n1\n3\n0 5 5 0.5 0\n1 7.5 5 -0.5 0\n").unwrap();
-    let out = cellist(&[
-        "billiards",
-        "run",
-        path.to_str().unwrap(),
-        "--max-sweeps",
-        "1",
-    ]);
+    // (in the folder of the inputs: the last good state is written where the
+    // run is, as last.lammpstrj and last.ckpt)
+    let out = Command::new(env!("CARGO_BIN_EXE_cellist"))
+        .args(["billiards", "run", "pair.in", "--max-sweeps", "1"])
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
     // a run that stops is status 3 (issue 14), bad input 2
     assert_eq!(out.status.code(), Some(3));
     assert!(
@@ -425,6 +425,9 @@ fn bad_inputs_are_named_with_their_line() {
         "{}",
         text(&out.stderr)
     );
+    for last in ["last.lammpstrj", "last.ckpt"] {
+        assert!(dir.path().join(last).is_file(), "{last}");
+    }
 }
 
 #[test]

@@ -7,11 +7,15 @@
 //!          the checkpoint's (model, physics keys and output files checked first)
 //!          -> observers created (growing files continued from the recorded lengths)
 //!          -> observe(step 0) on a new run
-//! loop:    model.step(s)                  # the model's own stages, timed by it
+//! loop:    observe = an observer needs thermo or energies at s
+//!                    (or, for a state spread over MPI ranks, any output is due)
+//!          model.step_observed(s) if observe, else model.step(s)
+//!                                         # the model's own stages, timed by it
 //!          check(model)                   # finite values, walls, particle count
 //!          observers whose trigger fires  # thermo, dumps, fields, pictures
 //!          if an observer or a checkpoint fired: keep the state as the last good one
 //!          if s is a checkpoint step: write the checkpoint (atomically)
+//!          (on several ranks every failure is agreed, so that all stop together)
 //! finish:  observers finish (plots, animations), timers report
 //! blow-up: the last good state restored, its frame and checkpoint written, exit 3
 //! ```
@@ -19,7 +23,6 @@
 use crate::error::{SimError, SimResult};
 use crate::hosted::Hosted;
 use crate::observers::{frame, write_field_csv, Observer, Recorded};
-use crate::progress::progress_bar;
 use crate::ranks::Ranks;
 use crate::scenario::keys::CheckpointKeys;
 use cellist::models::{check, Blowup, Model};
@@ -203,26 +206,6 @@ impl<M: Hosted> Job<M> {
     /// The same run with its model held on `ranks`.
     pub fn on(self, ranks: Ranks) -> Self {
         Job { ranks, ..self }
-    }
-
-    /// Runs to the last step with `observers`, from step 0 or from the step of
-    /// `restored`, the checkpoint the model's state came from (whose step's
-    /// outputs are already written). `quiet` hides the progress bar.
-    pub fn run(
-        self,
-        restored: Option<&Checkpoint>,
-        observers: Vec<Box<dyn Observer<M>>>,
-        threads: &Threads,
-        quiet: bool,
-    ) -> SimResult<Report<M>> {
-        let first = restored.map_or(0, |c| c.step);
-        let last = self.steps;
-        let bar = if quiet {
-            ProgressBar::hidden()
-        } else {
-            progress_bar(last - first)
-        };
-        self.start(restored, observers, bar)?.run_to(last, threads)
     }
 
     /// The run under way at step 0, or at the step of `restored`: the observers

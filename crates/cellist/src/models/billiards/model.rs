@@ -36,7 +36,7 @@ pub const INFO: ModelInfo = ModelInfo {
     particle: "particle",
     thermo_columns: &["energy"],
     remedy: "the input's speeds or overlaps are beyond what the benchmark's rules settle: \
-             check the input, or raise --max-sweeps",
+             check the input, or raise --max-sweeps (run.max_sweeps in a scenario)",
     count_may_change: false,
 };
 
