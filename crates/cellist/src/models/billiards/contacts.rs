@@ -6,7 +6,7 @@
 //! E1) for either layout. Discs may be anywhere, also far outside the box: the grid
 //! spans their bounding box.
 
-use super::rules::Separation;
+use super::rules::{Separation, Table};
 use crate::threads::{
     counting_sort, counting_sort_parts, fill_in_parts, map_parts, part_ranges, sort_parts,
     DisjointSlice, Threads,
@@ -384,6 +384,15 @@ impl ContactGrid {
                 }
             }
         }
+    }
+}
+
+impl Table {
+    /// A contact grid over the box and one box side around it (discs further out
+    /// share the border squares).
+    pub fn grid(&self) -> ContactGrid {
+        let l = self.side_f();
+        ContactGrid::default().with_region([-l, -l], [2.0 * l, 2.0 * l])
     }
 }
 

@@ -36,13 +36,6 @@ impl Table {
         ((2 * self.radius) * (2 * self.radius)) as f64
     }
 
-    /// A contact grid over the box and one box side around it (discs further out
-    /// share the border squares).
-    pub fn grid(&self) -> super::contacts::ContactGrid {
-        let l = self.side_f();
-        super::contacts::ContactGrid::default().with_region([-l, -l], [2.0 * l, 2.0 * l])
-    }
-
     /// Which walls a disc at `(x, y)` overlaps: `x - R <= 0`, `x + R >= Lf`,
     /// `y - R <= 0`, `y + R >= Lf` (positions are frozen during a resolution, so
     /// this is computed once per step).
