@@ -1,6 +1,7 @@
 //! The collision benchmark behind the driver's [`Model`] interface.
 
-use super::{not_converged_what, overflow_what, Billiards, BilliardsError};
+use super::error::{not_converged_what, overflow_what, BilliardsError};
+use super::system::Billiards;
 use crate::models::{Blowup, Checked, CheckedArray, Ids, Model, ModelInfo, Particles};
 use crate::state::{State, StateError};
 use crate::threads::Threads;
