@@ -2,9 +2,9 @@
 //! discs gathered into one block, its pairs staged, sorted and levelled, its walls
 //! listed, all in parts over the threads.
 
-use super::buffers::{Components, Staged, NONE};
 use super::label::Labels;
-use super::levels::LevelColumns;
+use super::levels::{LevelColumns, Staged};
+use super::resolve::{Components, NONE};
 use crate::models::billiards::contacts::{row_groups, Contact};
 use crate::models::billiards::rules::Walls;
 use crate::threads::{

@@ -2,7 +2,7 @@
 //! the slots ([`SlotSets`]), run in parts over the threads, the pairs across
 //! parts joined after, then every slot labelled with its component.
 
-use super::buffers::{Components, NONE};
+use super::resolve::{Components, NONE};
 use crate::models::billiards::contacts::{row_groups, Contact};
 use crate::models::billiards::rules::Walls;
 use crate::threads::{exclusive_sums, map_parts, DisjointSlice, Threads};

@@ -3,15 +3,25 @@
 //! share a disc with it), then written level by level into the columns the
 //! resolution reads.
 
-use super::buffers::Staged;
+use crate::models::billiards::rules::Separation;
 use crate::threads::{
     counting_sort_with, map_parts, part_ranges, parts_for, DisjointSlice, Threads,
 };
 
+/// A pair of slots `a`, `b` as found, with its canonical key `(number[a],
+/// number[b])` in one integer.
+#[derive(Clone, Copy, Debug, Default)]
+pub(super) struct Staged {
+    pub(super) key: u64,
+    pub(super) a: u32,
+    pub(super) b: u32,
+    pub(super) sep: Separation,
+}
+
 /// The columns [`Components::group`] writes component by component, shared
 /// between the components' tasks (each writes its own ranges).
 ///
-/// [`Components::group`]: super::buffers::Components::group
+/// [`Components::group`]: super::resolve::Components::group
 pub(super) struct LevelColumns<'a> {
     pub(super) staged: DisjointSlice<'a, Staged>,
     pub(super) order: DisjointSlice<'a, u128>,
@@ -89,7 +99,7 @@ impl LevelColumns<'_> {
     /// No two calls at once may share a component, and the ranges of different
     /// components must be disjoint (as [`Components::group`] makes them).
     ///
-    /// [`Components::group`]: super::buffers::Components::group
+    /// [`Components::group`]: super::resolve::Components::group
     pub(super) unsafe fn level(
         &self,
         c: usize,

@@ -14,7 +14,6 @@
 //! the pairs of one level share no disc, so they run four at a time in SIMD lanes
 //! without waiting for each other.
 
-mod buffers;
 mod group;
 mod label;
 mod levels;
@@ -22,5 +21,5 @@ mod resolve;
 #[cfg(test)]
 mod testing;
 
-pub(super) use buffers::Components;
 pub(super) use label::SlotSets;
+pub(super) use resolve::Components;

@@ -1,7 +1,7 @@
 //! What the components' tests share: scattered discs grouped as a step groups
 //! them, and random pairs.
 
-use super::buffers::Components;
+use super::resolve::Components;
 use crate::models::billiards::contacts::{Contact, ContactGrid};
 use crate::models::billiards::rules::Walls;
 use crate::random::Rng;
