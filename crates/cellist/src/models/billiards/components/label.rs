@@ -262,7 +262,8 @@ impl SlotSets<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::models::billiards::components::testing::{pairs, scattered_discs};
+    use crate::models::billiards::components::strategies::pairs;
+    use crate::models::billiards::components::testing::scattered_discs;
     use proptest::prelude::*;
 
     #[test]

@@ -204,7 +204,7 @@ impl LevelColumns<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::models::billiards::components::testing::pairs;
+    use crate::models::billiards::components::strategies::pairs;
     use proptest::prelude::*;
 
     proptest! {

@@ -19,6 +19,8 @@ mod label;
 mod levels;
 mod resolve;
 #[cfg(test)]
+mod strategies;
+#[cfg(test)]
 mod testing;
 
 pub(super) use label::SlotSets;

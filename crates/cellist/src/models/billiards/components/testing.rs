@@ -1,12 +1,11 @@
-//! What the components' tests share: scattered discs grouped as a step groups
-//! them, and random pairs.
+//! The scene two of the components' tests share: scattered discs grouped as a
+//! step groups them.
 
 use super::resolve::Components;
 use crate::models::billiards::contacts::{Contact, ContactGrid};
 use crate::models::billiards::rules::Walls;
 use crate::random::Rng;
 use crate::threads::Threads;
-use proptest::prelude::*;
 
 /// What [`Components::group`] is given, and the pairs by vector position.
 pub(super) struct Scene {
@@ -73,19 +72,4 @@ pub(super) fn scattered_discs(limit: f64) -> Scene {
         walls,
         number,
     }
-}
-
-/// Distinct pairs `(a, b)`, `a != b`, of discs below `n`, in any order.
-pub(super) fn pairs() -> impl Strategy<Value = (usize, Vec<(u32, u32)>)> {
-    (2usize..60).prop_flat_map(|n| {
-        let pair = (0..n as u32, 0..n as u32).prop_filter("two discs", |(a, b)| a != b);
-        (
-            Just(n),
-            prop::collection::vec(pair, 0..300).prop_map(|mut pairs| {
-                let mut seen = std::collections::HashSet::new();
-                pairs.retain(|&p| seen.insert(p));
-                pairs
-            }),
-        )
-    })
 }
