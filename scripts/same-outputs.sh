@@ -17,15 +17,16 @@
 set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
 : "${BASELINE:?set BASELINE to the cellist binary to compare with}"
+target=${CARGO_TARGET_DIR:-$here/target}
 work=${WORK:-$(mktemp -d)}
 mkdir -p "$work/bin"
 echo "outputs in $work"
 
 cargo build --release -q --manifest-path "$here/Cargo.toml" -p cellist-cli
-cp "$here/target/release/cellist" "$work/bin/current"
+cp "$target/release/cellist" "$work/bin/current"
 if [ -n "${BASELINE_MPI:-}" ]; then
     cargo build --release -q --manifest-path "$here/Cargo.toml" -p cellist-cli --features mpi
-    cp "$here/target/release/cellist" "$work/bin/current-mpi"
+    cp "$target/release/cellist" "$work/bin/current-mpi"
     # leave target/release/cellist as the plain build
     cargo build --release -q --manifest-path "$here/Cargo.toml" -p cellist-cli
 fi
