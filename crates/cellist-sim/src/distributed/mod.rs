@@ -29,7 +29,6 @@ pub mod ring;
 pub use ring::ring_gravity;
 
 use crate::error::SimError;
-use crate::launch::RunContext;
 use crate::scenario::{ModelKind, Scenario};
 use cellist::decomposition::Decomposition;
 use cellist::models::Blowup;
@@ -391,13 +390,6 @@ pub fn world_of_many() -> Option<SimpleCommunicator> {
     }
     let world = SimpleCommunicator::world();
     (world.size() > 1).then_some(world)
-}
-
-/// On the ranks other than 0 of a distributed run, `context` made quiet (they
-/// print nothing); `None` on rank 0 and in one process.
-pub fn rank_context<'a>(context: &RunContext<'a>) -> Option<RunContext<'a>> {
-    (rank_of_many()? != 0)
-        .then(|| RunContext::new(context.out_dir.clone(), context.restart, context.threads).quiet())
 }
 
 /// This process's rank in a run over several MPI ranks (`None` in one process).

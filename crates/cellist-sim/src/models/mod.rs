@@ -54,8 +54,13 @@ pub fn launch_scenario<L: Launch>(
     context: &RunContext,
     launch: L,
 ) -> SimResult<L::Output> {
+    // the ranks other than 0 of a distributed run print nothing
     #[cfg(feature = "mpi")]
-    let silent = crate::distributed::rank_context(context);
+    let silent = crate::distributed::rank_of_many()
+        .is_some_and(|rank| rank != 0)
+        .then(|| {
+            RunContext::new(context.out_dir.clone(), context.restart, context.threads).quiet()
+        });
     #[cfg(feature = "mpi")]
     let context = silent.as_ref().unwrap_or(context);
     match scenario.model()? {
