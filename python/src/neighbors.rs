@@ -232,7 +232,11 @@ fn search<const D: usize>(
     sorted: bool,
     pool: &Threads,
 ) -> PyResult<PairArrays> {
-    let order = if sorted { Order::Sorted } else { Order::AsFound };
+    let order = if sorted {
+        Order::Sorted
+    } else {
+        Order::AsFound
+    };
     half_list_in_box(points, length, periodic, cutoff, wanted, order, pool)
         .map_err(|e| value_error(e.flagged("cutoff").to_string()))
 }

@@ -5,9 +5,9 @@
 
 use crate::errors::{sim_error, value_error};
 use crate::threads::pool;
-use cellist_sim::session::{self, Session};
-use cellist_sim::observers::TrajectoryFrame;
 use cellist_sim::checkpoint::encode;
+use cellist_sim::observers::TrajectoryFrame;
+use cellist_sim::session::{self, Session};
 use cellist_sim::{Blowup, Scenario, SimError, SimResult};
 use numpy::{AllowTypeChange, IntoPyArray, PyArrayLike2, PyArrayMethods, PyUntypedArrayMethods};
 use pyo3::exceptions::PyRuntimeError;
@@ -407,7 +407,11 @@ impl Simulation {
         let (step, columns, values) = self.call(py, |e| {
             let step = e.session.step();
             let model = e.session.model();
-            (step, model.info().thermo_columns.to_vec(), model.thermo(step))
+            (
+                step,
+                model.info().thermo_columns.to_vec(),
+                model.thermo(step),
+            )
         })?;
         let dict = PyDict::new(py);
         dict.set_item("step", step)?;

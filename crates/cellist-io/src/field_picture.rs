@@ -100,7 +100,7 @@ impl FieldPainter {
     /// Renders `(position, value)` pairs; returns the palette indices row by row
     /// from the top (y up). Pixels no particle covers are the background (index 0),
     /// but for the one-pixel seams that rounding leaves between the squares of
-    /// neighbouring particles ([`FieldPainter::fill_seams`]).
+    /// neighbouring particles (filled: see `fill_seams`).
     pub fn render(&mut self, particles: impl Iterator<Item = ([f64; 2], f64)>) -> &[u8] {
         let size = self.size as usize;
         self.pixels.clear();
@@ -339,7 +339,7 @@ mod tests {
     }
 
     #[test]
-    fn new_paints_the_periodic_box_exactly_as_before() {
+    fn new_paints_the_periodic_box_as_recorded() {
         // Pixels recorded from the implementation (last when the seam fill came:
         // it painted 24 one-pixel seams of the first case and the 2 of the second): a change here is a
         // change to every periodic picture.

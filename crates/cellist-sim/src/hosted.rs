@@ -14,9 +14,9 @@ pub trait Hosted: Model {
     fn speed(&self, loop_seconds: f64, steps: u64, threads: usize) -> String;
 
     /// Replaces the per-particle array `name` ("positions", "velocities") by
-    /// `values`, `dimension` numbers per particle in the order of
-    /// [`Model::particles`], and recomputes what depends on it. Models that
-    /// allow none refuse, naming themselves.
+    /// `values`, as many numbers per particle as the model's dimension, in the
+    /// order of [`Model::particles`], and recomputes what depends on it. Models
+    /// that allow none refuse, naming themselves.
     fn set_array(&mut self, name: &str, values: &[f64], threads: &Threads) -> Result<(), String> {
         let _ = (values, threads);
         Err(format!(

@@ -60,6 +60,18 @@ impl<'a> RunContext<'a> {
         self
     }
 
+    /// This run, printing nothing (its warnings kept apart): what the ranks
+    /// other than 0 of a distributed run do.
+    pub fn silenced(&self) -> RunContext<'a> {
+        RunContext {
+            out_dir: self.out_dir.clone(),
+            quiet: true,
+            build_only: self.build_only,
+            on_stderr: self.on_stderr,
+            ..RunContext::new(PathBuf::new(), self.restart, self.threads)
+        }
+    }
+
     /// The same run without printing.
     pub fn quiet(mut self) -> Self {
         self.quiet = true;
@@ -147,7 +159,7 @@ pub struct RunSummary {
 
 /// What becomes of a model once its scenario has built it: run to the end
 /// (`cellist run`, [`Execute`]) or kept under way to be stepped on request (a
-/// Python session, [`session::Open`]).
+/// Python session, [`crate::session::Open`]).
 pub trait Launch {
     /// What the launch gives back.
     type Output;

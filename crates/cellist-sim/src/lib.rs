@@ -3,8 +3,8 @@
 //! (thermo, dumps, fields, pictures, trajectories), checkpoints and restarts, and
 //! blow-up stops; every workload the command line and the Python module run
 //! (runs, studies, benchmarks, neighbour lists, the collision benchmark's
-//! commands) is a function here that takes plain arguments and returns a
-//! result. Distributed runs on MPI (feature `mpi`) go through the same launch.
+//! commands) is a function here that takes plain arguments and returns its
+//! result or writes its files. Distributed runs on MPI (feature `mpi`) go through the same launch.
 #![warn(missing_docs)]
 
 pub mod bench;

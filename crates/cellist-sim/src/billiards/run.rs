@@ -7,7 +7,7 @@
 use super::{billiards_job, load};
 use crate::error::{SimError, SimResult};
 use crate::launch::{execute, RunContext};
-use crate::observers::{open_stream, Every, Observer, Outputs, Recorded, Snapshots};
+use crate::observers::{open_stream, Every, Observer, Outputs, Recorded, SnapshotFiles, Snapshots};
 use crate::scenario::keys::CheckpointKeys;
 use cellist::models::billiards::{BilliardsModel, CellShape};
 use cellist::Threads;
@@ -86,15 +86,11 @@ impl Outputs<BilliardsModel> for DiscOutputs<'_> {
                 file: path.to_path_buf(),
             };
             let colours = &DiscPainter::palette()[..3 * DiscPainter::COLOURS];
-            let snapshots = Snapshots::open(
-                dir,
-                None,
-                None,
-                Some(every),
-                &chart.frame,
-                colours,
-                recorded,
-            )?;
+            let files = SnapshotFiles {
+                gif: Some(every),
+                ..SnapshotFiles::default()
+            };
+            let snapshots = Snapshots::open(dir, files, &chart.frame, colours, recorded)?;
             list.push(Box::new(Animation { chart, snapshots }));
         }
         Ok(list)

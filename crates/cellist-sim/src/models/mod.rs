@@ -58,9 +58,7 @@ pub fn launch_scenario<L: Launch>(
     #[cfg(feature = "mpi")]
     let silent = crate::distributed::rank_of_many()
         .is_some_and(|rank| rank != 0)
-        .then(|| {
-            RunContext::new(context.out_dir.clone(), context.restart, context.threads).quiet()
-        });
+        .then(|| context.silenced());
     #[cfg(feature = "mpi")]
     let context = silent.as_ref().unwrap_or(context);
     match scenario.model()? {

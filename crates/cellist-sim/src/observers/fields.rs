@@ -3,7 +3,7 @@
 //! a colour bar) as PNG snapshots and GIF frames.
 
 use super::observer::{due, Every, Observer, Recorded};
-use super::pictures::{snapshot_path, snapshot_title, Snapshots};
+use super::pictures::{snapshot_path, snapshot_title, SnapshotFiles, Snapshots};
 use crate::error::{SimError, SimResult};
 use cellist::models::{Field, Model};
 use cellist_io::{write_field_columns, AtomicFile, FieldChart, FieldPainter};
@@ -94,7 +94,12 @@ impl FieldFiles {
         chart.unit = labels.unit.to_string();
         chart.periodic = field.periodic;
         let palette = FieldPainter::palette();
-        let snapshots = Snapshots::open(dir, png, None, gif, &chart, &palette, recorded)?;
+        let files = SnapshotFiles {
+            png,
+            final_png: None,
+            gif,
+        };
+        let snapshots = Snapshots::open(dir, files, &chart, &palette, recorded)?;
         Ok(FieldFiles {
             dir: dir.to_path_buf(),
             csv,

@@ -17,10 +17,9 @@ mod trajectories;
 
 pub use dumps::{frame, Dump, DumpFormat, DumpPlan};
 pub use fields::{write_field_csv, ChartLabels, FieldFiles, FieldPlan};
-pub use observer::{due, open_stream, sync_one, Every, Observer, Recorded};
+pub use observer::{open_stream, Every, Observer, Recorded};
 pub use pictures::{
-    open_animation, snapshot_path, snapshot_title, BodyPictures, BodyPlan, ChartAnimation,
-    Snapshots,
+    snapshot_path, snapshot_title, BodyPictures, BodyPlan, SnapshotFiles, Snapshots,
 };
 pub use plan::{OutputPlan, Outputs};
 pub use thermo::{PlotSpec, TableStyle, Thermo};

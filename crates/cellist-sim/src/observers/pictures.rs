@@ -132,8 +132,20 @@ pub fn snapshot_path(dir: &Path, file: &Path, step: u64, last: u64) -> PathBuf {
     dir.join(named)
 }
 
-/// Where a chart's pictures go: PNG snapshots on their steps (a file per step,
-/// [`snapshot_path`]), one PNG of the last step, and GIF frames on theirs.
+/// The pictures a chart is written as: PNG snapshots on their steps (a file
+/// per step, [`snapshot_path`]), one PNG of the last step, GIF frames on
+/// theirs.
+#[derive(Clone, Debug, Default)]
+pub struct SnapshotFiles {
+    /// PNG snapshots.
+    pub png: Option<Every>,
+    /// One PNG of the last step, under this name.
+    pub final_png: Option<PathBuf>,
+    /// The GIF animation.
+    pub gif: Option<Every>,
+}
+
+/// Where a chart's pictures go ([`SnapshotFiles`]), its animation open.
 pub struct Snapshots {
     dir: PathBuf,
     png: Option<Every>,
@@ -142,18 +154,20 @@ pub struct Snapshots {
 }
 
 impl Snapshots {
-    /// The pictures of the charts `frame` in `dir`, their colours `palette`
-    /// (RGB triples): PNG snapshots `png`, the last step's PNG `final_png`, GIF
-    /// frames `gif` (continuing the animation a checkpoint `recorded`).
+    /// The `files` of the charts `frame` in `dir`, their colours `palette` (RGB
+    /// triples), continuing the animation a checkpoint `recorded`.
     pub fn open(
         dir: &Path,
-        png: Option<Every>,
-        final_png: Option<PathBuf>,
-        gif: Option<Every>,
+        files: SnapshotFiles,
         frame: &FieldChart,
         palette: &[u8],
         recorded: Recorded,
     ) -> SimResult<Self> {
+        let SnapshotFiles {
+            png,
+            final_png,
+            gif,
+        } = files;
         let gif = match gif {
             Some(g) => {
                 let size = [frame.picture_width(), frame.height()];
@@ -244,15 +258,13 @@ impl BodyPictures {
     /// checkpoint `recorded`).
     pub fn new(plan: &BodyPlan, dir: &Path, recorded: Recorded) -> SimResult<Self> {
         let chart = plan.chart.clone();
-        let snapshots = Snapshots::open(
-            dir,
-            plan.png.clone(),
-            plan.final_png.clone(),
-            plan.gif.clone(),
-            &chart.frame,
-            &BodyChart::palette(),
-            recorded,
-        )?;
+        let files = SnapshotFiles {
+            png: plan.png.clone(),
+            final_png: plan.final_png.clone(),
+            gif: plan.gif.clone(),
+        };
+        let palette = BodyChart::palette();
+        let snapshots = Snapshots::open(dir, files, &chart.frame, &palette, recorded)?;
         Ok(BodyPictures { chart, snapshots })
     }
 }
