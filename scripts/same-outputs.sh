@@ -6,8 +6,11 @@
 #   BASELINE=... BASELINE_MPI=/path/to/older/mpi/cellist bash scripts/same-outputs.sh
 #   CASES="lj-melt billiards" BASELINE=... bash scripts/same-outputs.sh
 #
-# Cases: every scenario in examples/ (`cellist run`, 2 threads), the collision
-# benchmark's sample input (`billiards run --viz --gif --png --output`), and with
+# Cases: every scenario in examples/ (`cellist run`, 2 threads); the collision
+# benchmark's sample input (`billiards run --viz --gif --png --output`, and its
+# final state on standard output in bits); the same run stopped at step 10 with
+# checkpoints and continued from its checkpoint (`billiards-restart`); the melt
+# blowing up (`md-blowup`: its last good frame and checkpoint); and with
 # BASELINE_MPI (and Open MPI) `mpirun -np 2 cellist run` of the md melt and the
 # pse sine, each with this build's MPI binary (`--features mpi`). CASES picks
 # some of them by name. Each case runs with both binaries into folders of their
@@ -36,7 +39,7 @@ cases=()
 for scenario in "$here"/examples/*.toml; do
     cases+=("$(basename "$scenario" .toml)")
 done
-cases+=(billiards)
+cases+=(billiards billiards-restart md-blowup)
 [ -n "${BASELINE_MPI:-}" ] && cases+=(mpi-md mpi-pse)
 wanted=" ${CASES:-${cases[*]}} "
 
@@ -50,6 +53,21 @@ run_case() {
             "$binary" billiards run "$sample" --threads 2 --viz "$out/steps.out" \
                 --gif "$out/run.gif" --png "$out/final.png" --output "$out/final.out" \
                 > "$out.log" 2>&1
+            "$binary" billiards run "$sample" --threads 1 --format bits \
+                > "$out/final.stdout" 2>> "$out.log"
+            ;;
+        billiards-restart)
+            (cd "$out" \
+                && "$binary" billiards run "$sample" --steps 10 --viz steps.out --gif run.gif \
+                    --checkpoint state.ckpt --checkpoint-every 5 --output first.out \
+                && "$binary" billiards run "$sample" --viz steps.out --gif run.gif \
+                    --checkpoint state.ckpt --checkpoint-every 5 --restart state.ckpt \
+                    --output final.out) > "$out.log" 2>&1
+            ;;
+        md-blowup)
+            # exits with 3: the last good frame and checkpoint are the outputs
+            "$binary" run "$here/examples/lj-melt.toml" --threads 2 --set run.dt=0.5 \
+                --set run.steps=50 --out "$out" > "$out.log" 2>&1 || [ $? -eq 3 ]
             ;;
         mpi-md)
             mpirun --allow-run-as-root --oversubscribe -np 2 "$mpi" run \
