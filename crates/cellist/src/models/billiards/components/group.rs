@@ -27,6 +27,7 @@ impl Placed<'_> {
     ///
     /// # Safety
     /// No other call reaches component `c` or slot `k` at once.
+    #[inline]
     unsafe fn next(&self, k: usize, c: u32, disc: u32) {
         // SAFETY: the caller's promise
         unsafe {

@@ -176,6 +176,8 @@ struct PairColumns<'a> {
 }
 
 impl LocalPairs {
+    /// The columns of the pairs in `range`.
+    #[inline]
     fn columns(&self, range: std::ops::Range<usize>) -> PairColumns<'_> {
         PairColumns {
             a: &self.a[range.clone()],
