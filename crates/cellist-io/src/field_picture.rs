@@ -99,8 +99,8 @@ impl FieldPainter {
 
     /// Renders `(position, value)` pairs; returns the palette indices row by row
     /// from the top (y up). Pixels no particle covers are the background (index 0),
-    /// but for the one-pixel seams that rounding leaves between the squares of
-    /// neighbouring particles (filled: see `fill_seams`).
+    /// but for the gaps narrower than half a square between the squares of
+    /// neighbouring particles (filled: see `fill_gaps`).
     pub fn render(&mut self, particles: impl Iterator<Item = ([f64; 2], f64)>) -> &[u8] {
         let size = self.size as usize;
         self.pixels.clear();
@@ -133,58 +133,66 @@ impl FieldPainter {
                 }
             }
         }
-        self.fill_seams();
+        self.fill_gaps((half as usize).max(1));
         &self.pixels
     }
 
-    /// Fills the seams between squares: a square spans the pixels from
-    /// `round(c - h/2)` to `round(c + h/2)`, and where the edge two neighbours
-    /// share falls on a pixel's centre, rounding can leave that column (or row)
-    /// to neither. A background pixel whose two neighbours along x are painted
-    /// takes the colour of the one on its left; then the same along y (from
-    /// below), which also fills where a column and a row of seams cross. Wider
-    /// gaps (no particle there) stay background; a periodic picture wraps.
-    fn fill_seams(&mut self) {
+    /// Fills the gaps between squares narrower than half a square: a square
+    /// spans the pixels from `round(c - h/2)` to `round(c + h/2)`, so rounding
+    /// can leave a column or row of pixels to neither of two neighbours on a
+    /// lattice, and particles that the flow moves apart open gaps of a few
+    /// pixels. Along each row, then each column (which also fills where a gap
+    /// column and a gap row cross), a run of at most `widest` background pixels
+    /// between two painted ones takes the colour of the nearer (the earlier on a
+    /// tie). Wider gaps (a spacing without a particle) stay background; a
+    /// periodic picture wraps.
+    fn fill_gaps(&mut self, widest: usize) {
         let size = self.size as usize;
-        let periodic = self.periodic;
-        // the neighbours of `k` along an axis: `k - 1` and `k + 1`, wrapped or
-        // none at the edges
-        let around = |k: usize| match (k, periodic) {
-            (0, true) => Some((size - 1, 1)),
-            (0, false) => None,
-            (k, true) if k == size - 1 => Some((k - 1, 0)),
-            (k, false) if k == size - 1 => None,
-            (k, _) => Some((k - 1, k + 1)),
-        };
-        let pixels = &mut self.pixels;
         for row in 0..size {
-            for column in 0..size {
-                let at = row * size + column;
-                if pixels[at] != BACKGROUND {
-                    continue;
-                }
-                if let Some((left, right)) = around(column) {
-                    let (l, r) = (pixels[row * size + left], pixels[row * size + right]);
-                    if l != BACKGROUND && r != BACKGROUND {
-                        pixels[at] = l;
-                    }
-                }
-            }
+            fill_line(
+                &mut self.pixels,
+                |k| row * size + k,
+                size,
+                widest,
+                self.periodic,
+            );
         }
-        // rows run from the top: the pixel below is the next row
-        for row in 0..size {
-            for column in 0..size {
-                let at = row * size + column;
-                if pixels[at] != BACKGROUND {
-                    continue;
-                }
-                if let Some((above, below)) = around(row) {
-                    let (a, b) = (pixels[above * size + column], pixels[below * size + column]);
-                    if a != BACKGROUND && b != BACKGROUND {
-                        pixels[at] = b;
-                    }
-                }
-            }
+        for column in 0..size {
+            fill_line(
+                &mut self.pixels,
+                |k| k * size + column,
+                size,
+                widest,
+                self.periodic,
+            );
+        }
+    }
+}
+
+/// Fills the runs of at most `widest` background pixels between two painted
+/// ones on the line of `n` pixels whose `k`-th is `pixels[at(k)]`, each pixel
+/// from the nearer end (the earlier on a tie); `periodic` lines wrap.
+fn fill_line(
+    pixels: &mut [u8],
+    at: impl Fn(usize) -> usize,
+    n: usize,
+    widest: usize,
+    periodic: bool,
+) {
+    let painted: Vec<usize> = (0..n).filter(|&k| pixels[at(k)] != BACKGROUND).collect();
+    let pairs = painted.windows(2).map(|w| (w[0], w[1]));
+    let wrapped = match (periodic, painted.first(), painted.last()) {
+        (true, Some(&first), Some(&last)) if painted.len() > 1 => Some((last, first + n)),
+        _ => None,
+    };
+    for (from, to) in pairs.chain(wrapped) {
+        let gap = to - from - 1;
+        if gap == 0 || gap > widest {
+            continue;
+        }
+        let (before, after) = (pixels[at(from % n)], pixels[at(to % n)]);
+        for k in from + 1..to {
+            pixels[at(k % n)] = if k - from <= to - k { before } else { after };
         }
     }
 }
@@ -249,19 +257,23 @@ mod tests {
     }
 
     #[test]
-    fn seams_are_filled_but_gaps_stay() {
-        // two squares one pixel apart, and two squares three pixels apart
+    fn gaps_narrower_than_half_a_square_are_filled_and_wider_ones_stay() {
+        // squares 4 pixels wide (half a square: 2 pixels) one, two and three
+        // pixels apart
         let mut painter = FieldPainter::with_view(40, [0.0, 0.0], 40.0, 4.0, 1.0);
         let particles = [
             ([2.0, 2.0], 1.0),   // columns 0..4
             ([7.0, 2.0], -1.0),  // columns 5..9: column 4 is a seam
+            ([13.0, 2.0], 1.0),  // columns 11..15: 9..11 is a gap of two
             ([20.0, 2.0], 1.0),  // columns 18..22
-            ([27.0, 2.0], -1.0), // columns 25..29: 22..25 is a gap
+            ([27.0, 2.0], -1.0), // columns 25..29: 22..25 is a gap of three
         ];
         let pixels = painter.render(particles.into_iter()).to_vec();
         let at = |column: usize| pixels[(39 - 2) * 40 + column];
         let (red, blue) = (FIRST_LEVEL + 254, FIRST_LEVEL);
         assert_eq!([at(3), at(4), at(5)], [red, red, blue]);
+        // each pixel of the gap of two from the nearer square
+        assert_eq!([at(8), at(9), at(10), at(11)], [blue, blue, red, red]);
         assert_eq!([at(22), at(23), at(24)], [BACKGROUND; 3]);
         // below the squares nothing is painted
         assert_eq!(pixels[(39 - 10) * 40 + 4], BACKGROUND);
@@ -340,9 +352,9 @@ mod tests {
 
     #[test]
     fn new_paints_the_periodic_box_as_recorded() {
-        // Pixels recorded from the implementation (last when the seam fill came:
-        // it painted 24 one-pixel seams of the first case and the 2 of the second): a change here is a
-        // change to every periodic picture.
+        // Pixels recorded from the implementation (last when the gap fill came:
+        // it painted 24 gap pixels of the first case and the 2 of the second):
+        // a change here is a change to every periodic picture.
         let mut painter = FieldPainter::new(37, 3.0, 0.23, 1.5);
         let pixels = painter.render(periodic_case().into_iter()).to_vec();
         assert_eq!(pixels.len(), 37 * 37);
@@ -350,7 +362,7 @@ mod tests {
         let sum: u64 = pixels.iter().map(|&p| p as u64).sum();
         assert_eq!(
             (fnv1a(&pixels), background, sum),
-            (0xc164_01cf_8223_d509, 943, 55824)
+            (0x0c6c_9a1c_dd50_0b40, 943, 56195)
         );
         // a size below the minimum, a box of side 1 and a spacing of ~5 pixels
         let mut small = FieldPainter::new(10, 1.0, 0.3, 0.7);
