@@ -48,5 +48,17 @@ impl From<cellist_io::InputError> for SimError {
     }
 }
 
+/// `value` of the flag `flag` if it is finite and positive, else the input
+/// error `<flag> must be a finite number > 0, got <value>`.
+pub(crate) fn positive(flag: &str, value: f64) -> SimResult<f64> {
+    if value.is_finite() && value > 0.0 {
+        Ok(value)
+    } else {
+        Err(SimError::Input(format!(
+            "{flag} must be a finite number > 0, got {value}"
+        )))
+    }
+}
+
 /// Shorthand for results of the simulation layer.
 pub type SimResult<T = ()> = Result<T, SimError>;

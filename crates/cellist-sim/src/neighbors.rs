@@ -3,7 +3,7 @@
 //! points in a box, sorted by `(i, j)` or in the order the cells find the
 //! pairs (`cellist.neighbors`, `cellist bench neighbors`).
 
-use crate::error::{SimError, SimResult};
+use crate::error::{positive, SimError, SimResult};
 use cellist::neighbors::{half_list_as_found, half_pairs, sorted_half_list};
 use cellist::{CellList, Domain, Threads};
 use cellist_io::{read_points, write_pairs, AtomicFile, BoxInfo, Points};
@@ -47,6 +47,20 @@ impl SearchError {
     }
 }
 
+/// The cell list of `points` in `domain` for `cutoff`, or why the cutoff does
+/// not fit the box.
+pub fn cells<const D: usize>(
+    domain: &Domain<D>,
+    points: &[[f64; D]],
+    cutoff: f64,
+    threads: &Threads,
+) -> Result<CellList<D>, SearchError> {
+    CellList::build_in(domain, cutoff, points, threads).map_err(|e| SearchError::Cutoff {
+        cutoff,
+        why: e.to_string(),
+    })
+}
+
 /// The half list of `points` in `domain`: every pair `i < j` closer than
 /// `cutoff` (minimum image on periodic axes) with the `quantities` asked for,
 /// in `order`.
@@ -58,11 +72,7 @@ pub fn half_list<const D: usize>(
     order: Order,
     threads: &Threads,
 ) -> Result<PairArrays, SearchError> {
-    let cells =
-        CellList::build_in(domain, cutoff, points, threads).map_err(|e| SearchError::Cutoff {
-            cutoff,
-            why: e.to_string(),
-        })?;
+    let cells = cells(domain, points, cutoff, threads)?;
     Ok(match order {
         Order::Sorted => sorted_half_list(&cells, points, cutoff, quantities, threads),
         Order::AsFound => half_list_as_found(&cells, points, cutoff, quantities, threads),
@@ -108,12 +118,7 @@ pub struct NeighborsOfFile<'a> {
 /// `i j r` line per pair sorted by `(i, j)`, or the number of pairs, to the
 /// output file (whole or not at all) or standard output.
 pub fn neighbors_of_file(request: &NeighborsOfFile, threads: &Threads) -> SimResult {
-    let cutoff = request.cutoff;
-    if !(cutoff.is_finite() && cutoff > 0.0) {
-        return Err(SimError::Input(format!(
-            "--cutoff must be a finite number > 0, got {cutoff}"
-        )));
-    }
+    positive("--cutoff", request.cutoff)?;
     let file = read_points(request.input)?;
     match file.points {
         Points::Two(p) => list_of_file::<2>(request, &p, file.cell.as_ref(), threads),
@@ -129,8 +134,7 @@ fn list_of_file<const D: usize>(
 ) -> SimResult {
     let cutoff = request.cutoff;
     let domain = domain_of_file::<D>(request, points, file_box)?;
-    let cells = CellList::build_in(&domain, cutoff, points, threads)
-        .map_err(|e| SimError::Input(format!("--cutoff {cutoff}: {e}")))?;
+    let cells = cells(&domain, points, cutoff, threads).map_err(|e| e.flagged("--cutoff"))?;
     let write = |out: &mut dyn Write| -> std::io::Result<()> {
         if request.count {
             // the count alone: no list in memory

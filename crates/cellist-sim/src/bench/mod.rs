@@ -30,17 +30,6 @@ fn at_least_once(repeat: usize) -> SimResult {
     Ok(())
 }
 
-/// Refuses a `flag` value that is not finite and positive.
-fn positive(flag: &str, value: f64) -> SimResult<f64> {
-    if value.is_finite() && value > 0.0 {
-        Ok(value)
-    } else {
-        Err(SimError::Input(format!(
-            "{flag} must be a finite number > 0, got {value}"
-        )))
-    }
-}
-
 /// The peak resident set of this process (`VmHWM` of `/proc/self/status`), in
 /// bytes; None where the file is not there (not Linux).
 fn peak_resident_bytes() -> Option<u64> {

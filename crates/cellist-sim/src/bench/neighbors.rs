@@ -1,13 +1,13 @@
 //! `cellist bench neighbors`: the half neighbour list of uniform random points
 //! in a periodic box (the workload of vesin's `compute(quantities="ij")`).
 
-use super::{at_least_once, positive};
-use crate::error::{SimError, SimResult};
-use crate::neighbors::{half_list, Order};
+use super::at_least_once;
+use crate::error::{positive, SimError, SimResult};
+use crate::neighbors::{cells, half_list, Order};
 use crate::study::median;
 use cellist::neighbors::half_pairs;
 use cellist::random::Rng;
-use cellist::{CellList, Domain, Threads};
+use cellist::{Domain, Threads};
 use std::time::Instant;
 
 /// The points and the list to time.
@@ -83,8 +83,8 @@ fn time_half_list<const D: usize>(
                 pairs.len()
             }
             None => {
-                let cells = CellList::build_in(&domain, cutoff, &points, threads)
-                    .map_err(|e| SimError::Input(format!("--cutoff {cutoff}: {e}")))?;
+                let cells =
+                    cells(&domain, &points, cutoff, threads).map_err(|e| e.flagged("--cutoff"))?;
                 let pairs = half_pairs(&cells, cutoff, threads, |i, j, _| [i, j]);
                 times.push(start.elapsed().as_secs_f64());
                 pairs.len()

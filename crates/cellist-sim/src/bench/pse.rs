@@ -1,8 +1,7 @@
 //! `cellist bench pse`: forward Euler steps of diffusion by particle strength
 //! exchange on a lattice.
 
-use super::positive;
-use crate::error::{SimError, SimResult};
+use crate::error::{positive, SimError, SimResult};
 use crate::study::median;
 use cellist::models::pse::{lattice, InitialField, Integrator, Method, PseParams, PseSystem};
 use cellist::{Domain, Threads};
