@@ -1,7 +1,8 @@
 //! MPI test of the command line (feature `mpi`; its own binary, run directly,
 //! not under mpirun: it starts `mpirun` itself). `cellist run` on one rank is
 //! the plain run; md on 2, 3 and 4 ranks gives the dumps of the plain run
-//! within 1e-10 after 100 steps (and the same bytes on 2 and 4 ranks), a 4-rank
+//! within 1e-10 after 100 steps (and with `[run] reproducible = true`, as pse
+//! always, the same bytes on 2, 3 and 4 ranks), a 4-rank
 //! checkpoint continues in one process and on 2 ranks like the uninterrupted
 //! run; bad input, a thin subdomain, a model not distributed and a blow-up
 //! stop every rank with one message from rank 0 and a non-zero status, never
@@ -242,21 +243,37 @@ fn dump_difference(a: &Path, b: &Path) -> Result<f64, String> {
 }
 
 /// `scenario` (of `model`, writing `file`) on 1 to 4 ranks against the plain
-/// run: within 1e-10, and for the domain-decomposed models (whose sums run in
-/// id order) the same bytes on 2 and 4 ranks.
+/// run: within 1e-10; with `same_bytes` (the sums in id order: md with
+/// `[run] reproducible = true`, pse) the same bytes on 2, 3 and 4 ranks.
 fn distributed_runs_match_the_plain_run(
     dir: &Path,
     model: &str,
     scenario: &str,
     file: &str,
+    same_bytes: bool,
 ) -> Result<(), String> {
-    let same_bits = model == "md" || model == "pse";
-    let out = |name: &str| dir.join(format!("{model}-{name}"));
+    let mode = if same_bytes { "same" } else { "near" };
+    let out = |name: &str| dir.join(format!("{model}-{mode}-{name}"));
     let text = |p: PathBuf| p.display().to_string();
-    plain(&["run", scenario, "--out", &text(out("plain"))])?;
+    let sets: &[&str] = if same_bytes && model == "md" {
+        &["--set", "run.reproducible=true"]
+    } else {
+        &[]
+    };
+    let args = |folder: PathBuf| {
+        let mut args = vec![
+            "run".to_string(),
+            scenario.to_string(),
+            "--out".into(),
+            text(folder),
+        ];
+        args.extend(sets.iter().map(|s| s.to_string()));
+        args
+    };
+    plain(&strs(&args(out("plain"))))?;
     for ranks in [1, 2, 3, 4] {
         let name = format!("np{ranks}");
-        distributed(ranks, &["run", scenario, "--out", &text(out(&name))])?;
+        distributed(ranks, &strs(&args(out(&name))))?;
         let d = dump_difference(&out("plain").join(file), &out(&name).join(file))?;
         if d > 1e-10 {
             return Err(format!(
@@ -264,10 +281,14 @@ fn distributed_runs_match_the_plain_run(
             ));
         }
     }
-    let two = std::fs::read(out("np2").join(file)).map_err(|e| e.to_string())?;
-    let four = std::fs::read(out("np4").join(file)).map_err(|e| e.to_string())?;
-    if same_bits && two != four {
-        return Err(format!("{file} of 2 and 4 ranks are not the same bytes"));
+    let read = |ranks: usize| std::fs::read(out(&format!("np{ranks}")).join(file));
+    let two = read(2).map_err(|e| e.to_string())?;
+    for ranks in [3, 4] {
+        if same_bytes && read(ranks).map_err(|e| e.to_string())? != two {
+            return Err(format!(
+                "{file} of 2 and {ranks} ranks are not the same bytes"
+            ));
+        }
     }
     Ok(())
 }
@@ -287,7 +308,8 @@ fn every_ten_without_check(dir: &Path, scenario: &str) -> Result<(), String> {
         format!("{text}[neighbor]\nevery = 10\ncheck = false\nskin = 1.5\n"),
     )
     .map_err(|e| e.to_string())?;
-    distributed_runs_match_the_plain_run(&folder, "md", &path.display().to_string(), "melt.dump")
+    let path = path.display().to_string();
+    distributed_runs_match_the_plain_run(&folder, "md", &path, "melt.dump", false)
 }
 
 /// A checkpoint of `scenario` written at step 50 of 100 on 4 ranks, continued
@@ -383,7 +405,11 @@ fn main() {
         ),
         (
             "md on 1 to 4 ranks: the dumps of the plain run within 1e-10",
-            distributed_runs_match_the_plain_run(dir.path(), "md", &melt, "melt.dump"),
+            distributed_runs_match_the_plain_run(dir.path(), "md", &melt, "melt.dump", false),
+        ),
+        (
+            "md reproducible on 1 to 4 ranks: within 1e-10 of the plain run, the same bytes on 2, 3 and 4 ranks",
+            distributed_runs_match_the_plain_run(dir.path(), "md", &melt, "melt.dump", true),
         ),
         (
             "md, its list rebuilt every 10 steps without the check, on 1 to 4 ranks: the dumps of the plain run within 1e-10",
@@ -391,15 +417,15 @@ fn main() {
         ),
         (
             "pse on 1 to 4 ranks: the fields of the plain run within 1e-10",
-            distributed_runs_match_the_plain_run(dir.path(), "pse", &pse, "field_100.csv"),
+            distributed_runs_match_the_plain_run(dir.path(), "pse", &pse, "field_100.csv", true),
         ),
         (
             "gravity direct by the ring on 1 to 4 ranks: the dumps of the plain run within 1e-10",
-            distributed_runs_match_the_plain_run(dir.path(), "gravity", &gravity, "stars.dump"),
+            distributed_runs_match_the_plain_run(dir.path(), "gravity", &gravity, "stars.dump", false),
         ),
         (
             "vortex direct by the ring on 1 to 4 ranks: the fields of the plain run within 1e-10",
-            distributed_runs_match_the_plain_run(dir.path(), "vortex", &vortex, "vorticity_20.csv"),
+            distributed_runs_match_the_plain_run(dir.path(), "vortex", &vortex, "vorticity_20.csv", false),
         ),
         (
             "gravity: a 4-rank checkpoint continues in one process and on 2 ranks",
@@ -480,4 +506,9 @@ fn main() {
     if failed > 0 {
         std::process::exit(1);
     }
+}
+
+/// The arguments as `&str`s.
+fn strs(args: &[String]) -> Vec<&str> {
+    args.iter().map(String::as_str).collect()
 }

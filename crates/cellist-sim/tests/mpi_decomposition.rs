@@ -11,7 +11,7 @@
 //! mpirun --allow-run-as-root --oversubscribe -np 4 target/release/deps/mpi_decomposition-<hash>
 //! ```
 
-use cellist::decomposition::Decomposition;
+use cellist::decomposition::{Decomposition, Images};
 use cellist::geometry::{Boundary, Domain};
 use cellist::random::Rng;
 use cellist_sim::distributed::{ghosts, migrate, LocalParticles};
@@ -99,7 +99,7 @@ fn check<C: Communicator, const D: usize>(
             return Err(format!("{name}, round {round}: {total} particles, not {n}"));
         }
         // ghosts against brute force: the images within reach, outside the subdomain
-        let got = ghosts(world, &decomposition, &mine, reach);
+        let got = ghosts(world, &decomposition, &mine, reach, Images::All);
         let (lo, hi) = decomposition.bounds(rank);
         let mut want: Vec<(u64, Vec<i64>)> = Vec::new();
         for (id, x, _) in &all {

@@ -35,6 +35,33 @@ pub struct Ghost<const D: usize> {
     pub shift: [f64; D],
 }
 
+/// One rank's part of the box: `[lo, hi)` along the axes the box is cut along
+/// (`cut`), and the whole box along the others (where a periodic box wraps
+/// around inside the rank).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Subdomain<const D: usize> {
+    /// The whole box.
+    pub domain: Domain<D>,
+    /// Lower corner (the box's along the uncut axes).
+    pub lo: [f64; D],
+    /// Upper corner (the box's along the uncut axes).
+    pub hi: [f64; D],
+    /// The axes the box is cut along.
+    pub cut: [bool; D],
+}
+
+/// Which periodic images of particles a rank receives as ghosts.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Images {
+    /// Every image within reach of the subdomain, the rank's own particles'
+    /// included: for a neighbour search in open space.
+    All,
+    /// Only images across the axes the box is cut along: along an uncut
+    /// periodic axis the rank sees its particles' images through a periodic
+    /// cell list ([`Decomposition::subdomain`]).
+    AcrossCuts,
+}
+
 impl<const D: usize> Decomposition<D> {
     /// The grid of `ranks` subdomains whose surface `sum_d prod_(e != d) L_e / p_e`
     /// (one subdomain's faces, up to a factor 2) is smallest; ties go to the
@@ -164,14 +191,36 @@ impl<const D: usize> Decomposition<D> {
         Ok(())
     }
 
+    /// The part of the box `rank` owns as its halo list sees it
+    /// ([`Images::AcrossCuts`]): `[lo, hi)` along the axes the box is cut
+    /// along (an open face of the box bounds the first and last subdomains),
+    /// the whole box along the others.
+    pub fn subdomain(&self, rank: usize) -> Subdomain<D> {
+        let (lo, hi) = self.bounds(rank);
+        let box_hi: [f64; D] = std::array::from_fn(|d| self.domain.lo[d] + self.domain.length[d]);
+        Subdomain {
+            domain: self.domain,
+            lo: std::array::from_fn(|d| lo[d].max(self.domain.lo[d])),
+            hi: std::array::from_fn(|d| hi[d].min(box_hi[d])),
+            cut: std::array::from_fn(|d| self.grid[d] > 1),
+        }
+    }
+
     /// The ghosts `rank` sends: for each of its particles at `positions` (inside
     /// its subdomain, wrapped) and each neighbouring subdomain, across faces,
     /// edges and corners, the particle goes when it lies within `reach` of every
     /// face it crosses towards that neighbour (`x - lo <= reach` towards the lower
     /// one, `hi - x <= reach` towards the upper one), with the periodic shift of
     /// its image. On a periodic axis of one or two subdomains a neighbour may be
-    /// the rank itself or the same rank twice, each with its own shift.
-    pub fn ghosts(&self, rank: usize, positions: &[[f64; D]], reach: f64) -> Vec<Ghost<D>> {
+    /// the rank itself or the same rank twice, each with its own shift; with
+    /// [`Images::AcrossCuts`] no neighbour lies across an uncut axis.
+    pub fn ghosts(
+        &self,
+        rank: usize,
+        positions: &[[f64; D]],
+        reach: f64,
+        images: Images,
+    ) -> Vec<Ghost<D>> {
         let (lo, hi) = self.bounds(rank);
         let c = self.coords(rank);
         let mut out = Vec::new();
@@ -179,6 +228,10 @@ impl<const D: usize> Decomposition<D> {
         for code in 0..offsets {
             let o: [i64; D] = std::array::from_fn(|d| (code / 3usize.pow(d as u32) % 3) as i64 - 1);
             if o.iter().all(|&v| v == 0) {
+                continue;
+            }
+            let across_uncut = (0..D).any(|d| o[d] != 0 && self.grid[d] == 1);
+            if images == Images::AcrossCuts && across_uncut {
                 continue;
             }
             // the neighbour's coordinates and the shift of images crossing the box
@@ -260,8 +313,21 @@ mod tests {
 
     /// Every rank's ghosts, played in one process, against brute force: a rank
     /// receives exactly the images of other ranks' particles (and its own shifted
-    /// ones) that lie in the shell of width `reach` around its subdomain.
+    /// ones) that lie in the shell of width `reach` around its subdomain; with
+    /// [`Images::AcrossCuts`], none shifted along an uncut axis.
     fn check_ghosts<const D: usize>(domain: Domain<D>, ranks: usize, reach: f64, n: usize) {
+        for images in [Images::All, Images::AcrossCuts] {
+            check_ghost_images(domain, ranks, reach, n, images);
+        }
+    }
+
+    fn check_ghost_images<const D: usize>(
+        domain: Domain<D>,
+        ranks: usize,
+        reach: f64,
+        n: usize,
+        images: Images,
+    ) {
         let d = Decomposition::new(domain, ranks);
         d.check_reach(reach).unwrap();
         let mut rng = Rng::new(ranks as u64 * 31 + D as u64);
@@ -281,7 +347,7 @@ mod tests {
                 let mine: Vec<usize> = (0..points.len()).filter(|&i| owner[i] == from).collect();
                 let local: Vec<[f64; D]> = mine.iter().map(|&i| points[i]).collect();
                 for g in d
-                    .ghosts(from, &local, reach)
+                    .ghosts(from, &local, reach, images)
                     .into_iter()
                     .filter(|g| g.to == to)
                 {
@@ -299,6 +365,10 @@ mod tests {
                     if (0..D).any(|k| m[k] != 0 && !periodic[k]) {
                         continue;
                     }
+                    let uncut = (0..D).any(|k| m[k] != 0 && d.grid[k] == 1);
+                    if images == Images::AcrossCuts && uncut {
+                        continue;
+                    }
                     let y: [f64; D] =
                         std::array::from_fn(|k| x[k] + m[k] as f64 * domain.length[k]);
                     let inside = (0..D).all(|k| y[k] >= lo[k] && y[k] < hi[k]);
@@ -310,7 +380,7 @@ mod tests {
             }
             got.sort();
             expected.sort();
-            assert_eq!(got, expected, "rank {to} of {ranks}");
+            assert_eq!(got, expected, "rank {to} of {ranks}, {images:?}");
         }
     }
 

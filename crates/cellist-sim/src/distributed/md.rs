@@ -1,8 +1,14 @@
 //! Lennard-Jones molecular dynamics by domain decomposition: each rank owns the
 //! atoms of its subdomain, receives ghosts within cutoff + skin of it, and
-//! computes the forces on its own atoms over full neighbour rows in ascending
-//! id ([`OrderedRows`]), so that the run gives the same bits on any number of
-//! ranks and threads.
+//! computes the forces on its own atoms in one of two ways ([`PairSums`]):
+//!
+//! - by default over a half cluster list of its own atoms and ghosts
+//!   ([`HaloForces`]): each pair once on a rank, a pair across a cut once on
+//!   each of its two ranks, the single-process kernel; the result agrees with
+//!   other rank counts to rounding;
+//! - with `[run] reproducible = true`, over full neighbour rows in ascending
+//!   id ([`OrderedRows`]): every pair twice, and the same bits on any number
+//!   of ranks and threads.
 //!
 //! ```text
 //! step:  first half (kick + drift)          # own atoms
@@ -23,13 +29,13 @@
 
 use super::{agree, agree_blowup, migrate, GhostPlan, LocalParticles};
 use crate::hosted::Hosted;
-use cellist::decomposition::Decomposition;
+use cellist::decomposition::{Decomposition, Images, Subdomain};
 use cellist::geometry::Domain;
 use cellist::interactions::{LennardJones, PairPotential};
 use cellist::models::md::{
     blowup_of, check_positions, checked_atoms, dump_particles, lap, late_note, load_atoms,
-    ordered_forces, save_atoms, AtomForce, Atoms, Integrator, ListCounts, MdError, PairTally,
-    StageTimes, Thermo, REMEDY,
+    ordered_forces, save_atoms, AtomForce, Atoms, HaloForces, Integrator, ListCounts, MdError,
+    PairTally, StageTimes, Thermo, REMEDY,
 };
 use cellist::models::{check, md, Blowup, Checked, Model, ModelInfo, Particles};
 use cellist::neighbors::{CellGrid, OrderedRows, Rebuild, RebuildRule};
@@ -67,7 +73,7 @@ pub struct DistributedMd<const D: usize> {
     plan: GhostPlan<D>,
     ghost_ids: Vec<u64>,
     points: Vec<[f64; D]>,
-    rows: OrderedRows<D>,
+    sums: PairSums<D>,
     computed: Vec<AtomForce<D>>,
     gathered: Option<Gathered<D>>,
     /// Set by a restore: the next step rebuilds whatever the skin test says.
@@ -99,6 +105,114 @@ pub struct MdSpec<const D: usize> {
     pub dt: f64,
     /// The z bounds written in dumps of 2D systems.
     pub z_bounds: (f64, f64),
+    /// Sum each atom's forces in id order over full rows: the same bits on
+    /// any number of ranks, at twice the pair arithmetic.
+    pub reproducible: bool,
+}
+
+/// How a rank sums the pair forces on its own atoms.
+enum PairSums<const D: usize> {
+    /// Over a half cluster list of own atoms and ghosts (`None` before the
+    /// first build).
+    Halo(Option<Box<HaloForces<D>>>),
+    /// Over full rows sorted by id.
+    Ordered(OrderedRows<D>),
+}
+
+impl<const D: usize> PairSums<D> {
+    /// The ghosts a rank needs: across the cuts only for the half list (it
+    /// bins in a box periodic along the uncut axes), every image for the rows
+    /// (found in open space).
+    fn images(&self) -> Images {
+        match self {
+            PairSums::Halo(_) => Images::AcrossCuts,
+            PairSums::Ordered(_) => Images::All,
+        }
+    }
+
+    /// Builds the list or rows of the first `owned` of `points` (own atoms,
+    /// then ghosts; `ids` alike); the failure (two atoms at one position, a
+    /// geometry error) as its message. The half list looks for two atoms at
+    /// one position at its first build only, as a single-process run does at
+    /// set-up (later such a pair blows the run up); the rows at every build.
+    #[allow(clippy::too_many_arguments)]
+    fn build(
+        &mut self,
+        subdomain: &Subdomain<D>,
+        points: &[[f64; D]],
+        owned: usize,
+        ids: &[u64],
+        potential: &LennardJones,
+        skin: f64,
+        threads: &Threads,
+    ) -> Option<String> {
+        let overlap = |(first, second)| MdError::Overlap { first, second }.to_string();
+        match self {
+            PairSums::Ordered(rows) => {
+                match OrderedRows::build(points, owned, ids, potential.cutoff(), skin, threads) {
+                    Ok(built) => {
+                        *rows = built;
+                        rows.coincident(points, ids).map(overlap)
+                    }
+                    Err(e) => Some(e.to_string()),
+                }
+            }
+            PairSums::Halo(halo) => {
+                let built = HaloForces::build(subdomain, points, owned, *potential, skin, threads);
+                let first = halo.is_none();
+                match built {
+                    Ok(built) => {
+                        let built = halo.insert(Box::new(built));
+                        first
+                            .then(|| built.coincident(points, ids))
+                            .flatten()
+                            .map(overlap)
+                    }
+                    Err(e) => Some(e.to_string()),
+                }
+            }
+        }
+    }
+
+    /// The own atoms' positions at the last build.
+    fn reference(&self) -> &[[f64; D]] {
+        match self {
+            PairSums::Halo(halo) => halo.as_ref().map_or(&[], |h| h.reference()),
+            PairSums::Ordered(rows) => rows.reference(),
+        }
+    }
+
+    /// True when an own atom moved more than skin/2 since the last build.
+    fn needs_rebuild(&self, owned: &[[f64; D]]) -> bool {
+        match self {
+            PairSums::Halo(halo) => halo.as_ref().is_none_or(|h| h.needs_rebuild(owned)),
+            PairSums::Ordered(rows) => rows.needs_rebuild(owned),
+        }
+    }
+
+    /// The forces on the own atoms from `points` (own then ghosts, as built),
+    /// with `energy` their half energies and virials.
+    fn forces(
+        &mut self,
+        potential: &LennardJones,
+        points: &[[f64; D]],
+        energy: bool,
+        threads: &Threads,
+        out: &mut [AtomForce<D>],
+    ) {
+        match self {
+            PairSums::Halo(halo) => halo
+                .as_mut()
+                .expect("the list is built before the first forces")
+                .forces(points, energy, threads, out),
+            PairSums::Ordered(rows) if energy => {
+                ordered_forces::<true, D, _>(rows, potential, points, out, threads)
+            }
+            PairSums::Ordered(rows) => {
+                ordered_forces::<false, D, _>(rows, potential, points, out, threads)
+            }
+        }
+    }
 }
 
 impl<const D: usize> DistributedMd<D> {
@@ -122,6 +236,7 @@ impl<const D: usize> DistributedMd<D> {
             integrator,
             dt,
             z_bounds,
+            reproducible,
         } = spec;
         if atoms.is_empty() {
             return Err("the system has no atoms".into());
@@ -137,8 +252,14 @@ impl<const D: usize> DistributedMd<D> {
             .filter(|&k| decomposition.owner(&atoms.positions[k]) == rank)
             .collect();
         let owned = atoms.select(&mine);
+        let sums = if reproducible {
+            PairSums::Ordered(OrderedRows::default())
+        } else {
+            PairSums::Halo(None)
+        };
         let mut model = DistributedMd {
-            plan: GhostPlan::new(&world, &decomposition, &[], reach),
+            plan: GhostPlan::new(&world, &decomposition, &[], reach, sums.images()),
+            sums,
             world,
             decomposition,
             potential,
@@ -151,7 +272,6 @@ impl<const D: usize> DistributedMd<D> {
             atoms: owned,
             ghost_ids: Vec::new(),
             points: Vec::new(),
-            rows: OrderedRows::default(),
             computed: Vec::new(),
             gathered: None,
             stale: false,
@@ -216,6 +336,7 @@ impl<const D: usize> DistributedMd<D> {
             &self.decomposition,
             &self.atoms.positions,
             reach,
+            self.sums.images(),
         );
         self.ghost_ids = self.plan.ids(&self.world, &self.atoms.ids);
         let n = self.atoms.len();
@@ -233,16 +354,16 @@ impl<const D: usize> DistributedMd<D> {
         self.communication += t.elapsed();
         let mut keys = self.atoms.ids.clone();
         keys.extend_from_slice(&self.ghost_ids);
-        let cutoff = self.potential.cutoff();
-        let failure = match OrderedRows::build(&self.points, n, &keys, cutoff, self.skin, threads) {
-            Ok(rows) => {
-                self.rows = rows;
-                self.rows
-                    .coincident(&self.points, &keys)
-                    .map(|(first, second)| MdError::Overlap { first, second }.to_string())
-            }
-            Err(e) => Some(e.to_string()),
-        };
+        let subdomain = self.decomposition.subdomain(self.world.rank() as usize);
+        let failure = self.sums.build(
+            &subdomain,
+            &self.points,
+            n,
+            &keys,
+            &self.potential,
+            self.skin,
+            threads,
+        );
         let t = Instant::now();
         let agreed = agree(&self.world, failure);
         self.communication += t.elapsed();
@@ -299,12 +420,9 @@ impl<const D: usize> DistributedMd<D> {
     /// The forces on the own atoms; with `energy`, their half energies and
     /// virials too.
     fn forces(&mut self, energy: bool, threads: &Threads) {
-        let (rows, potential, points) = (&self.rows, &self.potential, &self.points);
-        if energy {
-            ordered_forces::<true, D, _>(rows, potential, points, &mut self.computed, threads);
-        } else {
-            ordered_forces::<false, D, _>(rows, potential, points, &mut self.computed, threads);
-        }
+        let (potential, points) = (&self.potential, &self.points);
+        self.sums
+            .forces(potential, points, energy, threads, &mut self.computed);
         for (f, c) in self.atoms.forces.iter_mut().zip(&self.computed) {
             *f = c.force;
         }
@@ -321,7 +439,7 @@ impl<const D: usize> DistributedMd<D> {
         for k in 0..own.len() {
             values.extend_from_slice(&own.values[k * own.width..(k + 1) * own.width]);
             values.extend([self.computed[k].energy, self.computed[k].virial]);
-            values.extend_from_slice(&self.rows.reference()[k]);
+            values.extend_from_slice(&self.sums.reference()[k]);
         }
         let mut outgoing = vec![
             LocalParticles {
@@ -426,12 +544,12 @@ impl<const D: usize> DistributedMd<D> {
             .map(|e| blowup_of(&e, step));
         self.agree_blowup(step, local)?;
         let since = self.counts.step();
-        let (rows, positions) = (&self.rows, &self.atoms.positions);
+        let (sums, positions) = (&self.sums, &self.atoms.positions);
         // after a restore the rows are not this rank's atoms': rebuild, untested
         let decision = if self.stale {
             Rebuild::Yes { late: false }
         } else {
-            self.rule.decide(since, || rows.needs_rebuild(positions))
+            self.rule.decide(since, || sums.needs_rebuild(positions))
         };
         let (wanted, late) = match decision {
             Rebuild::No => (false, false),

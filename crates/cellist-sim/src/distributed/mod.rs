@@ -30,7 +30,7 @@ pub use ring::ring_gravity;
 
 use crate::error::SimError;
 use crate::scenario::{ModelKind, Scenario};
-use cellist::decomposition::Decomposition;
+use cellist::decomposition::{Decomposition, Images};
 use cellist::models::Blowup;
 use mpi::collective::SystemOperation;
 use mpi::topology::SimpleCommunicator;
@@ -45,9 +45,18 @@ pub struct Cluster {
 
 impl Cluster {
     /// Initialises MPI (under `mpirun`, or as a single rank without it); `None`
-    /// if it was initialised before in this process.
+    /// if it was initialised before in this process. A panic on any rank then
+    /// prints its message and aborts every rank (`MPI_Abort`), instead of
+    /// leaving the others waiting in an exchange, or itself in `MPI_Finalize`
+    /// while it unwinds.
     pub fn start() -> Option<Self> {
-        mpi::initialize().map(|universe| Cluster { universe })
+        let universe = mpi::initialize()?;
+        let report = std::panic::take_hook();
+        std::panic::set_hook(Box::new(move |info| {
+            report(info);
+            SimpleCommunicator::world().abort(101);
+        }));
+        Some(Cluster { universe })
     }
 
     /// The number of ranks.
@@ -259,6 +268,7 @@ pub fn ghosts<C: Communicator, const D: usize>(
     decomposition: &Decomposition<D>,
     particles: &LocalParticles,
     reach: f64,
+    images: Images,
 ) -> LocalParticles {
     let width = particles.width;
     let rank = world.rank() as usize;
@@ -272,7 +282,7 @@ pub fn ghosts<C: Communicator, const D: usize>(
         };
         world.size() as usize
     ];
-    for g in decomposition.ghosts(rank, &positions, reach) {
+    for g in decomposition.ghosts(rank, &positions, reach, images) {
         outgoing[g.to].push_from(particles, g.index, &g.shift);
     }
     exchange(world, &outgoing, width)
@@ -291,17 +301,18 @@ pub struct GhostPlan<const D: usize> {
 
 impl<const D: usize> GhostPlan<D> {
     /// The plan for this rank's particles at `positions` (inside its
-    /// subdomain), ghosts within `reach` ([`Decomposition::ghosts`]); the
-    /// counts travel by one all-to-all.
+    /// subdomain), ghosts within `reach` ([`Decomposition::ghosts`], the
+    /// periodic images `images`); the counts travel by one all-to-all.
     pub fn new<C: Communicator>(
         world: &C,
         decomposition: &Decomposition<D>,
         positions: &[[f64; D]],
         reach: f64,
+        images: Images,
     ) -> Self {
         let ranks = world.size() as usize;
         let mut sends = vec![Vec::new(); ranks];
-        for g in decomposition.ghosts(world.rank() as usize, positions, reach) {
+        for g in decomposition.ghosts(world.rank() as usize, positions, reach, images) {
             sends[g.to].push((g.index, g.shift));
         }
         let counts: Vec<u64> = sends.iter().map(|s| s.len() as u64).collect();

@@ -13,7 +13,7 @@
 
 use super::{agree, agree_blowup, exchange, GhostPlan, LocalParticles};
 use crate::hosted::Hosted;
-use cellist::decomposition::Decomposition;
+use cellist::decomposition::{Decomposition, Images};
 use cellist::models::pse::{
     self, advance, ordered_rate, row_weights, Method, PairWeight, PseError, PseModel,
 };
@@ -87,7 +87,7 @@ impl<const D: usize> DistributedPse<D> {
         let own: Vec<[f64; D]> = mine.iter().map(|&k| positions[k]).collect();
         let ids: Vec<u64> = mine.iter().map(|&k| k as u64).collect();
         let t = Instant::now();
-        let plan = GhostPlan::new(&world, &decomposition, &own, cutoff);
+        let plan = GhostPlan::new(&world, &decomposition, &own, cutoff, Images::All);
         let ghost_ids = plan.ids(&world, &ids);
         let mut points = own.clone();
         points.resize(own.len() + ghost_ids.len(), [0.0; D]);

@@ -127,6 +127,10 @@ struct RunKeys {
     #[serde(default = "default_integrator")]
     integrator: String,
     langevin: Option<LangevinKeys>,
+    /// Under MPI: sum each atom's forces in id order over full rows, so that
+    /// any number of ranks gives the same bits (twice the pair arithmetic).
+    #[serde(default)]
+    reproducible: bool,
 }
 
 fn default_dt() -> f64 {
@@ -207,6 +211,8 @@ struct Setup<const D: usize> {
     trajectories: TrajectoryKeys,
     /// z bounds written in dumps of 2D systems.
     z_bounds: (f64, f64),
+    /// `[run] reproducible`.
+    reproducible: bool,
     notes: Vec<String>,
 }
 
@@ -248,6 +254,7 @@ fn run_in<const D: usize, L: Launch>(
             integrator: setup.integrator,
             dt: setup.dt,
             z_bounds: setup.z_bounds,
+            reproducible: setup.reproducible,
         };
         let model = DistributedMd::new(world, spec, threads).map_err(|e| scenario.error(e))?;
         print_header(&setup, model.total(), context);
@@ -494,6 +501,7 @@ fn build<const D: usize>(scenario: &Scenario, keys: &MdScenario) -> SimResult<Se
         checkpoint: out.checkpoint.clone(),
         trajectories: TrajectoryKeys::checked(out.gsd.clone(), out.vtk.clone()).map_err(err)?,
         z_bounds,
+        reproducible: run.reproducible,
         notes,
     })
 }

@@ -65,6 +65,18 @@ impl<const D: usize> CellList<D> {
             "at most 2^32 - 1 particles per cell list"
         );
         let grid = CellGrid::new(domain, cutoff, points.len())?;
+        Ok(Self::build_on_grid(domain, grid, cutoff, points, threads))
+    }
+
+    /// Bins `points` into the cells of `grid` (over `domain`, its sides at
+    /// least `cutoff`), the sort in parallel on `threads` if given.
+    pub fn build_on_grid(
+        domain: &Domain<D>,
+        grid: CellGrid<D>,
+        cutoff: f64,
+        points: &[[f64; D]],
+        threads: Option<&Threads>,
+    ) -> Self {
         let mut list = CellList {
             domain: *domain,
             anchors_by_colour: grid.anchors_by_colour(),
@@ -78,7 +90,7 @@ impl<const D: usize> CellList<D> {
             counts: Vec::new(),
         };
         list.sort(points, threads);
-        Ok(list)
+        list
     }
 
     /// Sorts new positions into the same grid, reusing every buffer (the arrays are

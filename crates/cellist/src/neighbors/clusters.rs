@@ -70,8 +70,16 @@ impl<const D: usize> ClusterList<D> {
         threads: &Threads,
         scratch: &mut Vec<Lanes<D>>,
     ) -> Self {
+        let mut list = Self::empty(cutoff, skin);
+        list.rebuild(cells, threads, scratch);
+        list
+    }
+
+    /// A list of no cluster yet, for [`ClusterList::rebuild`] or
+    /// [`ClusterList::rebuild_owned`] to fill.
+    pub fn empty(cutoff: f64, skin: f64) -> Self {
         assert!(skin >= 0.0, "skin must be >= 0");
-        let mut list = ClusterList {
+        ClusterList {
             cutoff,
             skin,
             cell_clusters: Vec::new(),
@@ -82,14 +90,29 @@ impl<const D: usize> ClusterList<D> {
             image_shifts: Vec::new(),
             box_columns: std::array::from_fn(|_| std::array::from_fn(|_| Vec::new())),
             cell_boxes: Vec::new(),
-        };
-        list.rebuild(cells, threads, scratch);
-        list
+        }
     }
 
     /// Builds the list anew for `cells` as binned now, reusing its memory;
     /// `scratch` is overwritten (the positions as lanes).
     pub fn rebuild(&mut self, cells: &CellList<D>, threads: &Threads, scratch: &mut Vec<Lanes<D>>) {
+        self.rebuild_owned(cells, cells.len(), threads, scratch);
+    }
+
+    /// [`ClusterList::rebuild`] for a subdomain whose first `owned` points
+    /// (in the order they were binned, [`CellList::order`]) are its own and
+    /// the rest ghosts: a cluster that holds no own point (a ghost cluster)
+    /// gets no entry for another ghost cluster, so the list holds every pair
+    /// with an own point once and skips the ghost-ghost pairs of whole
+    /// clusters (those of a cluster with itself, and of clusters that mix own
+    /// points and ghosts, stay).
+    pub fn rebuild_owned(
+        &mut self,
+        cells: &CellList<D>,
+        owned: usize,
+        threads: &Threads,
+        scratch: &mut Vec<Lanes<D>>,
+    ) {
         let reach = self.cutoff + self.skin;
         assert!(
             reach <= cells.cutoff(),
@@ -104,7 +127,24 @@ impl<const D: usize> ClusterList<D> {
         );
         self.bound_clusters(cells, threads);
         self.gather(cells.positions(), threads, scratch);
+        let active: Option<Vec<bool>> = (owned < cells.len()).then(|| {
+            let order = cells.order();
+            (0..self.num_clusters())
+                .map(|c| order[self.slots(c)].iter().any(|&k| (k as usize) < owned))
+                .collect()
+        });
+        let active_cells: Option<Vec<bool>> = active.as_ref().map(|a| {
+            (0..cells.grid().num_cells())
+                .map(|c| {
+                    let clusters =
+                        self.cell_clusters[c] as usize..self.cell_clusters[c + 1] as usize;
+                    a[clusters].contains(&true)
+                })
+                .collect()
+        });
         let search = RowSearch {
+            active: active.as_deref(),
+            active_cells: active_cells.as_deref(),
             cell_clusters: &self.cell_clusters,
             first: &self.first,
             box_columns: &self.box_columns,
@@ -291,9 +331,21 @@ impl<const D: usize> ClusterList<D> {
     /// parallel on `threads`.
     pub fn gather(&self, positions: &[[f64; D]], threads: &Threads, out: &mut Vec<Lanes<D>>) {
         assert_eq!(positions.len() as u32, *self.first.last().unwrap_or(&0));
+        self.gather_by(|slot| positions[slot], threads, out);
+    }
+
+    /// The position of every slot, `position(slot)`, as lanes, one [`Lanes`]
+    /// per cluster, in parallel on `threads`.
+    pub fn gather_by(
+        &self,
+        position: impl Fn(usize) -> [f64; D] + Sync,
+        threads: &Threads,
+        out: &mut Vec<Lanes<D>>,
+    ) {
         fill_indexed(out, self.num_clusters(), Some(threads), |c| {
             let mut lanes = [[PADDING; CLUSTER]; D];
-            for (l, x) in positions[self.slots(c)].iter().enumerate() {
+            for (l, slot) in self.slots(c).enumerate() {
+                let x = position(slot);
                 for a in 0..D {
                     lanes[a][l] = x[a];
                 }
@@ -382,6 +434,10 @@ fn cluster_box<const D: usize>(columns: &[[Vec<f64>; D]; 2], c: usize) -> [[f64;
 
 /// What the search for one cluster's row reads.
 struct RowSearch<'a, const D: usize> {
+    /// Per cluster, whether it holds an own point (`None`: all do).
+    active: Option<&'a [bool]>,
+    /// Per cell, whether one of its clusters holds an own point.
+    active_cells: Option<&'a [bool]>,
     cell_clusters: &'a [u32],
     first: &'a [u32],
     box_columns: &'a [[Vec<f64>; D]; 2],
@@ -413,11 +469,17 @@ impl<const D: usize> RowSearch<'_, D> {
     ) -> usize {
         let own = cluster_box(self.box_columns, i);
         let count = (self.first[i + 1] - self.first[i]) as usize;
+        // a ghost cluster's row holds only clusters with an own point
+        let wanted = self.active.filter(|a| !a[i]);
+        let wanted_cells = self.active_cells.filter(|_| wanted.is_some());
         let mut near_len = 0;
         let cells = stencil
             .iter()
             .flat_map(|run| (run.first_cell..=run.last_cell).map(move |c| (c, run)));
         for (cell, run) in cells {
+            if wanted_cells.is_some_and(|a| !a[cell]) {
+                continue;
+            }
             if box_gap2(&own, &self.cell_boxes[cell], &run.shift) >= self.reach2 {
                 continue;
             }
@@ -434,6 +496,9 @@ impl<const D: usize> RowSearch<'_, D> {
                 while close != 0 {
                     let j = from + close.trailing_zeros() as usize;
                     close &= close - 1;
+                    if wanted.is_some_and(|a| !a[j]) {
+                        continue;
+                    }
                     let nearest = nearest_pair(xi, count, &self.lanes[j], &run.shift);
                     let entry = pack(j, run.image);
                     let near = F64x4::any_less(nearest, F64x4::splat(self.cutoff2));

@@ -70,18 +70,40 @@ impl<const D: usize> CellGrid<D> {
         domain.check_cutoff(cutoff)?;
         let mut dims = [1usize; D];
         for d in 0..D {
-            let cells = (domain.length[d] / cutoff * (1.0 - SIDE_MARGIN)).floor();
-            dims[d] = if cells >= 1.0 {
-                cells.min(1e9) as usize
-            } else {
-                1
-            };
+            dims[d] = Self::cells_along(domain.length[d], cutoff);
         }
         let cap = (2 * n_particles + 64) as f64;
         while dims.iter().map(|&m| m as f64).product::<f64>() > cap {
             let widest = (0..D).max_by_key(|&d| dims[d]).unwrap_or(0);
             dims[widest] = (dims[widest] / 2).max(1);
         }
+        Self::with_dims(domain, dims, cutoff)
+    }
+
+    /// The cells along an axis of length `length` for sides of at least
+    /// `side`: `floor(L / side)` (at least one), as [`CellGrid::new`] cuts it.
+    pub fn cells_along(length: f64, side: f64) -> usize {
+        let cells = (length / side * (1.0 - SIDE_MARGIN)).floor();
+        if cells >= 1.0 {
+            cells.min(1e9) as usize
+        } else {
+            1
+        }
+    }
+
+    /// The grid of `dims[d]` cells along each axis of `domain`, whose sides
+    /// must be at least `cutoff` (a periodic axis also needs `L >= 2 cutoff`).
+    pub fn with_dims(
+        domain: &Domain<D>,
+        dims: [usize; D],
+        cutoff: f64,
+    ) -> Result<Self, GeometryError> {
+        domain.check_cutoff(cutoff)?;
+        assert!(
+            (0..D).all(|d| dims[d] >= 1 && domain.length[d] / dims[d] as f64 >= cutoff),
+            "cells {dims:?} of {:?} narrower than {cutoff}",
+            domain.length
+        );
         Ok(CellGrid {
             dims,
             lo: domain.lo,

@@ -30,4 +30,5 @@ pub use sorted::{half_list_as_found, sorted_half_list, PairArrays, PairQuantitie
 pub use traverse::{
     for_each_anchored_pair, for_each_in_row, for_each_row_in_cell, scan, CutoffTest, ScanScratch,
 };
+pub(crate) use verlet::moved_beyond_half_skin;
 pub use verlet::{unpack, VerletList, SLOT_BITS};

@@ -172,6 +172,54 @@ impl<const D: usize> ClusterForces<'_, D> {
     }
 }
 
+impl<const D: usize> ClusterForces<'_, D> {
+    /// Per slot, half the energy `U(r)/2` and half the virial
+    /// `r^2 (-U'(r)/r) / 2` of every listed pair within the cutoff it is in
+    /// (LAMMPS's `pe/atom` split), four pairs at a time as the force loop forms
+    /// them, on one thread; `energies` and `virials` (slot order) are set.
+    pub(super) fn half_pair_sums(&self, energies: &mut [f64], virials: &mut [f64]) {
+        energies.fill(0.0);
+        virials.fill(0.0);
+        let (list, positions, lj) = (self.list, self.positions, self.potential);
+        let (cutoff2, half) = (F64x4::splat(lj.cutoff2()), F64x4::splat(0.5));
+        let shifts = list.image_shifts();
+        for ci in 0..list.num_clusters() {
+            let (xi, slots) = (&positions[ci], list.slots(ci));
+            // the pairs inside the cluster (lanes j > i), then the row's blocks
+            let blocks =
+                std::iter::once((ci, [0.0; D], true)).chain(list.row(ci).iter().map(|&entry| {
+                    let (cj, image) = unpack(entry);
+                    (cj, shifts[usize::from(image)], false)
+                }));
+            for (cj, shift, inside) in blocks {
+                let xj = shifted(&positions[cj], &shift);
+                let (mut ej, mut wj) = ([0.0; CLUSTER], [0.0; CLUSTER]);
+                for (i, slot) in slots.clone().enumerate() {
+                    let lanes: [f64; CLUSTER] =
+                        std::array::from_fn(|l| if inside && l <= i { NO_PAIR } else { 1.0 });
+                    let limit = cutoff2.min(F64x4::load(&lanes) * cutoff2);
+                    let minus_d: [F64x4; D] =
+                        std::array::from_fn(|a| xj[a] - F64x4::splat(xi[a][i]));
+                    let r2 = squared_length(&minus_d);
+                    let (e, g) = lj.energy_and_force_lanes(r2);
+                    let e = (e * half).zero_unless_less(r2, limit).to_array();
+                    let w = (g * r2 * half).zero_unless_less(r2, limit).to_array();
+                    energies[slot] += e.iter().sum::<f64>();
+                    virials[slot] += w.iter().sum::<f64>();
+                    for l in 0..CLUSTER {
+                        ej[l] += e[l];
+                        wj[l] += w[l];
+                    }
+                }
+                for (l, slot) in list.slots(cj).enumerate() {
+                    energies[slot] += ej[l];
+                    virials[slot] += wj[l];
+                }
+            }
+        }
+    }
+}
+
 /// Whether some pair of the block of `xib` and `xj` counts: `r^2 < limits[i]`
 /// in some lane of some row `i`, with `r^2` formed as the block forms it.
 #[inline(always)]
@@ -233,9 +281,9 @@ mod tests {
             run(&Threads::new(2).unwrap()).atoms.forces
         );
         assert_eq!(system.rebuilds(), 0);
-        let (list, x) = (&system.list, &system.atoms.positions.clone());
+        let (list, x) = (&system.pairs.list, &system.atoms.positions.clone());
         assert!(
-            !list.needs_rebuild(&system.cells, x),
+            !list.needs_rebuild(&system.pairs.cells, x),
             "an atom moved beyond skin/2"
         );
         let came_within = (0..list.num_clusters()).any(|c| {
@@ -258,7 +306,7 @@ mod tests {
         let threads = Threads::single();
         let bits = |f: &[[f64; 3]]| f.iter().flatten().map(|c| c.to_bits()).collect::<Vec<_>>();
         let forces = bits(&system.atoms.forces);
-        system.list.without_far_parts();
+        system.pairs.list.without_far_parts();
         system.compute_forces(true, &threads);
         assert_eq!(bits(&system.atoms.forces), forces);
         let all = system.pair_totals().unwrap();
@@ -280,8 +328,8 @@ mod tests {
             MdSystem::new(domain, atoms, lj, 0.3, threads).unwrap()
         };
         let mut system = build(&Threads::single());
-        assert_eq!(system.layers.num_layers(), 3);
-        assert_eq!(system.layers.num_tasks(), 4);
+        assert_eq!(system.pairs.layers.num_layers(), 3);
+        assert_eq!(system.pairs.layers.num_tasks(), 4);
         let bits = |system: &MdSystem<3>| {
             let totals = system.pair_totals().unwrap();
             let forces = system.atoms.forces.iter().flatten();

@@ -12,6 +12,8 @@
 
 mod atoms;
 mod cluster_forces;
+mod cluster_pairs;
+mod halo;
 mod integrate;
 mod lattice;
 mod model;
@@ -20,6 +22,7 @@ mod velocity;
 
 pub use atoms::Atoms;
 use atoms::PermuteScratch;
+pub use halo::HaloForces;
 pub use integrate::{Integrator, Langevin};
 pub use lattice::{lattice, LatticeKind};
 pub use model::{
@@ -32,9 +35,9 @@ pub use velocity::{create_velocities, VelocityDistribution};
 
 use crate::geometry::{norm2, Domain, GeometryError};
 use crate::interactions::{LennardJones, PairPotential};
-use crate::neighbors::{CellList, ClusterList, Lanes, LayerPlan, Rebuild, RebuildRule, CLUSTER};
+use crate::neighbors::{Rebuild, RebuildRule};
 use crate::threads::Threads;
-use cluster_forces::ClusterForces;
+use cluster_pairs::ClusterPairs;
 use rayon::prelude::*;
 use std::fmt;
 use std::time::{Duration, Instant};
@@ -214,13 +217,7 @@ pub struct MdSystem<const D: usize> {
     atoms: Atoms<D>,
     potential: LennardJones,
     skin: f64,
-    cells: CellList<D>,
-    list: ClusterList<D>,
-    layers: LayerPlan,
-    tallies: Vec<PairTally>,
-    lanes: Vec<Lanes<D>>,
-    lane_forces: Vec<Lanes<D>>,
-    halo: Vec<Lanes<D>>,
+    pairs: ClusterPairs<D>,
     totals: Option<PairTally>,
     scratch: PermuteScratch<D>,
     rule: RebuildRule,
@@ -246,20 +243,18 @@ impl<const D: usize> MdSystem<D> {
         let reach = potential.cutoff() + skin;
         domain.check_cutoff(reach)?;
         check_positions(&domain, &atoms, 0, threads)?;
-        let side = ClusterList::cell_side(&domain, reach, atoms.len());
-        let mut cells = CellList::build_in(&domain, side, &atoms.positions, threads)?;
-        order_in_columns(&mut cells, threads);
-        let mut lanes = Vec::new();
-        let list = ClusterList::build(&cells, potential.cutoff(), skin, threads, &mut lanes);
+        let n = atoms.len();
+        let pairs = ClusterPairs::new(
+            &domain,
+            &atoms.positions,
+            n,
+            potential.cutoff(),
+            skin,
+            threads,
+        )?;
         let mut system = MdSystem {
             domain,
-            layers: LayerPlan::over(&cells, list.cell_clusters()),
-            list,
-            tallies: Vec::new(),
-            lanes,
-            lane_forces: Vec::new(),
-            halo: Vec::new(),
-            cells,
+            pairs,
             atoms,
             potential,
             skin,
@@ -269,7 +264,6 @@ impl<const D: usize> MdSystem<D> {
             counts: ListCounts::default(),
         };
         system.adopt_cell_order();
-        system.tallies = vec![PairTally::default(); system.layers.num_tasks()];
         system.check_overlaps()?;
         system.compute_forces(true, threads);
         Ok(system)
@@ -328,7 +322,7 @@ impl<const D: usize> MdSystem<D> {
 
     /// Cluster pairs in the current half list (each up to `4 x 4` atom pairs).
     pub fn list_entries(&self) -> usize {
-        self.list.num_entries()
+        self.pairs.list.num_entries()
     }
 
     /// Advances by one step of `dt` (numbered `step`); sums energy and virial when
@@ -350,7 +344,8 @@ impl<const D: usize> MdSystem<D> {
             let t = lap(t, &mut times.integrate);
             check_positions(&self.domain, &self.atoms, step, threads)?;
             let since = self.counts.step();
-            let (list, cells, positions) = (&self.list, &self.cells, &self.atoms.positions);
+            let (list, cells, positions) =
+                (&self.pairs.list, &self.pairs.cells, &self.atoms.positions);
             if let Rebuild::Yes { late } = self
                 .rule
                 .decide(since, || list.needs_rebuild(cells, positions))
@@ -370,21 +365,14 @@ impl<const D: usize> MdSystem<D> {
     /// Wraps the positions, sorts the atoms by cell (in columns inside a cell)
     /// and rebuilds the cluster list.
     fn rebuild(&mut self, threads: &Threads) {
-        self.cells.rebin_in(&self.atoms.positions, threads);
-        order_in_columns(&mut self.cells, threads);
+        self.pairs.rebin(&self.atoms.positions, threads);
         self.adopt_cell_order();
-        self.build_list(threads);
-    }
-
-    /// The cluster list and its layers for the cell list as binned now.
-    fn build_list(&mut self, threads: &Threads) {
-        self.list.rebuild(&self.cells, threads, &mut self.lanes);
-        self.layers = LayerPlan::over(&self.cells, self.list.cell_clusters());
+        self.pairs.build_list(self.atoms.len(), threads);
     }
 
     /// The positions the neighbour list was built at (slot order, wrapped).
     pub fn list_reference(&self) -> &[[f64; D]] {
-        self.cells.positions()
+        self.pairs.cells.positions()
     }
 
     /// Replaces the atoms by a saved set whose neighbour list was built at
@@ -416,25 +404,24 @@ impl<const D: usize> MdSystem<D> {
         if reference.iter().flatten().any(|c| !c.is_finite()) {
             return Err("a saved reference position is not finite".into());
         }
-        self.cells.rebin_in(reference, threads);
-        order_in_columns(&mut self.cells, threads);
-        let order = self.cells.order();
+        self.pairs.rebin(reference, threads);
+        let order = self.pairs.cells.order();
         let wrapped = order
             .iter()
-            .zip(self.cells.positions())
+            .zip(self.pairs.cells.positions())
             .all(|(&k, x)| reference[k as usize] == *x);
         if !wrapped {
             return Err("the saved reference positions are not wrapped into the box".into());
         }
         if order.iter().enumerate().any(|(k, &o)| o as usize != k) {
             atoms.permute_except_positions(order, &mut self.scratch);
-            self.cells
+            self.pairs
+                .cells
                 .permute(&atoms.positions, &mut self.scratch.vectors);
             std::mem::swap(&mut atoms.positions, &mut self.scratch.vectors);
         }
         self.atoms = atoms;
-        self.build_list(threads);
-        self.tallies = vec![PairTally::default(); self.layers.num_tasks()];
+        self.pairs.build_list(n, threads);
         self.counts = counts;
         // the energy and virial of the restored state, for its thermo; the
         // saved forces are kept (they continue the run bit for bit)
@@ -448,16 +435,17 @@ impl<const D: usize> MdSystem<D> {
     /// Puts the atoms in the cell list's slot order, positions wrapped.
     fn adopt_cell_order(&mut self) {
         self.atoms
-            .permute_except_positions(self.cells.order(), &mut self.scratch);
+            .permute_except_positions(self.pairs.cells.order(), &mut self.scratch);
         self.atoms.positions.clear();
         self.atoms
             .positions
-            .extend_from_slice(self.cells.positions());
+            .extend_from_slice(self.pairs.cells.positions());
     }
 
     fn check_overlaps(&self) -> Result<(), MdError> {
         let mut twin = None;
-        self.list
+        self.pairs
+            .list
             .for_each_pair(&self.atoms.positions, |i, j, _, r2| {
                 if r2 == 0.0 && twin.is_none() {
                     twin = Some((i, j));
@@ -478,33 +466,14 @@ impl<const D: usize> MdSystem<D> {
     /// Recomputes the forces (every one is set); with `energy`, also the energy
     /// and virial.
     pub fn compute_forces(&mut self, energy: bool, threads: &Threads) {
-        self.list
-            .gather(&self.atoms.positions, threads, &mut self.lanes);
-        // every element is set by the sum (scatter_half_rows): no zeroing pass
-        self.lane_forces
-            .resize(self.list.num_clusters(), [[0.0; CLUSTER]; D]);
-        self.tallies.fill(PairTally::default());
-        let kernel = ClusterForces {
-            list: &self.list,
-            layers: &self.layers,
-            potential: &self.potential,
-            positions: &self.lanes,
-        };
-        let (forces, halo, tallies) = (&mut self.lane_forces, &mut self.halo, &mut self.tallies);
-        if energy {
-            kernel.run::<true>(forces, halo, tallies, threads);
-            let mut totals = PairTally::default();
-            for t in tallies.iter() {
-                totals.energy += t.energy;
-                totals.virial += t.virial;
-            }
-            self.totals = Some(totals);
-        } else {
-            kernel.run::<false>(forces, halo, tallies, threads);
-            self.totals = None;
-        }
-        self.list
-            .scatter(&self.lane_forces, threads, &mut self.atoms.forces);
+        let atoms = &mut self.atoms;
+        self.totals = self.pairs.forces(
+            &self.potential,
+            &atoms.positions,
+            energy,
+            threads,
+            &mut atoms.forces,
+        );
     }
 
     /// Energy and virial of the last force evaluation, if it summed them.
@@ -517,7 +486,8 @@ impl<const D: usize> MdSystem<D> {
     pub fn per_atom_energy(&self) -> Vec<f64> {
         let mut pe = vec![0.0; self.atoms.len()];
         let cutoff2 = self.potential.cutoff2();
-        self.list
+        self.pairs
+            .list
             .for_each_pair(&self.atoms.positions, |i, j, _, r2| {
                 if r2 < cutoff2 {
                     let half = 0.5 * self.potential.energy_and_force(r2).0;
@@ -558,13 +528,6 @@ impl Thermo {
             press,
         }
     }
-}
-
-/// Orders each cell of `cells` in columns for the cluster list; the cell
-/// list's per-axis columns, which md does not read, are released first.
-fn order_in_columns<const D: usize>(cells: &mut CellList<D>, threads: &Threads) {
-    cells.release_columns();
-    cells.order_cells_in_columns(Some(threads));
 }
 
 /// Adds the time since `t` to `total` and returns now: a stage's timer.

@@ -1,0 +1,185 @@
+//! The forces on one subdomain's atoms in a distributed run, each pair computed
+//! once on this rank: a half cluster pair list ([`ClusterPairs`]) over the own
+//! atoms and the ghosts (copies of the neighbouring ranks' atoms within
+//! cutoff + skin of the subdomain), binned in a box that is periodic along the
+//! axes the decomposition does not cut, so that a rank sees its own atoms'
+//! images there without ghosts:
+//!
+//! ```text
+//! f_i = sum_{j own or ghost, r_ij < r_c} f_ij          (own i; Newton's third law inside the rank)
+//! u_i = (1/2) sum_j U(r_ij),   w_i = (1/2) sum_j r_ij^2 (-U'(r_ij)/r_ij)
+//! ```
+//!
+//! A pair of two own atoms is computed once; a pair across a cut, once on each
+//! of its two ranks (each keeps the force on its own atom; nothing travels
+//! back); ghost-ghost pairs of whole ghost clusters are not listed. The sums
+//! run in the list's order, which follows the cell grid of the subdomain: the
+//! forces agree with a single-process run to rounding, not to the bit.
+
+use super::cluster_pairs::ClusterPairs;
+use super::AtomForce;
+use crate::decomposition::Subdomain;
+use crate::geometry::{Boundary, Domain, GeometryError};
+use crate::interactions::{LennardJones, PairPotential};
+use crate::neighbors::{moved_beyond_half_skin, CellGrid, CellList, CLUSTER};
+use crate::threads::Threads;
+
+/// The pair list of one subdomain's own atoms and ghosts, built at a
+/// neighbour-list rebuild and used until the next.
+pub struct HaloForces<const D: usize> {
+    pairs: ClusterPairs<D>,
+    potential: LennardJones,
+    skin: f64,
+    owned: usize,
+    reference: Vec<[f64; D]>,
+}
+
+impl<const D: usize> HaloForces<D> {
+    /// The list of `points` (the `owned` own atoms first, then the ghosts at
+    /// their images next to `subdomain`), of reach `cutoff + skin`, binned in
+    /// the cells of [`halo_cells`].
+    pub fn build(
+        subdomain: &Subdomain<D>,
+        points: &[[f64; D]],
+        owned: usize,
+        potential: LennardJones,
+        skin: f64,
+        threads: &Threads,
+    ) -> Result<Self, GeometryError> {
+        assert!(owned <= points.len());
+        let cutoff = potential.cutoff();
+        let (domain, grid, side) = halo_cells(subdomain, owned, cutoff + skin)?;
+        let cells = CellList::build_on_grid(&domain, grid, side, points, Some(threads));
+        let pairs = ClusterPairs::from_cells(cells, owned, cutoff, skin, threads);
+        Ok(HaloForces {
+            pairs,
+            potential,
+            skin,
+            owned,
+            reference: points[..owned].to_vec(),
+        })
+    }
+
+    /// The own atoms' positions at the build (the reference of the skin/2
+    /// test).
+    pub fn reference(&self) -> &[[f64; D]] {
+        &self.reference
+    }
+
+    /// True when an own atom has moved more than `skin / 2` since the build.
+    pub fn needs_rebuild(&self, owned: &[[f64; D]]) -> bool {
+        moved_beyond_half_skin(owned, &self.reference, self.skin)
+    }
+
+    /// The slot of every point in build order, as the list's cells hold them.
+    fn order(&self) -> &[u32] {
+        self.pairs.cells.order()
+    }
+
+    /// Sets `out[i].force` for every own atom from `points` (own then ghosts,
+    /// in the build's order, at their positions now); with `energy`, also
+    /// `out[i].energy` and `out[i].virial` (half of each of its pairs'),
+    /// zero without.
+    pub fn forces(
+        &mut self,
+        points: &[[f64; D]],
+        energy: bool,
+        threads: &Threads,
+        out: &mut [AtomForce<D>],
+    ) {
+        assert_eq!(out.len(), self.owned);
+        self.pairs
+            .forces_by_point(&self.potential, points, self.owned, threads, |k, f| {
+                out[k] = AtomForce {
+                    force: f,
+                    energy: 0.0,
+                    virial: 0.0,
+                }
+            });
+        if energy {
+            let n = points.len();
+            let (mut energies, mut virials) = (vec![0.0; n], vec![0.0; n]);
+            self.pairs
+                .half_pair_sums(&self.potential, &mut energies, &mut virials);
+            for (slot, &k) in self.order().iter().enumerate() {
+                if let Some(o) = out.get_mut(k as usize) {
+                    (o.energy, o.virial) = (energies[slot], virials[slot]);
+                }
+            }
+        }
+    }
+
+    /// The first pair of an own atom and a neighbour at one position, as
+    /// `(smaller id, larger id)` (`ids` in the build's order).
+    pub fn coincident(&self, points: &[[f64; D]], ids: &[u64]) -> Option<(u64, u64)> {
+        let order = self.order();
+        let slotted: Vec<[f64; D]> = order.iter().map(|&k| points[k as usize]).collect();
+        let mut twin = None;
+        self.pairs.list.for_each_pair(&slotted, |i, j, _, r2| {
+            let (a, b) = (order[i] as usize, order[j] as usize);
+            if r2 == 0.0 && twin.is_none() && (a < self.owned || b < self.owned) {
+                twin = Some((ids[a].min(ids[b]), ids[a].max(ids[b])));
+            }
+        });
+        twin
+    }
+}
+
+/// The cells a subdomain's own atoms and ghosts are binned in, and their
+/// least side: the side `s` of a single-process cluster list at the
+/// subdomain's density, `2 (CLUSTER V / N)^(1/D)` and at least `reach`
+/// ([`ClusterList::cell_side`](crate::neighbors::ClusterList::cell_side)),
+/// periodic along the uncut axes (the box's cells of at least `s`), and
+/// along a cut axis of width `w` open with `k = round(w / s)` cells of
+/// `c = w / k >= reach` inside the subdomain and `m = ceil(reach / c)` more on each
+/// side for the ghosts: the faces between subdomains are faces between cells,
+/// so that no cell (and no cluster) mixes own atoms and ghosts.
+pub fn halo_cells<const D: usize>(
+    subdomain: &Subdomain<D>,
+    owned: usize,
+    reach: f64,
+) -> Result<(Domain<D>, CellGrid<D>, f64), GeometryError> {
+    let Subdomain {
+        domain: whole,
+        lo,
+        hi,
+        cut,
+    } = *subdomain;
+    let width: [f64; D] = std::array::from_fn(|d| hi[d] - lo[d]);
+    let volume: f64 = width.iter().product();
+    let periodic = |d: usize| !cut[d] && whole.is_periodic(d);
+    let widest = (0..D)
+        .filter(|&d| periodic(d))
+        .map(|d| 0.5 * whole.length[d] * (1.0 - 1e-9))
+        .fold(f64::INFINITY, f64::min);
+    let side = (2.0 * (CLUSTER as f64 * volume / owned.max(1) as f64).powf(1.0 / D as f64))
+        .min(widest)
+        .max(reach);
+    let mut domain = whole;
+    let mut dims = [1; D];
+    for d in 0..D {
+        if cut[d] {
+            // the nearest count to cells of `side`, none narrower than `reach`
+            let inside = ((width[d] / side).round() as usize)
+                .min(CellGrid::<D>::cells_along(width[d], reach))
+                .max(1);
+            let c = width[d] / inside as f64;
+            let ghost_cells = (reach / c).ceil() as usize;
+            dims[d] = inside + 2 * ghost_cells;
+            domain.lo[d] = lo[d] - ghost_cells as f64 * c;
+            domain.length[d] = dims[d] as f64 * c;
+            domain.boundary[d] = Boundary::Open;
+        } else {
+            dims[d] = CellGrid::<D>::cells_along(whole.length[d], side);
+            if !whole.is_periodic(d) {
+                domain.lo[d] = lo[d];
+                domain.length[d] = width[d];
+            }
+        }
+    }
+    let least = (0..D)
+        .map(|d| domain.length[d] / dims[d] as f64)
+        .fold(side, f64::min);
+    let grid = CellGrid::with_dims(&domain, dims, least)?;
+    Ok((domain, grid, least))
+}
