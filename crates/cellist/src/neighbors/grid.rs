@@ -91,8 +91,10 @@ impl<const D: usize> CellGrid<D> {
         }
     }
 
-    /// The grid of `dims[d]` cells along each axis of `domain`, whose sides
-    /// must be at least `cutoff` (a periodic axis also needs `L >= 2 cutoff`).
+    /// The grid of `dims[d] >= 1` cells along each axis of `domain`, whose
+    /// sides must be at least `cutoff` where there are several (one cell
+    /// holds an axis whatever its length; a periodic axis needs `L >= 2
+    /// cutoff`).
     pub fn with_dims(
         domain: &Domain<D>,
         dims: [usize; D],
@@ -100,7 +102,9 @@ impl<const D: usize> CellGrid<D> {
     ) -> Result<Self, GeometryError> {
         domain.check_cutoff(cutoff)?;
         assert!(
-            (0..D).all(|d| dims[d] >= 1 && domain.length[d] / dims[d] as f64 >= cutoff),
+            (0..D)
+                .all(|d| dims[d] == 1
+                    || (dims[d] > 1 && domain.length[d] / dims[d] as f64 >= cutoff)),
             "cells {dims:?} of {:?} narrower than {cutoff}",
             domain.length
         );
