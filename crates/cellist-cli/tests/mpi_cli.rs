@@ -4,7 +4,8 @@
 //! within 1e-10 after 100 steps (and with `[run] reproducible = true`, as pse
 //! always, the same bytes on 2, 3 and 4 ranks), a 4-rank
 //! checkpoint continues in one process and on 2 ranks like the uninterrupted
-//! run; bad input, a thin subdomain, a model not distributed and a blow-up
+//! run; md, pse and gravity on 2 ranks write `summary.json` with the MPI
+//! figures; bad input, a thin subdomain, a model not distributed and a blow-up
 //! stop every rank with one message from rank 0 and a non-zero status, never
 //! a hang. Ends with `N passed, N failed`.
 //!
@@ -347,7 +348,7 @@ fn four_rank_checkpoint_continues(
 }
 
 /// A blow-up on some rank stops every rank: status 3, one message, the last
-/// good frame written by rank 0.
+/// good frame and `summary.json` written by rank 0.
 fn blowup_stops_every_rank(dir: &Path) -> Result<(), String> {
     let scenario = melt_scenario(dir);
     let out = dir.join("blowup");
@@ -371,6 +372,52 @@ fn blowup_stops_every_rank(dir: &Path) -> Result<(), String> {
     }
     if !out.join("last.lammpstrj").exists() {
         return Err("no last.lammpstrj".into());
+    }
+    let summary = std::fs::read_to_string(out.join("summary.json")).map_err(|e| e.to_string())?;
+    if !summary.contains("\"outcome\": \"blow-up\"") || !summary.contains("\"ranks\": 4") {
+        return Err(format!("summary.json of the blow-up:\n{summary}"));
+    }
+    Ok(())
+}
+
+/// `scenario` of `model` on 2 ranks writes one `summary.json` (rank 0's) with
+/// 2 ranks, the run's steps and particles, and the MPI figures: the
+/// communication time and the two imbalances (at least 1).
+fn summary_on_two_ranks(
+    dir: &Path,
+    model: &str,
+    scenario: &str,
+    steps: u64,
+    particles: u64,
+) -> Result<(), String> {
+    let out = dir.join(format!("{model}-summary"));
+    distributed(2, &["run", scenario, "--out", out.to_str().unwrap()])?;
+    let text = std::fs::read_to_string(out.join("summary.json")).map_err(|e| e.to_string())?;
+    let json: serde_json::Value = serde_json::from_str(&text).map_err(|e| e.to_string())?;
+    let number = |key: &str| json[key].as_f64().ok_or(format!("no {key} in:\n{text}"));
+    let expected = [
+        ("model", serde_json::json!(model)),
+        ("outcome", serde_json::json!("completed")),
+        ("ranks", serde_json::json!(2)),
+        ("steps", serde_json::json!(steps)),
+        ("particles", serde_json::json!(particles)),
+    ];
+    for (key, value) in expected {
+        if json[key] != value {
+            return Err(format!("{key} is not {value} in:\n{text}"));
+        }
+    }
+    let at_least = [
+        ("loop_seconds", f64::MIN_POSITIVE),
+        ("communication_seconds", 0.0),
+        ("imbalance_particles", 1.0),
+        ("imbalance_busy", 1.0),
+        ("peak_rss_bytes", 1.0),
+    ];
+    for (key, least) in at_least {
+        if number(key)? < least {
+            return Err(format!("{key} is below {least} in:\n{text}"));
+        }
     }
     Ok(())
 }
@@ -438,6 +485,18 @@ fn main() {
         (
             "pse: a 4-rank checkpoint continues in one process and on 2 ranks",
             four_rank_checkpoint_continues(dir.path(), "pse", &pse, "field_100.csv"),
+        ),
+        (
+            "md on 2 ranks: summary.json with the MPI figures",
+            summary_on_two_ranks(dir.path(), "md", &melt, 100, 2048),
+        ),
+        (
+            "pse on 2 ranks: summary.json with the MPI figures",
+            summary_on_two_ranks(dir.path(), "pse", &pse, 100, 128 * 128),
+        ),
+        (
+            "gravity by the ring on 2 ranks: summary.json with the MPI figures",
+            summary_on_two_ranks(dir.path(), "gravity", &gravity, 100, 1000),
         ),
         (
             "-np 4: a blow-up stops every rank with one message",

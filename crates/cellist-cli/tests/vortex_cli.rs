@@ -304,7 +304,7 @@ fn a_checkpointed_vortex_run_restarts_bit_for_bit() {
         &["--restart", ckpt.to_str().unwrap()],
     );
     assert!(o.status.success(), "{}", text(&o.stderr));
-    let (a, b) = (common::files(&whole), common::files(&split));
+    let (a, b) = (common::outputs(&whole), common::outputs(&split));
     assert_eq!(a.keys().collect::<Vec<_>>(), b.keys().collect::<Vec<_>>());
     for (name, bytes) in &a {
         assert!(

@@ -106,14 +106,21 @@ pub struct Report<M> {
     pub model: M,
     /// Where it lived.
     pub ranks: Ranks,
+    /// Its first step and the wall times of its loop.
+    pub timing: Timing,
+    /// The thermo rows `(step, values)` the observers kept.
+    pub thermo: Vec<(u64, Vec<f64>)>,
+}
+
+/// Where a run's loop began and what it has cost so far.
+#[derive(Clone, Copy, Debug)]
+pub struct Timing {
     /// The first step of this run (0, or the checkpoint's step).
     pub first: u64,
     /// Wall time of the loop.
     pub loop_time: Duration,
     /// Wall time of the loop spent in the observers and checkpoints.
     pub output_time: Duration,
-    /// The thermo rows `(step, values)` the observers kept.
-    pub thermo: Vec<(u64, Vec<f64>)>,
 }
 
 /// The state at the last step that passed the checks and was observed: what a
@@ -276,6 +283,20 @@ impl<M: Hosted> Live<M> {
         self.scenario_steps
     }
 
+    /// Where the model lives: in this process, or over MPI ranks.
+    pub fn ranks(&self) -> &Ranks {
+        &self.job.ranks
+    }
+
+    /// The first step and the wall times of the loop so far.
+    pub fn timing(&self) -> Timing {
+        Timing {
+            first: self.first,
+            loop_time: self.loop_time,
+            output_time: self.output_time,
+        }
+    }
+
     /// Steps on to step `to` of a run whose last step is `last >= to`
     /// (observers and checkpoints always take the last step): each step, its
     /// check, the observers whose trigger fires and the checkpoints due. A
@@ -323,14 +344,6 @@ impl<M: Hosted> Live<M> {
         Ok(())
     }
 
-    /// Steps on to the last step `last` ([`Live::advance`]), then finishes the
-    /// run ([`Live::finish`]).
-    pub fn run_to(mut self, last: u64, threads: &Threads) -> SimResult<Report<M>> {
-        self.advance(last, last, threads)?;
-        self.bar.finish_and_clear();
-        self.finish()
-    }
-
     /// Replaces the model's per-particle array `name` by `values` (in the
     /// order of its particles), where the model allows it; the new state is
     /// the last good one.
@@ -359,11 +372,9 @@ impl<M: Hosted> Live<M> {
             .find_map(|o| o.take_thermo_rows())
             .unwrap_or_default();
         Ok(Report {
+            timing: self.timing(),
             model: self.job.model,
             ranks: self.job.ranks,
-            first: self.first,
-            loop_time: self.loop_time,
-            output_time: self.output_time,
             thermo,
         })
     }

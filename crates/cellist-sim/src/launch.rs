@@ -10,6 +10,7 @@ use crate::hosted::Hosted;
 use crate::observers::{OutputPlan, Outputs};
 use crate::progress;
 use crate::ranks::Ranks;
+use crate::summary::{Outcome, Pending};
 use cellist::models::{Field, Model, Particles};
 use cellist::Threads;
 use indicatif::ProgressBar;
@@ -35,6 +36,9 @@ pub struct RunContext<'a> {
     /// Print on standard error rather than standard output (`cellist billiards
     /// run`, whose standard output is the final state).
     pub on_stderr: bool,
+    /// The file the run was read from (a scenario, or a collision-benchmark
+    /// input), named in its `summary.json`.
+    pub scenario: Option<PathBuf>,
     pub(crate) warnings: RefCell<Vec<String>>,
 }
 
@@ -48,8 +52,15 @@ impl<'a> RunContext<'a> {
             quiet: false,
             build_only: false,
             on_stderr: false,
+            scenario: None,
             warnings: RefCell::new(Vec::new()),
         }
+    }
+
+    /// The same run, read from the file `scenario` (if any).
+    pub fn read_from(mut self, scenario: Option<&Path>) -> Self {
+        self.scenario = scenario.map(Path::to_path_buf);
+        self
     }
 
     /// The same run stopping once the model is built, quiet: its summary has
@@ -68,6 +79,7 @@ impl<'a> RunContext<'a> {
             quiet: true,
             build_only: self.build_only,
             on_stderr: self.on_stderr,
+            scenario: self.scenario.clone(),
             ..RunContext::new(PathBuf::new(), self.restart, self.threads)
         }
     }
@@ -195,8 +207,9 @@ impl Launch for Execute {
 
 /// Runs `job` with the observers `outputs` makes, in `context` (from its
 /// checkpoint if given, checked before anything is written), says the timings
-/// and the closing line, and returns the run's summary and its model at the
-/// last step.
+/// and the closing line, writes `summary.json` into the output folder (also
+/// after a blow-up), and returns the run's summary and its model at the last
+/// step.
 pub(crate) fn execute<M: Hosted + 'static, P: Outputs<M> + ?Sized>(
     job: Job<M>,
     outputs: &P,
@@ -218,14 +231,31 @@ pub(crate) fn execute<M: Hosted + 'static, P: Outputs<M> + ?Sized>(
     } else {
         progress::progress_bar(0)
     };
-    let live = begin(job, outputs, context, last, bar.clone())?;
+    let mut live = begin(job, outputs, context, last, bar.clone())?;
     bar.set_length(last - live.step());
-    let report = live.run_to(last, threads)?;
-    let model = &report.model;
-    let steps = last - report.first;
-    let stages = driver::stages(model, report.loop_time, report.output_time);
+    let scenario = context.scenario.as_deref();
+    let pending = Pending::new(&live, &dir, scenario, threads.count(), started);
+    if let Err(e) = live.advance(last, last, threads) {
+        if let (Some(pending), Some(blowup)) = (&pending, live.last_blowup()) {
+            let (model, ranks) = (live.model(), live.ranks());
+            let written = pending.write(model, ranks, live.timing(), blowup.step, Outcome::BlowUp);
+            if let Err(w) = written {
+                context.warn(w);
+            }
+        }
+        return Err(e);
+    }
+    bar.finish_and_clear();
+    let report = live.finish()?;
+    let (model, timing) = (&report.model, report.timing);
+    let steps = last - timing.first;
+    let stages = driver::stages(model, timing.loop_time, timing.output_time);
     if steps > 0 {
-        context.timings(model, &report.ranks, steps, report.loop_time, &stages);
+        context.timings(model, &report.ranks, steps, timing.loop_time, &stages);
+    }
+    if let Some(pending) = &pending {
+        let written = pending.write(model, &report.ranks, timing, last, Outcome::Completed);
+        driver::agreed(&report.ranks, written)?;
     }
     let wall = started.elapsed().as_secs_f64();
     if dir.as_os_str().is_empty() {
@@ -238,7 +268,7 @@ pub(crate) fn execute<M: Hosted + 'static, P: Outputs<M> + ?Sized>(
     }
     let summary = RunSummary {
         steps,
-        loop_time: report.loop_time,
+        loop_time: timing.loop_time,
         stages,
         thermo: report.thermo,
         ..RunSummary::of(model, last, context, threads)

@@ -23,6 +23,7 @@ pub mod ranks;
 pub mod scenario;
 pub mod session;
 pub mod study;
+pub mod summary;
 
 pub use error::{SimError, SimResult};
 pub use launch::{RunContext, RunSummary};

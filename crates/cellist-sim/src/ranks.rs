@@ -5,7 +5,12 @@
 //! spread state must be gathered.
 
 #[cfg(feature = "mpi")]
-use crate::distributed::{agree, ring::Waited};
+use crate::distributed::ring::{block_imbalance, waited_so_far, Waited};
+#[cfg(feature = "mpi")]
+use crate::distributed::{agree, all_reduce};
+use crate::hosted::{Distribution, Hosted};
+#[cfg(feature = "mpi")]
+use mpi::collective::SystemOperation;
 #[cfg(feature = "mpi")]
 use mpi::topology::SimpleCommunicator;
 #[cfg(feature = "mpi")]
@@ -85,7 +90,7 @@ impl Ranks {
         match self {
             #[cfg(feature = "mpi")]
             Ranks::Replicated { world, waited } => {
-                let waited = waited.lock().map_or(std::time::Duration::ZERO, |w| *w);
+                let waited = waited_so_far(waited);
                 format!(
                     "{line} (per rank)\nRing pass on {} ranks: {:.4} s on rank 0 waiting for blocks and \
                      gathering the results ({:.1}% of the loop)",
@@ -97,6 +102,47 @@ impl Ranks {
             _ => {
                 let _ = loop_seconds;
                 line
+            }
+        }
+    }
+
+    /// What the ranks measure of a distributed run of `model` on this rank:
+    /// a spread model's own figures, or the ring's waiting time and the
+    /// balance of its blocks; `None` in one process (the model has none).
+    pub fn distribution<M: Hosted>(&self, model: &M) -> Option<Distribution> {
+        match self {
+            Ranks::One => model.distribution(),
+            #[cfg(feature = "mpi")]
+            Ranks::Spread(_) => model.distribution(),
+            #[cfg(feature = "mpi")]
+            Ranks::Replicated { world, waited } => Some(Distribution {
+                communication: waited_so_far(waited),
+                imbalance_particles: block_imbalance(model.len(), world.size() as usize),
+                particles: model.len(),
+            }),
+        }
+    }
+
+    /// Element by element, the largest of every rank's `values`, on every rank
+    /// (collective); in one process, `values`.
+    pub fn largest<const N: usize>(&self, values: [f64; N]) -> [f64; N] {
+        match self {
+            Ranks::One => values,
+            #[cfg(feature = "mpi")]
+            Ranks::Spread(world) | Ranks::Replicated { world, .. } => {
+                all_reduce(world, values, SystemOperation::max())
+            }
+        }
+    }
+
+    /// Element by element, the sum of every rank's `values`, on every rank
+    /// (collective); in one process, `values`.
+    pub fn sum<const N: usize>(&self, values: [f64; N]) -> [f64; N] {
+        match self {
+            Ranks::One => values,
+            #[cfg(feature = "mpi")]
+            Ranks::Spread(world) | Ranks::Replicated { world, .. } => {
+                all_reduce(world, values, SystemOperation::sum())
             }
         }
     }

@@ -66,6 +66,15 @@ pub fn files(dir: &Path) -> BTreeMap<PathBuf, Vec<u8>> {
     out
 }
 
+/// Every file below `dir` but `summary.json`, whose times differ from run to
+/// run: the files that two runs of the same steps write with the same bytes.
+#[allow(dead_code)]
+pub fn outputs(dir: &Path) -> BTreeMap<PathBuf, Vec<u8>> {
+    let mut out = files(dir);
+    out.remove(Path::new("summary.json"));
+    out
+}
+
 /// `examples/<name>` of the repository.
 #[allow(dead_code)]
 pub fn example(name: &str) -> String {

@@ -128,7 +128,9 @@ pub fn run_quiet(path: &Path, threads: &Threads, dir: &Path) -> SimResult<RunSum
         bodies: None,
         trajectories: Default::default(),
     };
-    let context = RunContext::new(dir.to_path_buf(), None, threads).quiet();
+    let context = RunContext::new(dir.to_path_buf(), None, threads)
+        .quiet()
+        .read_from(Some(path));
     execute(job, &plan, &context, std::time::Instant::now()).map(|(summary, _)| summary)
 }
 

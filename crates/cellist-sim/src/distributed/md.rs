@@ -28,7 +28,7 @@
 //! imbalance (largest over mean atoms per rank, averaged over the rebuilds).
 
 use super::{agree, agree_blowup, migrate, GhostPlan, LocalParticles};
-use crate::hosted::Hosted;
+use crate::hosted::{Distribution, Hosted};
 use cellist::decomposition::{Decomposition, Images, Subdomain};
 use cellist::geometry::Domain;
 use cellist::interactions::{LennardJones, PairPotential};
@@ -704,7 +704,7 @@ impl<const D: usize> Hosted for DistributedMd<D> {
         let ranks = self.world.size();
         let per = loop_seconds * 1e6 / (n as f64 * steps.max(1) as f64);
         let rebuilds = self.imbalance_count.max(1) as f64;
-        let imbalance = self.imbalance_sum / rebuilds;
+        let imbalance = self.mean_imbalance();
         let ghosts = self.ghosts_sum / rebuilds;
         format!(
             "Loop time of {loop_seconds:.4} s on {ranks} ranks x {threads} thread(s) for {steps} \
@@ -719,5 +719,22 @@ impl<const D: usize> Hosted for DistributedMd<D> {
             self.atoms.len(),
             ghosts * (D * 8) as f64,
         )
+    }
+
+    /// This rank's communication time, the mean load imbalance and the atom
+    /// count.
+    fn distribution(&self) -> Option<Distribution> {
+        Some(Distribution {
+            communication: self.communication,
+            imbalance_particles: self.mean_imbalance(),
+            particles: self.total,
+        })
+    }
+}
+
+impl<const D: usize> DistributedMd<D> {
+    /// Largest over mean atoms per rank, mean over the rebuilds.
+    fn mean_imbalance(&self) -> f64 {
+        self.imbalance_sum / self.imbalance_count.max(1) as f64
     }
 }

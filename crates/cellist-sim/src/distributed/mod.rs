@@ -436,6 +436,17 @@ pub fn agree<C: Communicator>(world: &C, failure: Option<String>) -> Option<Stri
     Some(String::from_utf8_lossy(&bytes).into_owned())
 }
 
+/// Element by element, every rank's `values` reduced by `op`, on every rank.
+pub fn all_reduce<C: Communicator, const N: usize>(
+    world: &C,
+    values: [f64; N],
+    op: SystemOperation,
+) -> [f64; N] {
+    let mut reduced = [0.0; N];
+    world.all_reduce_into(&values[..], &mut reduced[..], op);
+    reduced
+}
+
 /// [`agree`] on a blow-up of `step`: every rank returns the blow-up of the
 /// lowest rank that had one.
 pub fn agree_blowup<C: Communicator>(

@@ -12,7 +12,7 @@
 //! single-process layout) are those of a plain run.
 
 use super::{agree, agree_blowup, exchange, GhostPlan, LocalParticles};
-use crate::hosted::Hosted;
+use crate::hosted::{Distribution, Hosted};
 use cellist::decomposition::{Decomposition, Images};
 use cellist::models::pse::{
     self, advance, ordered_rate, row_weights, Method, PairWeight, PseError, PseModel,
@@ -50,6 +50,8 @@ pub struct DistributedPse<const D: usize> {
     entries: u64,
     /// Largest over mean row entries per rank (the work of a rate).
     imbalance: f64,
+    /// Largest over mean particles per rank.
+    particle_imbalance: f64,
     step_time: Duration,
     communication: Duration,
 }
@@ -127,6 +129,9 @@ impl<const D: usize> DistributedPse<D> {
         );
         let imbalance = most as f64 * world.size() as f64 / entries.max(1) as f64;
         let n = own.len();
+        let mut most_particles = 0u64;
+        world.all_reduce_into(&(n as u64), &mut most_particles, SystemOperation::max());
+        let particle_imbalance = most_particles as f64 * world.size() as f64 / count.max(1) as f64;
         Ok(DistributedPse {
             integrator: model.integrator,
             dt: model.dt,
@@ -142,6 +147,7 @@ impl<const D: usize> DistributedPse<D> {
             weights,
             entries,
             imbalance,
+            particle_imbalance,
             step_time: Duration::ZERO,
             communication,
             replica: (rank == 0).then_some(model),
@@ -329,5 +335,15 @@ impl<const D: usize> Hosted for DistributedPse<D> {
             100.0 * self.communication.as_secs_f64() / loop_seconds.max(1e-300),
             self.imbalance,
         )
+    }
+
+    /// This rank's communication time, the balance of the particles (fixed:
+    /// they never move) and their count.
+    fn distribution(&self) -> Option<Distribution> {
+        Some(Distribution {
+            communication: self.communication,
+            imbalance_particles: self.particle_imbalance,
+            particles: self.total,
+        })
     }
 }

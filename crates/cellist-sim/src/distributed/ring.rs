@@ -127,6 +127,13 @@ fn block(n: usize, rank: usize, ranks: usize) -> std::ops::Range<usize> {
     n * rank / ranks..n * (rank + 1) / ranks
 }
 
+/// Largest over mean particles per rank of the blocks `n` particles are cut
+/// into on `ranks` ranks: the balance of the ring's sums.
+pub fn block_imbalance(n: usize, ranks: usize) -> f64 {
+    let most = (0..ranks).map(|r| block(n, r, ranks).len()).max();
+    most.unwrap_or(0) as f64 * ranks as f64 / n.max(1) as f64
+}
+
 /// `values` (`width` numbers per particle of this rank's block) gathered from
 /// every rank's block into `out` (all particles, in order).
 fn gather_blocks(world: &SimpleCommunicator, values: &[f64], width: usize, out: &mut [f64]) {
@@ -145,6 +152,11 @@ fn gather_blocks(world: &SimpleCommunicator, values: &[f64], width: usize, out: 
 /// The time a distributed solver has waited for messages, shared with the
 /// model that reports it.
 pub type Waited = Arc<Mutex<Duration>>;
+
+/// The time waited so far.
+pub fn waited_so_far(waited: &Waited) -> Duration {
+    waited.lock().map_or(Duration::ZERO, |w| *w)
+}
 
 fn add_wait(waited: &Waited, d: Duration) {
     if let Ok(mut w) = waited.lock() {

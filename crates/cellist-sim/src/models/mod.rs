@@ -35,10 +35,8 @@ pub fn run(request: &RunRequest, threads: &Threads) -> SimResult<RunSummary> {
         .out
         .clone()
         .unwrap_or_else(|| Path::new("out").join(&scenario.name));
-    run_scenario(
-        &scenario,
-        &RunContext::new(out_dir, request.restart, threads),
-    )
+    let context = RunContext::new(out_dir, request.restart, threads);
+    run_scenario(&scenario, &context.read_from(scenario.path.as_deref()))
 }
 
 /// Runs a loaded scenario in `context`.

@@ -19,6 +19,8 @@ pub struct Scenario {
     pub text: String,
     /// Name for messages (the file path, or the built-in name).
     pub origin: String,
+    /// The file it was read from (`None` for the built-in melt or a text).
+    pub path: Option<PathBuf>,
     /// Folder that relative input paths start from.
     pub base_dir: PathBuf,
     /// Default output folder name, `out/<name>/`.
@@ -49,6 +51,7 @@ impl Scenario {
         Ok(Scenario {
             text,
             origin,
+            path: path.map(Path::to_path_buf),
             base_dir,
             name,
         })
@@ -61,6 +64,7 @@ impl Scenario {
         Scenario {
             text: text.to_string(),
             origin: origin.to_string(),
+            path: None,
             base_dir: PathBuf::new(),
             name: name.to_string(),
         }
@@ -71,6 +75,7 @@ impl Scenario {
         Ok(Scenario {
             text: apply_sets(&self.text, &self.origin, sets)?,
             origin: self.origin.clone(),
+            path: self.path.clone(),
             base_dir: self.base_dir.clone(),
             name: self.name.clone(),
         })
@@ -204,6 +209,7 @@ mod tests {
         let scenario = Scenario {
             text: text.into(),
             origin: "t".into(),
+            path: None,
             base_dir: PathBuf::new(),
             name: "t".into(),
         };

@@ -26,10 +26,8 @@ use std::path::{Path, PathBuf};
 
 /// Runs `scenario` quietly on `threads` with its outputs in `dir`.
 pub fn run_quiet(scenario: &Scenario, threads: &Threads, dir: &Path) -> SimResult<RunSummary> {
-    run_scenario(
-        scenario,
-        &RunContext::new(dir.to_path_buf(), None, threads).quiet(),
-    )
+    let context = RunContext::new(dir.to_path_buf(), None, threads).quiet();
+    run_scenario(scenario, &context.read_from(scenario.path.as_deref()))
 }
 
 /// Prints the warnings of a quiet run that `seen` does not hold yet (on standard
