@@ -4,6 +4,7 @@
 #
 #   bash scripts/scaling-mpi.sh                  # 3 alternating rounds
 #   ROUNDS=5 STEPS=200 bash scripts/scaling-mpi.sh
+#   CASES="strong weak" bash scripts/scaling-mpi.sh   # only these (default: all)
 #
 # Needs Open MPI (apt-get install -y libopenmpi-dev openmpi-bin libclang-dev)
 # for cellist, built here with --features mpi; LAMMPS comes from
@@ -12,12 +13,15 @@
 # variables and `neigh_modify delay 0 every 1 check yes`, cellist's rebuild rule.
 #
 # Each round runs, one after another under a shared lock:
-#   md strong:  32000 atoms (fcc 20^3), LAMMPS -np 1, 2; cellist -np 1, 2, 4
+#   md strong:  32000 atoms (fcc 20^3), LAMMPS -np 1, 2; cellist -np 1, 2, 4,
+#               and -np 2, 4 with [run] reproducible = true
 #   md weak:    32000 atoms per rank (20x20x20, 40x20x20, 40x40x20 cells),
 #               LAMMPS -np 1, 2; cellist -np 1, 2, 4
 #   gravity:    Plummer sphere of 20000 bodies, direct sum, cellist -np 1, 2, 4
 #   pse:        512^2 particles in 2D, cell list, RK4, cellist -np 1, 2, 4
-# and prints one line per run: `case ranks loop_seconds`, then the medians.
+# and prints one line per run: `case ranks loop_seconds peak_rss_MB` (cellist's
+# from the summary.json of the run: the largest peak of any rank), then the
+# medians.
 # Runs on more ranks than cores are oversubscribed: on a 2-core machine the
 # 4-rank runs share 2 cores.
 set -euo pipefail
@@ -25,6 +29,7 @@ here=$(cd "$(dirname "$0")/.." && pwd)
 peers="$here/../shared/peers/lammps"
 VENV=${LMP_VENV:-${XDG_CACHE_HOME:-$HOME/.cache}/lammps-venv}
 ROUNDS=${ROUNDS:-3}
+CASES=${CASES:-strong weak gravity pse}
 STEPS=${STEPS:-100}
 LOCK=${BENCH_LOCK:-${TMPDIR:-/tmp}/cellist-bench.lock}
 [ -x "$VENV/bin/python" ] || LMP_VENV="$VENV" bash "$peers/run.sh" install
@@ -55,6 +60,7 @@ melt "$work/strong.toml" 20 20 20
 melt "$work/weak1.toml" 20 20 20
 melt "$work/weak2.toml" 40 20 20
 melt "$work/weak4.toml" 40 40 20
+sed 's/^\[run\]/[run]\nreproducible = true/' "$work/strong.toml" > "$work/strong-reproducible.toml"
 cat > "$work/gravity.toml" <<EOF
 model = "gravity"
 [system]
@@ -91,27 +97,37 @@ lammps() {  # case ranks nx ny nz
     (cd "$work" && OMP_NUM_THREADS=1 LD_LIBRARY_PATH="$VENV/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}" \
         flock "$LOCK" "$VENV/bin/mpirun" -np "$2" "$LMP" -nocite -screen none -log "$log" \
         -in in.lj -var nx "$3" -var ny "$4" -var nz "$5" -var nsteps "$STEPS" >/dev/null)
-    echo "$1 $2 $(sed -n 's/^Loop time of \([0-9.e+-]*\) .*/\1/p' "$log")"
+    echo "$1 $2 $(sed -n 's/^Loop time of \([0-9.e+-]*\) .*/\1/p' "$log") -"
 }
 ours() {  # case ranks scenario
     local out="$work/out-$1-$2"
-    local t
-    t=$(flock "$LOCK" mpirun --allow-run-as-root --oversubscribe -np "$2" "$cellist" run "$3" \
-        --threads 1 --out "$out" | sed -n 's/^Loop time of \([0-9.e+-]*\) s.*/\1/p')
-    echo "$1 $2 $t"
+    flock "$LOCK" mpirun --allow-run-as-root --oversubscribe -np "$2" "$cellist" run "$3" \
+        --threads 1 --out "$out" >/dev/null
+    python3 -c 'import json, sys; s = json.load(open(sys.argv[1]))
+print(sys.argv[2], sys.argv[3], s["loop_seconds"], round(s["peak_rss_bytes"] / 2**20, 1))' \
+        "$out/summary.json" "$1" "$2"
     rm -rf "$out"
 }
 
 {
     for r in $(seq 1 "$ROUNDS"); do
-        lammps lammps-strong 1 20 20 20
-        lammps lammps-strong 2 20 20 20
-        for n in 1 2 4; do ours cellist-strong "$n" "$work/strong.toml"; done
-        lammps lammps-weak 1 20 20 20
-        lammps lammps-weak 2 40 20 20
-        for n in 1 2 4; do ours cellist-weak "$n" "$work/weak$n.toml"; done
-        for n in 1 2 4; do ours gravity-direct "$n" "$work/gravity.toml"; done
-        for n in 1 2 4; do ours pse "$n" "$work/pse.toml"; done
+        if [[ " $CASES " == *" strong "* ]]; then
+            lammps lammps-strong 1 20 20 20
+            lammps lammps-strong 2 20 20 20
+            for n in 1 2 4; do ours cellist-strong "$n" "$work/strong.toml"; done
+            for n in 2 4; do ours cellist-reproducible "$n" "$work/strong-reproducible.toml"; done
+        fi
+        if [[ " $CASES " == *" weak "* ]]; then
+            lammps lammps-weak 1 20 20 20
+            lammps lammps-weak 2 40 20 20
+            for n in 1 2 4; do ours cellist-weak "$n" "$work/weak$n.toml"; done
+        fi
+        if [[ " $CASES " == *" gravity "* ]]; then
+            for n in 1 2 4; do ours gravity-direct "$n" "$work/gravity.toml"; done
+        fi
+        if [[ " $CASES " == *" pse "* ]]; then
+            for n in 1 2 4; do ours pse "$n" "$work/pse.toml"; done
+        fi
     done
 } | tee "$work/times.txt"
 echo "# medians of $ROUNDS rounds (loop seconds; md: $STEPS steps)"
@@ -119,8 +135,9 @@ python3 - "$work/times.txt" <<'EOF'
 import statistics, sys
 runs = {}
 for line in open(sys.argv[1]):
-    case, ranks, t = line.split()
-    runs.setdefault((case, int(ranks)), []).append(float(t))
+    case, ranks, t, mb = line.split()
+    runs.setdefault((case, int(ranks)), []).append((float(t), mb))
 for (case, ranks), ts in runs.items():
-    print(f"{case:16s} {ranks} {statistics.median(ts):.4f}")
+    t = statistics.median(x for x, _ in ts)
+    print(f"{case:22s} {ranks} {t:.4f} s  peak {ts[0][1]} MB")
 EOF

@@ -60,6 +60,29 @@ pub enum Images {
     /// periodic axis the rank sees its particles' images through a periodic
     /// cell list ([`Decomposition::subdomain`]).
     AcrossCuts,
+    /// As [`Images::AcrossCuts`], from the neighbours of half of the
+    /// directions only, those whose last nonzero offset (from the receiver)
+    /// is `+1`: of two particles on two ranks, exactly one rank sees the
+    /// other as a ghost, so that each pair across a cut is computed once
+    /// (Newton's third law across ranks; the ghost's force goes back to its
+    /// owner).
+    HalfShell,
+}
+
+impl Images {
+    /// Whether a rank sends its particles to the neighbour at grid offset
+    /// `o` (from the sender) under this rule, the box cut `grid`.
+    fn sends_towards(self, o: &[i64], grid: &[usize]) -> bool {
+        let across_uncut = o.iter().zip(grid).any(|(&v, &g)| v != 0 && g == 1);
+        // the receiver sees the sender at -o: its last nonzero offset is +1
+        // when o's is -1
+        let lower = o.iter().rev().find(|&&v| v != 0) == Some(&-1);
+        match self {
+            Images::All => true,
+            Images::AcrossCuts => !across_uncut,
+            Images::HalfShell => !across_uncut && lower,
+        }
+    }
 }
 
 impl<const D: usize> Decomposition<D> {
@@ -213,7 +236,9 @@ impl<const D: usize> Decomposition<D> {
     /// one, `hi - x <= reach` towards the upper one), with the periodic shift of
     /// its image. On a periodic axis of one or two subdomains a neighbour may be
     /// the rank itself or the same rank twice, each with its own shift; with
-    /// [`Images::AcrossCuts`] no neighbour lies across an uncut axis.
+    /// [`Images::AcrossCuts`] no neighbour lies across an uncut axis, with
+    /// [`Images::HalfShell`] only the neighbours below (last nonzero offset
+    /// -1) receive.
     pub fn ghosts(
         &self,
         rank: usize,
@@ -230,8 +255,7 @@ impl<const D: usize> Decomposition<D> {
             if o.iter().all(|&v| v == 0) {
                 continue;
             }
-            let across_uncut = (0..D).any(|d| o[d] != 0 && self.grid[d] == 1);
-            if images == Images::AcrossCuts && across_uncut {
+            if !images.sends_towards(&o, &self.grid) {
                 continue;
             }
             // the neighbour's coordinates and the shift of images crossing the box
@@ -316,7 +340,7 @@ mod tests {
     /// ones) that lie in the shell of width `reach` around its subdomain; with
     /// [`Images::AcrossCuts`], none shifted along an uncut axis.
     fn check_ghosts<const D: usize>(domain: Domain<D>, ranks: usize, reach: f64, n: usize) {
-        for images in [Images::All, Images::AcrossCuts] {
+        for images in [Images::All, Images::AcrossCuts, Images::HalfShell] {
             check_ghost_images(domain, ranks, reach, n, images);
         }
     }
@@ -366,14 +390,19 @@ mod tests {
                         continue;
                     }
                     let uncut = (0..D).any(|k| m[k] != 0 && d.grid[k] == 1);
-                    if images == Images::AcrossCuts && uncut {
+                    if images != Images::All && uncut {
                         continue;
                     }
                     let y: [f64; D] =
                         std::array::from_fn(|k| x[k] + m[k] as f64 * domain.length[k]);
                     let inside = (0..D).all(|k| y[k] >= lo[k] && y[k] < hi[k]);
                     let shell = (0..D).all(|k| y[k] >= lo[k] - reach && y[k] <= hi[k] + reach);
-                    if shell && !inside {
+                    // where the image lies from the receiver, per axis
+                    let side: Vec<i64> = (0..D)
+                        .map(|k| i64::from(y[k] >= hi[k]) - i64::from(y[k] < lo[k]))
+                        .collect();
+                    let upper = side.iter().rev().find(|&&v| v != 0) == Some(&1);
+                    if shell && !inside && (images != Images::HalfShell || upper) {
                         expected.push((i, m.to_vec()));
                     }
                 }

@@ -74,6 +74,8 @@ pub struct DistributedMd<const D: usize> {
     ghost_ids: Vec<u64>,
     points: Vec<[f64; D]>,
     sums: PairSums<D>,
+    /// The ghosts' reactions on their way back (the half list).
+    reactions: Vec<f64>,
     computed: Vec<AtomForce<D>>,
     gathered: Option<Gathered<D>>,
     /// Set by a restore: the next step rebuilds whatever the skin test says.
@@ -120,12 +122,13 @@ enum PairSums<const D: usize> {
 }
 
 impl<const D: usize> PairSums<D> {
-    /// The ghosts a rank needs: across the cuts only for the half list (it
-    /// bins in a box periodic along the uncut axes), every image for the rows
-    /// (found in open space).
+    /// The ghosts a rank needs: for the half list, across the cuts from half
+    /// of the directions (it bins in a box periodic along the uncut axes, and
+    /// sends the ghosts' reactions back); for the rows, every image (found in
+    /// open space).
     fn images(&self) -> Images {
         match self {
-            PairSums::Halo(_) => Images::AcrossCuts,
+            PairSums::Halo(_) => Images::HalfShell,
             PairSums::Ordered(_) => Images::All,
         }
     }
@@ -272,6 +275,7 @@ impl<const D: usize> DistributedMd<D> {
             atoms: owned,
             ghost_ids: Vec::new(),
             points: Vec::new(),
+            reactions: Vec::new(),
             computed: Vec::new(),
             gathered: None,
             stale: false,
@@ -370,7 +374,11 @@ impl<const D: usize> DistributedMd<D> {
         if let Some(what) = agreed {
             return Err(Blowup::new(0, what, REMEDY));
         }
-        self.computed.resize(n, AtomForce::default());
+        let computed = match self.sums {
+            PairSums::Halo(_) => self.points.len(),
+            PairSums::Ordered(_) => n,
+        };
+        self.computed.resize(computed, AtomForce::default());
         self.stale = false;
         Ok(())
     }
@@ -423,9 +431,41 @@ impl<const D: usize> DistributedMd<D> {
         let (potential, points) = (&self.potential, &self.points);
         self.sums
             .forces(potential, points, energy, threads, &mut self.computed);
+        if matches!(self.sums, PairSums::Halo(_)) {
+            self.return_reactions(energy);
+        }
         for (f, c) in self.atoms.forces.iter_mut().zip(&self.computed) {
             *f = c.force;
         }
+    }
+
+    /// Sends the ghosts' reactions (with `energy`, their half energies and
+    /// virials too) to their owners and adds what comes back to the own
+    /// atoms: each pair across a cut is computed on one rank only.
+    fn return_reactions(&mut self, energy: bool) {
+        let t = Instant::now();
+        let n = self.atoms.len();
+        let width = D + if energy { 2 } else { 0 };
+        self.reactions.clear();
+        for c in &self.computed[n..] {
+            self.reactions.extend_from_slice(&c.force);
+            if energy {
+                self.reactions.extend([c.energy, c.virial]);
+            }
+        }
+        let computed = &mut self.computed;
+        self.plan
+            .reverse(&self.world, width, &self.reactions, |k, values| {
+                let c = &mut computed[k];
+                for a in 0..D {
+                    c.force[a] += values[a];
+                }
+                if energy {
+                    c.energy += values[D];
+                    c.virial += values[D + 1];
+                }
+            });
+        self.communication += t.elapsed();
     }
 
     /// Every atom on rank 0, sorted by id, with its half energy, half virial
@@ -542,7 +582,6 @@ impl<const D: usize> DistributedMd<D> {
         let local = check_positions(&domain, &self.atoms, step, threads)
             .err()
             .map(|e| blowup_of(&e, step));
-        self.agree_blowup(step, local)?;
         let since = self.counts.step();
         let (sums, positions) = (&self.sums, &self.atoms.positions);
         // after a restore the rows are not this rank's atoms': rebuild, untested
@@ -555,13 +594,18 @@ impl<const D: usize> DistributedMd<D> {
             Rebuild::No => (false, false),
             Rebuild::Yes { late } => (true, late),
         };
-        let [rebuild, observe, late] =
-            self.any([u8::from(wanted), u8::from(observe), u8::from(late)]);
+        // one all-reduce a step for the blow-up check and the list's decision
+        let flags = [local.is_some(), wanted, observe, late].map(u8::from);
+        let [failed, rebuild, observe, late] = self.any(flags);
+        if failed {
+            self.agree_blowup(step, local)?;
+        }
         let t = lap(t, &mut self.times.neighbor);
         if rebuild {
             self.redistribute(threads)
                 .map_err(|b| Blowup { step, ..b })?;
             self.counts.built(late);
+            self.check_count(step)?;
         } else {
             let n = self.atoms.len();
             self.points[..n].copy_from_slice(&self.atoms.positions);
@@ -576,6 +620,20 @@ impl<const D: usize> DistributedMd<D> {
         self.integrator
             .second_half(&mut self.atoms, self.dt, step, threads);
         lap(t, &mut self.times.integrate);
+        let local = check(self, step, 0).err();
+        self.agree_blowup(step, local)?;
+        if observe {
+            self.gather();
+        }
+        Ok(())
+    }
+}
+
+impl<const D: usize> DistributedMd<D> {
+    /// The atoms summed over the ranks after a migration: the total of the
+    /// set-up, or a blow-up naming the bug (atoms move between ranks only
+    /// at rebuilds).
+    fn check_count(&mut self, step: u64) -> Result<(), Blowup> {
         let c = Instant::now();
         let mut count = 0u64;
         self.world.all_reduce_into(
@@ -593,11 +651,6 @@ impl<const D: usize> DistributedMd<D> {
                 ),
                 "atoms were lost or duplicated between ranks: this is a bug in cellist",
             ));
-        }
-        let local = check(self, step, 0).err();
-        self.agree_blowup(step, local)?;
-        if observe {
-            self.gather();
         }
         Ok(())
     }

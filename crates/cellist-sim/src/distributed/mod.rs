@@ -297,6 +297,7 @@ pub struct GhostPlan<const D: usize> {
     sends: Vec<Vec<(usize, [f64; D])>>,
     incoming: Vec<usize>,
     buffers: Vec<Vec<f64>>,
+    returned: Vec<f64>,
 }
 
 impl<const D: usize> GhostPlan<D> {
@@ -322,6 +323,7 @@ impl<const D: usize> GhostPlan<D> {
             sends,
             incoming: incoming.iter().map(|&c| c as usize).collect(),
             buffers: vec![Vec::new(); ranks],
+            returned: Vec::new(),
         }
     }
 
@@ -372,6 +374,38 @@ impl<const D: usize> GhostPlan<D> {
     /// ghost order.
     pub fn values<C: Communicator>(&mut self, world: &C, values: &[f64], ghosts: &mut [f64]) {
         self.forward(world, 1, |k, _, buffer| buffer.push(values[k]), ghosts);
+    }
+
+    /// Sends `width` numbers per ghost (`ghosts`, in ghost order) back to the
+    /// rank it came from, and passes what comes back here to `add(k, values)`
+    /// for the particle `k` it was sent for, in the order of the plan: the
+    /// reverse of [`GhostPlan::positions`] (LAMMPS's reverse communication),
+    /// `own_k += sum over the images of k sent out of the numbers computed
+    /// for them`.
+    pub fn reverse<C: Communicator>(
+        &mut self,
+        world: &C,
+        width: usize,
+        ghosts: &[f64],
+        mut add: impl FnMut(usize, &[f64]),
+    ) {
+        assert_eq!(ghosts.len(), width * self.len());
+        let mut at = 0;
+        for (buffer, &count) in self.buffers.iter_mut().zip(&self.incoming) {
+            buffer.clear();
+            buffer.extend_from_slice(&ghosts[at..at + width * count]);
+            at += width * count;
+        }
+        let returning: Vec<usize> = self.sends.iter().map(Vec::len).collect();
+        let mut back = std::mem::take(&mut self.returned);
+        back.clear();
+        back.resize(width * self.sent(), 0.0);
+        swap_blocks(world, &self.buffers, &returning, width, &mut back);
+        let indices = self.sends.iter().flatten().map(|&(k, _)| k);
+        for (k, values) in indices.zip(back.chunks_exact(width)) {
+            add(k, values);
+        }
+        self.returned = back;
     }
 
     /// Sends `width` numbers per ghost, written by `fill(index, shift, buffer)`,

@@ -57,6 +57,8 @@ pub struct ClusterList<const D: usize> {
     image_shifts: Vec<[f64; D]>,
     box_columns: [[Vec<f64>; D]; 2],
     cell_boxes: Vec<[[f64; D]; 2]>,
+    /// Per cluster, bit `l` set when slot `l` holds a ghost (empty: none do).
+    ghost_lanes: Vec<u8>,
 }
 
 impl<const D: usize> ClusterList<D> {
@@ -90,6 +92,7 @@ impl<const D: usize> ClusterList<D> {
             image_shifts: Vec::new(),
             box_columns: std::array::from_fn(|_| std::array::from_fn(|_| Vec::new())),
             cell_boxes: Vec::new(),
+            ghost_lanes: Vec::new(),
         }
     }
 
@@ -104,8 +107,9 @@ impl<const D: usize> ClusterList<D> {
     /// the rest ghosts: a cluster that holds no own point (a ghost cluster)
     /// gets no entry for another ghost cluster, so the list holds every pair
     /// with an own point once and skips the ghost-ghost pairs of whole
-    /// clusters (those of a cluster with itself, and of clusters that mix own
-    /// points and ghosts, stay).
+    /// clusters; the ghost-ghost pairs it still holds (a ghost cluster with
+    /// itself, a cluster that mixes own points and ghosts) are marked by
+    /// [`ClusterList::ghost_lanes`] for the kernels to skip.
     pub fn rebuild_owned(
         &mut self,
         cells: &CellList<D>,
@@ -127,10 +131,21 @@ impl<const D: usize> ClusterList<D> {
         );
         self.bound_clusters(cells, threads);
         self.gather(cells.positions(), threads, scratch);
-        let active: Option<Vec<bool>> = (owned < cells.len()).then(|| {
+        let mut ghost_lanes = std::mem::take(&mut self.ghost_lanes);
+        ghost_lanes.clear();
+        if owned < cells.len() {
             let order = cells.order();
+            ghost_lanes.extend((0..self.num_clusters()).map(|c| {
+                order[self.slots(c)]
+                    .iter()
+                    .enumerate()
+                    .fold(0u8, |bits, (l, &k)| bits | u8::from(k as usize >= owned) << l)
+            }));
+        }
+        self.ghost_lanes = ghost_lanes;
+        let active: Option<Vec<bool>> = (!self.ghost_lanes.is_empty()).then(|| {
             (0..self.num_clusters())
-                .map(|c| order[self.slots(c)].iter().any(|&k| (k as usize) < owned))
+                .map(|c| self.ghost_lanes[c].count_ones() < self.slots(c).len() as u32)
                 .collect()
         });
         let active_cells: Option<Vec<bool>> = active.as_ref().map(|a| {
@@ -260,6 +275,14 @@ impl<const D: usize> ClusterList<D> {
         }
         self.cell_clusters.push(self.first.len() as u32);
         self.first.push(cells.len() as u32);
+    }
+
+    /// Bit `l` set when slot `l` of cluster `c` holds a ghost (a list built by
+    /// [`ClusterList::rebuild_owned`] with ghosts; 0 otherwise): a kernel
+    /// computes no pair of two ghosts.
+    #[inline(always)]
+    pub fn ghost_lanes(&self, c: usize) -> u8 {
+        self.ghost_lanes.get(c).copied().unwrap_or(0)
     }
 
     /// The interaction cutoff (without skin).

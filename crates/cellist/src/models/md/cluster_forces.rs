@@ -99,8 +99,14 @@ impl<const D: usize> ClusterForces<'_, D> {
                         virial: F64x4::splat(0.0),
                     };
                     // the pairs inside the cluster: lanes j > i of the cluster itself
+                    let ghosts = list.ghost_lanes(ci);
                     let own_limits: [F64x4; CLUSTER] =
                         std::array::from_fn(|i| limits[i].min(above[i]));
+                    let own_limits = without_ghost_pairs(&own_limits, ghosts, ghosts, cutoff2);
+                    // an entry's limits: no pair of two ghosts
+                    let limits_for = |cj: usize| {
+                        without_ghost_pairs(&limits, ghosts, list.ghost_lanes(cj), cutoff2)
+                    };
                     let xj = shifted(xi, &[0.0; D]);
                     // the i positions broadcast once per row
                     let xib: [[F64x4; D]; CLUSTER] =
@@ -114,6 +120,7 @@ impl<const D: usize> ClusterForces<'_, D> {
                     let (near, far) = list.row_parts(ci);
                     for &entry in near {
                         let (cj, xj) = lanes_of(entry);
+                        let limits = limits_for(cj);
                         let fj = Self::block::<ENERGY>(&lj, &xib, &xj, &limits, &mut sums);
                         f.add(cj, &fj.map(F64x4::to_array));
                     }
@@ -121,6 +128,7 @@ impl<const D: usize> ClusterForces<'_, D> {
                     // skipping it leaves every sum as it is
                     for &entry in far {
                         let (cj, xj) = lanes_of(entry);
+                        let limits = limits_for(cj);
                         if any_within(&xib, &xj, &limits) {
                             let fj = Self::block::<ENERGY>(&lj, &xib, &xj, &limits, &mut sums);
                             f.add(cj, &fj.map(F64x4::to_array));
@@ -185,6 +193,7 @@ impl<const D: usize> ClusterForces<'_, D> {
         let shifts = list.image_shifts();
         for ci in 0..list.num_clusters() {
             let (xi, slots) = (&positions[ci], list.slots(ci));
+            let ghosts = list.ghost_lanes(ci);
             // the pairs inside the cluster (lanes j > i), then the row's blocks
             let blocks =
                 std::iter::once((ci, [0.0; D], true)).chain(list.row(ci).iter().map(|&entry| {
@@ -193,10 +202,17 @@ impl<const D: usize> ClusterForces<'_, D> {
                 }));
             for (cj, shift, inside) in blocks {
                 let xj = shifted(&positions[cj], &shift);
+                let ghosts_j = list.ghost_lanes(cj);
                 let (mut ej, mut wj) = ([0.0; CLUSTER], [0.0; CLUSTER]);
                 for (i, slot) in slots.clone().enumerate() {
-                    let lanes: [f64; CLUSTER] =
-                        std::array::from_fn(|l| if inside && l <= i { NO_PAIR } else { 1.0 });
+                    let ghost_pair = |l: usize| ghosts >> i & ghosts_j >> l & 1 == 1;
+                    let lanes: [f64; CLUSTER] = std::array::from_fn(|l| {
+                        if (inside && l <= i) || ghost_pair(l) {
+                            NO_PAIR
+                        } else {
+                            1.0
+                        }
+                    });
                     let limit = cutoff2.min(F64x4::load(&lanes) * cutoff2);
                     let minus_d: [F64x4; D] =
                         std::array::from_fn(|a| xj[a] - F64x4::splat(xi[a][i]));
@@ -218,6 +234,32 @@ impl<const D: usize> ClusterForces<'_, D> {
             }
         }
     }
+}
+
+/// `limits` (per i-lane) without the pairs of two ghosts: for a ghost lane
+/// `i` of the row's cluster (bit `i` of `ghosts_i`), no pair with a ghost
+/// lane of the entry's (`ghosts_j`). Without ghosts in the row's cluster (every
+/// list of a single process) the limits as they are.
+#[inline(always)]
+fn without_ghost_pairs(
+    limits: &[F64x4; CLUSTER],
+    ghosts_i: u8,
+    ghosts_j: u8,
+    cutoff2: f64,
+) -> [F64x4; CLUSTER] {
+    if ghosts_i == 0 {
+        return *limits;
+    }
+    let own_j: [f64; CLUSTER] =
+        std::array::from_fn(|l| if ghosts_j >> l & 1 == 1 { NO_PAIR } else { cutoff2 });
+    let own_j = F64x4::load(&own_j);
+    std::array::from_fn(|i| {
+        if ghosts_i >> i & 1 == 1 {
+            limits[i].min(own_j)
+        } else {
+            limits[i]
+        }
+    })
 }
 
 /// Whether some pair of the block of `xib` and `xj` counts: `r^2 < limits[i]`

@@ -106,13 +106,12 @@ impl<const D: usize> ClusterPairs<D> {
     }
 
     /// [`ClusterPairs::forces`] from `points` in the order they were binned
-    /// in ([`CellList::order`]), the force on each of the first `owned`
-    /// points passed to `force(k, f_k)` (one thread), no energy.
+    /// in ([`CellList::order`]), the force on each point passed to
+    /// `force(k, f_k)` (one thread), no energy.
     pub(super) fn forces_by_point(
         &mut self,
         potential: &LennardJones,
         points: &[[f64; D]],
-        owned: usize,
         threads: &Threads,
         mut force: impl FnMut(usize, [f64; D]),
     ) {
@@ -126,10 +125,7 @@ impl<const D: usize> ClusterPairs<D> {
         let order = self.cells.order();
         for (c, lanes) in self.lane_forces.iter().enumerate() {
             for (l, slot) in self.list.slots(c).enumerate() {
-                let k = order[slot] as usize;
-                if k < owned {
-                    force(k, std::array::from_fn(|a| lanes[a][l]));
-                }
+                force(order[slot] as usize, std::array::from_fn(|a| lanes[a][l]));
             }
         }
     }

@@ -1,20 +1,24 @@
-//! The forces on one subdomain's atoms in a distributed run, each pair computed
-//! once on this rank: a half cluster pair list ([`ClusterPairs`]) over the own
-//! atoms and the ghosts (copies of the neighbouring ranks' atoms within
-//! cutoff + skin of the subdomain), binned in a box that is periodic along the
-//! axes the decomposition does not cut, so that a rank sees its own atoms'
-//! images there without ghosts:
+//! The forces of one subdomain's pairs in a distributed run, each pair across
+//! the ranks computed once: a half cluster pair list ([`ClusterPairs`]) over
+//! the own atoms and the ghosts (copies of the atoms of the neighbouring ranks
+//! of one half of the directions, [`Images::HalfShell`](crate::decomposition::Images),
+//! within cutoff + skin of the subdomain), binned in a box that is periodic
+//! along the axes the decomposition does not cut, so that a rank sees its own
+//! atoms' images there without ghosts:
 //!
 //! ```text
-//! f_i = sum_{j own or ghost, r_ij < r_c} f_ij          (own i; Newton's third law inside the rank)
-//! u_i = (1/2) sum_j U(r_ij),   w_i = (1/2) sum_j r_ij^2 (-U'(r_ij)/r_ij)
+//! f_k = sum_{j listed with k, r_kj < r_c} f_kj     (own and ghost k; Newton's third law)
+//! u_k = (1/2) sum_j U(r_kj),   w_k = (1/2) sum_j r_kj^2 (-U'(r_kj)/r_kj)
 //! ```
 //!
-//! A pair of two own atoms is computed once; a pair across a cut, once on each
-//! of its two ranks (each keeps the force on its own atom; nothing travels
-//! back); ghost-ghost pairs of whole ghost clusters are not listed. The sums
-//! run in the list's order, which follows the cell grid of the subdomain: the
-//! forces agree with a single-process run to rounding, not to the bit.
+//! A pair of two own atoms is computed once; a pair of an own atom and a ghost
+//! once, on the one rank that holds the ghost, whose reaction (and half energy
+//! and virial) the caller sends back to the ghost's owner (reverse
+//! communication); ghost-ghost pairs are not listed (the cells along a cut
+//! axis end at the subdomain's faces, so no cluster mixes own atoms and
+//! ghosts). The sums run in the list's order, which follows the cells of the
+//! subdomain: the forces agree with a single-process run to rounding, not to
+//! the bit.
 
 use super::cluster_pairs::ClusterPairs;
 use super::AtomForce;
@@ -76,10 +80,11 @@ impl<const D: usize> HaloForces<D> {
         self.pairs.cells.order()
     }
 
-    /// Sets `out[i].force` for every own atom from `points` (own then ghosts,
-    /// in the build's order, at their positions now); with `energy`, also
-    /// `out[i].energy` and `out[i].virial` (half of each of its pairs'),
-    /// zero without.
+    /// Sets `out[k].force` for every point from `points` (own then ghosts,
+    /// in the build's order, at their positions now): on a ghost, the
+    /// reaction of the pairs this rank computed with it, to be sent to its
+    /// owner. With `energy`, also `out[k].energy` and `out[k].virial` (half
+    /// of each of its listed pairs'), zero without.
     pub fn forces(
         &mut self,
         points: &[[f64; D]],
@@ -87,9 +92,9 @@ impl<const D: usize> HaloForces<D> {
         threads: &Threads,
         out: &mut [AtomForce<D>],
     ) {
-        assert_eq!(out.len(), self.owned);
+        assert_eq!(out.len(), points.len());
         self.pairs
-            .forces_by_point(&self.potential, points, self.owned, threads, |k, f| {
+            .forces_by_point(&self.potential, points, threads, |k, f| {
                 out[k] = AtomForce {
                     force: f,
                     energy: 0.0,
@@ -102,9 +107,8 @@ impl<const D: usize> HaloForces<D> {
             self.pairs
                 .half_pair_sums(&self.potential, &mut energies, &mut virials);
             for (slot, &k) in self.order().iter().enumerate() {
-                if let Some(o) = out.get_mut(k as usize) {
-                    (o.energy, o.virial) = (energies[slot], virials[slot]);
-                }
+                let o = &mut out[k as usize];
+                (o.energy, o.virial) = (energies[slot], virials[slot]);
             }
         }
     }
