@@ -139,7 +139,9 @@ impl<const D: usize> ClusterList<D> {
                 order[self.slots(c)]
                     .iter()
                     .enumerate()
-                    .fold(0u8, |bits, (l, &k)| bits | u8::from(k as usize >= owned) << l)
+                    .fold(0u8, |bits, (l, &k)| {
+                        bits | u8::from(k as usize >= owned) << l
+                    })
             }));
         }
         self.ghost_lanes = ghost_lanes;

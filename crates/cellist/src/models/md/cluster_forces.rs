@@ -250,8 +250,13 @@ fn without_ghost_pairs(
     if ghosts_i == 0 {
         return *limits;
     }
-    let own_j: [f64; CLUSTER] =
-        std::array::from_fn(|l| if ghosts_j >> l & 1 == 1 { NO_PAIR } else { cutoff2 });
+    let own_j: [f64; CLUSTER] = std::array::from_fn(|l| {
+        if ghosts_j >> l & 1 == 1 {
+            NO_PAIR
+        } else {
+            cutoff2
+        }
+    });
     let own_j = F64x4::load(&own_j);
     std::array::from_fn(|i| {
         if ghosts_i >> i & 1 == 1 {

@@ -187,3 +187,112 @@ pub fn halo_cells<const D: usize>(
     let grid = CellGrid::with_dims(&domain, dims, least)?;
     Ok((domain, grid, least))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::decomposition::{Decomposition, Images};
+    use crate::geometry::norm2;
+    use crate::neighbors::brute_force_pairs;
+    use crate::random::Rng;
+
+    /// Every rank of a decomposition played in one process: each builds its
+    /// list over its own atoms and its half-shell ghosts, the ghosts'
+    /// reactions, half energies and half virials go back to their owners, and
+    /// every atom's force, energy and virial is the brute-force sum over all
+    /// pairs (minimum image), for slabs, a 2 x 2 cut (3D) and a 3 x 2 cut (2D),
+    /// on 1 and 2 threads alike. The atoms include some on the faces between
+    /// subdomains (where a cell could take an own atom for a ghost).
+    #[test]
+    fn ranks_with_returned_reactions_give_the_brute_force_sums() {
+        check::<3>([9.0, 8.5, 8.0], 2, 300, 1);
+        check::<3>([9.0, 8.5, 8.0], 3, 300, 2);
+        check::<3>([9.0, 8.5, 8.0], 4, 300, 3);
+        check::<2>([12.0, 9.0], 6, 70, 4);
+    }
+
+    fn check<const D: usize>(length: [f64; D], ranks: usize, n: usize, seed: u64) {
+        let domain = Domain::periodic(length).unwrap();
+        let lj = LennardJones::new(1.0, 1.0, 1.5, false).unwrap();
+        let skin = 0.3;
+        let reach = lj.cutoff() + skin;
+        let decomposition = Decomposition::new(domain, ranks);
+        decomposition.check_reach(reach).unwrap();
+        let mut rng = Rng::new(seed);
+        let mut points: Vec<[f64; D]> = Vec::new();
+        while points.len() < n {
+            let mut x: [f64; D] = std::array::from_fn(|d| rng.uniform() * length[d]);
+            if points.len() % 50 == 0 {
+                x[0] = decomposition.width()[0];
+            }
+            // no two atoms closer than 0.8: finite forces
+            let close = points
+                .iter()
+                .any(|y| norm2(&domain.separation(&x, y)) < 0.64);
+            if !close {
+                points.push(x);
+            }
+        }
+        let owner: Vec<usize> = points.iter().map(|x| decomposition.owner(x)).collect();
+        let mut got = vec![AtomForce::<D>::default(); n];
+        for threads in [Threads::single(), Threads::new(2).unwrap()] {
+            let mut sums = vec![AtomForce::<D>::default(); n];
+            for rank in 0..ranks {
+                let mine: Vec<usize> = (0..n).filter(|&k| owner[k] == rank).collect();
+                let own: Vec<[f64; D]> = mine.iter().map(|&k| points[k]).collect();
+                let mut all = own.clone();
+                let mut from = mine.clone();
+                for sender in 0..ranks {
+                    let theirs: Vec<usize> = (0..n).filter(|&k| owner[k] == sender).collect();
+                    let at: Vec<[f64; D]> = theirs.iter().map(|&k| points[k]).collect();
+                    let ghosts = decomposition.ghosts(sender, &at, reach, Images::HalfShell);
+                    for g in ghosts.iter().filter(|g| g.to == rank) {
+                        all.push(std::array::from_fn(|d| at[g.index][d] + g.shift[d]));
+                        from.push(theirs[g.index]);
+                    }
+                }
+                let subdomain = decomposition.subdomain(rank);
+                let mut halo =
+                    HaloForces::build(&subdomain, &all, own.len(), lj, skin, &threads).unwrap();
+                let mut out = vec![AtomForce::default(); all.len()];
+                halo.forces(&all, true, &threads, &mut out);
+                for (k, o) in from.iter().zip(&out) {
+                    let s = &mut sums[*k];
+                    for d in 0..D {
+                        s.force[d] += o.force[d];
+                    }
+                    s.energy += o.energy;
+                    s.virial += o.virial;
+                }
+            }
+            if threads.count() == 1 {
+                got = sums;
+            } else {
+                assert_eq!(got, sums, "1 and 2 threads");
+            }
+        }
+        let mut want = vec![AtomForce::<D>::default(); n];
+        for (i, j, _) in brute_force_pairs(&domain, lj.cutoff(), &points) {
+            let (i, j) = (i as usize, j as usize);
+            let d = domain.separation(&points[j], &points[i]);
+            let r2 = norm2(&d);
+            let (e, g) = lj.energy_and_force(r2);
+            for (k, sign) in [(i, 1.0), (j, -1.0)] {
+                for a in 0..D {
+                    want[k].force[a] += sign * g * d[a];
+                }
+                want[k].energy += 0.5 * e;
+                want[k].virial += 0.5 * g * r2;
+            }
+        }
+        for k in 0..n {
+            let scale = 1.0 + norm2(&want[k].force).sqrt();
+            for a in 0..D {
+                let diff = (got[k].force[a] - want[k].force[a]).abs();
+                assert!(diff <= 1e-10 * scale, "atom {k} axis {a}: {diff:e}");
+            }
+            assert!((got[k].energy - want[k].energy).abs() <= 1e-12 * (1.0 + want[k].energy.abs()));
+            assert!((got[k].virial - want[k].virial).abs() <= 1e-10 * (1.0 + want[k].virial.abs()));
+        }
+    }
+}
