@@ -22,14 +22,14 @@
 
 use crate::error::{SimError, SimResult};
 use crate::hosted::Hosted;
-use crate::observers::{frame, write_field_csv, Observer, Recorded};
+use crate::observers::{write_field_csv, write_frame, DumpFormat, Observer, Recorded};
 use crate::ranks::Ranks;
 use crate::scenario::keys::CheckpointKeys;
 use cellist::models::{check, Blowup, Model};
 use cellist::state::State;
 use cellist::Threads;
 use cellist_io::checkpoint::{read_checkpoint, write_checkpoint, Checkpoint};
-use cellist_io::{write_lammps_frame, AtomicFile};
+use cellist_io::AtomicFile;
 use indicatif::ProgressBar;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
@@ -500,13 +500,10 @@ impl<M: Hosted> Job<M> {
             LastFrame::Dump { file, columns } => {
                 let path = self.dir.join(file);
                 let what = path.display().to_string();
-                let particles = self.model.particles(step, false).ok_or_else(|| {
-                    SimError::Internal(format!("model {} has no particles", self.model.info().name))
-                })?;
                 let mut out = AtomicFile::create(&path).map_err(SimError::output(what.clone()))?;
-                write_lammps_frame(out.writer(), &frame(&particles, step), columns)
-                    .and_then(|()| out.commit())
-                    .map_err(SimError::output(what.clone()))?;
+                let format = DumpFormat::Lammps;
+                write_frame(&self.model, step, format, columns, out.writer(), &what)?;
+                out.commit().map_err(SimError::output(what.clone()))?;
                 Ok(what)
             }
             LastFrame::Field { file } => {

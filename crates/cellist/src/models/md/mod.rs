@@ -12,6 +12,7 @@
 
 mod atoms;
 mod cluster_forces;
+mod frame;
 mod integrate;
 mod lattice;
 mod model;
@@ -20,11 +21,11 @@ mod velocity;
 
 pub use atoms::Atoms;
 use atoms::PermuteScratch;
+pub use frame::dump_particles;
 pub use integrate::{Integrator, Langevin};
 pub use lattice::{lattice, LatticeKind};
 pub use model::{
-    blowup_of, checked_atoms, dump_particles, late_note, load_atoms, save_atoms, MdModel, INFO,
-    REMEDY,
+    blowup_of, checked_atoms, late_note, load_atoms, save_atoms, MdModel, INFO, REMEDY,
 };
 pub use subdomain::{ordered_forces, AtomForce};
 
