@@ -116,14 +116,6 @@ pub struct Report<M> {
     pub thermo: Vec<(u64, Vec<f64>)>,
 }
 
-/// The state at the last step that passed the checks and was observed: what a
-/// blow-up restores and writes.
-struct Snapshot {
-    step: u64,
-    state: State,
-    outputs: Vec<(String, u64)>,
-}
-
 /// Reads `path` and checks it against `model` and `physics`: the same model, the
 /// same physics keys (the first difference named), a step within `steps`, and a
 /// state `model` can take. Nothing is written. On success the model holds the
@@ -222,7 +214,7 @@ impl<M: Hosted> Job<M> {
                 o.observe(&self.model, 0, self.steps, &bar)?;
             }
         }
-        let good = snapshot(&self.model, first, &mut observers)?;
+        let good = self.snapshot(first, &mut observers)?;
         Ok(Live {
             count: self.model.len(),
             scenario_steps: self.steps,
@@ -248,7 +240,10 @@ pub struct Live<M: Hosted> {
     count: usize,
     first: u64,
     step: u64,
-    good: Snapshot,
+    /// The state at the last step that passed the checks and was observed
+    /// (with the lengths of the output files then): what a blow-up restores
+    /// and writes.
+    good: Checkpoint,
     loop_time: Duration,
     output_time: Duration,
     bar: ProgressBar,
@@ -339,15 +334,15 @@ impl<M: Hosted> Live<M> {
         model
             .set_array(name, values, threads)
             .map_err(SimError::Input)?;
-        self.good = snapshot(&self.job.model, self.step, &mut self.observers)?;
+        let observers = &mut self.observers;
+        self.job.retake(&mut self.good, self.step, observers)?;
         Ok(())
     }
 
     /// A checkpoint of the current state: the model's state, the physics keys
     /// and the lengths of the growing output files (flushed).
     pub fn checkpoint(&mut self) -> SimResult<Checkpoint> {
-        let now = snapshot(&self.job.model, self.step, &mut self.observers)?;
-        Ok(self.job.checkpoint_of(&now))
+        self.job.snapshot(self.step, &mut self.observers)
     }
 
     /// Completes the observers' files (plots, animations) and reports the run.
@@ -378,27 +373,40 @@ impl<M: Hosted> Live<M> {
     }
 }
 
-/// The state of `model` at `step` with the synced lengths of the observers'
-/// files.
-fn snapshot<M: Model>(
-    model: &M,
-    step: u64,
-    observers: &mut [Box<dyn Observer<M>>],
-) -> SimResult<Snapshot> {
-    let mut outputs = Vec::new();
-    for o in observers.iter_mut() {
-        outputs.extend(o.sync()?);
-    }
-    let mut state = State::default();
-    model.save(&mut state);
-    Ok(Snapshot {
-        step,
-        state,
-        outputs,
-    })
-}
-
 impl<M: Hosted> Job<M> {
+    /// The checkpoint of the model at `step`, with the synced lengths of the
+    /// observers' files.
+    fn snapshot(&self, step: u64, observers: &mut [Box<dyn Observer<M>>]) -> SimResult<Checkpoint> {
+        let mut good = Checkpoint {
+            model: self.model.info().name.to_string(),
+            physics: self.physics.clone(),
+            ..Checkpoint::default()
+        };
+        self.retake(&mut good, step, observers)?;
+        Ok(good)
+    }
+
+    /// Makes `good` the checkpoint of the model at `step`: the observers'
+    /// files are synced first (a failure leaves `good` as it was), then the
+    /// old state is dropped before the new one is saved, so that a large
+    /// state is never held twice.
+    fn retake(
+        &self,
+        good: &mut Checkpoint,
+        step: u64,
+        observers: &mut [Box<dyn Observer<M>>],
+    ) -> SimResult {
+        let mut outputs = Vec::new();
+        for o in observers.iter_mut() {
+            outputs.extend(o.sync()?);
+        }
+        good.outputs = outputs;
+        good.step = step;
+        good.state = State::default();
+        self.model.save(&mut good.state);
+        Ok(())
+    }
+
     /// Runs the observers due at `step`, keeps the state as the last good one if
     /// one fired or a checkpoint is due, and writes the checkpoint.
     fn output(
@@ -408,7 +416,7 @@ impl<M: Hosted> Job<M> {
         checkpoint: bool,
         observers: &mut [Box<dyn Observer<M>>],
         bar: &ProgressBar,
-        good: &mut Snapshot,
+        good: &mut Checkpoint,
     ) -> SimResult {
         let mut fired = false;
         for o in observers.iter_mut().filter(|o| o.due(step, last)) {
@@ -416,7 +424,7 @@ impl<M: Hosted> Job<M> {
             fired = true;
         }
         if fired || checkpoint {
-            *good = snapshot(&self.model, step, observers)?;
+            self.retake(good, step, observers)?;
         }
         if checkpoint && self.ranks.writes_output() {
             let file = self
@@ -430,21 +438,9 @@ impl<M: Hosted> Job<M> {
         Ok(())
     }
 
-    fn write_checkpoint(&self, file: &Path, good: &Snapshot) -> SimResult {
+    fn write_checkpoint(&self, file: &Path, good: &Checkpoint) -> SimResult {
         let path = self.dir.join(file);
-        write_checkpoint(&path, &self.checkpoint_of(good))
-            .map_err(SimError::output(path.display().to_string()))
-    }
-
-    /// The checkpoint of the state `good`.
-    fn checkpoint_of(&self, good: &Snapshot) -> Checkpoint {
-        Checkpoint {
-            model: self.model.info().name.to_string(),
-            step: good.step,
-            physics: self.physics.clone(),
-            outputs: good.outputs.clone(),
-            state: good.state.clone(),
-        }
+        write_checkpoint(&path, good).map_err(SimError::output(path.display().to_string()))
     }
 
     /// Restores the last good state, writes its frame and checkpoint, completes the
@@ -453,7 +449,7 @@ impl<M: Hosted> Job<M> {
     fn blow_up(
         &mut self,
         blowup: Blowup,
-        good: &Snapshot,
+        good: &Checkpoint,
         observers: &mut [Box<dyn Observer<M>>],
         threads: &Threads,
     ) -> SimError {
