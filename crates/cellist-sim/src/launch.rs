@@ -35,6 +35,9 @@ pub struct RunContext<'a> {
     /// Print on standard error rather than standard output (`cellist billiards
     /// run`, whose standard output is the final state).
     pub on_stderr: bool,
+    /// Keep the final particles or field in the [`RunSummary`] (the studies
+    /// compare them); `cellist run` does not, sparing a copy of every particle.
+    pub final_state: bool,
     pub(crate) warnings: RefCell<Vec<String>>,
 }
 
@@ -48,8 +51,15 @@ impl<'a> RunContext<'a> {
             quiet: false,
             build_only: false,
             on_stderr: false,
+            final_state: true,
             warnings: RefCell::new(Vec::new()),
         }
+    }
+
+    /// The same run with no final particles or field in its summary.
+    pub fn without_final_state(mut self) -> Self {
+        self.final_state = false;
+        self
     }
 
     /// The same run stopping once the model is built, quiet: its summary has
@@ -68,6 +78,7 @@ impl<'a> RunContext<'a> {
             quiet: true,
             build_only: self.build_only,
             on_stderr: self.on_stderr,
+            final_state: self.final_state,
             ..RunContext::new(PathBuf::new(), self.restart, self.threads)
         }
     }
@@ -282,7 +293,8 @@ pub(crate) fn begin<M: Hosted + 'static, P: Outputs<M> + ?Sized>(
 }
 
 impl RunSummary {
-    /// What `model` at step `last` reports, and the warnings of `context`; no
+    /// What `model` at step `last` reports (its particles or field if
+    /// `context` keeps the final state), and the warnings of `context`; no
     /// steps, times or thermo rows yet.
     fn of<M: Model>(model: &M, last: u64, context: &RunContext, threads: &Threads) -> Self {
         RunSummary {
@@ -294,8 +306,11 @@ impl RunSummary {
             stages: Vec::new(),
             thermo_columns: model.info().thermo_columns.to_vec(),
             thermo: Vec::new(),
-            particles: model.particles(last, false),
-            field: model.field(),
+            particles: context
+                .final_state
+                .then(|| model.particles(last, false))
+                .flatten(),
+            field: context.final_state.then(|| model.field()).flatten(),
             warnings: context.warnings.take(),
         }
     }

@@ -28,7 +28,8 @@ pub struct RunRequest<'a> {
     pub restart: Option<&'a Path>,
 }
 
-/// Runs a scenario: loads it, builds its model and runs it to the end.
+/// Runs a scenario: loads it, builds its model and runs it to the end (its
+/// summary without the final particles or field).
 pub fn run(request: &RunRequest, threads: &Threads) -> SimResult<RunSummary> {
     let scenario = Scenario::load(request.scenario, request.sets)?;
     let out_dir = request
@@ -37,7 +38,7 @@ pub fn run(request: &RunRequest, threads: &Threads) -> SimResult<RunSummary> {
         .unwrap_or_else(|| Path::new("out").join(&scenario.name));
     run_scenario(
         &scenario,
-        &RunContext::new(out_dir, request.restart, threads),
+        &RunContext::new(out_dir, request.restart, threads).without_final_state(),
     )
 }
 
