@@ -53,9 +53,27 @@ pub fn physics_hash(physics: &[(String, String)]) -> u64 {
     h
 }
 
-fn put_str(out: &mut Vec<u8>, s: &str) {
-    out.extend_from_slice(&(s.len() as u32).to_le_bytes());
-    out.extend_from_slice(s.as_bytes());
+/// A writer that passes bytes on to `inner` and keeps their CRC-32.
+struct Summed<W> {
+    inner: W,
+    crc: crc32fast::Hasher,
+}
+
+impl<W: Write> Write for Summed<W> {
+    fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
+        let n = self.inner.write(buf)?;
+        self.crc.update(&buf[..n]);
+        Ok(n)
+    }
+
+    fn flush(&mut self) -> io::Result<()> {
+        self.inner.flush()
+    }
+}
+
+fn put_str(out: &mut impl Write, s: &str) -> io::Result<()> {
+    out.write_all(&(s.len() as u32).to_le_bytes())?;
+    out.write_all(s.as_bytes())
 }
 
 fn section_crc(name: &str, data: &[u8]) -> u32 {
@@ -67,40 +85,45 @@ fn section_crc(name: &str, data: &[u8]) -> u32 {
 
 /// The bytes of a checkpoint.
 pub fn encode(c: &Checkpoint) -> Vec<u8> {
-    let mut out = Vec::with_capacity(
-        256 + c
-            .state
-            .sections
-            .iter()
-            .map(|s| s.data.len() + 64)
-            .sum::<usize>(),
-    );
-    out.extend_from_slice(MAGIC);
-    out.extend_from_slice(&VERSION.to_le_bytes());
-    out.extend_from_slice(&c.step.to_le_bytes());
-    put_str(&mut out, &c.model);
-    out.extend_from_slice(&physics_hash(&c.physics).to_le_bytes());
-    out.extend_from_slice(&(c.physics.len() as u32).to_le_bytes());
-    for (k, v) in &c.physics {
-        put_str(&mut out, k);
-        put_str(&mut out, v);
-    }
-    out.extend_from_slice(&(c.outputs.len() as u32).to_le_bytes());
-    for (file, length) in &c.outputs {
-        put_str(&mut out, file);
-        out.extend_from_slice(&length.to_le_bytes());
-    }
-    out.extend_from_slice(&(c.state.sections.len() as u32).to_le_bytes());
-    for s in &c.state.sections {
-        put_str(&mut out, &s.name);
-        out.extend_from_slice(&(s.data.len() as u64).to_le_bytes());
-        out.extend_from_slice(&s.data);
-        out.extend_from_slice(&section_crc(&s.name, &s.data).to_le_bytes());
-    }
-    let crc = crc32fast::hash(&out);
-    out.extend_from_slice(&crc.to_le_bytes());
-    out.extend_from_slice(END_MAGIC);
+    let sections: usize = c.state.sections.iter().map(|s| s.data.len() + 64).sum();
+    let mut out = Vec::with_capacity(256 + sections);
+    encode_to(c, &mut out).expect("writing to memory does not fail");
     out
+}
+
+/// Writes the bytes of a checkpoint ([`encode`]) to `out` as they are made,
+/// without a copy of the state's sections in one buffer.
+pub fn encode_to<W: Write>(c: &Checkpoint, out: W) -> io::Result<()> {
+    let mut out = Summed {
+        inner: out,
+        crc: crc32fast::Hasher::new(),
+    };
+    out.write_all(MAGIC)?;
+    out.write_all(&VERSION.to_le_bytes())?;
+    out.write_all(&c.step.to_le_bytes())?;
+    put_str(&mut out, &c.model)?;
+    out.write_all(&physics_hash(&c.physics).to_le_bytes())?;
+    out.write_all(&(c.physics.len() as u32).to_le_bytes())?;
+    for (k, v) in &c.physics {
+        put_str(&mut out, k)?;
+        put_str(&mut out, v)?;
+    }
+    out.write_all(&(c.outputs.len() as u32).to_le_bytes())?;
+    for (file, length) in &c.outputs {
+        put_str(&mut out, file)?;
+        out.write_all(&length.to_le_bytes())?;
+    }
+    out.write_all(&(c.state.sections.len() as u32).to_le_bytes())?;
+    for s in &c.state.sections {
+        put_str(&mut out, &s.name)?;
+        out.write_all(&(s.data.len() as u64).to_le_bytes())?;
+        out.write_all(&s.data)?;
+        out.write_all(&section_crc(&s.name, &s.data).to_le_bytes())?;
+    }
+    let Summed { mut inner, crc } = out;
+    inner.write_all(&crc.finalize().to_le_bytes())?;
+    inner.write_all(END_MAGIC)?;
+    inner.flush()
 }
 
 /// Reads the fields of a checkpoint's body, never past its end.
@@ -274,9 +297,10 @@ pub fn write_checkpoint(path: &Path, c: &Checkpoint) -> io::Result<()> {
         _ => PathBuf::from("."),
     };
     let partial = partial_path(path);
-    let written = std::fs::File::create(&partial).and_then(|mut file| {
-        file.write_all(&encode(c))?;
-        file.sync_all()
+    let written = std::fs::File::create(&partial).and_then(|file| {
+        let mut out = io::BufWriter::with_capacity(1 << 20, file);
+        encode_to(c, &mut out)?;
+        out.into_inner().map_err(|e| e.into_error())?.sync_all()
     });
     if let Err(e) = written {
         // a write cut short (a full disk) leaves nothing behind

@@ -62,18 +62,20 @@ pub fn format_e16(x: f64) -> String {
     format!("{mantissa}e{sign}{:02}", exponent.abs())
 }
 
-/// Writes one frame of a LAMMPS text dump with the given `columns` (names from
-/// [`DUMP_COLUMNS`]), numbers at `%.17g`.
-pub fn write_lammps_frame<W: Write + ?Sized>(
+/// Writes the head of a LAMMPS text dump frame of `count` atoms: the step and
+/// box of `frame`, the count and the `ITEM: ATOMS` line of `columns`. The atom
+/// lines follow, from one frame or several blocks of one
+/// ([`write_lammps_rows`]).
+pub fn write_lammps_head<W: Write + ?Sized>(
     out: &mut W,
     frame: &Frame,
+    count: usize,
     columns: &[String],
 ) -> io::Result<()> {
     writeln!(
         out,
-        "ITEM: TIMESTEP\n{}\nITEM: NUMBER OF ATOMS\n{}",
+        "ITEM: TIMESTEP\n{}\nITEM: NUMBER OF ATOMS\n{count}",
         frame.step,
-        frame.ids.len()
     )?;
     let flags: Vec<&str> = frame
         .periodic
@@ -89,7 +91,16 @@ pub fn write_lammps_frame<W: Write + ?Sized>(
             format_e16(frame.hi[a])
         )?;
     }
-    writeln!(out, "ITEM: ATOMS {}", columns.join(" "))?;
+    writeln!(out, "ITEM: ATOMS {}", columns.join(" "))
+}
+
+/// Writes one line per atom of `frame` with the given `columns` (names from
+/// [`DUMP_COLUMNS`]), numbers at `%.17g`.
+pub fn write_lammps_rows<W: Write + ?Sized>(
+    out: &mut W,
+    frame: &Frame,
+    columns: &[String],
+) -> io::Result<()> {
     let mut line = String::new();
     for k in 0..frame.ids.len() {
         line.clear();
@@ -136,9 +147,17 @@ fn axis(name: &str) -> usize {
     }
 }
 
-/// Writes one frame of extended XYZ (ASE, OVITO): `Lattice`, `Origin`, `pbc`,
-/// `Time`, and the columns species (`X`), id, type, pos, velo, forces.
-pub fn write_xyz_frame<W: Write + ?Sized>(out: &mut W, frame: &Frame, time: f64) -> io::Result<()> {
+/// Writes the two head lines of an extended XYZ frame (ASE, OVITO) of `count`
+/// particles at `time`, with the step and box of `frame`: `Lattice`, `Origin`,
+/// `pbc`, `Time`, `Step` and the columns species (`X`), id, type, pos, velo,
+/// forces. The particle lines follow, from
+/// one frame or several blocks of one ([`write_xyz_rows`]).
+pub fn write_xyz_head<W: Write + ?Sized>(
+    out: &mut W,
+    frame: &Frame,
+    count: usize,
+    time: f64,
+) -> io::Result<()> {
     let l: Vec<f64> = (0..3).map(|a| frame.hi[a] - frame.lo[a]).collect();
     let mut header = String::new();
     let num = |x: f64, s: &mut String| format_g17(x, s);
@@ -169,7 +188,12 @@ pub fn write_xyz_frame<W: Write + ?Sized>(out: &mut W, frame: &Frame, time: f64)
         " Step={} Properties=species:S:1:id:I:1:type:I:1:pos:R:3:velo:R:3:forces:R:3",
         frame.step
     ));
-    writeln!(out, "{}\n{header}", frame.ids.len())?;
+    writeln!(out, "{count}\n{header}")
+}
+
+/// Writes one extended XYZ line per particle of `frame`: species `X`, id, type,
+/// position, velocity, force.
+pub fn write_xyz_rows<W: Write + ?Sized>(out: &mut W, frame: &Frame) -> io::Result<()> {
     let mut line = String::new();
     for k in 0..frame.ids.len() {
         line.clear();
@@ -205,6 +229,29 @@ mod tests {
             masses: Some(&[2.0, 3.0]),
             accelerations: Some(&[[0.5, 0.0, 0.0], [0.0, 0.0, -1.0]]),
             potentials: Some(&[-1.0, -2.5]),
+        }
+    }
+
+    /// A whole LAMMPS frame: its head and its rows.
+    fn write_lammps_frame(out: &mut Vec<u8>, frame: &Frame, columns: &[String]) -> io::Result<()> {
+        write_lammps_head(out, frame, frame.ids.len(), columns)?;
+        write_lammps_rows(out, frame, columns)
+    }
+
+    /// Rows `range` of `frame`, with its step and box.
+    fn block<'a>(frame: &Frame<'a>, range: std::ops::Range<usize>) -> Frame<'a> {
+        let r = range;
+        Frame {
+            ids: &frame.ids[r.clone()],
+            types: &frame.types[r.clone()],
+            positions: &frame.positions[r.clone()],
+            velocities: &frame.velocities[r.clone()],
+            forces: &frame.forces[r.clone()],
+            energies: frame.energies.map(|e| &e[r.clone()]),
+            masses: frame.masses.map(|m| &m[r.clone()]),
+            accelerations: frame.accelerations.map(|a| &a[r.clone()]),
+            potentials: frame.potentials.map(|p| &p[r]),
+            ..*frame
         }
     }
 
@@ -251,9 +298,33 @@ mod tests {
     }
 
     #[test]
+    fn a_frame_written_in_blocks_is_the_whole_frame() {
+        let cols: Vec<String> = DUMP_COLUMNS.iter().map(|s| s.to_string()).collect();
+        let whole = frame(Some(&[-1.5, 2.0]));
+        let mut one = Vec::new();
+        write_lammps_frame(&mut one, &whole, &cols).unwrap();
+        let mut blocks = Vec::new();
+        write_lammps_head(&mut blocks, &block(&whole, 0..1), 2, &cols).unwrap();
+        for r in [0..1, 1..2] {
+            write_lammps_rows(&mut blocks, &block(&whole, r), &cols).unwrap();
+        }
+        assert_eq!(String::from_utf8(blocks), String::from_utf8(one));
+        let mut one = Vec::new();
+        write_xyz_head(&mut one, &whole, 2, 0.5).unwrap();
+        write_xyz_rows(&mut one, &whole).unwrap();
+        let mut blocks = Vec::new();
+        write_xyz_head(&mut blocks, &block(&whole, 0..0), 2, 0.5).unwrap();
+        for r in [0..1, 1..2] {
+            write_xyz_rows(&mut blocks, &block(&whole, r)).unwrap();
+        }
+        assert_eq!(String::from_utf8(blocks), String::from_utf8(one));
+    }
+
+    #[test]
     fn xyz_frame_layout() {
         let mut out = Vec::new();
-        write_xyz_frame(&mut out, &frame(None), 0.05).unwrap();
+        write_xyz_head(&mut out, &frame(None), 2, 0.05).unwrap();
+        write_xyz_rows(&mut out, &frame(None)).unwrap();
         let text = String::from_utf8(out).unwrap();
         let lines: Vec<&str> = text.lines().collect();
         assert_eq!(lines[0], "2");

@@ -34,7 +34,10 @@ pub use body_picture::{body_chart, BodyChart, Plane};
 pub use chart_gif::ChartPalette;
 pub use checkpoint::{read_checkpoint, write_checkpoint, Checkpoint};
 pub use disc_picture::{DiscPainter, GifAnimation};
-pub use dump::{write_lammps_frame, write_xyz_frame, Frame, DUMP_COLUMNS, GRAVITY_DUMP_COLUMNS};
+pub use dump::{
+    write_lammps_head, write_lammps_rows, write_xyz_head, write_xyz_rows, Frame, DUMP_COLUMNS,
+    GRAVITY_DUMP_COLUMNS,
+};
 pub use error::InputError;
 pub use field_chart::{field_chart, palette_rgb, write_chart, FieldChart};
 pub use field_csv::{

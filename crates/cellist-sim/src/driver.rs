@@ -22,14 +22,14 @@
 
 use crate::error::{SimError, SimResult};
 use crate::hosted::Hosted;
-use crate::observers::{frame, write_field_csv, Observer, Recorded};
+use crate::observers::{write_field_csv, write_frame, DumpFormat, Observer, Recorded};
 use crate::ranks::Ranks;
 use crate::scenario::keys::CheckpointKeys;
 use cellist::models::{check, Blowup, Model};
 use cellist::state::State;
 use cellist::Threads;
 use cellist_io::checkpoint::{read_checkpoint, write_checkpoint, Checkpoint};
-use cellist_io::{write_lammps_frame, AtomicFile};
+use cellist_io::AtomicFile;
 use indicatif::ProgressBar;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
@@ -121,14 +121,6 @@ pub struct Timing {
     pub loop_time: Duration,
     /// Wall time of the loop spent in the observers and checkpoints.
     pub output_time: Duration,
-}
-
-/// The state at the last step that passed the checks and was observed: what a
-/// blow-up restores and writes.
-struct Snapshot {
-    step: u64,
-    state: State,
-    outputs: Vec<(String, u64)>,
 }
 
 /// Reads `path` and checks it against `model` and `physics`: the same model, the
@@ -229,7 +221,7 @@ impl<M: Hosted> Job<M> {
                 o.observe(&self.model, 0, self.steps, &bar)?;
             }
         }
-        let good = snapshot(&self.model, first, &mut observers)?;
+        let good = self.snapshot(first, &mut observers)?;
         Ok(Live {
             count: self.model.len(),
             scenario_steps: self.steps,
@@ -255,7 +247,10 @@ pub struct Live<M: Hosted> {
     count: usize,
     first: u64,
     step: u64,
-    good: Snapshot,
+    /// The state at the last step that passed the checks and was observed
+    /// (with the lengths of the output files then): what a blow-up restores
+    /// and writes.
+    good: Checkpoint,
     loop_time: Duration,
     output_time: Duration,
     bar: ProgressBar,
@@ -352,15 +347,15 @@ impl<M: Hosted> Live<M> {
         model
             .set_array(name, values, threads)
             .map_err(SimError::Input)?;
-        self.good = snapshot(&self.job.model, self.step, &mut self.observers)?;
+        let observers = &mut self.observers;
+        self.job.retake(&mut self.good, self.step, observers)?;
         Ok(())
     }
 
     /// A checkpoint of the current state: the model's state, the physics keys
     /// and the lengths of the growing output files (flushed).
     pub fn checkpoint(&mut self) -> SimResult<Checkpoint> {
-        let now = snapshot(&self.job.model, self.step, &mut self.observers)?;
-        Ok(self.job.checkpoint_of(&now))
+        self.job.snapshot(self.step, &mut self.observers)
     }
 
     /// Completes the observers' files (plots, animations) and reports the run.
@@ -389,27 +384,40 @@ impl<M: Hosted> Live<M> {
     }
 }
 
-/// The state of `model` at `step` with the synced lengths of the observers'
-/// files.
-fn snapshot<M: Model>(
-    model: &M,
-    step: u64,
-    observers: &mut [Box<dyn Observer<M>>],
-) -> SimResult<Snapshot> {
-    let mut outputs = Vec::new();
-    for o in observers.iter_mut() {
-        outputs.extend(o.sync()?);
-    }
-    let mut state = State::default();
-    model.save(&mut state);
-    Ok(Snapshot {
-        step,
-        state,
-        outputs,
-    })
-}
-
 impl<M: Hosted> Job<M> {
+    /// The checkpoint of the model at `step`, with the synced lengths of the
+    /// observers' files.
+    fn snapshot(&self, step: u64, observers: &mut [Box<dyn Observer<M>>]) -> SimResult<Checkpoint> {
+        let mut good = Checkpoint {
+            model: self.model.info().name.to_string(),
+            physics: self.physics.clone(),
+            ..Checkpoint::default()
+        };
+        self.retake(&mut good, step, observers)?;
+        Ok(good)
+    }
+
+    /// Makes `good` the checkpoint of the model at `step`: the observers'
+    /// files are synced first (a failure leaves `good` as it was), then the
+    /// old state is dropped before the new one is saved, so that a large
+    /// state is never held twice.
+    fn retake(
+        &self,
+        good: &mut Checkpoint,
+        step: u64,
+        observers: &mut [Box<dyn Observer<M>>],
+    ) -> SimResult {
+        let mut outputs = Vec::new();
+        for o in observers.iter_mut() {
+            outputs.extend(o.sync()?);
+        }
+        good.outputs = outputs;
+        good.step = step;
+        good.state = State::default();
+        self.model.save(&mut good.state);
+        Ok(())
+    }
+
     /// Runs the observers due at `step`, keeps the state as the last good one if
     /// one fired or a checkpoint is due, and writes the checkpoint.
     fn output(
@@ -419,7 +427,7 @@ impl<M: Hosted> Job<M> {
         checkpoint: bool,
         observers: &mut [Box<dyn Observer<M>>],
         bar: &ProgressBar,
-        good: &mut Snapshot,
+        good: &mut Checkpoint,
     ) -> SimResult {
         let mut fired = false;
         for o in observers.iter_mut().filter(|o| o.due(step, last)) {
@@ -427,7 +435,7 @@ impl<M: Hosted> Job<M> {
             fired = true;
         }
         if fired || checkpoint {
-            *good = snapshot(&self.model, step, observers)?;
+            self.retake(good, step, observers)?;
         }
         if checkpoint && self.ranks.writes_output() {
             let file = self
@@ -441,21 +449,9 @@ impl<M: Hosted> Job<M> {
         Ok(())
     }
 
-    fn write_checkpoint(&self, file: &Path, good: &Snapshot) -> SimResult {
+    fn write_checkpoint(&self, file: &Path, good: &Checkpoint) -> SimResult {
         let path = self.dir.join(file);
-        write_checkpoint(&path, &self.checkpoint_of(good))
-            .map_err(SimError::output(path.display().to_string()))
-    }
-
-    /// The checkpoint of the state `good`.
-    fn checkpoint_of(&self, good: &Snapshot) -> Checkpoint {
-        Checkpoint {
-            model: self.model.info().name.to_string(),
-            step: good.step,
-            physics: self.physics.clone(),
-            outputs: good.outputs.clone(),
-            state: good.state.clone(),
-        }
+        write_checkpoint(&path, good).map_err(SimError::output(path.display().to_string()))
     }
 
     /// Restores the last good state, writes its frame and checkpoint, completes the
@@ -464,7 +460,7 @@ impl<M: Hosted> Job<M> {
     fn blow_up(
         &mut self,
         blowup: Blowup,
-        good: &Snapshot,
+        good: &Checkpoint,
         observers: &mut [Box<dyn Observer<M>>],
         threads: &Threads,
     ) -> SimError {
@@ -511,13 +507,10 @@ impl<M: Hosted> Job<M> {
             LastFrame::Dump { file, columns } => {
                 let path = self.dir.join(file);
                 let what = path.display().to_string();
-                let particles = self.model.particles(step, false).ok_or_else(|| {
-                    SimError::Internal(format!("model {} has no particles", self.model.info().name))
-                })?;
                 let mut out = AtomicFile::create(&path).map_err(SimError::output(what.clone()))?;
-                write_lammps_frame(out.writer(), &frame(&particles, step), columns)
-                    .and_then(|()| out.commit())
-                    .map_err(SimError::output(what.clone()))?;
+                let format = DumpFormat::Lammps;
+                write_frame(&self.model, step, format, columns, out.writer(), &what)?;
+                out.commit().map_err(SimError::output(what.clone()))?;
                 Ok(what)
             }
             LastFrame::Field { file } => {

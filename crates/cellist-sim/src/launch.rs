@@ -39,6 +39,9 @@ pub struct RunContext<'a> {
     /// The file the run was read from (a scenario, or a collision-benchmark
     /// input), named in its `summary.json`.
     pub scenario: Option<PathBuf>,
+    /// Keep the final particles or field in the [`RunSummary`] (the studies
+    /// compare them); `cellist run` does not, sparing a copy of every particle.
+    pub final_state: bool,
     pub(crate) warnings: RefCell<Vec<String>>,
 }
 
@@ -53,6 +56,7 @@ impl<'a> RunContext<'a> {
             build_only: false,
             on_stderr: false,
             scenario: None,
+            final_state: true,
             warnings: RefCell::new(Vec::new()),
         }
     }
@@ -60,6 +64,12 @@ impl<'a> RunContext<'a> {
     /// The same run, read from the file `scenario` (if any).
     pub fn read_from(mut self, scenario: Option<&Path>) -> Self {
         self.scenario = scenario.map(Path::to_path_buf);
+        self
+    }
+
+    /// The same run with no final particles or field in its summary.
+    pub fn without_final_state(mut self) -> Self {
+        self.final_state = false;
         self
     }
 
@@ -80,6 +90,7 @@ impl<'a> RunContext<'a> {
             build_only: self.build_only,
             on_stderr: self.on_stderr,
             scenario: self.scenario.clone(),
+            final_state: self.final_state,
             ..RunContext::new(PathBuf::new(), self.restart, self.threads)
         }
     }
@@ -312,7 +323,8 @@ pub(crate) fn begin<M: Hosted + 'static, P: Outputs<M> + ?Sized>(
 }
 
 impl RunSummary {
-    /// What `model` at step `last` reports, and the warnings of `context`; no
+    /// What `model` at step `last` reports (its particles or field if
+    /// `context` keeps the final state), and the warnings of `context`; no
     /// steps, times or thermo rows yet.
     fn of<M: Model>(model: &M, last: u64, context: &RunContext, threads: &Threads) -> Self {
         RunSummary {
@@ -324,8 +336,11 @@ impl RunSummary {
             stages: Vec::new(),
             thermo_columns: model.info().thermo_columns.to_vec(),
             thermo: Vec::new(),
-            particles: model.particles(last, false),
-            field: model.field(),
+            particles: context
+                .final_state
+                .then(|| model.particles(last, false))
+                .flatten(),
+            field: context.final_state.then(|| model.field()).flatten(),
             warnings: context.warnings.take(),
         }
     }

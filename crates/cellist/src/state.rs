@@ -48,21 +48,22 @@ impl State {
 
     /// Adds `values` as their IEEE-754 bit patterns.
     pub fn put_f64s(&mut self, name: &str, values: impl IntoIterator<Item = f64>) {
-        let data = values
-            .into_iter()
-            .flat_map(|v| v.to_bits().to_le_bytes())
-            .collect();
-        self.push(name, data);
+        self.put_u64s(name, values.into_iter().map(f64::to_bits));
     }
 
     /// Adds fixed-size vectors (`[x, y, z]` per particle) component by component.
     pub fn put_vectors<const D: usize>(&mut self, name: &str, values: &[[f64; D]]) {
-        self.put_f64s(name, values.iter().flatten().copied());
+        self.put_f64s(name, values.as_flattened().iter().copied());
     }
 
-    /// Adds unsigned integers.
+    /// Adds unsigned integers (their bytes allocated once when the iterator
+    /// knows its length, not grown by doubling).
     pub fn put_u64s(&mut self, name: &str, values: impl IntoIterator<Item = u64>) {
-        let data = values.into_iter().flat_map(u64::to_le_bytes).collect();
+        let values = values.into_iter();
+        let mut data = Vec::with_capacity(8 * values.size_hint().0);
+        for v in values {
+            data.extend_from_slice(&v.to_le_bytes());
+        }
         self.push(name, data);
     }
 

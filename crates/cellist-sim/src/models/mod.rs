@@ -28,15 +28,18 @@ pub struct RunRequest<'a> {
     pub restart: Option<&'a Path>,
 }
 
-/// Runs a scenario: loads it, builds its model and runs it to the end.
+/// Runs a scenario: loads it, builds its model and runs it to the end (its
+/// summary without the final particles or field).
 pub fn run(request: &RunRequest, threads: &Threads) -> SimResult<RunSummary> {
     let scenario = Scenario::load(request.scenario, request.sets)?;
     let out_dir = request
         .out
         .clone()
         .unwrap_or_else(|| Path::new("out").join(&scenario.name));
-    let context = RunContext::new(out_dir, request.restart, threads);
-    run_scenario(&scenario, &context.read_from(scenario.path.as_deref()))
+    let context = RunContext::new(out_dir, request.restart, threads)
+        .read_from(scenario.path.as_deref())
+        .without_final_state();
+    run_scenario(&scenario, &context)
 }
 
 /// Runs a loaded scenario in `context`.

@@ -3,9 +3,13 @@
 
 use super::observer::{open_stream, sync_one, Observer, Recorded};
 use crate::error::{SimError, SimResult};
-use cellist::models::{Model, Particles};
-use cellist_io::{write_lammps_frame, write_xyz_frame, Frame, StreamFile};
+use cellist::models::{Model, ParticleBlock, Particles};
+use cellist_io::{
+    write_lammps_head, write_lammps_rows, write_xyz_head, write_xyz_rows, Frame, StreamFile,
+};
 use indicatif::ProgressBar;
+use std::io::Write;
+use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
 
 /// The text formats of particle frames.
@@ -48,12 +52,76 @@ impl Dump {
     }
 
     fn energies(&self) -> bool {
-        self.format == DumpFormat::Lammps && self.columns.iter().any(|c| c == "pe")
+        needs_energies(self.format, &self.columns)
+    }
+}
+
+/// True when frames in `format` with `columns` show per-particle energies.
+fn needs_energies(format: DumpFormat, columns: &[String]) -> bool {
+    format == DumpFormat::Lammps && columns.iter().any(|c| c == "pe")
+}
+
+/// Writes the frame of `model` after `step` to `out` in `format` (LAMMPS
+/// dumps with `columns`), a block of rows at a time: what is held besides the
+/// model is one block, not a copy of every particle. An internal error for a
+/// model without particles; an output error naming `name` if a write fails.
+pub fn write_frame<M: Model + ?Sized>(
+    model: &M,
+    step: u64,
+    format: DumpFormat,
+    columns: &[String],
+    out: &mut dyn Write,
+    name: &str,
+) -> SimResult {
+    let time = step as f64 * model.dt();
+    let mut written = Ok(());
+    let mut write = |block: ParticleBlock| {
+        written = write_block(out, block, step, format, columns, time);
+        match written {
+            Ok(()) => ControlFlow::Continue(()),
+            Err(_) => ControlFlow::Break(()),
+        }
+    };
+    let energies = needs_energies(format, columns);
+    if !model.particle_blocks(step, energies, &mut write) {
+        return Err(SimError::Internal(format!(
+            "model {} has no particle columns to dump",
+            model.info().name
+        )));
+    }
+    written.map_err(SimError::output(name.to_string()))
+}
+
+/// Writes one block of the frame after `step` (at `time`): the frame's head
+/// before its first block, then the block's rows.
+fn write_block(
+    out: &mut dyn Write,
+    block: ParticleBlock,
+    step: u64,
+    format: DumpFormat,
+    columns: &[String],
+    time: f64,
+) -> std::io::Result<()> {
+    let rows = frame(block.rows, step);
+    let head = block.first == 0;
+    match format {
+        DumpFormat::Lammps => {
+            if head {
+                write_lammps_head(out, &rows, block.total, columns)?;
+            }
+            write_lammps_rows(out, &rows, columns)
+        }
+        DumpFormat::Xyz => {
+            if head {
+                write_xyz_head(out, &rows, block.total, time)?;
+            }
+            write_xyz_rows(out, &rows)
+        }
     }
 }
 
 /// A dump frame borrowing `p`'s columns.
-pub fn frame(p: &Particles, step: u64) -> Frame<'_> {
+fn frame(p: &Particles, step: u64) -> Frame<'_> {
     Frame {
         step,
         lo: p.lo,
@@ -81,19 +149,8 @@ impl<M: Model> Observer<M> for Dump {
     }
 
     fn observe(&mut self, model: &M, step: u64, _last: u64, _bar: &ProgressBar) -> SimResult {
-        let Some(particles) = model.particles(step, self.energies()) else {
-            return Err(SimError::Internal(format!(
-                "model {} has no particle columns to dump",
-                model.info().name
-            )));
-        };
-        let frame = frame(&particles, step);
-        let w = self.file.writer();
-        match self.format {
-            DumpFormat::Lammps => write_lammps_frame(w, &frame, &self.columns),
-            DumpFormat::Xyz => write_xyz_frame(w, &frame, step as f64 * model.dt()),
-        }
-        .map_err(SimError::output(self.name.clone()))
+        let out = self.file.writer();
+        write_frame(model, step, self.format, &self.columns, out, &self.name)
     }
 
     fn sync(&mut self) -> SimResult<Vec<(String, u64)>> {

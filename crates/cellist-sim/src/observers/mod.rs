@@ -15,7 +15,7 @@ mod plan;
 mod thermo;
 mod trajectories;
 
-pub use dumps::{frame, Dump, DumpFormat, DumpPlan};
+pub use dumps::{write_frame, Dump, DumpFormat, DumpPlan};
 pub use fields::{write_field_csv, ChartLabels, FieldFiles, FieldPlan};
 pub use observer::{open_stream, Every, Observer, Recorded};
 pub use pictures::{

@@ -7,4 +7,6 @@ pub mod model;
 pub mod pse;
 pub mod vortex;
 
-pub use model::{check, Blowup, Checked, CheckedArray, Field, Ids, Model, ModelInfo, Particles};
+pub use model::{
+    check, Blowup, Checked, CheckedArray, Field, Ids, Model, ModelInfo, ParticleBlock, Particles,
+};

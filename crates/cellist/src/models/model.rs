@@ -7,6 +7,7 @@
 use crate::state::{State, StateError};
 use crate::threads::Threads;
 use std::fmt;
+use std::ops::ControlFlow;
 use std::time::Duration;
 
 /// Why a run stopped: a value that is not finite, a particle that left a
@@ -161,6 +162,18 @@ pub struct Particles {
     pub potentials: Option<Vec<f64>>,
 }
 
+/// A block of consecutive rows of a frame's particles
+/// ([`Model::particle_blocks`]).
+#[derive(Clone, Copy, Debug)]
+pub struct ParticleBlock<'a> {
+    /// Particles in the whole frame.
+    pub total: usize,
+    /// The place in the frame of the block's first row (0 for the first block).
+    pub first: usize,
+    /// The block's rows, with the frame's box.
+    pub rows: &'a Particles,
+}
+
 /// A field carried by particles: one value per particle, for field files and
 /// pictures.
 #[derive(Clone, Debug, PartialEq)]
@@ -232,6 +245,28 @@ pub trait Model {
     fn particles(&self, step: u64, energies: bool) -> Option<Particles> {
         let _ = (step, energies);
         None
+    }
+
+    /// The particles of [`Model::particles`] handed to `visit` a block of
+    /// consecutive rows at a time, in order, so that a writer need not hold a
+    /// copy of the whole frame; `visit` returns `Break` to stop. There is at
+    /// least one block (an empty one for no particles). `false` for models
+    /// without particle dumps. By default the whole frame is one block.
+    fn particle_blocks(
+        &self,
+        step: u64,
+        energies: bool,
+        visit: &mut dyn FnMut(ParticleBlock<'_>) -> ControlFlow<()>,
+    ) -> bool {
+        let Some(rows) = self.particles(step, energies) else {
+            return false;
+        };
+        let _ = visit(ParticleBlock {
+            total: rows.ids.len(),
+            first: 0,
+            rows: &rows,
+        });
+        true
     }
 
     /// The field the particles carry, if the model has one.

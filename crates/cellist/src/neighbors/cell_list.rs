@@ -27,6 +27,8 @@ pub struct CellList<const D: usize> {
     order: Vec<u32>,
     positions: Vec<[f64; D]>,
     columns: [Vec<f64>; D],
+    /// False once the columns are released: rebins no longer make them.
+    keeps_columns: bool,
     anchors_by_colour: Vec<Vec<u32>>,
     // scratch, kept so that rebinning does not reallocate the arrays
     cell_ids: Vec<u32>,
@@ -86,6 +88,7 @@ impl<const D: usize> CellList<D> {
             order: Vec::new(),
             positions: Vec::new(),
             columns: std::array::from_fn(|_| Vec::new()),
+            keeps_columns: true,
             cell_ids: Vec::new(),
             counts: Vec::new(),
         };
@@ -150,7 +153,9 @@ impl<const D: usize> CellList<D> {
             self.order.set_len(n);
             self.positions.set_len(n);
         }
-        self.fill_columns(threads);
+        if self.keeps_columns {
+            self.fill_columns(threads);
+        }
     }
 
     /// The positions axis by axis ([`CellList::columns`]).
@@ -201,7 +206,7 @@ impl<const D: usize> CellList<D> {
                 }
             }
         });
-        if self.columns.iter().all(|c| c.len() == self.order.len()) {
+        if self.keeps_columns {
             self.fill_columns(threads);
         }
     }
@@ -256,23 +261,22 @@ impl<const D: usize> CellList<D> {
     /// vectorised distance loops.
     ///
     /// # Panics
-    /// If the columns were released ([`CellList::release_columns`]) and the
-    /// list not rebinned since.
+    /// If the columns were released ([`CellList::release_columns`]).
     pub fn columns(&self) -> &[Vec<f64>; D] {
         assert!(
-            self.columns.iter().all(|c| c.len() == self.order.len()),
-            "the cell list's columns were released: rebin before searching"
+            self.keeps_columns,
+            "the cell list's columns were released: it cannot be searched"
         );
         &self.columns
     }
 
-    /// Frees the per-axis columns until the next [`CellList::rebin`] (or
-    /// [`CellList::rebin_in`]), which
-    /// makes them anew: for a holder that keeps the list between two searches
-    /// only for its order and positions (the md system between two list
-    /// builds), one copy of the positions less in memory.
+    /// Frees the per-axis columns for good (rebins no longer make them): for
+    /// a holder that reads only the list's order and positions (the md
+    /// system), one copy of the positions less in memory, and none made and
+    /// dropped at every rebin.
     pub fn release_columns(&mut self) {
         self.columns = std::array::from_fn(|_| Vec::new());
+        self.keeps_columns = false;
     }
 
     /// Anchor cells by colour, for coloured passes (see [`CellGrid::colour_of`]).

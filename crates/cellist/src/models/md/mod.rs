@@ -13,6 +13,7 @@
 mod atoms;
 mod cluster_forces;
 mod cluster_pairs;
+mod frame;
 mod halo;
 mod integrate;
 mod lattice;
@@ -22,12 +23,12 @@ mod velocity;
 
 pub use atoms::Atoms;
 use atoms::PermuteScratch;
+pub use frame::dump_particles;
 pub use halo::HaloForces;
 pub use integrate::{Integrator, Langevin};
 pub use lattice::{lattice, LatticeKind};
 pub use model::{
-    blowup_of, checked_atoms, dump_particles, late_note, load_atoms, save_atoms, MdModel, INFO,
-    REMEDY,
+    blowup_of, checked_atoms, late_note, load_atoms, save_atoms, MdModel, INFO, REMEDY,
 };
 pub use subdomain::{ordered_forces, AtomForce};
 

@@ -1,10 +1,14 @@
 //! Molecular dynamics behind the driver's [`Model`] interface.
 
+use super::frame::{particle_blocks, sorted_particles};
 use super::{Atoms, Integrator, ListCounts, MdError, MdSystem, StageTimes};
 use crate::geometry::Domain;
-use crate::models::{Blowup, Checked, CheckedArray, Ids, Model, ModelInfo, Particles};
+use crate::models::{
+    Blowup, Checked, CheckedArray, Ids, Model, ModelInfo, ParticleBlock, Particles,
+};
 use crate::state::{State, StateError};
 use crate::threads::Threads;
+use std::ops::ControlFlow;
 use std::time::Duration;
 
 /// An [`MdSystem`] with its integrator and time step: what `cellist run` drives.
@@ -36,10 +40,6 @@ impl<const D: usize> MdModel<D> {
 /// What to try when an md run blows up.
 pub const REMEDY: &str =
     "the forces grew without bound: try a smaller run.dt, or check the initial state for atoms too close together";
-
-fn pad<const D: usize>(v: [f64; D]) -> [f64; 3] {
-    std::array::from_fn(|a| if a < D { v[a] } else { 0.0 })
-}
 
 /// The driver's [`Blowup`] of an md error at `step`: the atom, the quantity
 /// and the remedy.
@@ -177,17 +177,35 @@ impl<const D: usize> Model for MdModel<D> {
     fn particles(&self, _step: u64, energies: bool) -> Option<Particles> {
         let system = &self.system;
         let slots = system.atoms().slots_by_id();
-        let energies = energies.then(|| {
-            let pe = system.per_atom_energy();
-            slots.iter().map(|&k| pe[k]).collect()
-        });
-        let sorted = system.atoms().select(&slots);
-        Some(dump_particles(
-            &sorted,
-            energies,
+        let energies = energies.then(|| system.per_atom_energy());
+        Some(sorted_particles(
+            system.atoms(),
+            &slots,
+            energies.as_deref(),
             system.domain(),
             self.z_bounds,
         ))
+    }
+
+    /// [`MdModel::particles`] a few thousand atoms at a time.
+    fn particle_blocks(
+        &self,
+        _step: u64,
+        energies: bool,
+        visit: &mut dyn FnMut(ParticleBlock<'_>) -> ControlFlow<()>,
+    ) -> bool {
+        let system = &self.system;
+        let slots = system.atoms().slots_by_id();
+        let energies = energies.then(|| system.per_atom_energy());
+        particle_blocks(
+            system.atoms(),
+            &slots,
+            energies.as_deref(),
+            system.domain(),
+            self.z_bounds,
+            visit,
+        );
+        true
     }
 
     fn stage_times(&self) -> Vec<(&'static str, Duration)> {
@@ -229,44 +247,6 @@ pub fn checked_atoms<'a, const D: usize>(atoms: &'a Atoms<D>, domain: &Domain<D>
     Checked {
         walls: domain.walls(),
         ..Checked::new(Ids::U64(&atoms.ids), arrays)
-    }
-}
-
-/// The dump frame of `atoms` (in their order): positions wrapped into
-/// `domain`, vectors padded to 3 components, the z bounds of 2D systems
-/// `z_bounds`, per-atom energies if given.
-pub fn dump_particles<const D: usize>(
-    atoms: &Atoms<D>,
-    energies: Option<Vec<f64>>,
-    domain: &Domain<D>,
-    z_bounds: (f64, f64),
-) -> Particles {
-    let mut lo = [0.0, 0.0, z_bounds.0];
-    let mut hi = [0.0, 0.0, z_bounds.1];
-    let mut periodic = [true; 3];
-    for a in 0..D {
-        lo[a] = domain.lo[a];
-        hi[a] = domain.lo[a] + domain.length[a];
-        periodic[a] = domain.is_periodic(a);
-    }
-    Particles {
-        dimension: D,
-        lo,
-        hi,
-        periodic,
-        ids: atoms.ids.clone(),
-        types: atoms.types.clone(),
-        positions: atoms
-            .positions
-            .iter()
-            .map(|&x| pad(domain.wrap(x)))
-            .collect(),
-        velocities: atoms.velocities.iter().map(|&v| pad(v)).collect(),
-        forces: atoms.forces.iter().map(|&f| pad(f)).collect(),
-        energies,
-        masses: None,
-        accelerations: None,
-        potentials: None,
     }
 }
 
