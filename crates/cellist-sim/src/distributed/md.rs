@@ -457,8 +457,8 @@ impl<const D: usize> DistributedMd<D> {
         self.plan
             .reverse(&self.world, width, &self.reactions, |k, values| {
                 let c = &mut computed[k];
-                for a in 0..D {
-                    c.force[a] += values[a];
+                for (f, v) in c.force.iter_mut().zip(values) {
+                    *f += v;
                 }
                 if energy {
                     c.energy += values[D];
