@@ -7,8 +7,11 @@ use crate::error::{SimError, SimResult};
 use crate::hosted::Hosted;
 use crate::launch::{Launch, RunContext};
 use crate::observers::{DumpFormat, DumpPlan, OutputPlan, PlotSpec, TableStyle};
-use crate::scenario::keys::{choice, CheckpointKeys, SeriesKeys, TrajectoryKeys};
+use crate::scenario::keys::{
+    choice, CheckpointKeys, DecompositionKeys, SeriesKeys, TrajectoryKeys,
+};
 use crate::scenario::Scenario;
+use cellist::decomposition::Balance;
 use cellist::geometry::{Boundary, Domain};
 use cellist::interactions::{LennardJones, PairPotential};
 use cellist::models::md::{
@@ -38,6 +41,8 @@ struct MdScenario {
     run: RunKeys,
     #[serde(default)]
     output: OutputKeys,
+    #[serde(default)]
+    decomposition: DecompositionKeys,
 }
 
 fn three() -> u64 {
@@ -213,6 +218,8 @@ struct Setup<const D: usize> {
     z_bounds: (f64, f64),
     /// `[run] reproducible`.
     reproducible: bool,
+    /// `[decomposition] balance`.
+    balance: Balance,
     notes: Vec<String>,
 }
 
@@ -255,6 +262,7 @@ fn run_in<const D: usize, L: Launch>(
             dt: setup.dt,
             z_bounds: setup.z_bounds,
             reproducible: setup.reproducible,
+            balance: setup.balance,
         };
         let model = DistributedMd::new(world, spec, threads).map_err(|e| scenario.error(e))?;
         print_header(&setup, model.total(), context);
@@ -502,6 +510,7 @@ fn build<const D: usize>(scenario: &Scenario, keys: &MdScenario) -> SimResult<Se
         trajectories: TrajectoryKeys::checked(out.gsd.clone(), out.vtk.clone()).map_err(err)?,
         z_bounds,
         reproducible: run.reproducible,
+        balance: keys.decomposition.balance().map_err(err)?,
         notes,
     })
 }
