@@ -223,8 +223,10 @@ impl<const D: usize> Decomposition<D> {
     /// The decomposition of `ranks` subdomains for particles at `positions`
     /// (every particle, the same on every rank, so that every rank places the
     /// same planes): the grid of [`Decomposition::new`], its planes equal or,
-    /// with [`Balance::Rcb`], [`Decomposition::balanced`] by the particles'
-    /// histogram; refused when the equal subdomains are thinner than `reach`
+    /// with [`Balance::Rcb`] when the equal planes' [`Decomposition::imbalance`]
+    /// exceeds [`REBALANCE_ABOVE`], [`Decomposition::balanced`] by the
+    /// particles' histogram (an even system keeps its equal planes); refused
+    /// when the equal subdomains are thinner than `reach`
     /// ([`Decomposition::check_reach`]).
     pub fn for_particles(
         domain: Domain<D>,
@@ -236,9 +238,22 @@ impl<const D: usize> Decomposition<D> {
         let equal = Decomposition::new(domain, ranks);
         equal.check_reach(reach)?;
         Ok(match balance {
-            Balance::Uniform => equal,
-            Balance::Rcb => equal.balanced(&equal.histogram(positions), reach),
+            Balance::Rcb if equal.imbalance(positions) > REBALANCE_ABOVE => {
+                equal.balanced(&equal.histogram(positions), reach)
+            }
+            _ => equal,
         })
+    }
+
+    /// The largest over mean number of `positions` per rank, each counted
+    /// where it is owned ([`Decomposition::owner`]).
+    pub fn imbalance(&self, positions: &[[f64; D]]) -> f64 {
+        let mut counts = vec![0usize; self.ranks()];
+        for x in positions {
+            counts[self.owner(x)] += 1;
+        }
+        let most = counts.iter().copied().max().unwrap_or(0);
+        most as f64 * self.ranks() as f64 / positions.len().max(1) as f64
     }
 
     /// How many of `positions` lie in each of [`BALANCE_BINS`] equal bins
@@ -537,19 +552,16 @@ mod tests {
         let points = skewed(domain, 60000, 7);
         for ranks in [2, 3, 4, 6] {
             let load = |d: &Decomposition<3>| {
-                let mut counts = vec![0usize; ranks];
                 for x in &points {
-                    let owner = d.owner(x);
                     let inside: Vec<usize> = (0..ranks)
                         .filter(|&r| {
                             let (lo, hi) = d.bounds(r);
                             (0..3).all(|k| x[k] >= lo[k] && x[k] < hi[k])
                         })
                         .collect();
-                    assert_eq!(inside, [owner], "{x:?} on {ranks} ranks");
-                    counts[owner] += 1;
+                    assert_eq!(inside, [d.owner(x)], "{x:?} on {ranks} ranks");
                 }
-                *counts.iter().max().unwrap() as f64 * ranks as f64 / points.len() as f64
+                d.imbalance(&points)
             };
             let equal = Decomposition::new(domain, ranks);
             let balanced =
@@ -596,5 +608,18 @@ mod tests {
         assert!(e.contains("thinner than the cutoff + skin 6.5"), "{e}");
         let uniform = Decomposition::for_particles(domain, 4, Balance::Uniform, &points, 2.5);
         assert_eq!(uniform.unwrap(), Decomposition::new(domain, 4));
+    }
+
+    /// An even system (a square lattice, whose rows the equal planes split
+    /// evenly) keeps its equal planes: they are balanced already.
+    #[test]
+    fn an_even_system_keeps_its_equal_planes() {
+        let domain = Domain::periodic([12.0, 12.0]).unwrap();
+        let lattice: Vec<[f64; 2]> = (0..24 * 24)
+            .map(|k| [0.5 * (k % 24) as f64, 0.5 * (k / 24) as f64])
+            .collect();
+        let d = Decomposition::for_particles(domain, 4, Balance::Rcb, &lattice, 2.5).unwrap();
+        assert_eq!(d, Decomposition::new(domain, 4));
+        assert_eq!(d.imbalance(&lattice), 1.0);
     }
 }

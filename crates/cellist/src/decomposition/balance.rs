@@ -38,7 +38,9 @@ pub(super) fn bin(x: f64, lo: f64, length: f64) -> usize {
 
 /// The `slabs + 1` planes along an axis `[lo, lo + length)` binned as
 /// `counts`: plane `k` where the counts, spread evenly over each bin, reach
-/// `k N / slabs`, then clamped so that every slab is at least `w = reach (1 +
+/// `k N / slabs` (when they reach it at the end of a bin followed by empty
+/// ones, in the middle of the gap, as far from the particles on either side:
+/// a crystal's plane of atoms does not lie next to a cut), then clamped so that every slab is at least `w = reach (1 +
 /// 1e-9)` wide (plane `k` within `[lo + k w, hi - (slabs - k) w]` and at least
 /// `w` above plane `k - 1`): a hair wider than `reach`, so that a particle on
 /// the far face of a clamped slab is beyond reach of the slab's other side.
@@ -71,7 +73,15 @@ pub(super) fn quantile_planes(
             Some(&c) if c > 0 => (share - below as f64) / c as f64,
             _ => 0.0,
         };
-        let plane = (lo + (bin as f64 + within) * width)
+        let at = if within == 1.0 {
+            let next = (bin + 1..counts.len())
+                .find(|&b| counts[b] > 0)
+                .unwrap_or(counts.len());
+            0.5 * (bin + 1 + next) as f64
+        } else {
+            bin as f64 + within
+        };
+        let plane = (lo + at * width)
             .clamp(lo + k as f64 * least, hi - (slabs - k) as f64 * least)
             .max(planes[k - 1] + least);
         planes.push(plane);
@@ -94,6 +104,16 @@ mod tests {
         assert!((planes[1] - 50.0 / 30.0).abs() < 1e-12, "{planes:?}");
         assert!((planes[2] - 100.0 / 30.0).abs() < 1e-12, "{planes:?}");
         assert_eq!((planes[0], planes[3]), (0.0, 10.0));
+    }
+
+    #[test]
+    fn a_share_reached_before_a_gap_puts_the_plane_in_its_middle() {
+        // two layers in bins 1 and 5: the plane halfway between bins 2 and 5
+        let mut counts = vec![0u64; 10];
+        counts[1] = 10;
+        counts[5] = 10;
+        let planes = quantile_planes(&counts, 2, 0.0, 10.0, 0.5).unwrap();
+        assert_eq!(planes, [0.0, 3.5, 10.0]);
     }
 
     #[test]
