@@ -14,7 +14,8 @@
 //! step:  first half (kick + drift)          # own atoms
 //!        check positions        (agreed)    # every rank stops on the same blow-up
 //!        rebuild?  = any rank's atom moved more than skin/2   (all-reduce)
-//!          yes: wrap, migrate to owners, new ghost plan and ids, new rows
+//!          yes: (rcb, imbalance > 1.05: new planes), wrap, migrate to owners,
+//!               new ghost plan and ids, new rows
 //!          no:  send the ghosts' positions along the plan
 //!        forces on own atoms (rows over own + ghosts)
 //!        second half (kick)
@@ -322,7 +323,7 @@ impl<const D: usize> DistributedMd<D> {
             .collect();
         let planes = match self.balance {
             Balance::Uniform => "equal subdomains",
-            Balance::Rcb => "planes balancing the atoms",
+            Balance::Rcb => "planes placed by the atoms past an imbalance of 1.05",
         };
         format!(
             "mpi: {} ranks, the box cut {} ({planes}, the thinnest {} wide), ghosts within \
