@@ -216,9 +216,11 @@ struct Setup<const D: usize> {
     trajectories: TrajectoryKeys,
     /// z bounds written in dumps of 2D systems.
     z_bounds: (f64, f64),
-    /// `[run] reproducible`.
+    /// `[run] reproducible` (read by distributed runs only).
+    #[cfg_attr(not(feature = "mpi"), allow(dead_code))]
     reproducible: bool,
-    /// `[decomposition] balance`.
+    /// `[decomposition] balance` (read by distributed runs only).
+    #[cfg_attr(not(feature = "mpi"), allow(dead_code))]
     balance: Balance,
     notes: Vec<String>,
 }

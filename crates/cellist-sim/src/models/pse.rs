@@ -96,7 +96,8 @@ struct Setup<const D: usize> {
     picture_size: u32,
     checkpoint: Option<CheckpointKeys>,
     trajectories: TrajectoryKeys,
-    /// `[decomposition] balance`.
+    /// `[decomposition] balance` (read by distributed runs only).
+    #[cfg_attr(not(feature = "mpi"), allow(dead_code))]
     balance: Balance,
 }
 
