@@ -322,8 +322,10 @@ impl<const D: usize> DistributedMd<D> {
             .map(|w| format!("{w:.4}"))
             .collect();
         let planes = match self.balance {
-            Balance::Uniform => "equal subdomains",
-            Balance::Rcb => "planes placed by the atoms past an imbalance of 1.05",
+            Balance::Uniform => "equal subdomains".to_string(),
+            Balance::Rcb => {
+                format!("planes placed by the atoms past an imbalance of {REBALANCE_ABOVE}")
+            }
         };
         format!(
             "mpi: {} ranks, the box cut {} ({planes}, the thinnest {} wide), ghosts within \
