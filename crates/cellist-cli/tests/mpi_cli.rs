@@ -2,7 +2,8 @@
 //! not under mpirun: it starts `mpirun` itself). `cellist run` on one rank is
 //! the plain run; md on 2, 3 and 4 ranks gives the dumps of the plain run
 //! within 1e-10 after 100 steps (and with `[run] reproducible = true`, as pse
-//! always, the same bytes on 2, 3 and 4 ranks), a 4-rank
+//! always, the same bytes on 2, 3 and 4 ranks), an uneven md system (a slab
+//! in a third of the box) with balanced planes likewise, a 4-rank
 //! checkpoint continues in one process and on 2 ranks like the uninterrupted
 //! run; md, pse and gravity on 2 ranks write `summary.json` with the MPI
 //! figures; bad input, a thin subdomain, a model not distributed and a blow-up
@@ -122,6 +123,70 @@ checkpoint = { every = 50 }
     )
     .expect("write the scenario");
     path.display().to_string()
+}
+
+/// An uneven md system: an fcc slab of 8 x 8 x 8 cells (2048 atoms) filling
+/// the lower third of a box three times longer along x
+/// (`scripts/lj-slab-data.py`), heated to T = 3 so that it spreads into the
+/// vacuum, with `[decomposition] balance = "rcb"`; written as
+/// `dir/slab/slab.toml` beside its data file, its dump at step 100
+/// `slab.dump`.
+fn slab_scenario(dir: &Path) -> Result<String, String> {
+    let folder = dir.join("slab");
+    std::fs::create_dir_all(&folder).map_err(|e| e.to_string())?;
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scripts/lj-slab-data.py");
+    let data = Command::new("python3")
+        .arg(&script)
+        .args(["--cells", "8", "8", "8", "--stretch", "3"])
+        .output()
+        .map_err(|e| format!("python3 {}: {e}", script.display()))?;
+    if !data.status.success() {
+        return Err(String::from_utf8_lossy(&data.stderr).into_owned());
+    }
+    std::fs::write(folder.join("slab.data"), &data.stdout).map_err(|e| e.to_string())?;
+    let path = folder.join("slab.toml");
+    std::fs::write(
+        &path,
+        r#"model = "md"
+[system]
+read_data = "slab.data"
+velocity = { temperature = 3.0, seed = 87287 }
+[pair]
+cutoff = 2.5
+shift = true
+[run]
+steps = 100
+[decomposition]
+balance = "rcb"
+[output]
+thermo_every = 20
+dump = { every = 100, file = "slab.dump", columns = ["id", "x", "y", "z", "vx", "vy", "vz", "fx", "fy", "fz"] }
+"#,
+    )
+    .map_err(|e| e.to_string())?;
+    Ok(path.display().to_string())
+}
+
+/// The slab of [`slab_scenario`] with balanced planes: on 1 to 4 ranks the
+/// dumps of the plain run within 1e-10, reproducible the same bytes on 2, 3
+/// and 4 ranks, and on 4 ranks the planes were placed again during the run
+/// (the atoms spread out of the balanced subdomains).
+fn balanced_slab(dir: &Path) -> Result<(), String> {
+    let scenario = slab_scenario(dir)?;
+    let folder = dir.join("slab");
+    for same_bytes in [false, true] {
+        distributed_runs_match_the_plain_run(&folder, "md", &scenario, "slab.dump", same_bytes)?;
+    }
+    let out = folder.join("np4-speed");
+    let o = mpirun(4, &["run", &scenario, "--out", out.to_str().unwrap()])?;
+    let said = String::from_utf8_lossy(&o.stdout);
+    if !o.status.success() || !said.contains("planes placed again") {
+        return Err(format!("-np 4 said no `planes placed again`:\n{said}"));
+    }
+    if said.contains("planes placed again 0 times") {
+        return Err(format!("-np 4 never placed its planes again:\n{said}"));
+    }
+    Ok(())
 }
 
 /// A Plummer sphere of 1000 bodies under the direct sum, 100 leapfrog steps,
@@ -461,6 +526,10 @@ fn main() {
         (
             "md, its list rebuilt every 10 steps without the check, on 1 to 4 ranks: the dumps of the plain run within 1e-10",
             every_ten_without_check(dir.path(), &melt),
+        ),
+        (
+            "md, an fcc slab in a third of the box, balanced planes, on 1 to 4 ranks: within 1e-10 of the plain run, reproducible the same bytes on 2, 3 and 4 ranks, the planes placed again on 4",
+            balanced_slab(dir.path()),
         ),
         (
             "pse on 1 to 4 ranks: the fields of the plain run within 1e-10",

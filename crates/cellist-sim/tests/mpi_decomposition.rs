@@ -4,26 +4,36 @@
 //! owners, receives its ghosts, moves them a little and migrates again. Checked
 //! on every rank: it holds exactly the particles its subdomain owns, the total
 //! count is kept, and its ghosts are exactly the images of particles within
-//! reach of its subdomain.
+//! reach of its subdomain. With balanced planes the particles crowd towards
+//! the lower corner and every round places the planes again from the ranks'
+//! summed histograms ([`balance`]) before the particles migrate.
 //!
 //! ```text
 //! cargo test --release -p cellist-sim --features mpi --test mpi_decomposition --no-run
 //! mpirun --allow-run-as-root --oversubscribe -np 4 target/release/deps/mpi_decomposition-<hash>
 //! ```
 
-use cellist::decomposition::{Decomposition, Images};
+use cellist::decomposition::{Balance, Decomposition, Images};
 use cellist::geometry::{Boundary, Domain};
 use cellist::random::Rng;
-use cellist_sim::distributed::{ghosts, migrate, LocalParticles};
+use cellist_sim::distributed::{balance, ghosts, migrate, LocalParticles};
 use mpi::traits::*;
 
 /// The particles every rank makes: id, position, and one more number (a
-/// stand-in for a velocity) that must travel with them.
-fn make<const D: usize>(domain: &Domain<D>, n: usize, seed: u64) -> Vec<(u64, [f64; D], f64)> {
+/// stand-in for a velocity) that must travel with them; uniform, or with
+/// `crowded` each coordinate `lo + u^2 L`.
+fn make<const D: usize>(
+    domain: &Domain<D>,
+    n: usize,
+    seed: u64,
+    crowded: bool,
+) -> Vec<(u64, [f64; D], f64)> {
     let mut rng = Rng::new(seed);
+    let spread = |u: f64| if crowded { u * u } else { u };
     (0..n as u64)
         .map(|id| {
-            let x = std::array::from_fn(|k| domain.lo[k] + rng.uniform() * domain.length[k]);
+            let x =
+                std::array::from_fn(|k| domain.lo[k] + spread(rng.uniform()) * domain.length[k]);
             (id, x, id as f64 * 0.5)
         })
         .collect()
@@ -51,12 +61,13 @@ fn check<C: Communicator, const D: usize>(
     domain: Domain<D>,
     n: usize,
     reach: f64,
+    planes: Balance,
 ) -> Result<(), String> {
     let ranks = world.size() as usize;
     let rank = world.rank() as usize;
-    let decomposition = Decomposition::new(domain, ranks);
+    let mut decomposition = Decomposition::new(domain, ranks);
     decomposition.check_reach(reach)?;
-    let mut all = make(&domain, n, 5 + D as u64);
+    let mut all = make(&domain, n, 5 + D as u64, planes == Balance::Rcb);
     let mut mine = LocalParticles {
         width: D + 1,
         ..LocalParticles::default()
@@ -68,6 +79,11 @@ fn check<C: Communicator, const D: usize>(
         mine.values.push(*extra);
     }
     for round in 0..2 {
+        if planes == Balance::Rcb {
+            let positions: Vec<[f64; D]> = (0..mine.len()).map(|k| mine.position(k)).collect();
+            decomposition = balance(world, &decomposition, &positions, reach);
+            decomposition.check_reach(reach)?;
+        }
         migrate(world, &decomposition, &mut mine);
         // ownership against brute force
         let mut expected = LocalParticles {
@@ -160,18 +176,27 @@ fn main() {
     let periodic3 = Domain::periodic([10.0, 12.0, 9.0]).unwrap();
     let periodic2 = Domain::periodic([11.0, 7.0]).unwrap();
     let mixed = Domain::new([10.0, 10.0], [Boundary::Periodic, Boundary::Open]).unwrap();
+    let (equal, balanced) = (Balance::Uniform, Balance::Rcb);
     let results = [
         (
             "3D periodic, 2000 particles, reach 1.5",
-            check(&world, "3D periodic", periodic3, 2000, 1.5),
+            check(&world, "3D periodic", periodic3, 2000, 1.5, equal),
         ),
         (
             "2D periodic, 1000 particles, reach 1.2",
-            check(&world, "2D periodic", periodic2, 1000, 1.2),
+            check(&world, "2D periodic", periodic2, 1000, 1.2, equal),
         ),
         (
             "2D periodic x open, 800 particles, reach 1.0",
-            check(&world, "2D mixed", mixed, 800, 1.0),
+            check(&world, "2D mixed", mixed, 800, 1.0, equal),
+        ),
+        (
+            "3D periodic, 2000 crowded particles, balanced planes, reach 1.5",
+            check(&world, "3D balanced", periodic3, 2000, 1.5, balanced),
+        ),
+        (
+            "2D periodic x open, 800 crowded particles, balanced planes, reach 1.0",
+            check(&world, "2D mixed balanced", mixed, 800, 1.0, balanced),
         ),
     ];
     let (mut passed, mut failed) = (0, 0);

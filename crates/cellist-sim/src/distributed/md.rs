@@ -14,7 +14,8 @@
 //! step:  first half (kick + drift)          # own atoms
 //!        check positions        (agreed)    # every rank stops on the same blow-up
 //!        rebuild?  = any rank's atom moved more than skin/2   (all-reduce)
-//!          yes: wrap, migrate to owners, new ghost plan and ids, new rows
+//!          yes: (rcb, imbalance > 1.05: new planes), wrap, migrate to owners,
+//!               new ghost plan and ids, new rows
 //!          no:  send the ghosts' positions along the plan
 //!        forces on own atoms (rows over own + ghosts)
 //!        second half (kick)
@@ -29,7 +30,7 @@
 
 use super::{agree, agree_blowup, migrate, GhostPlan, LocalParticles};
 use crate::hosted::{Distribution, Hosted};
-use cellist::decomposition::{Decomposition, Images, Subdomain};
+use cellist::decomposition::{Balance, Decomposition, Images, Subdomain, REBALANCE_ABOVE};
 use cellist::geometry::Domain;
 use cellist::interactions::{LennardJones, PairPotential};
 use cellist::models::md::{
@@ -62,6 +63,9 @@ struct Gathered<const D: usize> {
 pub struct DistributedMd<const D: usize> {
     world: SimpleCommunicator,
     decomposition: Decomposition<D>,
+    balance: Balance,
+    /// How many times the planes were placed again.
+    rebalances: u64,
     potential: LennardJones,
     skin: f64,
     rule: RebuildRule,
@@ -110,6 +114,9 @@ pub struct MdSpec<const D: usize> {
     /// Sum each atom's forces in id order over full rows: the same bits on
     /// any number of ranks, at twice the pair arithmetic.
     pub reproducible: bool,
+    /// How the cut planes are placed (and, with [`Balance::Rcb`], placed
+    /// again at a rebuild when the atoms crowd into some subdomains).
+    pub balance: Balance,
 }
 
 /// How a rank sums the pair forces on its own atoms.
@@ -240,6 +247,7 @@ impl<const D: usize> DistributedMd<D> {
             dt,
             z_bounds,
             reproducible,
+            balance,
         } = spec;
         if atoms.is_empty() {
             return Err("the system has no atoms".into());
@@ -247,8 +255,9 @@ impl<const D: usize> DistributedMd<D> {
         let reach = potential.cutoff() + skin;
         domain.check_cutoff(reach).map_err(|e| e.to_string())?;
         check_positions(&domain, &atoms, 0, threads).map_err(|e| e.to_string())?;
-        let decomposition = Decomposition::new(domain, world.size() as usize);
-        decomposition.check_reach(reach)?;
+        let ranks = world.size() as usize;
+        let decomposition =
+            Decomposition::for_particles(domain, ranks, balance, &atoms.positions, reach)?;
         let rank = world.rank() as usize;
         let total = atoms.len();
         let mine: Vec<usize> = (0..total)
@@ -265,6 +274,8 @@ impl<const D: usize> DistributedMd<D> {
             sums,
             world,
             decomposition,
+            balance,
+            rebalances: 0,
             potential,
             skin,
             rule,
@@ -299,7 +310,8 @@ impl<const D: usize> DistributedMd<D> {
         self.total
     }
 
-    /// One line on the decomposition: ranks, grid, atoms per rank.
+    /// One line on the decomposition: ranks, grid, how the planes are placed,
+    /// the thinnest subdomain.
     pub fn describe(&self) -> String {
         let grid: Vec<String> = self
             .decomposition
@@ -309,12 +321,19 @@ impl<const D: usize> DistributedMd<D> {
             .collect();
         let width: Vec<String> = self
             .decomposition
-            .width()
+            .thinnest()
             .iter()
             .map(|w| format!("{w:.4}"))
             .collect();
+        let planes = match self.balance {
+            Balance::Uniform => "equal subdomains".to_string(),
+            Balance::Rcb => {
+                format!("planes placed by the atoms past an imbalance of {REBALANCE_ABOVE}")
+            }
+        };
         format!(
-            "mpi: {} ranks, the box cut {} (subdomains {} wide), ghosts within cutoff + skin {}",
+            "mpi: {} ranks, the box cut {} ({planes}, the thinnest {} wide), ghosts within \
+             cutoff + skin {}",
             self.world.size(),
             grid.join(" x "),
             width.join(" x "),
@@ -330,6 +349,7 @@ impl<const D: usize> DistributedMd<D> {
     /// and rows; an overlap found on any rank stops every rank.
     fn redistribute(&mut self, threads: &Threads) -> Result<(), Blowup> {
         let t = Instant::now();
+        self.rebalance();
         let mut travelling = self.pack();
         migrate(&self.world, &self.decomposition, &mut travelling);
         self.unpack(&travelling);
@@ -349,10 +369,7 @@ impl<const D: usize> DistributedMd<D> {
         self.points.resize(n + self.ghost_ids.len(), [0.0; D]);
         self.plan
             .positions(&self.world, &self.atoms.positions, &mut self.points[n..]);
-        let mut most = 0u64;
-        self.world
-            .all_reduce_into(&(n as u64), &mut most, SystemOperation::max());
-        self.imbalance_sum += most as f64 * self.world.size() as f64 / self.total as f64;
+        self.imbalance_sum += self.imbalance();
         self.imbalance_count += 1;
         self.ghosts_sum += self.ghost_ids.len() as f64;
         self.communication += t.elapsed();
@@ -381,6 +398,35 @@ impl<const D: usize> DistributedMd<D> {
         self.computed.resize(computed, AtomForce::default());
         self.stale = false;
         Ok(())
+    }
+
+    /// The largest over mean atoms per rank now (all-reduced: the same on
+    /// every rank).
+    fn imbalance(&self) -> f64 {
+        let mut most = 0u64;
+        self.world.all_reduce_into(
+            &(self.atoms.len() as u64),
+            &mut most,
+            SystemOperation::max(),
+        );
+        most as f64 * self.world.size() as f64 / self.total as f64
+    }
+
+    /// With [`Balance::Rcb`], before the atoms migrate at a rebuild: when the
+    /// load imbalance exceeds [`REBALANCE_ABOVE`], places the planes again by
+    /// every rank's atoms ([`super::balance`]). Every rank decides and places
+    /// alike from all-reduced counts.
+    fn rebalance(&mut self) {
+        if self.balance == Balance::Rcb && self.imbalance() > REBALANCE_ABOVE {
+            let reach = self.reach();
+            self.decomposition = super::balance(
+                &self.world,
+                &self.decomposition,
+                &self.atoms.positions,
+                reach,
+            );
+            self.rebalances += 1;
+        }
     }
 
     /// Puts the own atoms in the order of the cells (of side cutoff + skin)
@@ -759,12 +805,13 @@ impl<const D: usize> Hosted for DistributedMd<D> {
         let rebuilds = self.imbalance_count.max(1) as f64;
         let imbalance = self.mean_imbalance();
         let ghosts = self.ghosts_sum / rebuilds;
+        let rebalances = self.rebalances;
         format!(
             "Loop time of {loop_seconds:.4} s on {ranks} ranks x {threads} thread(s) for {steps} \
              steps with {n} atoms: {per:.4} us/atom-step, {} neighbour-list rebuilds{}\n\
              Communication {:.4} s on rank 0 ({:.1}% of the loop; inside the sections below); \
-             load imbalance {imbalance:.3} (largest over mean atoms per rank, mean over the rebuilds); \
-             rank 0 holds {ghosts:.0} ghosts for {} own atoms ({:.0} bytes of positions received per step)",
+             load imbalance {imbalance:.3} (largest over mean atoms per rank, mean over the rebuilds; \
+             planes placed again {rebalances} times); rank 0 holds {ghosts:.0} ghosts for {} own atoms ({:.0} bytes of positions received per step)",
             self.counts.rebuilds,
             late_note(self.counts.late_builds),
             self.communication.as_secs_f64(),

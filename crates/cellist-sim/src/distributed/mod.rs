@@ -11,7 +11,8 @@
 //! For short-range forces, seed 003's domain decomposition: the box cut into
 //! subdomains ([`Decomposition`]), particles moved to the rank that owns their
 //! position ([`migrate`]) and the ghosts within cutoff + skin of each subdomain
-//! sent to it, periodic images included ([`ghosts`]).
+//! sent to it, periodic images included ([`ghosts`]); the cut planes equal or
+//! placed by the particles ([`balance`]).
 //!
 //! What runs distributed, on the driver like every model (rank 0 writes the
 //! outputs): md and pse by domain decomposition ([`md::DistributedMd`],
@@ -257,6 +258,22 @@ pub fn migrate<C: Communicator, const D: usize>(
     staying.ids.extend_from_slice(&arrived.ids);
     staying.values.extend_from_slice(&arrived.values);
     *particles = staying;
+}
+
+/// `decomposition` with its planes placed by the particles of every rank
+/// ([`Decomposition::balanced`]): each rank's histogram of its `positions`,
+/// summed over the ranks (integers: the same sum, and so the same planes, on
+/// every rank, whatever particles each holds and in whatever order).
+pub fn balance<C: Communicator, const D: usize>(
+    world: &C,
+    decomposition: &Decomposition<D>,
+    positions: &[[f64; D]],
+    reach: f64,
+) -> Decomposition<D> {
+    let mine = decomposition.histogram(positions);
+    let mut all = vec![0u64; mine.len()];
+    world.all_reduce_into(&mine[..], &mut all[..], SystemOperation::sum());
+    decomposition.balanced(&all, reach)
 }
 
 /// The ghosts of this rank: every particle of another rank (or a periodic image

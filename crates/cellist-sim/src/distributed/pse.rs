@@ -13,7 +13,7 @@
 
 use super::{agree, agree_blowup, exchange, GhostPlan, LocalParticles};
 use crate::hosted::{Distribution, Hosted};
-use cellist::decomposition::{Decomposition, Images};
+use cellist::decomposition::{Balance, Decomposition, Images};
 use cellist::models::pse::{
     self, advance, ordered_rate, row_weights, Method, PairWeight, PseError, PseModel,
 };
@@ -59,12 +59,14 @@ pub struct DistributedPse<const D: usize> {
 impl<const D: usize> DistributedPse<D> {
     /// This rank's part of `model` (built from the scenario on every rank): the
     /// particles of its subdomain, their ghosts within the cutoff and the fixed
-    /// pair weights of their rows. Only the cell-list method runs distributed;
-    /// a subdomain thinner than the cutoff is refused. Every rank returns the
-    /// same error.
+    /// pair weights of their rows; the planes placed as `balance` says, once
+    /// (the particles do not move). Only the cell-list method runs
+    /// distributed; a subdomain thinner than the cutoff is refused. Every rank
+    /// returns the same error.
     pub fn new(
         world: SimpleCommunicator,
         model: PseModel<D>,
+        balance: Balance,
         threads: &Threads,
     ) -> Result<Self, String> {
         let system = &model.system;
@@ -78,10 +80,11 @@ impl<const D: usize> DistributedPse<D> {
         };
         let cutoff = cutoff_factor * params.epsilon;
         let domain = *system.domain();
-        let decomposition = Decomposition::new(domain, world.size() as usize);
-        decomposition.check_reach(cutoff)?;
-        let rank = world.rank() as usize;
         let positions = system.positions();
+        let ranks = world.size() as usize;
+        let decomposition =
+            Decomposition::for_particles(domain, ranks, balance, &positions, cutoff)?;
+        let rank = world.rank() as usize;
         let field = system.phi();
         let mine: Vec<usize> = (0..positions.len())
             .filter(|&k| decomposition.owner(&positions[k]) == rank)

@@ -5,7 +5,7 @@
 //! checkpoints), with their defaults and checks.
 
 use crate::observers::Every;
-use crate::scenario::keys::CheckpointKeys;
+use crate::scenario::keys::{CheckpointKeys, DecompositionKeys};
 use crate::scenario::keys::{SeriesKeys, TrajectoryKeys};
 use cellist::models::pse::Integrator;
 use serde::Deserialize;
@@ -28,6 +28,9 @@ pub struct FieldScenario<S> {
     /// `[output]`.
     #[serde(default)]
     pub output: FieldOutputKeys,
+    /// `[decomposition]` (pse on several MPI ranks; refused by models that do
+    /// not run by domain decomposition).
+    pub decomposition: Option<DecompositionKeys>,
 }
 
 fn two() -> u64 {

@@ -7,8 +7,11 @@ use crate::error::{SimError, SimResult};
 use crate::hosted::Hosted;
 use crate::launch::{Launch, RunContext};
 use crate::observers::{DumpFormat, DumpPlan, OutputPlan, PlotSpec, TableStyle};
-use crate::scenario::keys::{choice, CheckpointKeys, SeriesKeys, TrajectoryKeys};
+use crate::scenario::keys::{
+    choice, CheckpointKeys, DecompositionKeys, SeriesKeys, TrajectoryKeys,
+};
 use crate::scenario::Scenario;
+use cellist::decomposition::Balance;
 use cellist::geometry::{Boundary, Domain};
 use cellist::interactions::{LennardJones, PairPotential};
 use cellist::models::md::{
@@ -38,6 +41,8 @@ struct MdScenario {
     run: RunKeys,
     #[serde(default)]
     output: OutputKeys,
+    #[serde(default)]
+    decomposition: DecompositionKeys,
 }
 
 fn three() -> u64 {
@@ -211,8 +216,12 @@ struct Setup<const D: usize> {
     trajectories: TrajectoryKeys,
     /// z bounds written in dumps of 2D systems.
     z_bounds: (f64, f64),
-    /// `[run] reproducible`.
+    /// `[run] reproducible` (read by distributed runs only).
+    #[cfg_attr(not(feature = "mpi"), allow(dead_code))]
     reproducible: bool,
+    /// `[decomposition] balance` (read by distributed runs only).
+    #[cfg_attr(not(feature = "mpi"), allow(dead_code))]
+    balance: Balance,
     notes: Vec<String>,
 }
 
@@ -255,6 +264,7 @@ fn run_in<const D: usize, L: Launch>(
             dt: setup.dt,
             z_bounds: setup.z_bounds,
             reproducible: setup.reproducible,
+            balance: setup.balance,
         };
         let model = DistributedMd::new(world, spec, threads).map_err(|e| scenario.error(e))?;
         print_header(&setup, model.total(), context);
@@ -502,6 +512,7 @@ fn build<const D: usize>(scenario: &Scenario, keys: &MdScenario) -> SimResult<Se
         trajectories: TrajectoryKeys::checked(out.gsd.clone(), out.vtk.clone()).map_err(err)?,
         z_bounds,
         reproducible: run.reproducible,
+        balance: keys.decomposition.balance().map_err(err)?,
         notes,
     })
 }

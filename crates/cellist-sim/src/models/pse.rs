@@ -10,6 +10,7 @@ use crate::models::field_output::FieldScenario;
 use crate::observers::{ChartLabels, Every, FieldPlan, OutputPlan, PlotSpec, TableStyle};
 use crate::scenario::keys::{choice, CheckpointKeys, TrajectoryKeys};
 use crate::scenario::Scenario;
+use cellist::decomposition::Balance;
 use cellist::models::pse::{
     lattice, InitialField, Integrator, Method, PseModel, PseParams, PseSystem,
 };
@@ -95,6 +96,9 @@ struct Setup<const D: usize> {
     picture_size: u32,
     checkpoint: Option<CheckpointKeys>,
     trajectories: TrajectoryKeys,
+    /// `[decomposition] balance` (read by distributed runs only).
+    #[cfg_attr(not(feature = "mpi"), allow(dead_code))]
+    balance: Balance,
 }
 
 /// Runs a pse scenario, from the checkpoint `restart` if given.
@@ -227,6 +231,12 @@ fn build<const D: usize>(scenario: &Scenario, keys: &PseScenario) -> SimResult<S
         picture_size: out.picture_size,
         checkpoint: out.checkpoint.clone(),
         trajectories: out.trajectories().map_err(err)?,
+        balance: keys
+            .decomposition
+            .clone()
+            .unwrap_or_default()
+            .balance()
+            .map_err(err)?,
     })
 }
 
@@ -385,8 +395,9 @@ fn run_in<const D: usize, L: Launch>(
     #[cfg(feature = "mpi")]
     if let Some(world) = crate::distributed::world_of_many() {
         let ranks = crate::ranks::Ranks::Spread(mpi::traits::Communicator::duplicate(&world));
-        let model = crate::distributed::pse::DistributedPse::new(world, model, threads)
-            .map_err(|e| scenario.error(e))?;
+        let model =
+            crate::distributed::pse::DistributedPse::new(world, model, setup.balance, threads)
+                .map_err(|e| scenario.error(e))?;
         return launch.launch(spec.with(model).on(ranks), &plan, context, started);
     }
     launch.launch(spec.with(model), &plan, context, started)

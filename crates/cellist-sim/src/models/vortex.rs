@@ -448,6 +448,13 @@ pub fn run<L: Launch>(
     }
     let seeded = seed_particles(scenario, sys)?;
     let velocity = solver(scenario, &sys.velocity, seeded.center)?;
+    if keys.decomposition.is_some() {
+        return Err(err(
+            "[decomposition] applies to md and pse (domain decomposition); the vortex model \
+             runs on several MPI ranks by the ring pass"
+                .into(),
+        ));
+    }
     let run = &keys.run;
     let integrator = run.integrator().map_err(err)?;
     let h = sys.initial.spacing;

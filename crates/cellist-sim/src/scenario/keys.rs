@@ -1,6 +1,7 @@
-//! The scenario keys every model shares: checkpoints and trajectories under
-//! `[output]`, each with its check.
+//! The scenario keys several models share: checkpoints and trajectories under
+//! `[output]`, `[decomposition]`, each with its check.
 
+use cellist::decomposition::Balance;
 use std::path::PathBuf;
 
 /// `[output] checkpoint = { every = K, file = "state.ckpt" }`.
@@ -22,6 +23,36 @@ impl CheckpointKeys {
     /// Refuses `every = 0`.
     pub fn check(&self, key: &str) -> Result<(), String> {
         check_every(self.every, key)
+    }
+}
+
+/// `[decomposition]` of the models that run by domain decomposition on
+/// several MPI ranks (md, pse): `balance = "rcb"` (the default: planes placed
+/// by the particles, never worse than equal ones for an even system) or
+/// `"uniform"` (equal subdomains).
+#[derive(Clone, Debug, serde::Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct DecompositionKeys {
+    /// `"rcb"` or `"uniform"`.
+    pub balance: String,
+}
+
+impl Default for DecompositionKeys {
+    fn default() -> Self {
+        DecompositionKeys {
+            balance: "rcb".into(),
+        }
+    }
+}
+
+impl DecompositionKeys {
+    /// The placement the keys name.
+    pub fn balance(&self) -> Result<Balance, String> {
+        choice(
+            "decomposition.balance",
+            &self.balance,
+            &[("rcb", Balance::Rcb), ("uniform", Balance::Uniform)],
+        )
     }
 }
 
@@ -104,6 +135,22 @@ pub fn choice<T: Copy>(key: &str, name: &str, options: &[(&str, T)]) -> Result<T
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn balance_defaults_to_rcb_and_names_its_options() {
+        assert_eq!(DecompositionKeys::default().balance(), Ok(Balance::Rcb));
+        let named = |name: &str| {
+            DecompositionKeys {
+                balance: name.into(),
+            }
+            .balance()
+        };
+        assert_eq!(named("uniform"), Ok(Balance::Uniform));
+        assert_eq!(
+            named("even"),
+            Err("decomposition.balance 'even' is unknown; expected \"rcb\" or \"uniform\"".into())
+        );
+    }
 
     #[test]
     fn a_choice_is_found_or_the_options_are_named() {

@@ -112,14 +112,17 @@ impl Scenario {
         SimError::Input(format!("{}: {e}", self.origin))
     }
 
-    /// The physics keys: every key but those under `[output]` and `run.steps`, as
+    /// The physics keys: every key but those under `[output]` and
+    /// `[decomposition]` (where the ranks cut the box) and `run.steps`, as
     /// dotted names with their TOML values, sorted by name. A checkpoint records
     /// them; a restart refuses a scenario whose physics keys differ.
     pub fn physics_keys(&self) -> SimResult<Vec<(String, String)>> {
         let table: toml::Table = toml::from_str(&self.text).map_err(|e| self.error(e))?;
         let mut keys = Vec::new();
         flatten("", &table, &mut keys);
-        keys.retain(|(k, _)| !(k.starts_with("output.") || k == "run.steps"));
+        keys.retain(|(k, _)| {
+            !(k.starts_with("output.") || k.starts_with("decomposition.") || k == "run.steps")
+        });
         keys.sort();
         Ok(keys)
     }
@@ -204,8 +207,8 @@ mod tests {
     }
 
     #[test]
-    fn physics_keys_leave_out_the_outputs_and_the_step_count() {
-        let text = "model = \"md\"\n[run]\nsteps = 10\ndt = 0.005\n[system]\nlattice = { kind = \"fcc\", cells = [2, 2, 2] }\n[output]\nthermo_every = 5\n";
+    fn physics_keys_leave_out_the_outputs_the_cuts_and_the_step_count() {
+        let text = "model = \"md\"\n[run]\nsteps = 10\ndt = 0.005\n[system]\nlattice = { kind = \"fcc\", cells = [2, 2, 2] }\n[output]\nthermo_every = 5\n[decomposition]\nbalance = \"uniform\"\n";
         let scenario = Scenario {
             text: text.into(),
             origin: "t".into(),
