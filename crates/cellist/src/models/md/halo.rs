@@ -41,7 +41,7 @@ pub struct HaloForces<const D: usize> {
 impl<const D: usize> HaloForces<D> {
     /// The list of `points` (the `owned` own atoms first, then the ghosts at
     /// their images next to `subdomain`), of reach `cutoff + skin`, binned in
-    /// the cells of [`halo_cells`].
+    /// the cells of `halo_cells`.
     pub fn build(
         subdomain: &Subdomain<D>,
         points: &[[f64; D]],
@@ -138,7 +138,7 @@ impl<const D: usize> HaloForces<D> {
 /// `c = w / k >= reach` inside the subdomain and `m = ceil(reach / c)` more on each
 /// side for the ghosts: the faces between subdomains are faces between cells,
 /// so that no cell (and no cluster) mixes own atoms and ghosts.
-pub fn halo_cells<const D: usize>(
+fn halo_cells<const D: usize>(
     subdomain: &Subdomain<D>,
     owned: usize,
     reach: f64,
@@ -223,7 +223,7 @@ mod tests {
         while points.len() < n {
             let mut x: [f64; D] = std::array::from_fn(|d| rng.uniform() * length[d]);
             if points.len() % 50 == 0 {
-                x[0] = decomposition.width()[0];
+                x[0] = decomposition.bounds(0).1[0];
             }
             // no two atoms closer than 0.8: finite forces
             let close = points

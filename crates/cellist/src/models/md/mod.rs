@@ -1,7 +1,7 @@
 //! Molecular dynamics: atoms with a pair potential, summed once per pair (Newton's
 //! third law) over a half cluster pair list (`4 x 4` atoms at a time,
-//! [`ClusterList`]), in parallel without atomics by cell layers that write the
-//! next layer through a halo ([`LayerPlan`]), and advanced by an [`Integrator`].
+//! [`ClusterList`](crate::neighbors::ClusterList)), in parallel without atomics by cell layers that write the
+//! next layer through a halo ([`LayerPlan`](crate::neighbors::LayerPlan)), and advanced by an [`Integrator`].
 //!
 //! One step (LAMMPS's order, so that trajectories compare with LAMMPS's):
 //! ```text
