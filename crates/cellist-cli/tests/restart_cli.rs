@@ -6,22 +6,9 @@
 
 mod common;
 
-use common::{cellist, files, outputs, run_scenario};
+use common::{cellist, files, ok, outputs, run_scenario, text};
 use std::path::{Path, PathBuf};
 use std::process::Output;
-
-fn text(bytes: &[u8]) -> String {
-    String::from_utf8_lossy(bytes).into_owned()
-}
-
-fn ok(run: &Output) {
-    assert!(
-        run.status.success(),
-        "status {:?}\n{}",
-        run.status.code(),
-        text(&run.stderr)
-    );
-}
 
 /// The two folders hold the same files with the same bytes (but their
 /// `summary.json`, whose times differ).

@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{cellist, run_scenario};
+use common::{cellist, ok, run_scenario, text};
 use serde_json::Value;
 use std::path::Path;
 use std::process::Output;
@@ -29,19 +29,6 @@ const KEYS: [&str; 17] = [
     "imbalance_busy",
     "peak_rss_bytes",
 ];
-
-fn text(bytes: &[u8]) -> String {
-    String::from_utf8_lossy(bytes).into_owned()
-}
-
-fn ok(run: &Output) {
-    assert!(
-        run.status.success(),
-        "status {:?}\n{}",
-        run.status.code(),
-        text(&run.stderr)
-    );
-}
 
 /// `out/summary.json`, its keys checked against the contract.
 fn summary(out: &Path) -> Value {

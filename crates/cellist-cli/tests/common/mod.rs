@@ -84,3 +84,20 @@ pub fn example(name: &str) -> String {
         .display()
         .to_string()
 }
+
+/// Standard output or error as text.
+#[allow(dead_code)]
+pub fn text(bytes: &[u8]) -> String {
+    String::from_utf8_lossy(bytes).into_owned()
+}
+
+/// Asserts that a run succeeded, showing its status and standard error if not.
+#[allow(dead_code)]
+pub fn ok(run: &Output) {
+    assert!(
+        run.status.success(),
+        "status {:?}\n{}",
+        run.status.code(),
+        text(&run.stderr)
+    );
+}
