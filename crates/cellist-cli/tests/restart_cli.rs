@@ -6,7 +6,7 @@
 
 mod common;
 
-use common::{cellist, files, ok, outputs, run_scenario, text};
+use common::{cellist, files, ok, outputs, run_scenario, text, HOT_MELT};
 use std::path::{Path, PathBuf};
 use std::process::Output;
 
@@ -268,12 +268,8 @@ fn bad_checkpoints_are_refused_and_nothing_is_overwritten() {
 
 #[test]
 fn a_blow_up_exits_with_3_and_leaves_its_last_good_frame_and_checkpoint() {
-    // atoms started far too hot for the step: the run blows up within a few steps
-    let scenario = "model = \"md\"\n[system]\nlattice = { kind = \"fcc\", density = 1.2, cells = [4, 4, 4] }\n\
-        velocity = { temperature = 1e6, seed = 5 }\nboundary = [\"p\", \"p\", \"f\"]\n[run]\nsteps = 50\ndt = 0.05\n\
-        [output]\nthermo_every = 1\n";
     let dir = tempfile::tempdir().unwrap();
-    let (out, run) = run_scenario(dir.path(), "hot", scenario, &[]);
+    let (out, run) = run_scenario(dir.path(), "hot", HOT_MELT, &[]);
     assert_eq!(run.status.code(), Some(3), "{}", text(&run.stderr));
     let err = text(&run.stderr);
     assert!(
@@ -302,7 +298,7 @@ fn a_blow_up_exits_with_3_and_leaves_its_last_good_frame_and_checkpoint() {
     let (_, again) = run_scenario(
         dir.path(),
         "hot",
-        scenario,
+        HOT_MELT,
         &["--restart", out.join("last.ckpt").to_str().unwrap()],
     );
     assert_eq!(again.status.code(), Some(3));

@@ -4,10 +4,9 @@
 
 mod common;
 
-use common::{cellist, ok, run_scenario, text};
+use common::{cellist, ok, run_scenario, text, HOT_MELT};
 use serde_json::Value;
 use std::path::Path;
-use std::process::Output;
 
 /// Every key of the contract, in the file's order.
 const KEYS: [&str; 17] = [
@@ -191,12 +190,8 @@ fn a_restart_counts_its_steps_from_the_checkpoint() {
 
 #[test]
 fn a_blow_up_writes_what_was_done_and_says_so() {
-    // atoms started far too hot for the step: the run blows up within a few steps
-    let scenario = "model = \"md\"\n[system]\nlattice = { kind = \"fcc\", density = 1.2, cells = [4, 4, 4] }\n\
-        velocity = { temperature = 1e6, seed = 5 }\nboundary = [\"p\", \"p\", \"f\"]\n[run]\nsteps = 50\ndt = 0.05\n\
-        [output]\nthermo_every = 1\n";
     let dir = tempfile::tempdir().unwrap();
-    let (out, run) = run_scenario(dir.path(), "hot", scenario, &[]);
+    let (out, run) = run_scenario(dir.path(), "hot", HOT_MELT, &[]);
     assert_eq!(run.status.code(), Some(3), "{}", text(&run.stderr));
     let err = text(&run.stderr);
     let step: u64 = err

@@ -101,3 +101,10 @@ pub fn ok(run: &Output) {
         text(&run.stderr)
     );
 }
+
+/// An md scenario whose atoms start far too hot for its step: the run blows
+/// up within a few steps (an atom leaves through the fixed z boundary).
+#[allow(dead_code)]
+pub const HOT_MELT: &str = "model = \"md\"\n[system]\nlattice = { kind = \"fcc\", density = 1.2, cells = [4, 4, 4] }\n\
+    velocity = { temperature = 1e6, seed = 5 }\nboundary = [\"p\", \"p\", \"f\"]\n[run]\nsteps = 50\ndt = 0.05\n\
+    [output]\nthermo_every = 1\n";
