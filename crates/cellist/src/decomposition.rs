@@ -70,16 +70,14 @@ pub enum Images {
     /// Every image within reach of the subdomain, the rank's own particles'
     /// included: for a neighbour search in open space.
     All,
-    /// Only images across the axes the box is cut along: along an uncut
+    /// Only images across the axes the box is cut along (along an uncut
     /// periodic axis the rank sees its particles' images through a periodic
-    /// cell list ([`Decomposition::subdomain`]).
-    AcrossCuts,
-    /// As [`Images::AcrossCuts`], from the neighbours of half of the
-    /// directions only, those whose last nonzero offset (from the receiver)
-    /// is `+1`: of two particles on two ranks, exactly one rank sees the
-    /// other as a ghost, so that each pair across a cut is computed once
-    /// (Newton's third law across ranks; the ghost's force goes back to its
-    /// owner).
+    /// cell list, [`Decomposition::subdomain`]), and from the neighbours of
+    /// half of the directions only, those whose last nonzero offset (from the
+    /// receiver) is `+1`: of two particles on two ranks, exactly one rank
+    /// sees the other as a ghost, so that each pair across a cut is computed
+    /// once (Newton's third law across ranks; the ghost's force goes back to
+    /// its owner).
     HalfShell,
 }
 
@@ -93,7 +91,6 @@ impl Images {
         let lower = o.iter().rev().find(|&&v| v != 0) == Some(&-1);
         match self {
             Images::All => true,
-            Images::AcrossCuts => !across_uncut,
             Images::HalfShell => !across_uncut && lower,
         }
     }
@@ -319,7 +316,7 @@ impl<const D: usize> Decomposition<D> {
     }
 
     /// The part of the box `rank` owns as its halo list sees it
-    /// ([`Images::AcrossCuts`]): `[lo, hi)` along the axes the box is cut
+    /// ([`Images::HalfShell`]): `[lo, hi)` along the axes the box is cut
     /// along (an open face of the box bounds the first and last subdomains),
     /// the whole box along the others.
     pub fn subdomain(&self, rank: usize) -> Subdomain<D> {
@@ -340,9 +337,8 @@ impl<const D: usize> Decomposition<D> {
     /// one, `hi - x <= reach` towards the upper one), with the periodic shift of
     /// its image. On a periodic axis of one or two subdomains a neighbour may be
     /// the rank itself or the same rank twice, each with its own shift; with
-    /// [`Images::AcrossCuts`] no neighbour lies across an uncut axis, with
-    /// [`Images::HalfShell`] only the neighbours below (last nonzero offset
-    /// -1) receive.
+    /// [`Images::HalfShell`] no neighbour lies across an uncut axis, and only
+    /// the neighbours below (last nonzero offset -1) receive.
     pub fn ghosts(
         &self,
         rank: usize,
@@ -457,7 +453,8 @@ mod tests {
     /// Every rank's ghosts, played in one process, against brute force: a rank
     /// receives exactly the images of other ranks' particles (and its own shifted
     /// ones) that lie in the shell of width `reach` around its subdomain; with
-    /// [`Images::AcrossCuts`], none shifted along an uncut axis.
+    /// [`Images::HalfShell`], none shifted along an uncut axis and only those
+    /// above the subdomain along the last axis they lie beyond.
     /// With equal planes and with planes balanced for particles crowded
     /// towards the lower corner of the box.
     fn check_ghosts<const D: usize>(domain: Domain<D>, ranks: usize, reach: f64, n: usize) {
@@ -465,7 +462,7 @@ mod tests {
         let crowded = skewed(domain, 3 * n, ranks as u64);
         let balanced = Decomposition::for_particles(domain, ranks, Balance::Rcb, &crowded, reach);
         for d in [equal, balanced.unwrap()] {
-            for images in [Images::All, Images::AcrossCuts, Images::HalfShell] {
+            for images in [Images::All, Images::HalfShell] {
                 check_ghost_images(&d, reach, n, images);
             }
         }

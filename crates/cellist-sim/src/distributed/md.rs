@@ -2,24 +2,26 @@
 //! atoms of its subdomain, receives ghosts within cutoff + skin of it, and
 //! computes the forces on its own atoms in one of two ways ([`PairSums`]):
 //!
-//! - by default over a half cluster list of its own atoms and ghosts
-//!   ([`HaloForces`]): each pair once on a rank, a pair across a cut once on
-//!   each of its two ranks, the single-process kernel; the result agrees with
-//!   other rank counts to rounding;
+//! - by default over a half cluster list of its own atoms and the ghosts of
+//!   half the directions ([`HaloForces`], [`Images::HalfShell`]): each pair
+//!   once over all ranks, the single-process kernel, the ghosts' reactions
+//!   sent back to their owners ([`GhostPlan::reverse`]); the result agrees
+//!   with other rank counts to rounding;
 //! - with `[run] reproducible = true`, over full neighbour rows in ascending
-//!   id ([`OrderedRows`]): every pair twice, and the same bits on any number
-//!   of ranks and threads.
+//!   id ([`OrderedRows`]) with ghosts of every image: every pair twice, and
+//!   the same bits on any number of ranks and threads.
 //!
 //! ```text
 //! step:  first half (kick + drift)          # own atoms
-//!        check positions        (agreed)    # every rank stops on the same blow-up
-//!        rebuild?  = any rank's atom moved more than skin/2   (all-reduce)
-//!          yes: (rcb, imbalance > 1.05: new planes), wrap, migrate to owners,
-//!               new ghost plan and ids, new rows
-//!          no:  send the ghosts' positions along the plan
-//!        forces on own atoms (rows over own + ghosts)
+//!        check positions; rebuild? = some atom moved more than skin/2
+//!        one all-reduce of both             # every rank stops on the same blow-up
+//!          rebuild: (rcb, imbalance > 1.05: new planes), wrap, migrate to
+//!                   owners, count the atoms (all-reduce), new ghost plan and
+//!                   ids, new list or rows
+//!          else:    send the ghosts' positions along the plan
+//!        forces on own atoms and ghosts; the ghosts' reactions back (default)
 //!        second half (kick)
-//!        count the atoms (all-reduce), check v and f (agreed)
+//!        check v and f (agreed)
 //!        observed step: gather everything on rank 0, sorted by id
 //! ```
 //!

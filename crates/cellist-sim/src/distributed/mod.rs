@@ -46,17 +46,20 @@ pub struct Cluster {
 
 impl Cluster {
     /// Initialises MPI (under `mpirun`, or as a single rank without it); `None`
-    /// if it was initialised before in this process. A panic on any rank then
-    /// prints its message and aborts every rank (`MPI_Abort`), instead of
+    /// if it was initialised before in this process. On several ranks a panic
+    /// on any of them then prints its message and aborts every rank
+    /// (`MPI_Abort`), instead of
     /// leaving the others waiting in an exchange, or itself in `MPI_Finalize`
     /// while it unwinds.
     pub fn start() -> Option<Self> {
         let universe = mpi::initialize()?;
-        let report = std::panic::take_hook();
-        std::panic::set_hook(Box::new(move |info| {
-            report(info);
-            SimpleCommunicator::world().abort(101);
-        }));
+        if universe.world().size() > 1 {
+            let report = std::panic::take_hook();
+            std::panic::set_hook(Box::new(move |info| {
+                report(info);
+                SimpleCommunicator::world().abort(101);
+            }));
+        }
         Some(Cluster { universe })
     }
 

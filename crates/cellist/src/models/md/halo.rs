@@ -14,11 +14,13 @@
 //! A pair of two own atoms is computed once; a pair of an own atom and a ghost
 //! once, on the one rank that holds the ghost, whose reaction (and half energy
 //! and virial) the caller sends back to the ghost's owner (reverse
-//! communication); ghost-ghost pairs are not listed (the cells along a cut
-//! axis end at the subdomain's faces, so no cluster mixes own atoms and
-//! ghosts). The sums run in the list's order, which follows the cells of the
-//! subdomain: the forces agree with a single-process run to rounding, not to
-//! the bit.
+//! communication); ghost-ghost pairs are not computed (whole ghost clusters
+//! get no entry for each other, and the kernel masks the ghost-ghost lanes of
+//! the clusters that mix own atoms and ghosts: the cells along a cut axis end
+//! at the subdomain's faces, so that only atoms on a face, or ghosts of a
+//! diagonal neighbour, make such clusters). The sums run in the list's order,
+//! which follows the cells of the subdomain: the forces agree with a
+//! single-process run to rounding, not to the bit.
 
 use super::cluster_pairs::ClusterPairs;
 use super::AtomForce;
@@ -137,7 +139,8 @@ impl<const D: usize> HaloForces<D> {
 /// along a cut axis of width `w` open with `k = round(w / s)` cells of
 /// `c = w / k >= reach` inside the subdomain and `m = ceil(reach / c)` more on each
 /// side for the ghosts: the faces between subdomains are faces between cells,
-/// so that no cell (and no cluster) mixes own atoms and ghosts.
+/// so that few clusters mix own atoms and ghosts (atoms on a face may round
+/// into the cell beyond it).
 fn halo_cells<const D: usize>(
     subdomain: &Subdomain<D>,
     owned: usize,
@@ -175,10 +178,6 @@ fn halo_cells<const D: usize>(
             domain.boundary[d] = Boundary::Open;
         } else {
             dims[d] = CellGrid::<D>::cells_along(whole.length[d], side);
-            if !whole.is_periodic(d) {
-                domain.lo[d] = lo[d];
-                domain.length[d] = width[d];
-            }
         }
     }
     let least = (0..D)
@@ -191,8 +190,9 @@ fn halo_cells<const D: usize>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::decomposition::{Decomposition, Images};
+    use crate::decomposition::{Balance, Decomposition, Images};
     use crate::geometry::norm2;
+    use crate::geometry::Boundary;
     use crate::neighbors::brute_force_pairs;
     use crate::random::Rng;
 
@@ -201,29 +201,50 @@ mod tests {
     /// reactions, half energies and half virials go back to their owners, and
     /// every atom's force, energy and virial is the brute-force sum over all
     /// pairs (minimum image), for slabs, a 2 x 2 cut (3D) and a 3 x 2 cut (2D),
-    /// on 1 and 2 threads alike. The atoms include some on the faces between
-    /// subdomains (where a cell could take an own atom for a ghost).
+    /// on 1 and 2 threads alike; also with a box open along the cut axis and
+    /// with balanced planes for atoms crowded towards one end. The atoms
+    /// include some on the faces between subdomains (where a cell could take
+    /// an own atom for a ghost).
     #[test]
     fn ranks_with_returned_reactions_give_the_brute_force_sums() {
-        check::<3>([9.0, 8.5, 8.0], 2, 300, 1);
-        check::<3>([9.0, 8.5, 8.0], 3, 300, 2);
-        check::<3>([9.0, 8.5, 8.0], 4, 300, 3);
-        check::<2>([12.0, 9.0], 6, 70, 4);
+        let cube = |l: [f64; 3]| Domain::periodic(l).unwrap();
+        check(cube([9.0, 8.5, 8.0]), 2, 300, 1, Balance::Uniform);
+        check(cube([9.0, 8.5, 8.0]), 3, 300, 2, Balance::Uniform);
+        check(cube([9.0, 8.5, 8.0]), 4, 300, 3, Balance::Uniform);
+        check(
+            Domain::periodic([12.0, 9.0]).unwrap(),
+            6,
+            70,
+            4,
+            Balance::Uniform,
+        );
+        let open_x = [Boundary::Open, Boundary::Periodic, Boundary::Periodic];
+        let open = Domain::new([11.0, 8.5, 8.0], open_x).unwrap();
+        check(open, 3, 300, 5, Balance::Uniform);
+        check(cube([12.0, 8.5, 8.0]), 3, 300, 6, Balance::Rcb);
     }
 
-    fn check<const D: usize>(length: [f64; D], ranks: usize, n: usize, seed: u64) {
-        let domain = Domain::periodic(length).unwrap();
+    fn check<const D: usize>(
+        domain: Domain<D>,
+        ranks: usize,
+        n: usize,
+        seed: u64,
+        balance: Balance,
+    ) {
+        let length = domain.length;
         let lj = LennardJones::new(1.0, 1.0, 1.5, false).unwrap();
         let skin = 0.3;
         let reach = lj.cutoff() + skin;
-        let decomposition = Decomposition::new(domain, ranks);
-        decomposition.check_reach(reach).unwrap();
         let mut rng = Rng::new(seed);
+        // with Rcb, the atoms crowd towards the lower x (u^2 spreads them)
+        let crowd = |u: f64| if balance == Balance::Rcb { u * u } else { u };
         let mut points: Vec<[f64; D]> = Vec::new();
+        let equal = Decomposition::new(domain, ranks);
         while points.len() < n {
             let mut x: [f64; D] = std::array::from_fn(|d| rng.uniform() * length[d]);
-            if points.len() % 50 == 0 {
-                x[0] = decomposition.bounds(0).1[0];
+            x[0] = crowd(x[0] / length[0]) * length[0];
+            if points.len() % 50 == 0 && balance == Balance::Uniform {
+                x[0] = equal.bounds(0).1[0];
             }
             // no two atoms closer than 0.8: finite forces
             let close = points
@@ -232,6 +253,12 @@ mod tests {
             if !close {
                 points.push(x);
             }
+        }
+        let decomposition =
+            Decomposition::for_particles(domain, ranks, balance, &points, reach).unwrap();
+        decomposition.check_reach(reach).unwrap();
+        if balance == Balance::Rcb {
+            assert_ne!(decomposition, equal, "the planes did not move");
         }
         let owner: Vec<usize> = points.iter().map(|x| decomposition.owner(x)).collect();
         let mut got = vec![AtomForce::<D>::default(); n];
