@@ -316,6 +316,8 @@ pub fn ghosts<C: Communicator, const D: usize>(
 pub struct GhostPlan<const D: usize> {
     sends: Vec<Vec<(usize, [f64; D])>>,
     incoming: Vec<usize>,
+    /// Per rank, the particles sent to it (what comes back from it).
+    sent_counts: Vec<usize>,
     buffers: Vec<Vec<f64>>,
     returned: Vec<f64>,
 }
@@ -340,6 +342,7 @@ impl<const D: usize> GhostPlan<D> {
         let mut incoming = vec![0u64; ranks];
         world.all_to_all_into(&counts[..], &mut incoming[..]);
         GhostPlan {
+            sent_counts: sends.iter().map(Vec::len).collect(),
             sends,
             incoming: incoming.iter().map(|&c| c as usize).collect(),
             buffers: vec![Vec::new(); ranks],
@@ -416,11 +419,10 @@ impl<const D: usize> GhostPlan<D> {
             buffer.extend_from_slice(&ghosts[at..at + width * count]);
             at += width * count;
         }
-        let returning: Vec<usize> = self.sends.iter().map(Vec::len).collect();
         let mut back = std::mem::take(&mut self.returned);
         back.clear();
         back.resize(width * self.sent(), 0.0);
-        swap_blocks(world, &self.buffers, &returning, width, &mut back);
+        swap_blocks(world, &self.buffers, &self.sent_counts, width, &mut back);
         let indices = self.sends.iter().flatten().map(|&(k, _)| k);
         for (k, values) in indices.zip(back.chunks_exact(width)) {
             add(k, values);

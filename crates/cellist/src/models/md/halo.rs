@@ -38,6 +38,10 @@ pub struct HaloForces<const D: usize> {
     skin: f64,
     owned: usize,
     reference: Vec<[f64; D]>,
+    /// Per slot, the half energies and virials of an observed step (kept, so
+    /// that a step allocates nothing).
+    energies: Vec<f64>,
+    virials: Vec<f64>,
 }
 
 impl<const D: usize> HaloForces<D> {
@@ -63,6 +67,8 @@ impl<const D: usize> HaloForces<D> {
             skin,
             owned,
             reference: points[..owned].to_vec(),
+            energies: Vec::new(),
+            virials: Vec::new(),
         })
     }
 
@@ -105,12 +111,13 @@ impl<const D: usize> HaloForces<D> {
             });
         if energy {
             let n = points.len();
-            let (mut energies, mut virials) = (vec![0.0; n], vec![0.0; n]);
+            self.energies.resize(n, 0.0);
+            self.virials.resize(n, 0.0);
             self.pairs
-                .half_pair_sums(&self.potential, &mut energies, &mut virials);
-            for (slot, &k) in self.order().iter().enumerate() {
+                .half_pair_sums(&self.potential, &mut self.energies, &mut self.virials);
+            for (slot, &k) in self.pairs.cells.order().iter().enumerate() {
                 let o = &mut out[k as usize];
-                (o.energy, o.virial) = (energies[slot], virials[slot]);
+                (o.energy, o.virial) = (self.energies[slot], self.virials[slot]);
             }
         }
     }
