@@ -435,8 +435,36 @@ fn blowup_stops_every_rank(dir: &Path) -> Result<(), String> {
             "expected one `error: ... last good state ...` line:\n{err}"
         ));
     }
-    if !out.join("last.lammpstrj").exists() {
-        return Err("no last.lammpstrj".into());
+    // the last good state, put together from the 4 ranks' parts, is the
+    // plain run's: its frame within 1e-10, its checkpoint the same size
+    let alone = dir.join("blowup-plain");
+    let o = Command::new(env!("CARGO_BIN_EXE_cellist"))
+        .args(["run", &scenario, "--set", "run.dt=0.5", "--out"])
+        .arg(&alone)
+        .output()
+        .map_err(|e| e.to_string())?;
+    if o.status.success() {
+        return Err("the plain run with dt = 0.5 did not blow up".into());
+    }
+    let d = dump_difference(&alone.join("last.lammpstrj"), &out.join("last.lammpstrj"))?;
+    if d > 1e-10 {
+        return Err(format!(
+            "the last frame differs from the plain run's by {d:e}"
+        ));
+    }
+    let size = |p: PathBuf| {
+        std::fs::metadata(&p)
+            .map(|m| m.len())
+            .map_err(|e| format!("{}: {e}", p.display()))
+    };
+    let (a, b) = (
+        size(alone.join("state.ckpt"))?,
+        size(out.join("state.ckpt"))?,
+    );
+    if a != b {
+        return Err(format!(
+            "last.ckpt has {b} bytes on 4 ranks, {a} in one process"
+        ));
     }
     let summary = std::fs::read_to_string(out.join("summary.json")).map_err(|e| e.to_string())?;
     if !summary.contains("\"outcome\": \"blow-up\"") || !summary.contains("\"ranks\": 4") {

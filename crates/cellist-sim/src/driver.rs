@@ -31,6 +31,7 @@ use cellist::Threads;
 use cellist_io::checkpoint::{read_checkpoint, write_checkpoint, Checkpoint};
 use cellist_io::AtomicFile;
 use indicatif::ProgressBar;
+use std::borrow::Cow;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
@@ -216,12 +217,17 @@ impl<M: Hosted> Job<M> {
         bar: ProgressBar,
     ) -> SimResult<Live<M>> {
         let first = restored.map_or(0, |c| c.step);
-        if restored.is_none() {
-            for o in observers.iter_mut().filter(|o| o.due(0, self.steps)) {
-                o.observe(&self.model, 0, self.steps, &bar)?;
-            }
-        }
-        let good = self.snapshot(first, &mut observers)?;
+        let outputs = if restored.is_none() {
+            observers
+                .iter_mut()
+                .filter(|o| o.due(0, self.steps))
+                .try_for_each(|o| o.observe(&self.model, 0, self.steps, &bar))
+        } else {
+            Ok(())
+        };
+        let good = outputs.and_then(|()| self.snapshot(first, &mut observers));
+        self.model.serve_outputs();
+        let good = good?;
         Ok(Live {
             count: self.model.len(),
             scenario_steps: self.steps,
@@ -332,6 +338,7 @@ impl<M: Hosted> Live<M> {
             self.step = step;
             let t = Instant::now();
             let written = job.output(step, last, checkpoint, observers, &self.bar, &mut self.good);
+            job.model.serve_outputs();
             agreed(&job.ranks, written)?;
             self.output_time += t.elapsed();
             self.bar.inc(1);
@@ -434,7 +441,7 @@ impl<M: Hosted> Job<M> {
             o.observe(&self.model, step, last, bar)?;
             fired = true;
         }
-        if fired || checkpoint {
+        if fired || checkpoint || self.model.observed_everywhere() {
             self.retake(good, step, observers)?;
         }
         if checkpoint && self.ranks.writes_output() {
@@ -449,9 +456,24 @@ impl<M: Hosted> Job<M> {
         Ok(())
     }
 
+    /// Writes `good` to `file`, with the state the model puts in files
+    /// ([`Hosted::file_state`]: `good`'s, or a spread model's global one).
     fn write_checkpoint(&self, file: &Path, good: &Checkpoint) -> SimResult {
         let path = self.dir.join(file);
-        write_checkpoint(&path, good).map_err(SimError::output(path.display().to_string()))
+        let written = match self.model.file_state(&good.state) {
+            Cow::Borrowed(_) => write_checkpoint(&path, good),
+            Cow::Owned(state) => write_checkpoint(
+                &path,
+                &Checkpoint {
+                    model: good.model.clone(),
+                    step: good.step,
+                    physics: good.physics.clone(),
+                    outputs: good.outputs.clone(),
+                    state,
+                },
+            ),
+        };
+        written.map_err(SimError::output(path.display().to_string()))
     }
 
     /// Restores the last good state, writes its frame and checkpoint, completes the
@@ -471,6 +493,12 @@ impl<M: Hosted> Job<M> {
         }
         let mut written = Vec::new();
         if !self.ranks.writes_output() {
+            // a spread model's ranks restore their parts and serve rank 0's
+            // last frame and checkpoint
+            if self.ranks.observe_when_due() {
+                let _ = self.model.restore(&good.state, threads);
+                self.model.serve_outputs();
+            }
             return SimError::BlowUp(format!("{blowup}"));
         }
         match self.model.restore(&good.state, threads) {
@@ -490,6 +518,7 @@ impl<M: Hosted> Job<M> {
             }
             Err(e) => eprintln!("warning: the last good state could not be restored: {e}"),
         }
+        self.model.serve_outputs();
         let place = if written.is_empty() {
             "could not be written".to_string()
         } else {

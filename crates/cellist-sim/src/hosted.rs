@@ -5,7 +5,9 @@
 //! models under `distributed/`) implements it for its model.
 
 use cellist::models::Model;
+use cellist::state::State;
 use cellist::Threads;
+use std::borrow::Cow;
 use std::time::Duration;
 
 /// What one rank of a distributed run measures of the distribution: the
@@ -34,6 +36,32 @@ pub trait Hosted: Model {
     /// [`Ranks`](crate::ranks::Ranks)').
     fn distribution(&self) -> Option<Distribution> {
         None
+    }
+
+    /// On a rank of a model spread over MPI ranks, after each step that any
+    /// rank observed (and after a restore): rank 0, whose outputs pull the
+    /// particles from every rank, tells the others that its outputs are
+    /// written; the other ranks serve its pulls until then. Every rank calls
+    /// it at the same points of the run. Nothing for a model held in one
+    /// process or whole on every rank.
+    fn serve_outputs(&self) {}
+
+    /// On a model spread over MPI ranks: true after a step that any rank
+    /// observed (and after a restore). Every rank then keeps its own part of
+    /// the state as the last good one ([`Model::save`]), at the same steps,
+    /// so that no rank holds the whole state. False for a model held in one
+    /// process or whole on every rank.
+    fn observed_everywhere(&self) -> bool {
+        false
+    }
+
+    /// The state a checkpoint file holds, given `saved`, the state this
+    /// model has just saved or restored: `saved` itself, except for a model
+    /// spread over ranks, whose rank 0 puts together the global state of
+    /// every rank's part (the other ranks serving it,
+    /// [`Hosted::serve_outputs`]).
+    fn file_state<'a>(&self, saved: &'a State) -> Cow<'a, State> {
+        Cow::Borrowed(saved)
     }
 
     /// Replaces the per-particle array `name` ("positions", "velocities") by

@@ -34,6 +34,40 @@ impl fmt::Display for StateError {
 
 impl std::error::Error for StateError {}
 
+/// A section's numbers added a block at a time, in the layout of
+/// [`State::put_u64s`], [`State::put_f64s`] and [`State::put_vectors`]: the
+/// same bytes as one call with all of them.
+#[derive(Clone, Debug, Default)]
+pub struct SectionBuilder {
+    data: Vec<u8>,
+}
+
+impl SectionBuilder {
+    /// An empty section with room for `values` numbers.
+    pub fn with_capacity(values: usize) -> Self {
+        SectionBuilder {
+            data: Vec::with_capacity(8 * values),
+        }
+    }
+
+    /// Appends unsigned integers.
+    pub fn push_u64s(&mut self, values: impl IntoIterator<Item = u64>) {
+        for v in values {
+            self.data.extend_from_slice(&v.to_le_bytes());
+        }
+    }
+
+    /// Appends floats as their IEEE-754 bit patterns.
+    pub fn push_f64s(&mut self, values: impl IntoIterator<Item = f64>) {
+        self.push_u64s(values.into_iter().map(f64::to_bits));
+    }
+
+    /// Appends fixed-size vectors component by component.
+    pub fn push_vectors<const D: usize>(&mut self, values: &[[f64; D]]) {
+        self.push_f64s(values.as_flattened().iter().copied());
+    }
+}
+
 impl State {
     fn push(&mut self, name: &str, data: Vec<u8>) {
         debug_assert!(
@@ -60,11 +94,14 @@ impl State {
     /// knows its length, not grown by doubling).
     pub fn put_u64s(&mut self, name: &str, values: impl IntoIterator<Item = u64>) {
         let values = values.into_iter();
-        let mut data = Vec::with_capacity(8 * values.size_hint().0);
-        for v in values {
-            data.extend_from_slice(&v.to_le_bytes());
-        }
-        self.push(name, data);
+        let mut section = SectionBuilder::with_capacity(values.size_hint().0);
+        section.push_u64s(values);
+        self.put_section(name, section);
+    }
+
+    /// Adds a section built a piece at a time.
+    pub fn put_section(&mut self, name: &str, section: SectionBuilder) {
+        self.push(name, section.data);
     }
 
     /// The bytes of section `name`, whose size must be a multiple of `width`.

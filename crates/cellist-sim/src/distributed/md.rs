@@ -22,14 +22,17 @@
 //!        forces on own atoms and ghosts; the ghosts' reactions back (default)
 //!        second half (kick)
 //!        check v and f (agreed)
-//!        observed step: gather everything on rank 0, sorted by id
+//!        observed step: the own atoms' order by id, for rank 0's pulls
 //! ```
 //!
-//! Rank 0 writes every output from the gathered state (thermo summed in id
-//! order, dumps, checkpoints of the global state); the other ranks write
-//! nothing. The speed line adds the communication time of rank 0 and the load
+//! Rank 0 writes every output, pulling the atoms from every rank a block of
+//! ids at a time in id order ([`super::pull`]) while the other ranks serve
+//! its asks ([`Hosted::serve_outputs`]): thermo summed in id order, dumps
+//! and the global state for checkpoints, the same bytes as one process
+//! would write, without the whole state on one rank. The speed line adds the communication time of rank 0 and the load
 //! imbalance (largest over mean atoms per rank, averaged over the rebuilds).
 
+use super::pull::{self, IdSpan, OwnRows as _};
 use super::{agree, agree_blowup, migrate, GhostPlan, LocalParticles};
 use crate::hosted::{Distribution, Hosted};
 use cellist::decomposition::{Balance, Decomposition, Images, Subdomain, REBALANCE_ABOVE};
@@ -38,27 +41,28 @@ use cellist::interactions::{LennardJones, PairPotential};
 use cellist::models::md::{
     blowup_of, check_positions, checked_atoms, dump_particles, lap, late_note, load_atoms,
     ordered_forces, save_atoms, AtomForce, Atoms, HaloForces, Integrator, ListCounts, MdError,
-    PairTally, StageTimes, Thermo, REMEDY,
+    SavedAtoms, StageTimes, ThermoSums, REMEDY,
 };
-use cellist::models::{check, md, Blowup, Checked, Model, ModelInfo, Particles};
+use cellist::models::{check, md, Blowup, Checked, Model, ModelInfo, ParticleBlock, Particles};
 use cellist::neighbors::{CellGrid, OrderedRows, Rebuild, RebuildRule};
 use cellist::state::{State, StateError};
 use cellist::Threads;
 use mpi::collective::SystemOperation;
 use mpi::topology::SimpleCommunicator;
 use mpi::traits::*;
+use std::borrow::Cow;
+use std::ops::ControlFlow;
 use std::time::{Duration, Instant};
 
-/// The global state on rank 0 after an observed step: every atom, sorted by
-/// id, with its half pair energy and half virial and its position at the last
-/// rebuild.
+/// Atoms sorted by id with their half pair energies and half virials and
+/// their positions at the last rebuild: a block of the global state pulled by
+/// rank 0.
 #[derive(Clone, Debug, Default)]
 struct Gathered<const D: usize> {
     atoms: Atoms<D>,
     energies: Vec<f64>,
     virials: Vec<f64>,
     reference: Vec<[f64; D]>,
-    energies_valid: bool,
 }
 
 /// The md model of one rank of a distributed run.
@@ -83,7 +87,19 @@ pub struct DistributedMd<const D: usize> {
     /// The ghosts' reactions on their way back (the half list).
     reactions: Vec<f64>,
     computed: Vec<AtomForce<D>>,
-    gathered: Option<Gathered<D>>,
+    /// Any rank observed the last step: rank 0 pulls its outputs.
+    observed: bool,
+    /// The own atoms' slots in ascending id, and their ids (observed steps).
+    by_id: Vec<usize>,
+    ids_in_order: Vec<u64>,
+    /// The ids over all ranks.
+    span: IdSpan,
+    /// After a restore, until the next rebuild: the own atoms' positions at
+    /// the last rebuild (the list is not built yet).
+    restored_reference: Option<Vec<[f64; D]>>,
+    /// False after a restore until the next observed step: the atoms carry
+    /// no energies.
+    energies_valid: bool,
     /// Set by a restore: the next step rebuilds whatever the skin test says.
     stale: bool,
     counts: ListCounts,
@@ -99,7 +115,8 @@ pub struct DistributedMd<const D: usize> {
 pub struct MdSpec<const D: usize> {
     /// The box.
     pub domain: Domain<D>,
-    /// Every atom (the same on every rank).
+    /// This rank's share of the atoms: each atom on exactly one rank
+    /// ([`share_at_set_up`]), moved to its owner by the model.
     pub atoms: Atoms<D>,
     /// The pair potential.
     pub potential: LennardJones,
@@ -228,9 +245,12 @@ impl<const D: usize> PairSums<D> {
 }
 
 impl<const D: usize> DistributedMd<D> {
-    /// The model of this rank: the atoms of `spec` (every atom, the same on
-    /// every rank) kept where this rank owns them, ghosts exchanged, forces,
-    /// energies and virials evaluated and gathered on rank 0. Every rank
+    /// The model of this rank: the atoms of `spec` (this rank's share)
+    /// moved to the ranks that own them, ghosts exchanged, forces, energies
+    /// and virials evaluated. The planes are equal, or with [`Balance::Rcb`]
+    /// placed by every rank's atoms when equal planes would leave an
+    /// imbalance above [`REBALANCE_ABOVE`] (the planes
+    /// [`Decomposition::for_particles`] places for all of them). Every rank
     /// returns the same error for a box too small for the cutoff, a subdomain
     /// thinner than cutoff + skin, an atom outside a non-periodic box or two
     /// atoms at one position.
@@ -251,21 +271,30 @@ impl<const D: usize> DistributedMd<D> {
             reproducible,
             balance,
         } = spec;
-        if atoms.is_empty() {
+        let mut total = 0u64;
+        world.all_reduce_into(&(atoms.len() as u64), &mut total, SystemOperation::sum());
+        let total = total as usize;
+        if total == 0 {
             return Err("the system has no atoms".into());
         }
         let reach = potential.cutoff() + skin;
         domain.check_cutoff(reach).map_err(|e| e.to_string())?;
-        check_positions(&domain, &atoms, 0, threads).map_err(|e| e.to_string())?;
+        let misplaced = check_positions(&domain, &atoms, 0, threads)
+            .err()
+            .map(|e| e.to_string());
+        if let Some(what) = agree(&world, misplaced) {
+            return Err(what);
+        }
         let ranks = world.size() as usize;
-        let decomposition =
-            Decomposition::for_particles(domain, ranks, balance, &atoms.positions, reach)?;
-        let rank = world.rank() as usize;
-        let total = atoms.len();
-        let mine: Vec<usize> = (0..total)
-            .filter(|&k| decomposition.owner(&atoms.positions[k]) == rank)
-            .collect();
-        let owned = atoms.select(&mine);
+        let equal = Decomposition::new(domain, ranks);
+        equal.check_reach(reach)?;
+        let decomposition = match balance {
+            Balance::Rcb if imbalance_of(&world, &equal, &atoms, total) > REBALANCE_ABOVE => {
+                super::balance(&world, &equal, &atoms.positions, reach)
+            }
+            _ => equal,
+        };
+        let owned = atoms;
         let sums = if reproducible {
             PairSums::Ordered(OrderedRows::default())
         } else {
@@ -290,7 +319,16 @@ impl<const D: usize> DistributedMd<D> {
             points: Vec::new(),
             reactions: Vec::new(),
             computed: Vec::new(),
-            gathered: None,
+            observed: false,
+            by_id: Vec::new(),
+            ids_in_order: Vec::new(),
+            span: IdSpan {
+                first: 0,
+                last: 0,
+                count: total,
+            },
+            restored_reference: None,
+            energies_valid: true,
             stale: false,
             counts: ListCounts::default(),
             times: StageTimes::default(),
@@ -299,11 +337,17 @@ impl<const D: usize> DistributedMd<D> {
             imbalance_count: 0,
             ghosts_sum: 0.0,
         };
+        // the atoms to the owners of the planes just placed, so that the
+        // rebuild's imbalance test sees them there
+        let mut travelling = model.pack();
+        migrate(&model.world, &model.decomposition, &mut travelling);
+        model.unpack(&travelling);
         model
             .redistribute(threads)
             .map_err(|e| e.what.to_string())?;
+        model.span = IdSpan::of(&model.world, &model.atoms.ids);
         model.forces(true, threads);
-        model.gather();
+        model.observe();
         Ok(model)
     }
 
@@ -399,6 +443,7 @@ impl<const D: usize> DistributedMd<D> {
         };
         self.computed.resize(computed, AtomForce::default());
         self.stale = false;
+        self.restored_reference = None;
         Ok(())
     }
 
@@ -516,65 +561,37 @@ impl<const D: usize> DistributedMd<D> {
         self.communication += t.elapsed();
     }
 
-    /// Every atom on rank 0, sorted by id, with its half energy, half virial
-    /// and position at the last rebuild after the columns of [`Self::pack`]
-    /// (the other ranks keep nothing).
-    fn gather(&mut self) {
-        let t = Instant::now();
-        let own = self.pack();
-        let width = own.width + 2 + D;
-        let mut values = Vec::with_capacity(own.len() * width);
-        for k in 0..own.len() {
-            values.extend_from_slice(&own.values[k * own.width..(k + 1) * own.width]);
-            values.extend([self.computed[k].energy, self.computed[k].virial]);
-            values.extend_from_slice(&self.sums.reference()[k]);
-        }
-        let mut outgoing = vec![
-            LocalParticles {
-                width,
-                ..LocalParticles::default()
-            };
-            self.world.size() as usize
-        ];
-        outgoing[0] = LocalParticles {
-            ids: own.ids,
-            values,
-            width,
-        };
-        let all = super::exchange(&self.world, &outgoing, width);
-        self.communication += t.elapsed();
-        if self.world.rank() != 0 {
-            self.gathered = None;
-            return;
-        }
-        let mut order: Vec<usize> = (0..all.len()).collect();
-        order.sort_unstable_by_key(|&k| all.ids[k]);
-        let sorted = LocalParticles {
-            ids: order.iter().map(|&k| all.ids[k]).collect(),
-            values: order
-                .iter()
-                .flat_map(|&k| all.values[k * width..(k + 1) * width].iter().copied())
-                .collect(),
-            width,
-        };
-        let base = 3 * D + 2;
-        let row = |k: usize| &sorted.values[k * width..(k + 1) * width];
-        self.gathered = Some(Gathered {
-            atoms: atoms_of(&sorted),
-            energies: (0..sorted.len()).map(|k| row(k)[base]).collect(),
-            virials: (0..sorted.len()).map(|k| row(k)[base + 1]).collect(),
-            reference: (0..sorted.len())
-                .map(|k| std::array::from_fn(|d| row(k)[base + 2 + d]))
-                .collect(),
-            energies_valid: true,
-        });
+    /// After an observed step: the own atoms' order by id, for the rows
+    /// rank 0 pulls ([`Hosted::serve_outputs`], [`Self::blocks`]).
+    fn observe(&mut self) {
+        self.observed = true;
+        self.energies_valid = true;
+        self.observe_order();
     }
 
-    /// The gathered state (rank 0, after an observed step).
-    fn global(&self) -> &Gathered<D> {
-        self.gathered
-            .as_ref()
-            .expect("the global state is gathered on rank 0 at every observed step")
+    /// The own atoms' slots in ascending id, and their ids.
+    fn observe_order(&mut self) {
+        let ids = &self.atoms.ids;
+        self.by_id.clear();
+        self.by_id.extend(0..ids.len());
+        self.by_id.sort_unstable_by_key(|&k| ids[k]);
+        self.ids_in_order.clear();
+        self.ids_in_order.extend(self.by_id.iter().map(|&k| ids[k]));
+    }
+
+    /// On rank 0 after an observed step or a restore: the global state a
+    /// block at a time in id order, pulled from every rank (the other ranks in
+    /// [`Hosted::serve_outputs`]) and handed to `visit` until it returns false.
+    fn blocks(&self, mut visit: impl FnMut(&Gathered<D>) -> bool) {
+        let rows = OwnRows(self);
+        pull::pull(&self.world, self.span, &rows, |ids, values| {
+            let block = LocalParticles {
+                ids: ids.to_vec(),
+                values: values.to_vec(),
+                width: rows.width(),
+            };
+            visit(&gathered_of(&block))
+        });
     }
 
     /// The time of the MPI exchanges and all-reduces of this rank.
@@ -611,6 +628,81 @@ fn atoms_of<const D: usize>(p: &LocalParticles) -> Atoms<D> {
     }
 }
 
+/// Which atoms a rank takes at set-up, before they move to their owners:
+/// those that equal subdomains of `domain` would give it (generated or kept
+/// by this rank alone, so that no rank holds every atom).
+pub fn share_at_set_up<const D: usize>(
+    world: &SimpleCommunicator,
+    domain: Domain<D>,
+) -> impl Fn(&[f64; D]) -> bool {
+    let equal = Decomposition::new(domain, world.size() as usize);
+    let rank = world.rank() as usize;
+    move |x| equal.owner(x) == rank
+}
+
+/// The largest over mean atoms per subdomain of `decomposition` over every
+/// rank's `atoms` (collective; integer counts: the same on every rank and
+/// the same as [`Decomposition::imbalance`] of all positions).
+fn imbalance_of<const D: usize>(
+    world: &SimpleCommunicator,
+    decomposition: &Decomposition<D>,
+    atoms: &Atoms<D>,
+    total: usize,
+) -> f64 {
+    let mut mine = vec![0u64; decomposition.ranks()];
+    for x in &atoms.positions {
+        mine[decomposition.owner(x)] += 1;
+    }
+    let mut all = vec![0u64; mine.len()];
+    world.all_reduce_into(&mine[..], &mut all[..], SystemOperation::sum());
+    let most = all.iter().copied().max().unwrap_or(0);
+    most as f64 * decomposition.ranks() as f64 / total.max(1) as f64
+}
+
+/// The rows of [`OwnRows`] as a block of the global state.
+fn gathered_of<const D: usize>(rows: &LocalParticles) -> Gathered<D> {
+    let base = 3 * D + 2;
+    let width = rows.width;
+    let row = |k: usize| &rows.values[k * width..(k + 1) * width];
+    Gathered {
+        atoms: atoms_of(rows),
+        energies: (0..rows.len()).map(|k| row(k)[base]).collect(),
+        virials: (0..rows.len()).map(|k| row(k)[base + 1]).collect(),
+        reference: (0..rows.len())
+            .map(|k| std::array::from_fn(|d| row(k)[base + 2 + d]))
+            .collect(),
+    }
+}
+
+/// A rank's own atoms as the rows rank 0 pulls for its outputs: the columns
+/// of [`DistributedMd::pack`], then the half energy, the half virial and the
+/// position at the last rebuild.
+struct OwnRows<'a, const D: usize>(&'a DistributedMd<D>);
+
+impl<const D: usize> pull::OwnRows for OwnRows<'_, D> {
+    fn width(&self) -> usize {
+        4 * D + 4
+    }
+
+    fn rows(&self, a: u64, b: u64, ids: &mut Vec<u64>, values: &mut Vec<f64>) {
+        let m = self.0;
+        let sorted = &m.ids_in_order;
+        let range = sorted.partition_point(|&id| id < a)..sorted.partition_point(|&id| id < b);
+        ids.clear();
+        values.clear();
+        let (atoms, reference) = (&m.atoms, m.reference());
+        for &k in &m.by_id[range] {
+            ids.push(atoms.ids[k]);
+            values.extend_from_slice(&atoms.positions[k]);
+            values.extend_from_slice(&atoms.velocities[k]);
+            values.extend_from_slice(&atoms.forces[k]);
+            values.extend([atoms.masses[k], atoms.types[k] as f64]);
+            values.extend([m.computed[k].energy, m.computed[k].virial]);
+            values.extend_from_slice(&reference[k]);
+        }
+    }
+}
+
 /// What a distributed md model is: md's, with an atom count per rank that
 /// changes as atoms migrate.
 const INFO: ModelInfo = ModelInfo {
@@ -619,9 +711,10 @@ const INFO: ModelInfo = ModelInfo {
 };
 
 impl<const D: usize> DistributedMd<D> {
-    /// Advances to `step` on every rank; the atoms are gathered on rank 0 when
-    /// any rank `observe`s.
+    /// Advances to `step` on every rank; when any rank `observe`s, the own
+    /// atoms are put in id order for rank 0's pulls.
     fn advance(&mut self, step: u64, observe: bool, threads: &Threads) -> Result<(), Blowup> {
+        self.observed = false;
         let t = Instant::now();
         self.integrator
             .first_half(&mut self.atoms, self.dt, threads);
@@ -671,7 +764,7 @@ impl<const D: usize> DistributedMd<D> {
         let local = check(self, step, 0).err();
         self.agree_blowup(step, local)?;
         if observe {
-            self.gather();
+            self.observe();
         }
         Ok(())
     }
@@ -726,14 +819,15 @@ impl<const D: usize> Model for DistributedMd<D> {
         self.advance(step, true, threads)
     }
 
-    /// Summed on rank 0 over the gathered atoms in id order.
+    /// Summed on rank 0 over every rank's atoms in id order, a block at a
+    /// time.
     fn thermo(&self, _step: u64) -> Vec<f64> {
-        let g = self.global();
-        let totals = PairTally {
-            energy: g.energies.iter().sum(),
-            virial: g.virials.iter().sum(),
-        };
-        let th = Thermo::of(&g.atoms, totals, self.decomposition.domain.volume());
+        let mut sums = ThermoSums::default();
+        self.blocks(|g| {
+            sums.add(&g.atoms, &g.energies, &g.virials);
+            true
+        });
+        let th = sums.thermo::<D>(self.decomposition.domain.volume());
         vec![th.temp, th.pe, th.ke, th.etotal, th.press]
     }
 
@@ -741,61 +835,110 @@ impl<const D: usize> Model for DistributedMd<D> {
         checked_atoms(&self.atoms, &self.decomposition.domain)
     }
 
-    /// On rank 0 the gathered atoms (sorted by id, positions wrapped); `None`
-    /// on the other ranks.
-    fn particles(&self, _step: u64, energies: bool) -> Option<Particles> {
-        let g = self.gathered.as_ref()?;
-        let energies = (energies && g.energies_valid).then(|| g.energies.clone());
-        Some(dump_particles(
-            &g.atoms,
-            energies,
-            &self.decomposition.domain,
-            self.z_bounds,
-        ))
+    /// On rank 0 every atom (sorted by id, positions wrapped), pulled from
+    /// every rank; `None` on the other ranks.
+    fn particles(&self, step: u64, energies: bool) -> Option<Particles> {
+        let mut all: Option<Particles> = None;
+        let whole = self.particle_blocks(step, energies, &mut |block| {
+            match &mut all {
+                None => all = Some(block.rows.clone()),
+                Some(all) => all.append(block.rows),
+            }
+            ControlFlow::Continue(())
+        });
+        whole.then(|| all.unwrap_or_default())
+    }
+
+    /// On rank 0 the atoms sorted by id a block at a time, pulled from every
+    /// rank; false on the other ranks.
+    fn particle_blocks(
+        &self,
+        _step: u64,
+        energies: bool,
+        visit: &mut dyn FnMut(ParticleBlock<'_>) -> ControlFlow<()>,
+    ) -> bool {
+        if self.world.rank() != 0 {
+            return false;
+        }
+        let mut first = 0;
+        let total = self.total;
+        self.blocks(|g| {
+            let energies = (energies && self.energies_valid).then(|| g.energies.clone());
+            let rows = dump_particles(
+                &g.atoms,
+                energies,
+                &self.decomposition.domain,
+                self.z_bounds,
+            );
+            let go_on = visit(ParticleBlock {
+                total,
+                first,
+                rows: &rows,
+            })
+            .is_continue();
+            first += g.atoms.len();
+            go_on
+        });
+        true
     }
 
     fn stage_times(&self) -> Vec<(&'static str, Duration)> {
         self.times.stages()
     }
 
-    /// On rank 0 the global state sorted by id, in the single-process layout
-    /// (a distributed checkpoint restarts in one process or on any number of
-    /// ranks); nothing on the other ranks.
+    /// This rank's part of the state: its own atoms in the layout of
+    /// [`save_atoms`], marked with the rank and the rank count (every rank
+    /// saves at the same steps; a checkpoint file holds the global state,
+    /// [`Hosted::file_state`]).
     fn save(&self, state: &mut State) {
-        if let Some(g) = &self.gathered {
-            save_atoms(state, &g.atoms, &g.reference, self.counts);
-        }
+        save_atoms(state, &self.atoms, self.reference(), self.counts);
+        state.put_u64s(PART, [self.world.rank() as u64, self.world.size() as u64]);
     }
 
-    /// Takes the atoms this rank owns from a global state (of any number of
-    /// ranks, or of one process); the next step migrates and rebuilds. Not
-    /// collective: a rank that fails returns its error alone.
+    /// Takes the atoms this rank owns: from its own part of the state
+    /// ([`Model::save`] of this rank), or from a global state (a checkpoint
+    /// file of any number of ranks, or of one process). The next step
+    /// migrates and rebuilds. Not collective: a rank that fails returns its
+    /// error alone.
     fn restore(&mut self, state: &State, _threads: &Threads) -> Result<(), StateError> {
-        let n = self.total;
-        let (all, reference, counts) = load_atoms::<D>(state, n)?;
-        if all.positions.iter().flatten().any(|c| !c.is_finite()) {
+        self.observed = true;
+        let (rank, ranks) = (self.world.rank() as u64, self.world.size() as u64);
+        let (atoms, reference, counts) = if state.has(PART) {
+            let part = state.u64s_of(PART, 2)?;
+            if part != [rank, ranks] {
+                return Err(StateError(format!(
+                    "the state is rank {} of {}'s part, not rank {rank} of {ranks}'s",
+                    part[0], part[1]
+                )));
+            }
+            let n = state.u64s("ids")?.len();
+            load_atoms::<D>(state, n)?
+        } else {
+            let (all, reference, counts) = load_atoms::<D>(state, self.total)?;
+            let mine: Vec<usize> = (0..all.len())
+                .filter(|&k| self.decomposition.owner(&all.positions[k]) == rank as usize)
+                .collect();
+            let reference = mine.iter().map(|&k| reference[k]).collect();
+            (all.select(&mine), reference, counts)
+        };
+        if atoms.positions.iter().flatten().any(|c| !c.is_finite()) {
             return Err(StateError("a saved position is not finite".into()));
         }
-        let rank = self.world.rank() as usize;
-        let mine: Vec<usize> = (0..n)
-            .filter(|&k| self.decomposition.owner(&all.positions[k]) == rank)
-            .collect();
-        self.atoms = all.select(&mine);
+        self.computed.clear();
+        self.computed.resize(atoms.len(), AtomForce::default());
+        self.atoms = atoms;
+        self.restored_reference = Some(reference);
         self.counts = counts;
         self.stale = true;
-        self.gathered = (rank == 0).then(|| {
-            let by_id = all.slots_by_id();
-            Gathered {
-                atoms: all.select(&by_id),
-                reference: by_id.iter().map(|&k| reference[k]).collect(),
-                energies: vec![0.0; n],
-                virials: vec![0.0; n],
-                energies_valid: false,
-            }
-        });
+        self.energies_valid = false;
+        self.observe_order();
         Ok(())
     }
 }
+
+/// The section that marks one rank's part of a distributed md state:
+/// `[rank, ranks]`.
+const PART: &str = "rank_part";
 
 impl<const D: usize> Hosted for DistributedMd<D> {
     /// Microseconds per atom-step over the ranks, the communication, the load
@@ -823,6 +966,43 @@ impl<const D: usize> Hosted for DistributedMd<D> {
         )
     }
 
+    /// After an observed step (or a restore): on rank 0, tells the other
+    /// ranks that its outputs are written; on the others, serves rank 0's
+    /// pulls of their atoms until then.
+    fn serve_outputs(&self) {
+        if !self.observed_everywhere() {
+            return;
+        }
+        if self.world.rank() == 0 {
+            pull::release(&self.world);
+        } else {
+            pull::serve(&self.world, &OwnRows(self));
+        }
+    }
+
+    /// True after a step that any rank observed, and after a restore.
+    fn observed_everywhere(&self) -> bool {
+        self.observed
+    }
+
+    /// On rank 0 the global state sorted by id in the single-process layout
+    /// ([`save_atoms`]), pulled from every rank's current atoms (the state
+    /// just saved or restored); a distributed checkpoint restarts in one
+    /// process or on any number of ranks. The other ranks' `saved`.
+    fn file_state<'a>(&self, saved: &'a State) -> Cow<'a, State> {
+        if self.world.rank() != 0 {
+            return Cow::Borrowed(saved);
+        }
+        let mut global = SavedAtoms::with_capacity(self.total);
+        self.blocks(|g| {
+            global.push(&g.atoms, &g.reference);
+            true
+        });
+        let mut state = State::default();
+        global.finish(&mut state, self.counts);
+        Cow::Owned(state)
+    }
+
     /// This rank's communication time, the mean load imbalance and the atom
     /// count.
     fn distribution(&self) -> Option<Distribution> {
@@ -835,6 +1015,13 @@ impl<const D: usize> Hosted for DistributedMd<D> {
 }
 
 impl<const D: usize> DistributedMd<D> {
+    /// The own atoms' positions at the last rebuild (or as restored).
+    fn reference(&self) -> &[[f64; D]] {
+        self.restored_reference
+            .as_deref()
+            .unwrap_or_else(|| self.sums.reference())
+    }
+
     /// Largest over mean atoms per rank, mean over the rebuilds.
     fn mean_imbalance(&self) -> f64 {
         self.imbalance_sum / self.imbalance_count.max(1) as f64

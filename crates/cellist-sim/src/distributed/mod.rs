@@ -24,6 +24,7 @@
 
 pub mod md;
 pub mod pse;
+pub mod pull;
 pub mod replicated;
 pub mod ring;
 

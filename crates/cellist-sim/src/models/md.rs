@@ -15,8 +15,8 @@ use cellist::decomposition::Balance;
 use cellist::geometry::{Boundary, Domain};
 use cellist::interactions::{LennardJones, PairPotential};
 use cellist::models::md::{
-    create_velocities, late_note, lattice, Atoms, Integrator, Langevin, LatticeKind, MdModel,
-    MdSystem, VelocityDistribution,
+    late_note, Atoms, Integrator, Langevin, Lattice, LatticeKind, MdModel, MdSystem,
+    VelocityDistribution, VelocityScaling,
 };
 use cellist::models::Model;
 use cellist::neighbors::RebuildRule;
@@ -198,10 +198,67 @@ struct XyzKeys {
     file: PathBuf,
 }
 
+/// Where the atoms of a run come from.
+enum Source<const D: usize> {
+    /// A filled lattice of atoms of one mass, made where they are kept.
+    Lattice(Lattice<D>, f64),
+    /// The atoms of a data file.
+    Atoms(Atoms<D>),
+}
+
+/// The atoms a run starts from, made where they are needed: all of them in
+/// one process, a rank's share on several ([`Initial::atoms_where`]).
+struct Initial<const D: usize> {
+    source: Source<D>,
+    /// `system.velocity`: temperature, seed, distribution.
+    velocities: Option<(f64, u64, VelocityDistribution)>,
+}
+
+impl<const D: usize> Initial<D> {
+    /// The atoms whose initial position `keep` accepts, in id order, with
+    /// the velocities of `system.velocity` created over every atom
+    /// ([`VelocityScaling`]: the same velocities whoever keeps which atom).
+    fn atoms_where(self, keep: impl Fn(&[f64; D]) -> bool) -> Atoms<D> {
+        let (mut atoms, scaling) = match self.source {
+            Source::Atoms(atoms) => {
+                let scaling = self.velocities.map(|(t, seed, dist)| {
+                    let every = || atoms.ids.iter().copied().zip(atoms.masses.iter().copied());
+                    VelocityScaling::over(every, t, seed, dist)
+                });
+                let kept: Vec<usize> = (0..atoms.len())
+                    .filter(|&k| keep(&atoms.positions[k]))
+                    .collect();
+                let atoms = if kept.len() == atoms.len() {
+                    atoms
+                } else {
+                    atoms.select(&kept)
+                };
+                (atoms, scaling)
+            }
+            Source::Lattice(lattice, mass) => {
+                let scaling = self.velocities.map(|(t, seed, dist)| {
+                    let every = || (1..=lattice.len() as u64).map(|id| (id, mass));
+                    VelocityScaling::over(every, t, seed, dist)
+                });
+                let (ids, points): (Vec<u64>, Vec<[f64; D]>) =
+                    (1..).zip(lattice.points()).filter(|(_, x)| keep(x)).unzip();
+                let mut atoms = Atoms::at_rest(points, mass);
+                atoms.ids = ids;
+                (atoms, scaling)
+            }
+        };
+        if let Some(scaling) = scaling {
+            for (v, &id) in atoms.velocities.iter_mut().zip(&atoms.ids) {
+                *v = scaling.velocity(id);
+            }
+        }
+        atoms
+    }
+}
+
 /// Everything a run needs, checked.
 struct Setup<const D: usize> {
     domain: Domain<D>,
-    atoms: Atoms<D>,
     potential: LennardJones,
     skin: f64,
     rebuild: RebuildRule,
@@ -247,16 +304,15 @@ fn run_in<const D: usize, L: Launch>(
     launch: L,
 ) -> SimResult<L::Output> {
     let threads = context.threads;
-    let mut setup = build::<D>(scenario, keys)?;
+    let (setup, initial) = build::<D>(scenario, keys)?;
     let started = Instant::now();
-    let atoms = std::mem::take(&mut setup.atoms);
     #[cfg(feature = "mpi")]
     if let Some(world) = crate::distributed::world_of_many() {
-        use crate::distributed::md::{DistributedMd, MdSpec};
+        use crate::distributed::md::{share_at_set_up, DistributedMd, MdSpec};
         let ranks = crate::ranks::Ranks::Spread(mpi::traits::Communicator::duplicate(&world));
         let spec = MdSpec {
             domain: setup.domain,
-            atoms,
+            atoms: initial.atoms_where(share_at_set_up(&world, setup.domain)),
             potential: setup.potential,
             skin: setup.skin,
             rule: setup.rebuild,
@@ -275,6 +331,7 @@ fn run_in<const D: usize, L: Launch>(
         let job = job_spec(&setup, scenario, context)?.with(model).on(ranks);
         return launch.launch(job, &output_plan(&setup), context, started);
     }
+    let atoms = initial.atoms_where(|_| true);
     let mut system = MdSystem::new(setup.domain, atoms, setup.potential, setup.skin, threads)
         .map_err(|e| scenario.error(e))?;
     system.set_rebuild_rule(setup.rebuild);
@@ -356,17 +413,24 @@ fn job_spec<const D: usize>(
 }
 
 /// Checks the scenario and builds the initial state.
-fn build<const D: usize>(scenario: &Scenario, keys: &MdScenario) -> SimResult<Setup<D>> {
+fn build<const D: usize>(
+    scenario: &Scenario,
+    keys: &MdScenario,
+) -> SimResult<(Setup<D>, Initial<D>)> {
     let err = |m: String| scenario.error(m);
     let sys = &keys.system;
     let mut notes = Vec::new();
-    let (mut domain, mut atoms, z_bounds) = match (&sys.read_data, &sys.lattice) {
+    let (mut domain, source, z_bounds) = match (&sys.read_data, &sys.lattice) {
         (Some(_), Some(_)) => return Err(err("system: give read_data or lattice, not both".into())),
         (None, None) => return Err(err("system: no initial state; give read_data = \"file.data\" or lattice = { kind, density, cells }".into())),
-        (Some(path), None) => from_data::<D>(&scenario.input_path(path), sys.mass).map_err(|e| match e {
-            SimError::Input(m) => err(m),
-            other => other,
-        })?,
+        (Some(path), None) => {
+            let (domain, atoms, z_bounds) = from_data::<D>(&scenario.input_path(path), sys.mass)
+                .map_err(|e| match e {
+                    SimError::Input(m) => err(m),
+                    other => other,
+                })?;
+            (domain, Source::Atoms(atoms), z_bounds)
+        }
         (None, Some(lat)) => {
             let kind = LatticeKind::from_name(&lat.kind).ok_or_else(|| {
                 let names: Vec<&str> = LatticeKind::ALL.iter().map(|(n, _)| *n).collect();
@@ -375,12 +439,12 @@ fn build<const D: usize>(scenario: &Scenario, keys: &MdScenario) -> SimResult<Se
             let cells: [usize; D] = lat.cells.clone().try_into().map_err(|_| {
                 err(format!("system.lattice.cells has {} numbers; a {D}D system needs {D}", lat.cells.len()))
             })?;
-            let (domain, points) = lattice(kind, lat.density, cells).map_err(|m| err(format!("system.lattice: {m}")))?;
+            let lattice = Lattice::new(kind, lat.density, cells).map_err(|m| err(format!("system.lattice: {m}")))?;
             let mass = sys.mass.unwrap_or(1.0);
             if !(mass.is_finite() && mass > 0.0) {
                 return Err(err(format!("system.mass must be > 0, got {mass}")));
             }
-            (domain, Atoms::at_rest(points, mass), (-0.5, 0.5))
+            (lattice.domain, Source::Lattice(lattice, mass), (-0.5, 0.5))
         }
     };
     if let Some(flags) = &sys.boundary {
@@ -398,6 +462,7 @@ fn build<const D: usize>(scenario: &Scenario, keys: &MdScenario) -> SimResult<Se
             };
         }
     }
+    let mut velocities = None;
     if let Some(v) = &sys.velocity {
         if !(v.temperature.is_finite() && v.temperature >= 0.0) {
             return Err(err(format!(
@@ -414,7 +479,7 @@ fn build<const D: usize>(scenario: &Scenario, keys: &MdScenario) -> SimResult<Se
             ],
         )
         .map_err(err)?;
-        create_velocities(&mut atoms, v.temperature, v.seed, dist);
+        velocities = Some((v.temperature, v.seed, dist));
     }
 
     let pair = &keys.pair;
@@ -495,9 +560,8 @@ fn build<const D: usize>(scenario: &Scenario, keys: &MdScenario) -> SimResult<Se
     if let Some(c) = &out.checkpoint {
         c.check("output.checkpoint").map_err(err)?;
     }
-    Ok(Setup {
+    let setup = Setup {
         domain,
-        atoms,
         potential,
         skin,
         rebuild,
@@ -514,7 +578,8 @@ fn build<const D: usize>(scenario: &Scenario, keys: &MdScenario) -> SimResult<Se
         reproducible: run.reproducible,
         balance: keys.decomposition.balance().map_err(err)?,
         notes,
-    })
+    };
+    Ok((setup, Initial { source, velocities }))
 }
 
 /// The box and atoms of a LAMMPS data file (its z bounds kept for 2D dumps).

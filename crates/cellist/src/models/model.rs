@@ -162,6 +162,27 @@ pub struct Particles {
     pub potentials: Option<Vec<f64>>,
 }
 
+impl Particles {
+    /// Appends the rows of `block` (a later block of the same frame, with the
+    /// same columns) after these rows.
+    pub fn append(&mut self, block: &Particles) {
+        fn extend<T: Clone>(column: &mut Option<Vec<T>>, more: &Option<Vec<T>>) {
+            if let (Some(column), Some(more)) = (column.as_mut(), more) {
+                column.extend_from_slice(more);
+            }
+        }
+        self.ids.extend_from_slice(&block.ids);
+        self.types.extend_from_slice(&block.types);
+        self.positions.extend_from_slice(&block.positions);
+        self.velocities.extend_from_slice(&block.velocities);
+        self.forces.extend_from_slice(&block.forces);
+        extend(&mut self.energies, &block.energies);
+        extend(&mut self.masses, &block.masses);
+        extend(&mut self.accelerations, &block.accelerations);
+        extend(&mut self.potentials, &block.potentials);
+    }
+}
+
 /// A block of consecutive rows of a frame's particles
 /// ([`Model::particle_blocks`]).
 #[derive(Clone, Copy, Debug)]

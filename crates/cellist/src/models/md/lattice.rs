@@ -69,62 +69,105 @@ impl LatticeKind {
 }
 
 /// `cells[d]` unit cells along each axis of `kind` at number density `density`
-/// (atoms per unit volume, LAMMPS's reduced density in lj units): lattice constant
-/// `a = (n_basis / (density * prod(aspect)))^(1/D)`, periodic box
-/// `[0, cells_d a aspect_d)`, atoms in LAMMPS's `create_atoms` order (last axis
-/// slowest, basis fastest).
+/// ([`Lattice::new`]): the box and every atom's position, in LAMMPS's
+/// `create_atoms` order.
 pub fn lattice<const D: usize>(
     kind: LatticeKind,
     density: f64,
     cells: [usize; D],
 ) -> Result<(Domain<D>, Vec<[f64; D]>), String> {
-    if kind.dimension() != D {
-        return Err(format!(
-            "lattice {kind:?} is {}-dimensional, the system is {D}-dimensional",
-            kind.dimension()
-        ));
-    }
-    if !(density.is_finite() && density > 0.0) {
-        return Err(format!(
-            "lattice density must be finite and > 0, got {density}"
-        ));
-    }
-    if cells.contains(&0) {
-        return Err("lattice cells must be >= 1 along every axis".into());
-    }
-    let basis = kind.basis();
-    let total = cells
-        .iter()
-        .try_fold(basis.len(), |acc, &c| acc.checked_mul(c))
-        .filter(|&t| t < u32::MAX as usize)
-        .ok_or_else(|| {
-            format!(
-                "{cells:?} cells of {} atoms are more than 2^32 - 1 atoms",
-                basis.len()
-            )
-        })?;
-    let aspect = kind.aspect();
-    let unit_volume: f64 = aspect[..D].iter().product();
-    let a = (basis.len() as f64 / (density * unit_volume)).powf(1.0 / D as f64);
-    let side: [f64; D] = std::array::from_fn(|d| a * aspect[d]);
-    let length: [f64; D] = std::array::from_fn(|d| cells[d] as f64 * side[d]);
-    let domain = Domain::periodic(length).map_err(|e| e.to_string())?;
-    let mut points = Vec::with_capacity(total);
-    let mut cell = [0usize; D];
-    for _ in 0..total / basis.len() {
-        for b in basis {
-            points.push(std::array::from_fn(|d| (cell[d] as f64 + b[d]) * side[d]));
+    let lattice = Lattice::new(kind, density, cells)?;
+    Ok((lattice.domain, lattice.points().collect()))
+}
+
+/// A filled lattice before its atoms are made: the box, and the positions
+/// generated in order when asked ([`Lattice::points`]), so that a rank of a
+/// distributed run can keep its own atoms without holding all of them.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Lattice<const D: usize> {
+    /// The periodic box `[0, cells_d a aspect_d)`.
+    pub domain: Domain<D>,
+    basis: &'static [[f64; 3]],
+    side: [f64; D],
+    cells: [usize; D],
+}
+
+impl<const D: usize> Lattice<D> {
+    /// `cells[d]` unit cells along each axis of `kind` at number density
+    /// `density` (atoms per unit volume, LAMMPS's reduced density in lj
+    /// units): lattice constant `a = (n_basis / (density * prod(aspect)))^(1/D)`,
+    /// periodic box `[0, cells_d a aspect_d)`.
+    pub fn new(kind: LatticeKind, density: f64, cells: [usize; D]) -> Result<Self, String> {
+        if kind.dimension() != D {
+            return Err(format!(
+                "lattice {kind:?} is {}-dimensional, the system is {D}-dimensional",
+                kind.dimension()
+            ));
         }
-        // next cell, first axis fastest
-        for d in 0..D {
-            cell[d] += 1;
-            if cell[d] < cells[d] {
-                break;
+        if !(density.is_finite() && density > 0.0) {
+            return Err(format!(
+                "lattice density must be finite and > 0, got {density}"
+            ));
+        }
+        if cells.contains(&0) {
+            return Err("lattice cells must be >= 1 along every axis".into());
+        }
+        let basis = kind.basis();
+        cells
+            .iter()
+            .try_fold(basis.len(), |acc, &c| acc.checked_mul(c))
+            .filter(|&t| t < u32::MAX as usize)
+            .ok_or_else(|| {
+                format!(
+                    "{cells:?} cells of {} atoms are more than 2^32 - 1 atoms",
+                    basis.len()
+                )
+            })?;
+        let aspect = kind.aspect();
+        let unit_volume: f64 = aspect[..D].iter().product();
+        let a = (basis.len() as f64 / (density * unit_volume)).powf(1.0 / D as f64);
+        let side: [f64; D] = std::array::from_fn(|d| a * aspect[d]);
+        let length: [f64; D] = std::array::from_fn(|d| cells[d] as f64 * side[d]);
+        let domain = Domain::periodic(length).map_err(|e| e.to_string())?;
+        Ok(Lattice {
+            domain,
+            basis,
+            side,
+            cells,
+        })
+    }
+
+    /// The number of atoms, `n_basis prod(cells)`.
+    pub fn len(&self) -> usize {
+        self.basis.len() * self.cells.iter().product::<usize>()
+    }
+
+    /// False: a lattice has at least one cell.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// The atoms' positions `(cell_d + b_d) side_d` in LAMMPS's `create_atoms`
+    /// order (first axis fastest over the cells, the basis fastest of all):
+    /// atom `k` of this order has id `k + 1`.
+    pub fn points(&self) -> impl Iterator<Item = [f64; D]> + '_ {
+        let cells = self.len() / self.basis.len();
+        let mut cell = [0usize; D];
+        (0..cells).flat_map(move |_| {
+            let here = cell;
+            // next cell, first axis fastest
+            for d in 0..D {
+                cell[d] += 1;
+                if cell[d] < self.cells[d] {
+                    break;
+                }
+                cell[d] = 0;
             }
-            cell[d] = 0;
-        }
+            self.basis
+                .iter()
+                .map(move |b| std::array::from_fn(|d| (here[d] as f64 + b[d]) * self.side[d]))
+        })
     }
-    Ok((domain, points))
 }
 
 #[cfg(test)]

@@ -26,13 +26,13 @@ use atoms::PermuteScratch;
 pub use frame::dump_particles;
 pub use halo::HaloForces;
 pub use integrate::{Integrator, Langevin};
-pub use lattice::{lattice, LatticeKind};
+pub use lattice::{lattice, Lattice, LatticeKind};
 pub use model::{
-    blowup_of, checked_atoms, late_note, load_atoms, save_atoms, MdModel, INFO, REMEDY,
+    blowup_of, checked_atoms, late_note, load_atoms, save_atoms, MdModel, SavedAtoms, INFO, REMEDY,
 };
 pub use subdomain::{ordered_forces, AtomForce};
 
-pub use velocity::{create_velocities, VelocityDistribution};
+pub use velocity::{create_velocities, VelocityDistribution, VelocityScaling};
 
 use crate::geometry::{norm2, Domain, GeometryError};
 use crate::interactions::{LennardJones, PairPotential};
@@ -511,13 +511,24 @@ impl<const D: usize> MdSystem<D> {
 
 impl Thermo {
     /// The thermo of `atoms` whose pair sums are `totals`, in a box of
-    /// `volume`: `T = sum m v^2 / (D N - D)`, `pe = U / N`,
-    /// `ke = T (D N - D) / (2 N)`, `P = ((D N - D) T + W) / (D V)`.
+    /// `volume` ([`Thermo::from_sums`]).
     pub fn of<const D: usize>(atoms: &Atoms<D>, totals: PairTally, volume: f64) -> Thermo {
-        let n = atoms.len() as f64;
-        let dof = degrees_of_freedom::<D>(atoms.len());
-        let temp = temperature(atoms);
+        Thermo::from_sums::<D>(atoms.len(), twice_kinetic(atoms), totals, volume)
+    }
+
+    /// The thermo of `n` atoms with `sum m v^2 = twice_kinetic` and pair sums
+    /// `totals`, in a box of `volume`: `T = sum m v^2 / (D N - D)`,
+    /// `pe = U / N`, `ke = T (D N - D) / (2 N)`, `P = ((D N - D) T + W) / (D V)`.
+    pub fn from_sums<const D: usize>(
+        n: usize,
+        twice_kinetic: f64,
+        totals: PairTally,
+        volume: f64,
+    ) -> Thermo {
+        let dof = degrees_of_freedom::<D>(n);
+        let temp = if dof > 0.0 { twice_kinetic / dof } else { 0.0 };
         let ke_total = temp * 0.5 * dof;
+        let n = n as f64;
         let pe = totals.energy / n;
         let ke = ke_total / n;
         let press = (dof * temp + totals.virial) / D as f64 * (1.0 / volume);
@@ -528,6 +539,50 @@ impl Thermo {
             etotal: pe + ke,
             press,
         }
+    }
+}
+
+/// The sums behind [`Thermo`] taken over atoms a block at a time, in a fixed
+/// order (by id, for output): `sum m v^2`, `U = sum_i u_i` and `W = sum_i w_i`
+/// of per-atom half energies and virials, each one running sum from the first
+/// atom to the last, so that blocks give the bits of one pass over all atoms.
+#[derive(Clone, Copy, Debug)]
+pub struct ThermoSums {
+    atoms: usize,
+    twice_kinetic: f64,
+    totals: PairTally,
+}
+
+impl Default for ThermoSums {
+    /// No atoms yet: the sums start where [`Iterator::sum`] starts, at `-0.0`.
+    fn default() -> Self {
+        ThermoSums {
+            atoms: 0,
+            twice_kinetic: -0.0,
+            totals: PairTally {
+                energy: -0.0,
+                virial: -0.0,
+            },
+        }
+    }
+}
+
+impl ThermoSums {
+    /// Adds the next block: `atoms` with their half energies and virials.
+    pub fn add<const D: usize>(&mut self, atoms: &Atoms<D>, energies: &[f64], virials: &[f64]) {
+        self.atoms += atoms.len();
+        for (v, m) in atoms.velocities.iter().zip(&atoms.masses) {
+            self.twice_kinetic += norm2(v) * m;
+        }
+        for (u, w) in energies.iter().zip(virials) {
+            self.totals.energy += u;
+            self.totals.virial += w;
+        }
+    }
+
+    /// The thermo of the atoms added so far in a box of `volume`.
+    pub fn thermo<const D: usize>(&self, volume: f64) -> Thermo {
+        Thermo::from_sums::<D>(self.atoms, self.twice_kinetic, self.totals, volume)
     }
 }
 

@@ -6,7 +6,7 @@ use crate::geometry::Domain;
 use crate::models::{
     Blowup, Checked, CheckedArray, Ids, Model, ModelInfo, ParticleBlock, Particles,
 };
-use crate::state::{State, StateError};
+use crate::state::{SectionBuilder, State, StateError};
 use crate::threads::Threads;
 use std::ops::ControlFlow;
 use std::time::Duration;
@@ -271,15 +271,63 @@ pub fn save_atoms<const D: usize>(
     reference: &[[f64; D]],
     counts: ListCounts,
 ) {
-    state.put_u64s("ids", atoms.ids.iter().copied());
-    state.put_u64s("types", atoms.types.iter().map(|&t| t as u64));
-    state.put_f64s("masses", atoms.masses.iter().copied());
-    state.put_vectors("positions", &atoms.positions);
-    state.put_vectors("velocities", &atoms.velocities);
-    state.put_vectors("forces", &atoms.forces);
-    state.put_vectors("list_reference", reference);
-    state.put_u64s("rebuilds", [counts.rebuilds]);
-    state.put_u64s("list_counts", [counts.since_build, counts.late_builds]);
+    let mut saved = SavedAtoms::with_capacity(atoms.len());
+    saved.push(atoms, reference);
+    saved.finish(state, counts);
+}
+
+/// The state of [`save_atoms`] built a block of atoms at a time (a
+/// distributed run's atoms arriving in id order): the same bytes as one call
+/// with all of them.
+#[derive(Clone, Debug)]
+pub struct SavedAtoms<const D: usize> {
+    ids: SectionBuilder,
+    types: SectionBuilder,
+    masses: SectionBuilder,
+    positions: SectionBuilder,
+    velocities: SectionBuilder,
+    forces: SectionBuilder,
+    reference: SectionBuilder,
+}
+
+impl<const D: usize> SavedAtoms<D> {
+    /// No atoms yet, with room for `n`.
+    pub fn with_capacity(n: usize) -> Self {
+        let vectors = || SectionBuilder::with_capacity(n * D);
+        SavedAtoms {
+            ids: SectionBuilder::with_capacity(n),
+            types: SectionBuilder::with_capacity(n),
+            masses: SectionBuilder::with_capacity(n),
+            positions: vectors(),
+            velocities: vectors(),
+            forces: vectors(),
+            reference: vectors(),
+        }
+    }
+
+    /// Appends `atoms` and their positions at the last rebuild.
+    pub fn push(&mut self, atoms: &Atoms<D>, reference: &[[f64; D]]) {
+        self.ids.push_u64s(atoms.ids.iter().copied());
+        self.types.push_u64s(atoms.types.iter().map(|&t| t as u64));
+        self.masses.push_f64s(atoms.masses.iter().copied());
+        self.positions.push_vectors(&atoms.positions);
+        self.velocities.push_vectors(&atoms.velocities);
+        self.forces.push_vectors(&atoms.forces);
+        self.reference.push_vectors(reference);
+    }
+
+    /// Puts the sections into `state`, with the list's counters.
+    pub fn finish(self, state: &mut State, counts: ListCounts) {
+        state.put_section("ids", self.ids);
+        state.put_section("types", self.types);
+        state.put_section("masses", self.masses);
+        state.put_section("positions", self.positions);
+        state.put_section("velocities", self.velocities);
+        state.put_section("forces", self.forces);
+        state.put_section("list_reference", self.reference);
+        state.put_u64s("rebuilds", [counts.rebuilds]);
+        state.put_u64s("list_counts", [counts.since_build, counts.late_builds]);
+    }
 }
 
 /// Reads what [`save_atoms`] wrote for `n` atoms (a checkpoint written before

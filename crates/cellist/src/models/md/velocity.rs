@@ -1,6 +1,7 @@
 //! Initial velocities at a temperature (LAMMPS `velocity create`).
 
 use super::Atoms;
+use crate::geometry::norm2;
 use crate::random::{stream_seed, Rng};
 
 /// How each velocity component is drawn before the rescaling.
@@ -12,46 +13,92 @@ pub enum VelocityDistribution {
     Gaussian,
 }
 
-/// Sets velocities at temperature `T` (k_B = 1): components drawn from a stream
-/// keyed by (seed, atom id), so they depend on neither the atom order nor the thread
-/// count; then the total momentum is removed, `v -= sum m v / sum m`, and all
-/// velocities are scaled so that `sum m v^2 / (D N - D) = T` exactly (LAMMPS's
-/// temperature with `D N - D` degrees of freedom).
+/// Sets velocities at temperature `T` (k_B = 1) ([`VelocityScaling`] over
+/// `atoms` in their order): components drawn from a stream keyed by (seed,
+/// atom id), so they depend on neither the atom order nor the thread count;
+/// then the total momentum removed and the velocities scaled to `T` exactly.
 pub fn create_velocities<const D: usize>(
     atoms: &mut Atoms<D>,
     temperature: f64,
     seed: u64,
     distribution: VelocityDistribution,
 ) {
-    for k in 0..atoms.len() {
-        let mut rng = Rng::new(stream_seed(seed, &[atoms.ids[k]]));
-        atoms.velocities[k] = std::array::from_fn(|_| match distribution {
+    let every = || atoms.ids.iter().copied().zip(atoms.masses.iter().copied());
+    let scaling = VelocityScaling::<D>::over(every, temperature, seed, distribution);
+    for (v, &id) in atoms.velocities.iter_mut().zip(&atoms.ids) {
+        *v = scaling.velocity(id);
+    }
+}
+
+/// LAMMPS's `velocity create` for atoms given as `(id, mass)` in a fixed
+/// order, which may be more atoms than a rank keeps: each atom's drawn
+/// velocity `u_i` (uniform in `[-1/2, 1/2)` or normal per component, from
+/// the stream of (seed, id)), the momentum shift `s = sum m u / sum m` and
+/// the factor `f = sqrt(T / T_0)` with `T_0 = sum m |u - s|^2 / (D N - D)`
+/// (LAMMPS's temperature with `D N - D` degrees of freedom): atom `i` gets
+/// `v_i = (u_i - s) f`, so that `sum m v = 0` and `sum m v^2 / (D N - D) = T`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct VelocityScaling<const D: usize> {
+    shift: [f64; D],
+    factor: f64,
+    seed: u64,
+    distribution: VelocityDistribution,
+}
+
+impl<const D: usize> VelocityScaling<D> {
+    /// The scaling for the atoms `every()` yields, in its order (each call
+    /// the same atoms): two passes over them, none held.
+    pub fn over<I: Iterator<Item = (u64, f64)>>(
+        every: impl Fn() -> I,
+        temperature: f64,
+        seed: u64,
+        distribution: VelocityDistribution,
+    ) -> Self {
+        let mut scaling = VelocityScaling {
+            shift: [0.0; D],
+            factor: 1.0,
+            seed,
+            distribution,
+        };
+        let (mut total_mass, mut momentum, mut n) = (-0.0, [0.0; D], 0);
+        for (id, m) in every() {
+            let u = scaling.drawn(id);
+            total_mass += m;
+            for a in 0..D {
+                momentum[a] += m * u[a];
+            }
+            n += 1;
+        }
+        scaling.shift = std::array::from_fn(|a| momentum[a] / total_mass);
+        let mut twice_kinetic = -0.0;
+        for (id, m) in every() {
+            let u = scaling.drawn(id);
+            let v: [f64; D] = std::array::from_fn(|a| u[a] - scaling.shift[a]);
+            twice_kinetic += norm2(&v) * m;
+        }
+        let dof = (D * n).saturating_sub(D) as f64;
+        let current = if dof > 0.0 { twice_kinetic / dof } else { 0.0 };
+        scaling.factor = if current > 0.0 {
+            (temperature / current).sqrt()
+        } else {
+            0.0
+        };
+        scaling
+    }
+
+    /// The velocity `(u - s) f` of the atom with `id`.
+    pub fn velocity(&self, id: u64) -> [f64; D] {
+        let u = self.drawn(id);
+        std::array::from_fn(|a| (u[a] - self.shift[a]) * self.factor)
+    }
+
+    /// The drawn velocity `u` of the atom with `id`.
+    fn drawn(&self, id: u64) -> [f64; D] {
+        let mut rng = Rng::new(stream_seed(self.seed, &[id]));
+        std::array::from_fn(|_| match self.distribution {
             VelocityDistribution::Uniform => rng.uniform() - 0.5,
             VelocityDistribution::Gaussian => rng.normal(),
-        });
-    }
-    let total_mass: f64 = atoms.masses.iter().sum();
-    let mut momentum = [0.0; D];
-    for (v, m) in atoms.velocities.iter().zip(&atoms.masses) {
-        for a in 0..D {
-            momentum[a] += m * v[a];
-        }
-    }
-    for v in &mut atoms.velocities {
-        for a in 0..D {
-            v[a] -= momentum[a] / total_mass;
-        }
-    }
-    let current = super::temperature(atoms);
-    let factor = if current > 0.0 {
-        (temperature / current).sqrt()
-    } else {
-        0.0
-    };
-    for v in &mut atoms.velocities {
-        for a in 0..D {
-            v[a] *= factor;
-        }
+        })
     }
 }
 
