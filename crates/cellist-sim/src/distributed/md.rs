@@ -33,7 +33,7 @@
 //! imbalance (largest over mean atoms per rank, averaged over the rebuilds).
 
 use super::pull::{self, IdSpan, OwnRows as _};
-use super::{agree, agree_blowup, migrate, GhostPlan, LocalParticles};
+use super::{agree, agree_blowup, migrate, GhostPlan, Travellers};
 use crate::hosted::{Distribution, Hosted};
 use cellist::decomposition::{Balance, Decomposition, Images, Subdomain, REBALANCE_ABOVE};
 use cellist::geometry::Domain;
@@ -41,7 +41,7 @@ use cellist::interactions::{LennardJones, PairPotential};
 use cellist::models::md::{
     blowup_of, check_positions, checked_atoms, dump_particles, lap, late_note, load_atoms,
     ordered_forces, save_atoms, AtomForce, Atoms, HaloForces, Integrator, ListCounts, MdError,
-    SavedAtoms, StageTimes, ThermoSums, REMEDY,
+    PermuteScratch, SavedAtoms, StageTimes, ThermoSums, REMEDY,
 };
 use cellist::models::{check, md, Blowup, Checked, Model, ModelInfo, ParticleBlock, Particles};
 use cellist::neighbors::{CellGrid, OrderedRows, Rebuild, RebuildRule};
@@ -87,11 +87,12 @@ pub struct DistributedMd<const D: usize> {
     /// The ghosts' reactions on their way back (the half list).
     reactions: Vec<f64>,
     computed: Vec<AtomForce<D>>,
+    /// The buffers the own atoms are put in cell order through.
+    scratch: PermuteScratch<D>,
     /// Any rank observed the last step: rank 0 pulls its outputs.
     observed: bool,
-    /// The own atoms' slots in ascending id, and their ids (observed steps).
-    by_id: Vec<usize>,
-    ids_in_order: Vec<u64>,
+    /// The own atoms' slots in ascending id (observed steps).
+    by_id: Vec<u32>,
     /// The ids over all ranks.
     span: IdSpan,
     /// After a restore, until the next rebuild: the own atoms' positions at
@@ -187,8 +188,9 @@ impl<const D: usize> PairSums<D> {
                 }
             }
             PairSums::Halo(halo) => {
+                // the old list goes first: one list in memory at a time
+                let first = halo.take().is_none();
                 let built = HaloForces::build(subdomain, points, owned, *potential, skin, threads);
-                let first = halo.is_none();
                 match built {
                     Ok(built) => {
                         let built = halo.insert(Box::new(built));
@@ -200,6 +202,16 @@ impl<const D: usize> PairSums<D> {
                     Err(e) => Some(e.to_string()),
                 }
             }
+        }
+    }
+
+    /// True when the next build needs the ids of the points: the rows sort
+    /// by id and look for two atoms at one position at every build, the half
+    /// list looks at its first build only.
+    fn needs_ids(&self) -> bool {
+        match self {
+            PairSums::Halo(halo) => halo.is_none(),
+            PairSums::Ordered(_) => true,
         }
     }
 
@@ -319,9 +331,9 @@ impl<const D: usize> DistributedMd<D> {
             points: Vec::new(),
             reactions: Vec::new(),
             computed: Vec::new(),
+            scratch: PermuteScratch::default(),
             observed: false,
             by_id: Vec::new(),
-            ids_in_order: Vec::new(),
             span: IdSpan {
                 first: 0,
                 last: 0,
@@ -339,9 +351,7 @@ impl<const D: usize> DistributedMd<D> {
         };
         // the atoms to the owners of the planes just placed, so that the
         // rebuild's imbalance test sees them there
-        let mut travelling = model.pack();
-        migrate(&model.world, &model.decomposition, &mut travelling);
-        model.unpack(&travelling);
+        migrate(&model.world, &model.decomposition, &mut model.atoms);
         model
             .redistribute(threads)
             .map_err(|e| e.what.to_string())?;
@@ -396,10 +406,13 @@ impl<const D: usize> DistributedMd<D> {
     fn redistribute(&mut self, threads: &Threads) -> Result<(), Blowup> {
         let t = Instant::now();
         self.rebalance();
-        let mut travelling = self.pack();
-        migrate(&self.world, &self.decomposition, &mut travelling);
-        self.unpack(&travelling);
+        // what the new list makes stale goes before it is built: the
+        // forces, the last output's id order, the sort's buffers
+        self.computed = Vec::new();
+        self.by_id = Vec::new();
+        migrate(&self.world, &self.decomposition, &mut self.atoms);
         self.sort_by_cell();
+        self.scratch = PermuteScratch::default();
         let reach = self.reach();
         self.plan = GhostPlan::new(
             &self.world,
@@ -419,8 +432,11 @@ impl<const D: usize> DistributedMd<D> {
         self.imbalance_count += 1;
         self.ghosts_sum += self.ghost_ids.len() as f64;
         self.communication += t.elapsed();
-        let mut keys = self.atoms.ids.clone();
-        keys.extend_from_slice(&self.ghost_ids);
+        let mut keys = Vec::new();
+        if self.sums.needs_ids() {
+            keys.extend_from_slice(&self.atoms.ids);
+            keys.extend_from_slice(&self.ghost_ids);
+        }
         let subdomain = self.decomposition.subdomain(self.world.rank() as usize);
         let failure = self.sums.build(
             &subdomain,
@@ -484,38 +500,10 @@ impl<const D: usize> DistributedMd<D> {
         else {
             return;
         };
-        let keys: Vec<usize> = self
-            .atoms
-            .positions
-            .iter()
-            .map(|x| grid.cell_of(x))
-            .collect();
-        let mut order: Vec<usize> = (0..self.atoms.len()).collect();
-        order.sort_by_key(|&k| keys[k]);
-        self.atoms = self.atoms.select(&order);
-    }
-
-    /// The own atoms as travelling rows: position, velocity, force, mass, type.
-    fn pack(&self) -> LocalParticles {
-        let a = &self.atoms;
-        let width = 3 * D + 2;
-        let mut values = Vec::with_capacity(a.len() * width);
-        for k in 0..a.len() {
-            values.extend_from_slice(&a.positions[k]);
-            values.extend_from_slice(&a.velocities[k]);
-            values.extend_from_slice(&a.forces[k]);
-            values.push(a.masses[k]);
-            values.push(a.types[k] as f64);
-        }
-        LocalParticles {
-            ids: a.ids.clone(),
-            values,
-            width,
-        }
-    }
-
-    fn unpack(&mut self, p: &LocalParticles) {
-        self.atoms = atoms_of(p);
+        let positions = &self.atoms.positions;
+        let mut order: Vec<u32> = (0..positions.len() as u32).collect();
+        order.sort_by_cached_key(|&k| grid.cell_of(&positions[k as usize]));
+        self.atoms.permute(&order, &mut self.scratch);
     }
 
     /// The forces on the own atoms; with `energy`, their half energies and
@@ -569,14 +557,12 @@ impl<const D: usize> DistributedMd<D> {
         self.observe_order();
     }
 
-    /// The own atoms' slots in ascending id, and their ids.
+    /// The own atoms' slots in ascending id.
     fn observe_order(&mut self) {
         let ids = &self.atoms.ids;
         self.by_id.clear();
-        self.by_id.extend(0..ids.len());
-        self.by_id.sort_unstable_by_key(|&k| ids[k]);
-        self.ids_in_order.clear();
-        self.ids_in_order.extend(self.by_id.iter().map(|&k| ids[k]));
+        self.by_id.extend(0..ids.len() as u32);
+        self.by_id.sort_unstable_by_key(|&k| ids[k as usize]);
     }
 
     /// On rank 0 after an observed step or a restore: the global state a
@@ -585,12 +571,7 @@ impl<const D: usize> DistributedMd<D> {
     fn blocks(&self, mut visit: impl FnMut(&Gathered<D>) -> bool) {
         let rows = OwnRows(self);
         pull::pull(&self.world, self.span, &rows, |ids, values| {
-            let block = LocalParticles {
-                ids: ids.to_vec(),
-                values: values.to_vec(),
-                width: rows.width(),
-            };
-            visit(&gathered_of(&block))
+            visit(&gathered_of(ids, values, rows.width()))
         });
     }
 
@@ -613,18 +594,17 @@ impl<const D: usize> DistributedMd<D> {
     }
 }
 
-/// The atoms of travelling rows whose first `3 D + 2` columns are those of
-/// [`DistributedMd::pack`]: position, velocity, force, mass, type.
-fn atoms_of<const D: usize>(p: &LocalParticles) -> Atoms<D> {
-    let row = |k: usize| &p.values[k * p.width..(k + 1) * p.width];
-    let vector = |k: usize, at: usize| -> [f64; D] { std::array::from_fn(|d| row(k)[at + d]) };
-    Atoms {
-        ids: p.ids.clone(),
-        positions: (0..p.len()).map(|k| vector(k, 0)).collect(),
-        velocities: (0..p.len()).map(|k| vector(k, D)).collect(),
-        forces: (0..p.len()).map(|k| vector(k, 2 * D)).collect(),
-        masses: (0..p.len()).map(|k| row(k)[3 * D]).collect(),
-        types: (0..p.len()).map(|k| row(k)[3 * D + 1] as u32).collect(),
+/// Appends to `atoms` the atoms of `ids` whose rows of `width` numbers
+/// start with the columns of [`Travellers::pack`].
+fn push_atom_rows<const D: usize>(atoms: &mut Atoms<D>, ids: &[u64], values: &[f64], width: usize) {
+    for (&id, row) in ids.iter().zip(values.chunks_exact(width)) {
+        let vector = |at: usize| -> [f64; D] { std::array::from_fn(|d| row[at + d]) };
+        atoms.ids.push(id);
+        atoms.positions.push(vector(0));
+        atoms.velocities.push(vector(D));
+        atoms.forces.push(vector(2 * D));
+        atoms.masses.push(row[3 * D]);
+        atoms.types.push(row[3 * D + 1] as u32);
     }
 }
 
@@ -659,23 +639,69 @@ fn imbalance_of<const D: usize>(
     most as f64 * decomposition.ranks() as f64 / total.max(1) as f64
 }
 
+/// Atoms travel as rows of position, velocity, force, mass and type.
+impl<const D: usize> Travellers<D> for Atoms<D> {
+    fn count(&self) -> usize {
+        Atoms::len(self)
+    }
+
+    fn position(&self, k: usize) -> [f64; D] {
+        self.positions[k]
+    }
+
+    fn width(&self) -> usize {
+        3 * D + 2
+    }
+
+    fn pack(&self, k: usize, ids: &mut Vec<u64>, values: &mut Vec<f64>) {
+        ids.push(self.ids[k]);
+        values.extend_from_slice(&self.positions[k]);
+        values.extend_from_slice(&self.velocities[k]);
+        values.extend_from_slice(&self.forces[k]);
+        values.extend([self.masses[k], self.types[k] as f64]);
+    }
+
+    fn keep(&mut self, from: usize, to: usize, x: [f64; D]) {
+        self.ids[to] = self.ids[from];
+        self.positions[to] = x;
+        self.velocities[to] = self.velocities[from];
+        self.forces[to] = self.forces[from];
+        self.masses[to] = self.masses[from];
+        self.types[to] = self.types[from];
+    }
+
+    fn truncate(&mut self, n: usize) {
+        self.ids.truncate(n);
+        self.positions.truncate(n);
+        self.velocities.truncate(n);
+        self.forces.truncate(n);
+        self.masses.truncate(n);
+        self.types.truncate(n);
+    }
+
+    fn push_rows(&mut self, ids: &[u64], values: &[f64]) {
+        push_atom_rows(self, ids, values, 3 * D + 2);
+    }
+}
+
 /// The rows of [`OwnRows`] as a block of the global state.
-fn gathered_of<const D: usize>(rows: &LocalParticles) -> Gathered<D> {
+fn gathered_of<const D: usize>(ids: &[u64], values: &[f64], width: usize) -> Gathered<D> {
     let base = 3 * D + 2;
-    let width = rows.width;
-    let row = |k: usize| &rows.values[k * width..(k + 1) * width];
+    let mut atoms = Atoms::default();
+    push_atom_rows(&mut atoms, ids, values, width);
+    let rows = || values.chunks_exact(width);
     Gathered {
-        atoms: atoms_of(rows),
-        energies: (0..rows.len()).map(|k| row(k)[base]).collect(),
-        virials: (0..rows.len()).map(|k| row(k)[base + 1]).collect(),
-        reference: (0..rows.len())
-            .map(|k| std::array::from_fn(|d| row(k)[base + 2 + d]))
+        atoms,
+        energies: rows().map(|row| row[base]).collect(),
+        virials: rows().map(|row| row[base + 1]).collect(),
+        reference: rows()
+            .map(|row| std::array::from_fn(|d| row[base + 2 + d]))
             .collect(),
     }
 }
 
 /// A rank's own atoms as the rows rank 0 pulls for its outputs: the columns
-/// of [`DistributedMd::pack`], then the half energy, the half virial and the
+/// of [`Travellers::pack`], then the half energy, the half virial and the
 /// position at the last rebuild.
 struct OwnRows<'a, const D: usize>(&'a DistributedMd<D>);
 
@@ -686,12 +712,13 @@ impl<const D: usize> pull::OwnRows for OwnRows<'_, D> {
 
     fn rows(&self, a: u64, b: u64, ids: &mut Vec<u64>, values: &mut Vec<f64>) {
         let m = self.0;
-        let sorted = &m.ids_in_order;
-        let range = sorted.partition_point(|&id| id < a)..sorted.partition_point(|&id| id < b);
+        let id = |k: &u32| m.atoms.ids[*k as usize];
+        let (by_id, a, b) = (&m.by_id, a, b);
+        let range = by_id.partition_point(|k| id(k) < a)..by_id.partition_point(|k| id(k) < b);
         ids.clear();
         values.clear();
         let (atoms, reference) = (&m.atoms, m.reference());
-        for &k in &m.by_id[range] {
+        for k in by_id[range].iter().map(|&k| k as usize) {
             ids.push(atoms.ids[k]);
             values.extend_from_slice(&atoms.positions[k]);
             values.extend_from_slice(&atoms.velocities[k]);

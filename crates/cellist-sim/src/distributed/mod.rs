@@ -223,21 +223,38 @@ fn exchange<C: Communicator>(
     arrived
 }
 
+/// Particles that move between ranks ([`migrate`]): each travels as its id
+/// and a row of numbers, its position first.
+pub trait Travellers<const D: usize> {
+    /// The particles held.
+    fn count(&self) -> usize;
+    /// Particle `k`'s position.
+    fn position(&self, k: usize) -> [f64; D];
+    /// Numbers per travelling row.
+    fn width(&self) -> usize;
+    /// Appends particle `k`'s id to `ids` and its row to `values`.
+    fn pack(&self, k: usize, ids: &mut Vec<u64>, values: &mut Vec<f64>);
+    /// Moves particle `from` to slot `to <= from` (whatever was there is
+    /// gone) and sets its position to `x`.
+    fn keep(&mut self, from: usize, to: usize, x: [f64; D]);
+    /// Drops every particle from slot `n` on.
+    fn truncate(&mut self, n: usize);
+    /// Appends the particles of `ids` and their rows `values`.
+    fn push_rows(&mut self, ids: &[u64], values: &[f64]);
+}
+
 /// Moves every particle to the rank that owns its (wrapped) position: the
-/// migration at a neighbour-list rebuild. Kept particles stay in their order,
-/// arrivals follow in rank order.
+/// migration at a neighbour-list rebuild. Kept particles stay in their order
+/// (compacted in place, their positions wrapped), arrivals follow in rank
+/// order; only the leaving particles are packed into rows.
 pub fn migrate<C: Communicator, const D: usize>(
     world: &C,
     decomposition: &Decomposition<D>,
-    particles: &mut LocalParticles,
+    particles: &mut impl Travellers<D>,
 ) {
-    let width = particles.width;
+    let width = particles.width();
     let ranks = world.size() as usize;
     let rank = world.rank() as usize;
-    let mut staying = LocalParticles {
-        width,
-        ..LocalParticles::default()
-    };
     let mut outgoing = vec![
         LocalParticles {
             width,
@@ -245,23 +262,59 @@ pub fn migrate<C: Communicator, const D: usize>(
         };
         ranks
     ];
-    let none = [0.0; D];
-    for k in 0..particles.len() {
-        let x = decomposition.domain.wrap(particles.position::<D>(k));
+    let mut kept = 0;
+    for k in 0..particles.count() {
+        let x = decomposition.domain.wrap(particles.position(k));
         let owner = decomposition.owner(&x);
-        let target = if owner == rank {
-            &mut staying
+        if owner == rank {
+            particles.keep(k, kept, x);
+            kept += 1;
         } else {
-            &mut outgoing[owner]
-        };
-        target.push_from(particles, k, &none);
-        let at = target.values.len() - width;
-        target.values[at..at + D].copy_from_slice(&x);
+            let target = &mut outgoing[owner];
+            particles.pack(k, &mut target.ids, &mut target.values);
+            let at = target.values.len() - width;
+            target.values[at..at + D].copy_from_slice(&x);
+        }
     }
+    particles.truncate(kept);
     let arrived = exchange(world, &outgoing, width);
-    staying.ids.extend_from_slice(&arrived.ids);
-    staying.values.extend_from_slice(&arrived.values);
-    *particles = staying;
+    particles.push_rows(&arrived.ids, &arrived.values);
+}
+
+impl<const D: usize> Travellers<D> for LocalParticles {
+    fn count(&self) -> usize {
+        self.ids.len()
+    }
+
+    fn position(&self, k: usize) -> [f64; D] {
+        LocalParticles::position(self, k)
+    }
+
+    fn width(&self) -> usize {
+        self.width
+    }
+
+    fn pack(&self, k: usize, ids: &mut Vec<u64>, values: &mut Vec<f64>) {
+        ids.push(self.ids[k]);
+        values.extend_from_slice(&self.values[k * self.width..(k + 1) * self.width]);
+    }
+
+    fn keep(&mut self, from: usize, to: usize, x: [f64; D]) {
+        let w = self.width;
+        self.ids[to] = self.ids[from];
+        self.values.copy_within(from * w..(from + 1) * w, to * w);
+        self.values[to * w..to * w + D].copy_from_slice(&x);
+    }
+
+    fn truncate(&mut self, n: usize) {
+        self.ids.truncate(n);
+        self.values.truncate(n * self.width);
+    }
+
+    fn push_rows(&mut self, ids: &[u64], values: &[f64]) {
+        self.ids.extend_from_slice(ids);
+        self.values.extend_from_slice(values);
+    }
 }
 
 /// `decomposition` with its planes placed by the particles of every rank

@@ -21,8 +21,8 @@ use mpi::datatype::PartitionMut;
 use mpi::traits::*;
 use mpi::Count;
 
-/// Particles per block, on average over dense ids: about 2 MB of rows.
-pub const BLOCK_ROWS: usize = 16384;
+/// Particles per block, on average over dense ids: about 0.5 MB of rows.
+pub const BLOCK_ROWS: usize = 4096;
 
 /// An ask of rank 0, broadcast to every rank: `[kind, first id, end id]`.
 const ROWS: u64 = 1;

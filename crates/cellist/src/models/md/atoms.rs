@@ -64,26 +64,12 @@ impl<const D: usize> Atoms<D> {
         order: &[u32],
         scratch: &mut PermuteScratch<D>,
     ) {
-        fn apply<T: Copy, W: Copy>(
-            values: &mut [T],
-            order: &[u32],
-            buffer: &mut Vec<W>,
-            to: impl Fn(T) -> W,
-            from: impl Fn(W) -> T,
-        ) {
-            assert_eq!(values.len(), order.len(), "one slot per atom");
-            buffer.clear();
-            buffer.extend(order.iter().map(|&k| to(values[k as usize])));
-            for (value, &word) in values.iter_mut().zip(buffer.iter()) {
-                *value = from(word);
-            }
-        }
         let same = |x| x;
-        apply(&mut self.ids, order, &mut scratch.words, same, same);
-        apply(&mut self.types, order, &mut scratch.words, u64::from, |w| {
+        reorder(&mut self.ids, order, &mut scratch.words, same, same);
+        reorder(&mut self.types, order, &mut scratch.words, u64::from, |w| {
             w as u32
         });
-        apply(
+        reorder(
             &mut self.masses,
             order,
             &mut scratch.words,
@@ -91,14 +77,22 @@ impl<const D: usize> Atoms<D> {
             f64::from_bits,
         );
         let same = |x| x;
-        apply(
+        reorder(
             &mut self.velocities,
             order,
             &mut scratch.vectors,
             same,
             same,
         );
-        apply(&mut self.forces, order, &mut scratch.vectors, same, same);
+        reorder(&mut self.forces, order, &mut scratch.vectors, same, same);
+    }
+
+    /// Reorders every array: `self[k] = old[order[k]]` (the atoms of
+    /// [`Atoms::select`] of `order`, in place through `scratch`).
+    pub fn permute(&mut self, order: &[u32], scratch: &mut PermuteScratch<D>) {
+        self.permute_except_positions(order, scratch);
+        let same = |x| x;
+        reorder(&mut self.positions, order, &mut scratch.vectors, same, same);
     }
 
     /// The atoms at `indices`, in that order: `out[k] = self[indices[k]]`.
@@ -124,11 +118,53 @@ impl<const D: usize> Atoms<D> {
     }
 }
 
-/// The buffers [`Atoms::permute_except_positions`] reorders through: one array
-/// of vectors and one of 64-bit words (ids, types and the bits of masses),
-/// 8 (D + 1) bytes per atom instead of a second copy of every array.
+/// `values[k] = old[order[k]]` through `buffer` (words of type `W`, converted
+/// by `to` and back by `from`).
+fn reorder<T: Copy, W: Copy>(
+    values: &mut [T],
+    order: &[u32],
+    buffer: &mut Vec<W>,
+    to: impl Fn(T) -> W,
+    from: impl Fn(W) -> T,
+) {
+    assert_eq!(values.len(), order.len(), "one slot per atom");
+    buffer.clear();
+    buffer.extend(order.iter().map(|&k| to(values[k as usize])));
+    for (value, &word) in values.iter_mut().zip(buffer.iter()) {
+        *value = from(word);
+    }
+}
+
+/// The buffers [`Atoms::permute`] reorders through: one array of vectors and
+/// one of 64-bit words (ids, types and the bits of masses), 8 (D + 1) bytes
+/// per atom instead of a second copy of every array.
 #[derive(Clone, Debug, Default)]
-pub(crate) struct PermuteScratch<const D: usize> {
+pub struct PermuteScratch<const D: usize> {
     pub(crate) vectors: Vec<[f64; D]>,
     pub(crate) words: Vec<u64>,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Permuting in place is selecting in that order.
+    #[test]
+    fn permute_is_select() {
+        let n = 40;
+        let mut atoms = Atoms::<3>::at_rest((0..n).map(|k| [k as f64, 1.0, 2.0]).collect(), 1.5);
+        for k in 0..n {
+            atoms.ids[k] = 100 + 7 * k as u64;
+            atoms.types[k] = (k % 4) as u32;
+            atoms.masses[k] = k as f64;
+            atoms.velocities[k] = [0.0, k as f64, 0.0];
+            atoms.forces[k] = [0.0, 0.0, -(k as f64)];
+        }
+        let order: Vec<u32> = (0..n as u32).map(|k| (k * 17) % n as u32).collect();
+        let slots: Vec<usize> = order.iter().map(|&k| k as usize).collect();
+        let selected = atoms.select(&slots);
+        let mut scratch = PermuteScratch::default();
+        atoms.permute(&order, &mut scratch);
+        assert_eq!(atoms, selected);
+    }
 }

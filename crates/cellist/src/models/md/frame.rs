@@ -145,21 +145,18 @@ mod tests {
         let slots: Vec<usize> = (0..n).rev().collect();
         let pe: Vec<f64> = (0..n).map(|k| -(k as f64)).collect();
         let whole = sorted_particles(&atoms, &slots, Some(&pe), &domain, (-0.5, 0.5));
-        let mut joined = frame_box(&domain, (-0.5, 0.5));
+        let mut joined: Option<Particles> = None;
         let mut firsts = Vec::new();
         particle_blocks(&atoms, &slots, Some(&pe), &domain, (-0.5, 0.5), &mut |b| {
             assert_eq!(b.total, n);
             firsts.push(b.first);
-            let r = b.rows;
-            joined.ids.extend(&r.ids);
-            joined.types.extend(&r.types);
-            joined.positions.extend(&r.positions);
-            joined.velocities.extend(&r.velocities);
-            joined.forces.extend(&r.forces);
-            let e = r.energies.as_ref().unwrap();
-            joined.energies.get_or_insert_with(Vec::new).extend(e);
+            match &mut joined {
+                None => joined = Some(b.rows.clone()),
+                Some(joined) => joined.append(b.rows),
+            }
             ControlFlow::Continue(())
         });
+        let joined = joined.unwrap();
         assert_eq!(firsts, [0, BLOCK, 2 * BLOCK]);
         assert_eq!(joined, whole);
         assert_eq!(whole.positions[n - 1], [3.0, 2.5, 0.0]);

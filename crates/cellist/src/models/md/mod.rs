@@ -21,8 +21,7 @@ mod model;
 mod subdomain;
 mod velocity;
 
-pub use atoms::Atoms;
-use atoms::PermuteScratch;
+pub use atoms::{Atoms, PermuteScratch};
 pub use frame::dump_particles;
 pub use halo::HaloForces;
 pub use integrate::{Integrator, Langevin};
@@ -647,6 +646,40 @@ pub fn check_positions<const D: usize>(
 mod tests {
     use super::*;
     use crate::geometry::Boundary;
+
+    /// Thermo summed a block at a time (any block sizes) has the bits of
+    /// thermo over all atoms with the per-atom energies and virials summed
+    /// as one sequence.
+    #[test]
+    fn thermo_sums_in_blocks_have_the_bits_of_one_pass() {
+        let mut rng = crate::random::Rng::new(5);
+        let n = 1000;
+        let mut atoms = Atoms::<3>::at_rest((0..n).map(|_| [0.0; 3]).collect(), 1.0);
+        for k in 0..n {
+            atoms.velocities[k] = std::array::from_fn(|_| rng.normal());
+            atoms.masses[k] = 0.5 + rng.uniform();
+        }
+        let energies: Vec<f64> = (0..n).map(|_| rng.normal()).collect();
+        let virials: Vec<f64> = (0..n).map(|_| rng.normal()).collect();
+        let totals = PairTally {
+            energy: energies.iter().sum(),
+            virial: virials.iter().sum(),
+        };
+        let whole = Thermo::of(&atoms, totals, 123.0);
+        for block in [1, 7, 333, n] {
+            let mut sums = ThermoSums::default();
+            for start in (0..n).step_by(block) {
+                let slots: Vec<usize> = (start..n.min(start + block)).collect();
+                let range = start..n.min(start + block);
+                sums.add(
+                    &atoms.select(&slots),
+                    &energies[range.clone()],
+                    &virials[range],
+                );
+            }
+            assert_eq!(sums.thermo::<3>(123.0), whole, "blocks of {block}");
+        }
+    }
 
     /// The first atom (in the atoms' order) that is not finite or is outside
     /// an open face, whatever chunk it falls in and whatever the thread count;

@@ -365,3 +365,45 @@ pub fn load_atoms<const D: usize>(
     };
     Ok((atoms, state.vectors("list_reference", n)?, counts))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Atoms saved a block at a time are the bytes of one [`save_atoms`],
+    /// and load back as they were.
+    #[test]
+    fn saved_in_blocks_is_saved_at_once() {
+        let n = 50;
+        let points = (0..n).map(|k| [k as f64, 0.5 * k as f64]).collect();
+        let mut atoms = Atoms::<2>::at_rest(points, 2.0);
+        for k in 0..n {
+            atoms.velocities[k] = [k as f64 * 0.1, -0.2];
+            atoms.forces[k] = [1.0 / (k + 1) as f64, 3.0];
+            atoms.types[k] = 1 + (k % 3) as u32;
+        }
+        let reference: Vec<[f64; 2]> = atoms
+            .positions
+            .iter()
+            .map(|p| [p[0] + 0.01, p[1]])
+            .collect();
+        let counts = ListCounts {
+            rebuilds: 4,
+            since_build: 2,
+            late_builds: 1,
+        };
+        let mut whole = State::default();
+        save_atoms(&mut whole, &atoms, &reference, counts);
+        let mut saved = SavedAtoms::with_capacity(7);
+        for start in (0..n).step_by(7) {
+            let slots: Vec<usize> = (start..n.min(start + 7)).collect();
+            saved.push(&atoms.select(&slots), &reference[start..n.min(start + 7)]);
+        }
+        let mut blocks = State::default();
+        saved.finish(&mut blocks, counts);
+        assert_eq!(blocks, whole);
+        let (loaded, loaded_reference, loaded_counts) = load_atoms::<2>(&blocks, n).unwrap();
+        assert_eq!(loaded, atoms);
+        assert_eq!((loaded_reference, loaded_counts), (reference, counts));
+    }
+}

@@ -123,6 +123,23 @@ mod tests {
         }
     }
 
+    /// A rank that keeps some of the atoms gives each the bits it gets when
+    /// the velocities of all of them are created at once.
+    #[test]
+    fn scaling_over_every_atom_gives_a_kept_atom_its_velocity() {
+        let n = 200;
+        let mut all = Atoms::<3>::at_rest(vec![[0.0; 3]; n], 1.0);
+        for (k, m) in all.masses.iter_mut().enumerate() {
+            *m = 1.0 + (k % 5) as f64;
+        }
+        create_velocities(&mut all, 0.7, 11, VelocityDistribution::Gaussian);
+        let every = || all.ids.iter().copied().zip(all.masses.iter().copied());
+        let scaling = VelocityScaling::<3>::over(every, 0.7, 11, VelocityDistribution::Gaussian);
+        for k in (0..n).step_by(3) {
+            assert_eq!(scaling.velocity(all.ids[k]), all.velocities[k]);
+        }
+    }
+
     #[test]
     fn velocities_follow_the_atom_not_its_position_in_the_arrays() {
         let mut a = Atoms::<2>::at_rest(vec![[0.0; 2]; 10], 1.0);
