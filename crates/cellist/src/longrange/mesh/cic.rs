@@ -3,6 +3,8 @@
 //! `floor(u_a)` and `f_a` at the next, `f_a = u_a - floor(u_a)`; a mesh field is
 //! read back with the same weights.
 
+use super::slab::Window;
+
 /// Where a mesh lies and whether it wraps.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) struct Geometry {
@@ -54,13 +56,23 @@ impl Geometry {
 }
 
 impl Stencil {
-    /// Calls `visit(index, weight)` for the 8 nodes of a row-major `grid^3` mesh,
-    /// in a fixed order.
+    /// The plane (along axis 0) of the stencil's lower nodes.
     #[inline]
-    pub(crate) fn each(&self, grid: usize, mut visit: impl FnMut(usize, f64)) {
+    pub(crate) fn base(&self) -> usize {
+        self.node[0][0]
+    }
+
+    /// Calls `visit(index, weight)` for those of the 8 nodes whose plane
+    /// `window` holds, `index` being the node's in the window's planes of a
+    /// row-major `grid^3` mesh, in a fixed order.
+    #[inline]
+    pub(crate) fn each(&self, grid: usize, window: Window, mut visit: impl FnMut(usize, f64)) {
         for a in 0..2 {
+            let Some(plane) = window.local(self.node[0][a]) else {
+                continue;
+            };
             for b in 0..2 {
-                let row = (self.node[0][a] * grid + self.node[1][b]) * grid;
+                let row = (plane * grid + self.node[1][b]) * grid;
                 let wab = self.weight[0][a] * self.weight[1][b];
                 for c in 0..2 {
                     visit(row + self.node[2][c], wab * self.weight[2][c]);
