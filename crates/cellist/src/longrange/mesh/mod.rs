@@ -619,6 +619,82 @@ mod tests {
         }
     }
 
+    /// PM and P3M of `(m, x)` on `ranks` thread-ranks ([`slab::testkit::Hub`]),
+    /// each rank's result.
+    fn shared(params: MeshParams, m: &[f64], x: &[[f64; 3]], ranks: usize) -> Vec<(Field, Field)> {
+        slab::testkit::Hub::run(ranks, |exchange| {
+            let rank = Rank::of(exchange);
+            let threads = Threads::single();
+            let mut pm = ParticleMesh::on_rank(law(), params, rank).unwrap();
+            let mut p3m = P3m::on_rank(law(), params, 1.25, rank).unwrap();
+            // twice: the second call reuses the Green's function
+            let mut run_both = || {
+                (
+                    run(m, x, |s, o| pm.compute_shared(s, o, &threads, exchange)),
+                    run(m, x, |s, o| p3m.compute_shared(s, o, &threads, exchange)),
+                )
+            };
+            run_both();
+            run_both()
+        })
+    }
+
+    /// `a` and `b` have the same accelerations, bit for bit, and potentials
+    /// within `tolerance` of the largest.
+    fn same_field(a: &Field, b: &Field, tolerance: f64, what: &str) {
+        assert_eq!(a.0, b.0, "{what}: accelerations");
+        let scale = b.1.iter().fold(0.0f64, |s, p| s.max(p.abs()));
+        for (p, q) in a.1.iter().zip(&b.1) {
+            assert!(
+                (p - q).abs() <= tolerance * scale,
+                "{what}: phi {p} against {q}"
+            );
+        }
+    }
+
+    #[test]
+    fn ranks_sharing_the_mesh_match_one_process() {
+        let (m, x) = cloud(600, 1.0, [0.3; 3], 21);
+        let periodic = MeshParams {
+            grid: 16,
+            boundary: MeshBoundary::Periodic {
+                origin: [-2.0; 3],
+                length: 4.0,
+            },
+        };
+        let threads = Threads::single();
+        for params in [isolated(16), periodic] {
+            let want_pm = pm(params, &m, &x, &threads);
+            let mut p3m = P3m::new(law(), params, 1.25).unwrap();
+            let want_p3m = run(&m, &x, |s, o| p3m.compute(s, o, &threads));
+            // the periodic own kernel is summed over every mode on every rank,
+            // the isolated one over each rank's modes, then over the ranks
+            let tolerance = match params.boundary {
+                MeshBoundary::Periodic { .. } => 0.0,
+                MeshBoundary::Isolated => 1e-14,
+            };
+            for ranks in [2, 3, 4] {
+                for (r, (got_pm, got_p3m)) in shared(params, &m, &x, ranks).iter().enumerate() {
+                    let what = format!("{params:?} rank {r} of {ranks}");
+                    same_field(got_pm, &want_pm, tolerance, &format!("pm {what}"));
+                    same_field(got_p3m, &want_p3m, tolerance, &format!("p3m {what}"));
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn more_ranks_than_planes_are_refused() {
+        let rank = Rank { index: 0, count: 9 };
+        let error = ParticleMesh::on_rank(law(), isolated(8), rank).unwrap_err();
+        assert!(
+            error.contains("9 ranks") && error.contains("8 planes"),
+            "{error}"
+        );
+        assert!(P3m::on_rank(law(), isolated(8), 1.25, rank).is_err());
+        assert!(ParticleMesh::on_rank(law(), isolated(16), rank).is_ok());
+    }
+
     #[test]
     fn bad_parameters_are_refused() {
         let periodic = |origin, length| MeshParams {

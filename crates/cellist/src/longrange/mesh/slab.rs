@@ -138,6 +138,15 @@ impl Window {
         }
     }
 
+    /// The planes `first..first + count` (mod `m`) of a mesh of side `m`.
+    pub(crate) fn planes(first: usize, count: usize, m: usize) -> Self {
+        Window {
+            first: first & (m - 1),
+            count,
+            mask: m - 1,
+        }
+    }
+
     /// Where plane `p` is held, if it is.
     #[inline(always)]
     pub(crate) fn local(&self, p: usize) -> Option<usize> {
@@ -149,6 +158,12 @@ impl Window {
     pub(crate) fn count(&self) -> usize {
         self.count
     }
+}
+
+/// [`Slab::window`] of `rank` (of several) on a mesh of side `m`.
+fn window_of(corner: usize, m: usize, rank: Rank, (below, above): (usize, usize)) -> Window {
+    let owned = part(corner, rank.index, rank.count);
+    Window::planes(owned.start + m - below, owned.len() + below + above, m)
 }
 
 /// A transform ([`Planes`]) of a mesh cut into slabs over the ranks.
@@ -216,12 +231,7 @@ impl<F: Planes> Slab<F> {
         if self.rank.count == 1 {
             return Window::whole(corner, m);
         }
-        let owned = self.owned(corner);
-        Window {
-            first: (owned.start + m - below) & (m - 1),
-            count: owned.len() + below + above,
-            mask: m - 1,
-        }
+        window_of(corner, m, self.rank, (below, above))
     }
 
     /// `lines` (the [`Slab::lines_len`] buffer) = this rank's columns of the
@@ -297,7 +307,7 @@ impl<F: Planes> Slab<F> {
         let (m, len, ranks) = (self.size(), self.plane_len(), self.rank.count);
         let windows: Vec<Window> = (0..ranks)
             .map(|r| {
-                Slab::<F>::window_of(
+                window_of(
                     corner,
                     m,
                     Rank {
@@ -335,16 +345,6 @@ impl<F: Planes> Slab<F> {
             }
         }
         threads.install(|| self.fft.inverse_planes(corner, &mut self.planes, out));
-    }
-
-    /// [`Slab::window`] of any rank.
-    fn window_of(corner: usize, m: usize, rank: Rank, (below, above): (usize, usize)) -> Window {
-        let owned = part(corner, rank.index, rank.count);
-        Window {
-            first: (owned.start + m - below) & (m - 1),
-            count: owned.len() + below + above,
-            mask: m - 1,
-        }
     }
 
     /// The sum over the ranks of each rank's `partial`, in rank order (the

@@ -819,6 +819,46 @@ mod tests {
     }
 
     #[test]
+    fn ranks_sharing_the_mesh_match_one_process() {
+        let mut rng = Rng::new(8);
+        let n = 3000;
+        let x: Vec<[f64; 2]> = (0..n).map(|_| [rng.normal(), 0.7 * rng.normal()]).collect();
+        let g: Vec<f64> = (0..n).map(|_| rng.uniform() - 0.4).collect();
+        let kernel = BlobKernel::new(0.08);
+        let periodic = VicParams {
+            grid: 32,
+            boundary: VicBoundary::Periodic {
+                origin: [-1.0, -1.5],
+                length: 2.5,
+            },
+        };
+        for params in [unbounded(32), periodic] {
+            let mut vic = VortexInCell::new(params, kernel).unwrap();
+            let want = run(&mut vic, &x, &g, &Threads::single());
+            for ranks in [2, 3, 4] {
+                let got = super::super::slab::testkit::Hub::run(ranks, |exchange| {
+                    let mut vic =
+                        VortexInCell::on_rank(params, kernel, Rank::of(exchange)).unwrap();
+                    let mut v = vec![[0.0; 2]; n];
+                    for _ in 0..2 {
+                        vic.compute_shared(&x, &g, &mut v, &Threads::single(), exchange);
+                    }
+                    v
+                });
+                for (r, v) in got.iter().enumerate() {
+                    assert_eq!(v, &want, "{params:?}: rank {r} of {ranks}");
+                }
+            }
+        }
+        let many = Rank {
+            index: 0,
+            count: 17,
+        };
+        let error = VortexInCell::on_rank(unbounded(16), kernel, many).unwrap_err();
+        assert!(error.contains("17 ranks"), "{error}");
+    }
+
+    #[test]
     fn the_kernel_follows_the_cell() {
         // one solver, clouds of different spreads: the unbounded kernel must be
         // re-made for each cell
