@@ -99,6 +99,8 @@ impl Exchange for MpiExchange {
 
 /// Gravity's mesh solvers on the ranks of an [`MpiExchange`].
 #[derive(Debug)]
+// built once per run and matched once per step: its size does not matter
+#[allow(clippy::large_enum_variant)]
 pub enum MeshGravitySolver {
     /// Particle-mesh.
     Pm(ParticleMesh),

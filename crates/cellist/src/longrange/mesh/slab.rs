@@ -1,11 +1,12 @@
 //! A mesh shared by several processes (ranks), cut into slabs of planes along
-//! axis 0, and its Fourier transform over them (Plimpton's slab FFT):
+//! axis 0, and its Fourier transform over them (a slab-decomposed FFT):
 //!
 //! 1. each rank holds the planes `part(corner, rank)` of the mesh's data corner
-//!    and transforms them over the axes it holds whole ([`Planes::forward_planes`]);
+//!    and transforms them over the axes it holds whole (`forward_planes` of the
+//!    plane transform);
 //! 2. an all-to-all transpose gives each rank the columns `part(plane_len, rank)`
 //!    of every plane (the spectrum along axes `1..D` cut instead of axis 0);
-//! 3. each rank transforms its columns along axis 0 ([`Planes::lines`]);
+//! 3. each rank transforms its columns along axis 0 (`lines`);
 //!
 //! and the reverse for the inverse transform, whose planes come back with the
 //! ghost planes the interpolation stencil reads beyond the slab. Every line is
