@@ -161,6 +161,19 @@ impl Window {
     }
 }
 
+/// The numbers of `values`: `Complex<f64>` is laid out as `[re, im]`.
+fn floats(values: &[Complex<f64>]) -> &[f64] {
+    // SAFETY: num-complex's Complex is #[repr(C)] with the fields re, im, so a
+    // slice of n of them is a slice of 2n f64 with the same alignment.
+    unsafe { std::slice::from_raw_parts(values.as_ptr().cast::<f64>(), 2 * values.len()) }
+}
+
+/// [`floats`], mutable.
+fn floats_mut(values: &mut [Complex<f64>]) -> &mut [f64] {
+    // SAFETY: as in `floats`; the borrow is exclusive for the result's life.
+    unsafe { std::slice::from_raw_parts_mut(values.as_mut_ptr().cast::<f64>(), 2 * values.len()) }
+}
+
 /// [`Slab::window`] of `rank` (of several) on a mesh of side `m`.
 fn window_of(corner: usize, m: usize, rank: Rank, (below, above): (usize, usize)) -> Window {
     let owned = part(corner, rank.index, rank.count);
@@ -173,8 +186,8 @@ pub(crate) struct Slab<F: Planes> {
     rank: Rank,
     /// The plane phase's planes (several ranks only).
     planes: Vec<Complex<f64>>,
-    send: Vec<f64>,
-    receive: Vec<f64>,
+    send: Vec<Complex<f64>>,
+    receive: Vec<Complex<f64>>,
 }
 
 impl<F: Planes> Slab<F> {
@@ -271,18 +284,18 @@ impl<F: Planes> Slab<F> {
         for s in 0..ranks {
             let cols = part(len, s, ranks);
             for plane in self.planes.chunks(len) {
-                self.send
-                    .extend(plane[cols.clone()].iter().flat_map(|c| [c.re, c.im]));
+                self.send.extend_from_slice(&plane[cols.clone()]);
             }
         }
-        self.receive.resize(receive_counts.iter().sum(), 0.0);
-        exchange.all_to_all(&self.send, &send_counts, &mut self.receive, &receive_counts);
         // from rank r: my columns of its planes, which are rows of `lines`
         let from = corner.min(self.size()) * width;
         lines[from..].fill(Complex::default());
-        for (line, value) in lines[..from].iter_mut().zip(self.receive.chunks_exact(2)) {
-            *line = Complex::new(value[0], value[1]);
-        }
+        exchange.all_to_all(
+            floats(&self.send),
+            &send_counts,
+            floats_mut(&mut lines[..from]),
+            &receive_counts,
+        );
         threads.install(|| self.fft.lines(lines, width, false));
     }
 
@@ -329,20 +342,25 @@ impl<F: Planes> Slab<F> {
         for w in &windows {
             for k in 0..w.count {
                 let q0 = (w.first + k) & (m - 1);
-                let row = &lines[q0 * width..][..width];
-                self.send.extend(row.iter().flat_map(|c| [c.re, c.im]));
+                self.send.extend_from_slice(&lines[q0 * width..][..width]);
             }
         }
-        self.receive.resize(receive_counts.iter().sum(), 0.0);
-        exchange.all_to_all(&self.send, &send_counts, &mut self.receive, &receive_counts);
+        self.receive
+            .resize(receive_counts.iter().sum::<usize>() / 2, Complex::default());
+        exchange.all_to_all(
+            floats(&self.send),
+            &send_counts,
+            floats_mut(&mut self.receive),
+            &receive_counts,
+        );
         self.planes.resize(mine.count * len, Complex::default());
-        let mut from = self.receive.chunks_exact(2);
+        let mut from = self.receive.as_slice();
         for s in 0..ranks {
             let cols = part(len, s, ranks);
             for plane in self.planes.chunks_mut(len) {
-                for (c, value) in plane[cols.clone()].iter_mut().zip(&mut from) {
-                    *c = Complex::new(value[0], value[1]);
-                }
+                let (block, rest) = from.split_at(cols.len());
+                plane[cols.clone()].copy_from_slice(block);
+                from = rest;
             }
         }
         threads.install(|| self.fft.inverse_planes(corner, &mut self.planes, out));
