@@ -22,6 +22,7 @@
 mod cic;
 mod fft;
 pub(crate) mod green;
+mod m4;
 pub mod slab;
 #[cfg(test)]
 pub(crate) mod testkit;

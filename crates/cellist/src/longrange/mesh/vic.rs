@@ -60,9 +60,9 @@
 //! not done.
 
 use super::fft::Fft2;
+use super::m4::{assign_rows, Plane};
 use super::slab::{part, Alone, Exchange, Rank, Slab};
 use super::{apply_kernel, RUNGS};
-use crate::interpolation::m4prime_stencil;
 use crate::longrange::biot_savart::BlobKernel;
 use crate::threads::Threads;
 use rayon::prelude::*;
@@ -127,93 +127,6 @@ impl VicParams {
             }
         }
         Ok(())
-    }
-}
-
-/// Where the mesh lies: node `(i, j)` is at `origin + H (i, j)`, stored at
-/// `i grid + j` (axis 0 is `x`).
-#[derive(Clone, Copy, Debug, PartialEq)]
-struct Plane {
-    origin: [f64; 2],
-    cell: f64,
-    grid: usize,
-    periodic: bool,
-}
-
-/// The 4 x 4 nodes and weights of one particle.
-struct Stencil {
-    /// The stencil's row: `floor(u_x)` (wrapped into the mesh if periodic).
-    row: usize,
-    /// Node indices along each axis.
-    node: [[usize; 4]; 2],
-    weight: [[f64; 4]; 2],
-}
-
-impl Plane {
-    /// The M4' stencil of `x`. Periodic positions are wrapped into the mesh;
-    /// unbounded ones lie at least 2 cells inside it (and are clamped there).
-    #[inline(always)]
-    fn stencil(&self, x: &[f64; 2]) -> Stencil {
-        let n = self.grid;
-        let mut node = [[0; 4]; 2];
-        let mut weight = [[0.0; 4]; 2];
-        let mut row = 0;
-        for a in 0..2 {
-            let u = (x[a] - self.origin[a]) / self.cell;
-            let (first, w) = if self.periodic {
-                m4prime_stencil(u.rem_euclid(n as f64))
-            } else {
-                m4prime_stencil(u.clamp(1.0, (n - 3) as f64))
-            };
-            for (k, out) in node[a].iter_mut().enumerate() {
-                *out = if self.periodic {
-                    (first + k as i64).rem_euclid(n as i64) as usize
-                } else {
-                    (first + k as i64) as usize
-                };
-            }
-            weight[a] = w;
-            if a == 0 {
-                // node 1 is floor(u), wrapped
-                row = node[0][1];
-            }
-        }
-        Stencil { row, node, weight }
-    }
-}
-
-/// The node circulations `w_g H^2` of the rows `r0..` that `rows` holds (whole
-/// rows of `grid`): the particles of stencil rows `r0 - 2 ..= r1` (wrapped if
-/// periodic) that touch them, row by row in sorted order, so that every node
-/// sums its particles in an order fixed by the data (the same whatever rows a
-/// task or a rank holds).
-fn assign_rows(plane: &Plane, sorted: &[[f64; 3]], starts: &[usize], r0: usize, rows: &mut [f64]) {
-    let n = plane.grid as i64;
-    rows.fill(0.0);
-    let r0 = r0 as i64;
-    let r1 = r0 + (rows.len() / plane.grid) as i64;
-    let (first, last) = if plane.periodic {
-        (r0 - 2, r1)
-    } else {
-        ((r0 - 2).max(0), r1.min(n - 1))
-    };
-    for base in first..=last {
-        let wrapped = base.rem_euclid(n) as usize;
-        for p in &sorted[starts[wrapped]..starts[wrapped + 1]] {
-            let s = plane.stencil(&[p[0], p[1]]);
-            for (k, &wx) in s.weight[0].iter().enumerate() {
-                // the stencil's rows are base - 1 ..= base + 2, unwrapped
-                let r = base - 1 + k as i64;
-                if r < r0 || r >= r1 {
-                    continue;
-                }
-                let gx = p[2] * wx;
-                let row = &mut rows[(r - r0) as usize * plane.grid..];
-                for (&c, &wy) in s.node[1].iter().zip(&s.weight[1]) {
-                    row[c] += gx * wy;
-                }
-            }
-        }
     }
 }
 
