@@ -457,7 +457,9 @@ impl ParticleMesh {
 
     /// [`ParticleMesh::compute`] on the ranks of `exchange`, every rank calling
     /// it with every particle: each transforms its slab of the mesh, and every
-    /// rank gets every particle's result, the same bits as one process's.
+    /// rank gets every particle's result: the accelerations of one process bit
+    /// for bit, the potentials to rounding on an isolated mesh (the own-cloud
+    /// kernel's sum over the modes is split among the ranks).
     pub fn compute_shared(
         &mut self,
         sources: &Sources,
