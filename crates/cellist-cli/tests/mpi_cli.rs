@@ -5,8 +5,11 @@
 //! always, the same bytes on 2, 3 and 4 ranks), an uneven md system (a slab
 //! in a third of the box) with balanced planes likewise, a 4-rank
 //! checkpoint continues in one process and on 2 ranks like the uninterrupted
-//! run; md, pse and gravity on 2 ranks write `summary.json` with the MPI
-//! figures; bad input, a thin subdomain, a model not distributed and a blow-up
+//! run; gravity's PM and P3M and the vortex-in-cell velocity on a
+//! slab-decomposed mesh on 1 to 4 ranks give the plain run's dumps and fields
+//! within 1e-10; md, pse and gravity on 2 ranks write `summary.json` with the
+//! MPI figures; bad input, a thin subdomain, a model not distributed, more
+//! ranks than mesh planes and a blow-up
 //! stop every rank with one message from rank 0 and a non-zero status, never
 //! a hang. Ends with `N passed, N failed`.
 //!
@@ -237,6 +240,16 @@ field = { every = 20, file = "vorticity.csv" }
 "#,
     )
     .expect("write the scenario");
+    path.display().to_string()
+}
+
+/// The scenario at `base` with its line `from` replaced by `to`, written as
+/// `dir/name`.
+fn variant(dir: &Path, base: &str, name: &str, from: &str, to: &str) -> String {
+    let text = std::fs::read_to_string(base).expect("read the scenario");
+    assert!(text.contains(from), "{base} has no `{from}`");
+    let path = dir.join(name);
+    std::fs::write(&path, text.replace(from, to)).expect("write the scenario");
     path.display().to_string()
 }
 
@@ -538,6 +551,28 @@ fn main() {
     let pse = pse_scenario(dir.path());
     let gravity = gravity_scenario(dir.path());
     let vortex = vortex_scenario(dir.path());
+    let direct = r#"solver = { kind = "direct" }"#;
+    let pm = variant(
+        dir.path(),
+        &gravity,
+        "pm.toml",
+        direct,
+        r#"solver = { kind = "pm", grid = 16 }"#,
+    );
+    let p3m = variant(
+        dir.path(),
+        &gravity,
+        "p3m.toml",
+        direct,
+        r#"solver = { kind = "p3m", grid = 16, boundary = "periodic", box = 40.0 }"#,
+    );
+    let vic = variant(
+        dir.path(),
+        &vortex,
+        "vic.toml",
+        r#"velocity = { kind = "direct" }"#,
+        r#"velocity = { kind = "mesh", grid = 32 }"#,
+    );
     let cases: Vec<(&str, Result<(), String>)> = vec![
         (
             "-np 1 writes the bytes of the plain run",
@@ -570,6 +605,18 @@ fn main() {
         (
             "vortex direct by the ring on 1 to 4 ranks: the fields of the plain run within 1e-10",
             distributed_runs_match_the_plain_run(dir.path(), "vortex", &vortex, "vorticity_20.csv", false),
+        ),
+        (
+            "gravity pm (isolated) on a slab-decomposed mesh on 1 to 4 ranks: the dumps of the plain run within 1e-10",
+            distributed_runs_match_the_plain_run(dir.path(), "gravity-pm", &pm, "stars.dump", false),
+        ),
+        (
+            "gravity p3m (periodic) on a slab-decomposed mesh on 1 to 4 ranks: the dumps of the plain run within 1e-10",
+            distributed_runs_match_the_plain_run(dir.path(), "gravity-p3m", &p3m, "stars.dump", false),
+        ),
+        (
+            "vortex mesh (vortex-in-cell) on a slab-decomposed mesh on 1 to 4 ranks: the fields of the plain run within 1e-10",
+            distributed_runs_match_the_plain_run(dir.path(), "vortex-mesh", &vic, "vorticity_20.csv", false),
         ),
         (
             "gravity: a 4-rank checkpoint continues in one process and on 2 ranks",
@@ -618,6 +665,14 @@ fn main() {
                     "system.solver={kind=\"barnes-hut\",theta=0.5}",
                 ],
                 "does not run on 2 MPI ranks",
+            ),
+        ),
+        (
+            "-np 9: a mesh of 8 planes for 9 ranks, one message",
+            refused_once(
+                9,
+                &["run", &pm, "--set", "system.solver.grid=8"],
+                "9 ranks share a mesh of only 8 planes",
             ),
         ),
         (

@@ -84,16 +84,17 @@ impl Ranks {
     }
 
     /// The speed line `line` of the model completed with what the ranks
-    /// cost: a replicated run's ring pass (its waiting time over the loop's
-    /// `loop_seconds`).
+    /// cost: a replicated run's messages (the ring pass's waiting, the mesh's
+    /// transposes, the gathers; their time over the loop's `loop_seconds`).
     pub fn speed(&self, line: String, loop_seconds: f64) -> String {
         match self {
             #[cfg(feature = "mpi")]
             Ranks::Replicated { world, waited } => {
                 let waited = waited_so_far(waited);
                 format!(
-                    "{line} (per rank)\nRing pass on {} ranks: {:.4} s on rank 0 waiting for blocks and \
-                     gathering the results ({:.1}% of the loop)",
+                    "{line} (per rank)\nReplicated on {} ranks: {:.4} s on rank 0 in messages \
+                     (the ring's blocks, the mesh's transposes) and gathering the results ({:.1}% of \
+                     the loop)",
                     world.size(),
                     waited.as_secs_f64(),
                     100.0 * waited.as_secs_f64() / loop_seconds.max(1e-300)

@@ -1,5 +1,7 @@
 //! MPI test (feature `mpi`, its own binary: MPI initialises once per process):
-//! the ring-pass direct gravity against the single-process direct sum.
+//! the ring-pass direct gravity against the single-process direct sum, and
+//! the slab-decomposed mesh solvers (PM, P3M, vortex-in-cell over
+//! `MpiExchange`) against the same solvers in one process.
 //!
 //! ```text
 //! cargo build --release -p cellist-sim --features mpi --tests
@@ -10,10 +12,15 @@
 //! when a case failed on any rank.
 
 use cellist::interactions::GravityLaw;
-use cellist::longrange::{DirectSum, FieldOut, Sources};
+use cellist::longrange::{
+    BlobKernel, DirectSum, FieldOut, MeshBoundary, MeshParams, P3m, ParticleMesh, Rank, Sources,
+    VicBoundary, VicParams, VortexInCell,
+};
 use cellist::models::gravity::plummer;
 use cellist::Threads;
+use cellist_sim::distributed::mesh::MpiExchange;
 use cellist_sim::distributed::ring_gravity;
+use mpi::topology::SimpleCommunicator;
 use mpi::traits::*;
 
 /// The block of `n` bodies rank `rank` of `ranks` holds: contiguous, the first
@@ -65,6 +72,90 @@ fn worst_error<C: Communicator>(world: &C, law: GravityLaw, n: usize, threads: &
     all
 }
 
+/// The largest over the ranks of `worst`.
+fn largest<C: Communicator>(world: &C, worst: f64) -> f64 {
+    let mut all = 0.0f64;
+    world.all_reduce_into(&worst, &mut all, mpi::collective::SystemOperation::max());
+    all
+}
+
+/// The largest `|a - b| / max |b|` over the numbers of `a` and `b`.
+fn relative(a: &[f64], b: &[f64]) -> f64 {
+    let scale = b.iter().fold(0.0f64, |s, v| s.max(v.abs()));
+    let worst = a
+        .iter()
+        .zip(b)
+        .fold(0.0f64, |w, (x, y)| w.max((x - y).abs()));
+    worst / scale
+}
+
+/// The largest relative difference of the accelerations and of the
+/// potentials between gravity's mesh solver (P3M if `p3m`, else PM) on the
+/// ranks of `world`, each holding every body, and the same solver in one
+/// process.
+fn mesh_error(world: &SimpleCommunicator, params: MeshParams, p3m: bool, threads: &Threads) -> f64 {
+    let law = GravityLaw::new(1.0, 0.01, 0.0).expect("a valid law");
+    let n = 2000;
+    let bodies = plummer(n, 5, &law, threads);
+    let sources = Sources {
+        mass: &bodies.mass,
+        position: &bodies.position,
+    };
+    let exchange = MpiExchange::new(world.duplicate());
+    let rank = Rank::of(&exchange);
+    let field = || (vec![[0.0; 3]; n], vec![0.0; n]);
+    let (mut want, mut got) = (field(), field());
+    if p3m {
+        let mut one = P3m::new(law, params, 1.25).expect("a valid P3M");
+        let mut shared = P3m::on_rank(law, params, 1.25, rank).expect("a valid P3M");
+        let (acc, phi) = &mut want;
+        one.compute(&sources, FieldOut { acc, phi }, threads);
+        let (acc, phi) = &mut got;
+        shared.compute_shared(&sources, FieldOut { acc, phi }, threads, &exchange);
+    } else {
+        let mut one = ParticleMesh::new(law, params).expect("a valid PM");
+        let mut shared = ParticleMesh::on_rank(law, params, rank).expect("a valid PM");
+        let (acc, phi) = &mut want;
+        one.compute(&sources, FieldOut { acc, phi }, threads);
+        let (acc, phi) = &mut got;
+        shared.compute_shared(&sources, FieldOut { acc, phi }, threads, &exchange);
+    }
+    let worst =
+        relative(got.0.as_flattened(), want.0.as_flattened()).max(relative(&got.1, &want.1));
+    largest(world, worst)
+}
+
+/// The largest relative difference of the velocities between the
+/// vortex-in-cell solver on the ranks of `world`, each holding every
+/// particle, and in one process.
+fn vic_error(world: &SimpleCommunicator, params: VicParams, threads: &Threads) -> f64 {
+    let n = 3000;
+    // a deterministic scatter of blobs in [-1, 1)^2
+    let x: Vec<[f64; 2]> = (0..n)
+        .map(|i| {
+            let t = i as f64;
+            [
+                (t * 0.618_034).fract() * 2.0 - 1.0,
+                (t * 0.414_214).fract() * 2.0 - 1.0,
+            ]
+        })
+        .collect();
+    let gamma: Vec<f64> = (0..n)
+        .map(|i| ((i * 7919) % 101) as f64 / 101.0 - 0.4)
+        .collect();
+    let kernel = BlobKernel::new(0.05);
+    let exchange = MpiExchange::new(world.duplicate());
+    let mut want = vec![[0.0; 2]; n];
+    VortexInCell::new(params, kernel)
+        .expect("a valid VIC")
+        .compute(&x, &gamma, &mut want, threads);
+    let mut got = vec![[0.0; 2]; n];
+    VortexInCell::on_rank(params, kernel, Rank::of(&exchange))
+        .expect("a valid VIC")
+        .compute_shared(&x, &gamma, &mut got, threads, &exchange);
+    largest(world, relative(got.as_flattened(), want.as_flattened()))
+}
+
 fn main() {
     let universe = mpi::initialize().expect("MPI initialises once");
     let world = universe.world();
@@ -104,6 +195,72 @@ fn main() {
         if world.rank() == 0 {
             println!(
                 "{} ring pass on {} ranks, {name}: largest relative difference {worst:.2e} (at most 1e-13)",
+                if ok { "ok  " } else { "FAIL" },
+                world.size()
+            );
+        }
+    }
+    let periodic = MeshParams {
+        grid: 16,
+        boundary: MeshBoundary::Periodic {
+            origin: [-4.0; 3],
+            length: 8.0,
+        },
+    };
+    let isolated = MeshParams {
+        grid: 16,
+        boundary: MeshBoundary::Isolated,
+    };
+    let square = VicParams {
+        grid: 32,
+        boundary: VicBoundary::Periodic {
+            origin: [-1.0; 2],
+            length: 2.0,
+        },
+    };
+    let unbounded = VicParams {
+        grid: 32,
+        boundary: VicBoundary::Unbounded,
+    };
+    let meshes = [
+        (
+            "PM, isolated",
+            mesh_error(&world, isolated, false, &threads),
+        ),
+        (
+            "PM, periodic",
+            mesh_error(&world, periodic, false, &threads),
+        ),
+        (
+            "P3M, isolated",
+            mesh_error(&world, isolated, true, &threads),
+        ),
+        (
+            "P3M, periodic",
+            mesh_error(&world, periodic, true, &threads),
+        ),
+        (
+            "vortex-in-cell, unbounded",
+            vic_error(&world, unbounded, &threads),
+        ),
+        (
+            "vortex-in-cell, periodic",
+            vic_error(&world, square, &threads),
+        ),
+    ];
+    for (name, worst) in meshes {
+        // the accelerations have the same bits; an isolated mesh's potentials
+        // differ by rounding (its own-cloud sum over the modes is split)
+        let ok = worst <= 1e-13;
+        if ok {
+            passed += 1;
+        } else {
+            failed += 1;
+        }
+        if world.rank() == 0 {
+            println!(
+                "{} slab-decomposed mesh on {} ranks, {name}: largest relative difference from one \
+                 process {worst:.2e} (at most 1e-13)",
                 if ok { "ok  " } else { "FAIL" },
                 world.size()
             );

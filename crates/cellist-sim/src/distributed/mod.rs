@@ -16,13 +16,16 @@
 //!
 //! What runs distributed, on the driver like every model (rank 0 writes the
 //! outputs): md and pse by domain decomposition ([`md::DistributedMd`],
-//! [`pse::DistributedPse`]), and the direct solvers of gravity and of the
-//! vortex model by the ring pass ([`ring`]), their O(N) state replicated on
-//! every rank ([`replicated::Replicated`]) and their O(N^2) sums divided. Whatever can fail on
+//! [`pse::DistributedPse`]); the direct solvers of gravity and of the
+//! vortex model by the ring pass ([`ring`]), and their mesh solvers (PM, P3M,
+//! vortex-in-cell) on a slab-decomposed mesh ([`mesh`]), their O(N) state
+//! replicated on every rank ([`replicated`]) and their sums and transforms
+//! divided. Whatever can fail on
 //! one rank only is agreed ([`agree`]): every rank stops with the message of
 //! the lowest rank that failed, none waits in an exchange.
 
 pub mod md;
+pub mod mesh;
 pub mod pse;
 pub mod pull;
 pub mod replicated;

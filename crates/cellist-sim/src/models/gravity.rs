@@ -532,15 +532,29 @@ fn run_setup<L: Launch>(
 ) -> SimResult<L::Output> {
     let (threads, out_dir) = (context.threads, &context.out_dir);
     let started = Instant::now();
-    let solver =
-        Solver::new(&setup.choice, setup.law, setup.bodies.len()).map_err(|e| scenario.error(e))?;
     #[cfg(feature = "mpi")]
-    let (solver, ranks) = match crate::distributed::replicated::gravity_ring(setup.law) {
-        Some((ring_solver, ranks)) => {
+    let mesh =
+        crate::distributed::replicated::gravity_mesh(&setup.choice, setup.law, setup.bodies.len())
+            .transpose()
+            .map_err(|e| scenario.error(e))?;
+    // the solver of one process (a distributed mesh builds its own slab)
+    let single =
+        || Solver::new(&setup.choice, setup.law, setup.bodies.len()).map_err(|e| scenario.error(e));
+    #[cfg(feature = "mpi")]
+    let (solver, ranks) = match (
+        mesh,
+        crate::distributed::replicated::gravity_ring(setup.law),
+    ) {
+        (Some((mesh_solver, ranks, line)), _) => {
+            context.say(line);
+            (mesh_solver, ranks)
+        }
+        (None, Some((ring_solver, ranks))) => {
             if setup.choice != SolverChoice::Direct {
                 return Err(scenario.error(format!(
-                    "solver {} does not run on {} MPI ranks: only solver = \"direct\" runs \
-                     distributed (by the ring pass); run the others in one process",
+                    "solver {} does not run on {} MPI ranks: only the solvers \"direct\" (by the \
+                     ring pass), \"pm\" and \"p3m\" (on a slab-decomposed mesh) run \
+                     distributed; run the others in one process",
                     setup.solver_name,
                     ranks.count()
                 )));
@@ -553,10 +567,10 @@ fn run_setup<L: Launch>(
             ));
             (ring_solver, ranks)
         }
-        None => (solver, Ranks::One),
+        (None, None) => (single()?, Ranks::One),
     };
     #[cfg(not(feature = "mpi"))]
-    let ranks = Ranks::One;
+    let (solver, ranks) = (single()?, Ranks::One);
     let system = GravitySystem::with_solver(setup.law, setup.bodies.clone(), solver, threads)
         .map_err(|e| match e {
             GravityError::NotFinite { .. } => {

@@ -510,13 +510,21 @@ pub fn run<L: Launch>(
     let snapshots = out.snapshots(steps, ["vorticity.csv", "vorticity.png", "vorticity.gif"]);
     let n = seeded.positions.len();
     #[cfg(feature = "mpi")]
-    let ring = crate::distributed::replicated::vortex_ring(BlobKernel::new(params.sigma));
+    let mesh = crate::distributed::replicated::vortex_mesh(velocity, BlobKernel::new(params.sigma))
+        .transpose()
+        .map_err(|e| err(format!("system: {e}")))?;
+    #[cfg(feature = "mpi")]
+    let ring = match mesh {
+        Some(_) => None,
+        None => crate::distributed::replicated::vortex_ring(BlobKernel::new(params.sigma)),
+    };
     #[cfg(feature = "mpi")]
     if let Some((_, r)) = &ring {
         if velocity != VelocitySolver::Direct {
             return Err(err(format!(
                 "velocity.solver does not run on {} MPI ranks unless it is \"direct\" (by the \
-                 ring pass); run the tree and mesh solvers in one process",
+                 ring pass) or \"mesh\" (on a slab-decomposed mesh); run the tree solver in one \
+                 process",
                 r.count()
             )));
         }
@@ -527,12 +535,22 @@ pub fn run<L: Launch>(
             n / r.count() as usize
         ));
     }
-    let engine = VelocityEngine::new(params.solver, BlobKernel::new(params.sigma), n)
-        .map_err(|e| err(format!("system: {e}")))?;
+    // the engine of one process (a distributed mesh builds its own slab)
+    let single = || {
+        VelocityEngine::new(params.solver, BlobKernel::new(params.sigma), n)
+            .map_err(|e| err(format!("system: {e}")))
+    };
     #[cfg(feature = "mpi")]
-    let (engine, ranks) = ring.unwrap_or((engine, Ranks::One));
+    let (engine, ranks) = match (mesh, ring) {
+        (Some((engine, ranks, line)), _) => {
+            context.say(line);
+            (engine, ranks)
+        }
+        (None, Some(ring)) => ring,
+        (None, None) => (single()?, Ranks::One),
+    };
     #[cfg(not(feature = "mpi"))]
-    let ranks = Ranks::One;
+    let (engine, ranks) = (single()?, Ranks::One);
     let system = VortexSystem::with_engine(params, seeded.positions, seeded.gamma, engine, threads)
         .map_err(|e| err(format!("system: {e}")))?;
     let solver_name = match velocity {

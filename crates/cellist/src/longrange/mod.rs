@@ -14,7 +14,10 @@ pub mod tree;
 
 pub use biot_savart::{add_velocity_at, BlobKernel, DirectBiotSavart};
 pub use direct::{DirectSum, PartialField};
-pub use mesh::{MeshBoundary, MeshParams, ParticleMesh, VicBoundary, VicParams, VortexInCell};
+pub use mesh::{
+    Alone, Exchange, MeshBoundary, MeshParams, ParticleMesh, Rank, VicBoundary, VicParams,
+    VortexInCell,
+};
 pub use p3m::P3m;
 pub use tree::{BarnesHut, TreeParams, VortexTree};
 

@@ -21,7 +21,8 @@
 //! convention of [`super::ParticleMesh`].
 
 use super::mesh::green::{long_pair, Reach};
-use super::mesh::{MeshBoundary, MeshParams, MeshSolver};
+use super::mesh::slab::part;
+use super::mesh::{Alone, Exchange, MeshBoundary, MeshParams, MeshSolver, Rank};
 use super::{FieldOut, Sources};
 use crate::interactions::GravityLaw;
 use crate::simd::F64x4;
@@ -182,13 +183,25 @@ impl P3m {
     /// cannot carry a narrower Gaussian) or not finite, and a periodic box
     /// narrower than `2 r_cut`.
     pub fn new(law: GravityLaw, params: MeshParams, split_cells: f64) -> Result<Self, String> {
+        Self::on_rank(law, params, split_cells, Rank::ALONE)
+    }
+
+    /// The solver on `rank`'s slab of a mesh shared by several ranks, each of
+    /// which holds every particle and sums the short range for a block of them;
+    /// refuses what [`P3m::new`] refuses and more ranks than the grid has planes.
+    pub fn on_rank(
+        law: GravityLaw,
+        params: MeshParams,
+        split_cells: f64,
+        rank: Rank,
+    ) -> Result<Self, String> {
         if !(split_cells.is_finite() && split_cells >= 0.5) {
             return Err(format!(
                 "split_cells must be finite and >= 0.5 (r_s of at least half a mesh \
                  cell), got {split_cells}"
             ));
         }
-        let mesh = MeshSolver::new(law, params, Reach::Long { cells: split_cells })?;
+        let mesh = MeshSolver::new(law, params, Reach::Long { cells: split_cells }, rank)?;
         if let MeshBoundary::Periodic { .. } = params.boundary {
             let cut = CUT * split_cells;
             if 2.0 * cut > params.grid as f64 {
@@ -219,26 +232,55 @@ impl P3m {
 
     /// Fills `out` with the P3M accelerations and potentials of `sources`.
     pub fn compute(&mut self, sources: &Sources, out: FieldOut, threads: &Threads) {
+        self.compute_shared(sources, out, threads, &Alone);
+    }
+
+    /// [`P3m::compute`] on the ranks of `exchange`, every rank calling it with
+    /// every particle: each transforms its slab of the mesh and sums the short
+    /// range for its block of the cell-sorted particles, and every rank gets
+    /// every particle's result.
+    pub fn compute_shared(
+        &mut self,
+        sources: &Sources,
+        out: FieldOut,
+        threads: &Threads,
+        exchange: &dyn Exchange,
+    ) {
+        let rank = self.mesh.rank();
+        assert_eq!(Rank::of(exchange), rank, "the exchange's ranks");
         if sources.mass.len() < 2 {
             out.acc.fill([0.0; 3]);
             out.phi.fill(0.0);
             return;
         }
-        self.mesh.place(sources.position, threads);
+        self.mesh.place(sources.position, threads, exchange);
         let r_s = self.split * self.mesh.cell();
         let periodic = match self.mesh.params().boundary {
             MeshBoundary::Periodic { origin, length } => Some((origin, length)),
             MeshBoundary::Isolated => None,
         };
         self.cells.sort(sources, CUT * r_s, periodic);
+        let n = sources.mass.len();
+        let block = part(n, rank.index, rank.count);
         self.cells.sum(
             self.mesh.law(),
             &self.table,
-            r_s,
-            CUT * r_s,
+            (r_s, CUT * r_s),
             periodic,
+            block.clone(),
             threads,
         );
+        if rank.count > 1 {
+            let mine = self.cells.sum[block].to_vec();
+            let counts: Vec<usize> = (0..rank.count)
+                .map(|r| 4 * part(n, r, rank.count).len())
+                .collect();
+            exchange.all_gather(
+                mine.as_flattened(),
+                &counts,
+                self.cells.sum.as_flattened_mut(),
+            );
+        }
         let FieldOut { acc, phi } = out;
         self.mesh.solve(
             sources,
@@ -247,6 +289,7 @@ impl P3m {
                 phi: &mut *phi,
             },
             threads,
+            exchange,
         );
         let cells = &self.cells;
         threads.install(|| {
@@ -349,16 +392,17 @@ impl Cells {
         self.start[0] = 0;
     }
 
-    /// Each sorted particle's short-range `(acc, phi)` over the cells within
-    /// [`REACH`] of its own (the runs along the last axis being consecutive in the
-    /// sorted order), minimum image when periodic.
+    /// The short-range `(acc, phi)` of the sorted particles `block` over the
+    /// cells within [`REACH`] of their own (the runs along the last axis being
+    /// consecutive in the sorted order), minimum image when periodic, for the
+    /// splitting radius and cut `(r_s, r_cut)`.
     fn sum(
         &mut self,
         law: &GravityLaw,
         table: &LongTable,
-        r_s: f64,
-        r_cut: f64,
+        (r_s, r_cut): (f64, f64),
         periodic: Option<([f64; 3], f64)>,
+        block: Range<usize>,
         threads: &Threads,
     ) {
         let Cells {
@@ -393,11 +437,12 @@ impl Cells {
             phi_scale,
         };
         threads.install(|| {
-            sum.par_chunks_mut(CHUNK)
+            sum[block.clone()]
+                .par_chunks_mut(CHUNK)
                 .enumerate()
                 .for_each(|(chunk, sums)| {
                     for (k, out) in sums.iter_mut().enumerate() {
-                        let i = chunk * CHUNK + k;
+                        let i = block.start + chunk * CHUNK + k;
                         let xi = [x[0][i], x[1][i], x[2][i]];
                         let own = grid.coords(&xi);
                         let mut total = [0.0; 4];

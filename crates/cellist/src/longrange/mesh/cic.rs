@@ -3,6 +3,8 @@
 //! `floor(u_a)` and `f_a` at the next, `f_a = u_a - floor(u_a)`; a mesh field is
 //! read back with the same weights.
 
+use super::slab::Window;
+
 /// Where a mesh lies and whether it wraps.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) struct Geometry {
@@ -54,13 +56,23 @@ impl Geometry {
 }
 
 impl Stencil {
-    /// Calls `visit(index, weight)` for the 8 nodes of a row-major `grid^3` mesh,
-    /// in a fixed order.
+    /// The plane (along axis 0) of the stencil's lower nodes.
     #[inline]
-    pub(crate) fn each(&self, grid: usize, mut visit: impl FnMut(usize, f64)) {
+    pub(crate) fn base(&self) -> usize {
+        self.node[0][0]
+    }
+
+    /// Calls `visit(index, weight)` for those of the 8 nodes whose plane
+    /// `window` holds, `index` being the node's in the window's planes of a
+    /// row-major `grid^3` mesh, in a fixed order.
+    #[inline]
+    pub(crate) fn each(&self, grid: usize, window: Window, mut visit: impl FnMut(usize, f64)) {
         for a in 0..2 {
+            let Some(plane) = window.local(self.node[0][a]) else {
+                continue;
+            };
             for b in 0..2 {
-                let row = (self.node[0][a] * grid + self.node[1][b]) * grid;
+                let row = (plane * grid + self.node[1][b]) * grid;
                 let wab = self.weight[0][a] * self.weight[1][b];
                 for c in 0..2 {
                     visit(row + self.node[2][c], wab * self.weight[2][c]);
@@ -81,5 +93,55 @@ impl Stencil {
             + own[1] * (d[0] * s[1] * s[2] + s[0] * d[1] * s[2] + s[0] * s[1] * d[2])
             + own[2] * (d[0] * d[1] * s[2] + d[0] * s[1] * d[2] + s[0] * d[1] * d[2])
             + own[3] * d[0] * d[1] * d[2]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::longrange::mesh::slab::part;
+    use crate::random::Rng;
+
+    /// The masses of `(m, x)` assigned to the planes of `window`, particle by
+    /// particle in input order.
+    fn assign(geometry: &Geometry, m: &[f64], x: &[[f64; 3]], window: Window) -> Vec<f64> {
+        let n = geometry.grid;
+        let mut mass = vec![0.0; window.count() * n * n];
+        for (x, &m) in x.iter().zip(m) {
+            geometry.stencil(x).each(n, window, |k, w| mass[k] += w * m);
+        }
+        mass
+    }
+
+    #[test]
+    fn slab_by_slab_assignment_has_the_bits_of_the_whole() {
+        let mut rng = Rng::new(17);
+        let n = 16;
+        let x: Vec<[f64; 3]> = (0..3000)
+            .map(|_| std::array::from_fn(|_| 4.0 * rng.uniform() - 2.0))
+            .collect();
+        let m: Vec<f64> = (0..x.len()).map(|_| 0.5 + rng.uniform()).collect();
+        for (periodic, side) in [(true, n), (false, 2 * n)] {
+            let geometry = Geometry {
+                origin: [-2.1; 3],
+                cell: 4.2 / (n - 1) as f64,
+                grid: n,
+                periodic,
+            };
+            let whole = assign(&geometry, &m, &x, Window::whole(n, side));
+            // every node's sum is over the same particles in the same order
+            let total: f64 = whole.iter().sum();
+            let want: f64 = m.iter().sum();
+            assert!((total - want).abs() < 1e-10 * want, "{total} {want}");
+            for ranks in [2, 3, 5] {
+                let mut joined = Vec::new();
+                for r in 0..ranks {
+                    let planes = part(n, r, ranks);
+                    let window = Window::planes(planes.start, planes.len(), side);
+                    joined.extend(assign(&geometry, &m, &x, window));
+                }
+                assert_eq!(joined, whole, "periodic {periodic}, {ranks} slabs");
+            }
+        }
     }
 }

@@ -110,7 +110,65 @@ impl Plans {
     }
 }
 
-/// Plans and per-task buffers for transforms of one mesh size `M`.
+/// A real transform cut into planes along axis 0: a `D`-dimensional mesh of
+/// side `M` is `M` planes (3-d: `M^2`, 2-d: one row of `M`), each transformed
+/// on its own over the axes it holds whole (the plane phase, [`Planes::forward_planes`],
+/// [`Planes::inverse_planes`]), into `plane_len` complex numbers; then the `c2c`
+/// transform along axis 0 of each of these columns ([`Planes::lines`]). A
+/// process holding every plane does both on one buffer; a slab-decomposed one
+/// (module `slab`) holds some planes in the first phase, some columns of every
+/// plane in the second, with a transpose between.
+pub(crate) trait Planes: Send {
+    /// The mesh side `M`.
+    fn size(&self) -> usize;
+
+    /// Complex numbers in one plane's half spectrum.
+    fn plane_len(&self) -> usize;
+
+    /// `spec` (`k`-th chunk of [`Planes::plane_len`]: plane `first + k`) = the
+    /// plane phase of the mesh that is `row(i, j)` on the first `corner` points
+    /// of row `j < corner` of plane `i < corner` (2-d: the plane is row `j = 0`)
+    /// and zero elsewhere; `row` fills a slice of length `corner`.
+    fn forward_planes(
+        &mut self,
+        corner: usize,
+        first: usize,
+        spec: &mut [Complex<f64>],
+        row: impl Fn(usize, usize, &mut [f64]) + Sync,
+    );
+
+    /// The inverse plane phase of the planes in `spec` (used as scratch): their
+    /// corner `[0, corner)^(D-1)` written to `out`, `corner^(D-1)` numbers per
+    /// plane.
+    fn inverse_planes(&mut self, corner: usize, spec: &mut [Complex<f64>], out: &mut [f64]);
+
+    /// The `c2c` transform along axis 0 of the `width` columns of `spec`
+    /// (`M` rows of `width`, the lines at stride `width`), forward or inverse.
+    fn lines(&mut self, spec: &mut [Complex<f64>], width: usize, inverse: bool);
+
+    /// `spec = F` of the mesh that `row` gives (as in [`Planes::forward_planes`]),
+    /// every plane in this process.
+    fn forward(
+        &mut self,
+        corner: usize,
+        spec: &mut [Complex<f64>],
+        row: impl Fn(usize, usize, &mut [f64]) + Sync,
+    ) {
+        let width = self.plane_len();
+        self.forward_planes(corner, 0, spec, row);
+        self.lines(spec, width, false);
+    }
+
+    /// Writes `f(x)` for `x in [0, corner)^D` to `out` (row-major) from
+    /// `spec = F`, every plane in this process; `spec` is used as scratch.
+    fn inverse(&mut self, corner: usize, spec: &mut [Complex<f64>], out: &mut [f64]) {
+        let width = self.plane_len();
+        self.lines(spec, width, true);
+        self.inverse_planes(corner, &mut spec[..corner * width], out);
+    }
+}
+
+/// Plans and per-task buffers for transforms of one `M^3` mesh size.
 pub(crate) struct Fft3 {
     plans: Plans,
     slots: Vec<Slot>,
@@ -123,24 +181,23 @@ impl Fft3 {
         let slots = (0..m).map(|_| plans.slot()).collect();
         Fft3 { plans, slots }
     }
+}
 
-    /// The mesh side `M`.
-    pub(crate) fn size(&self) -> usize {
+impl Planes for Fft3 {
+    fn size(&self) -> usize {
         self.plans.m
     }
 
-    /// Complex numbers in the half spectrum, `M^2 (M/2 + 1)`.
-    pub(crate) fn spectrum_len(&self) -> usize {
-        let m = self.plans.m;
-        m * m * (m / 2 + 1)
+    /// `M (M/2 + 1)`: the plane's rows' half spectra, `F(q1, q2)` at `q1 H + q2`.
+    fn plane_len(&self) -> usize {
+        self.plans.m * (self.plans.m / 2 + 1)
     }
 
-    /// `spec = F` of the mesh that is `row(i, j)` on the first `m` points of row
-    /// `(i, j)` for `i, j < m` and zero elsewhere; `row` fills a slice of length
-    /// `m`.
-    pub(crate) fn forward(
+    /// One task per plane: the rows' `r2c` transforms, then the columns' `c2c`.
+    fn forward_planes(
         &mut self,
         corner: usize,
+        first: usize,
         spec: &mut [Complex<f64>],
         row: impl Fn(usize, usize, &mut [f64]) + Sync,
     ) {
@@ -149,7 +206,8 @@ impl Fft3 {
         spec.par_chunks_mut(m * h)
             .zip(self.slots.par_iter_mut())
             .enumerate()
-            .for_each(|(i, (plane, slot))| {
+            .for_each(|(k, (plane, slot))| {
+                let i = first + k;
                 if i >= corner {
                     plane.fill(Complex::default());
                     return;
@@ -163,15 +221,11 @@ impl Fft3 {
                 }
                 columns(plane, h, plans.forward.as_ref(), slot);
             });
-        self.axis0(spec, false);
     }
 
-    /// Writes `f(x)` for `x in [0, m)^3` to `out` (`m^3`, row-major) from
-    /// `spec = F`, which is used as scratch.
-    pub(crate) fn inverse(&mut self, corner: usize, spec: &mut [Complex<f64>], out: &mut [f64]) {
-        let (m, h) = (self.plans.m, self.plans.m / 2 + 1);
-        self.axis0(spec, true);
+    fn inverse_planes(&mut self, corner: usize, spec: &mut [Complex<f64>], out: &mut [f64]) {
         let plans = &self.plans;
+        let (m, h) = (plans.m, plans.m / 2 + 1);
         spec.par_chunks_mut(m * h)
             .zip(out.par_chunks_mut(corner * corner))
             .zip(self.slots.par_iter_mut())
@@ -183,22 +237,8 @@ impl Fft3 {
             });
     }
 
-    /// The c2c transform along axis 0 (stride `M H`), one task per `q1`.
-    fn axis0(&mut self, spec: &mut [Complex<f64>], inverse: bool) {
-        let (m, h) = (self.plans.m, self.plans.m / 2 + 1);
-        let fft = if inverse {
-            &self.plans.inverse
-        } else {
-            &self.plans.forward
-        };
-        let shared = DisjointSlice::new(spec);
-        self.slots
-            .par_iter_mut()
-            .enumerate()
-            .for_each(|(q1, slot)| {
-                // SAFETY: task q1 alone reaches the elements (q0 M + q1) H + q2.
-                unsafe { strided(&shared, q1 * h, m * h, 0..h, fft.as_ref(), slot) };
-            });
+    fn lines(&mut self, spec: &mut [Complex<f64>], width: usize, inverse: bool) {
+        lines(&self.plans, &mut self.slots, spec, width, inverse);
     }
 }
 
@@ -221,24 +261,25 @@ impl Fft2 {
         let slots = (0..tasks2(m)).map(|_| plans.slot()).collect();
         Fft2 { plans, slots }
     }
+}
 
-    /// The mesh side `M`.
-    pub(crate) fn size(&self) -> usize {
+impl Planes for Fft2 {
+    fn size(&self) -> usize {
         self.plans.m
     }
 
-    /// Complex numbers in the half spectrum, `M (M/2 + 1)`.
-    pub(crate) fn spectrum_len(&self) -> usize {
-        self.plans.m * (self.plans.m / 2 + 1)
+    /// `M/2 + 1`: a row's half spectrum `F(q1)`.
+    fn plane_len(&self) -> usize {
+        self.plans.m / 2 + 1
     }
 
-    /// `spec = F` of the mesh that is `row(i)` on the first `corner` points of row
-    /// `i < corner` and zero elsewhere; `row` fills a slice of length `corner`.
-    pub(crate) fn forward(
+    /// Each task takes a fixed band of rows (set by `M` alone).
+    fn forward_planes(
         &mut self,
         corner: usize,
+        first: usize,
         spec: &mut [Complex<f64>],
-        row: impl Fn(usize, &mut [f64]) + Sync,
+        row: impl Fn(usize, usize, &mut [f64]) + Sync,
     ) {
         let plans = &self.plans;
         let (m, h) = (plans.m, plans.m / 2 + 1);
@@ -248,26 +289,21 @@ impl Fft2 {
             .enumerate()
             .for_each(|(b, (rows, slot))| {
                 for (k, out) in rows.chunks_mut(h).enumerate() {
-                    let i = b * band + k;
+                    let i = first + b * band + k;
                     if i < corner {
-                        plans.row_forward(corner, slot, out, |r| row(i, r));
+                        plans.row_forward(corner, slot, out, |r| row(i, 0, r));
                     } else {
                         out.fill(Complex::default());
                     }
                 }
             });
-        self.axis0(spec, false);
     }
 
-    /// Writes `f(x)` for `x in [0, corner)^2` to `out` (`corner^2`, row-major)
-    /// from `spec = F`, which is used as scratch.
-    pub(crate) fn inverse(&mut self, corner: usize, spec: &mut [Complex<f64>], out: &mut [f64]) {
-        self.axis0(spec, true);
+    fn inverse_planes(&mut self, corner: usize, spec: &mut [Complex<f64>], out: &mut [f64]) {
         let plans = &self.plans;
         let h = plans.m / 2 + 1;
         let band = plans.m.div_ceil(self.slots.len());
-        spec[..corner * h]
-            .par_chunks_mut(band * h)
+        spec.par_chunks_mut(band * h)
             .zip(out.par_chunks_mut(band * corner))
             .zip(self.slots.par_iter_mut())
             .for_each(|((lines, rows), slot)| {
@@ -277,23 +313,35 @@ impl Fft2 {
             });
     }
 
-    /// The c2c transform along axis 0 (the `H` columns, stride `H`), each task
-    /// taking a fixed range of whole batches of columns.
-    fn axis0(&mut self, spec: &mut [Complex<f64>], inverse: bool) {
-        let h = self.plans.m / 2 + 1;
-        let fft = if inverse {
-            &self.plans.inverse
-        } else {
-            &self.plans.forward
-        };
-        let per_task = h.div_ceil(self.slots.len()).next_multiple_of(BATCH);
-        let shared = DisjointSlice::new(spec);
-        self.slots.par_iter_mut().enumerate().for_each(|(t, slot)| {
-            let cols = (t * per_task).min(h)..((t + 1) * per_task).min(h);
-            // SAFETY: the tasks' column ranges are disjoint.
-            unsafe { strided(&shared, 0, h, cols, fft.as_ref(), slot) };
-        });
+    fn lines(&mut self, spec: &mut [Complex<f64>], width: usize, inverse: bool) {
+        lines(&self.plans, &mut self.slots, spec, width, inverse);
     }
+}
+
+/// The `c2c` transform along axis 0 of the `width` columns of `spec` (`M` rows
+/// of `width`), each task (one per slot) taking a fixed range of whole batches
+/// of columns. Every line is transformed on its own, so the bits depend
+/// neither on the tasks nor on which columns a process holds.
+fn lines(
+    plans: &Plans,
+    slots: &mut [Slot],
+    spec: &mut [Complex<f64>],
+    width: usize,
+    inverse: bool,
+) {
+    debug_assert_eq!(spec.len(), plans.m * width);
+    let fft = if inverse {
+        &plans.inverse
+    } else {
+        &plans.forward
+    };
+    let per_task = width.div_ceil(slots.len()).next_multiple_of(BATCH);
+    let shared = DisjointSlice::new(spec);
+    slots.par_iter_mut().enumerate().for_each(|(t, slot)| {
+        let cols = (t * per_task).min(width)..((t + 1) * per_task).min(width);
+        // SAFETY: the tasks' column ranges are disjoint.
+        unsafe { strided(&shared, 0, width, cols, fft.as_ref(), slot) };
+    });
 }
 
 /// Transforms the `H` columns of one plane (`data[c + q1 H]`, `q1 < M`).

@@ -3,10 +3,13 @@
 //! `A_a` carry the inverse transform's `1/M^3`.
 
 use super::fft::Fft3;
+use super::slab::{Exchange, Slab};
 use crate::interactions::GravityLaw;
+use crate::threads::Threads;
 use rayon::prelude::*;
 use rustfft::num_complex::Complex;
 use std::f64::consts::PI;
+use std::ops::Range;
 
 /// Mean of `1/r` over the unit cube centred on `r = 0`: the cell-averaged
 /// potential kernel at zero separation when there is no softening.
@@ -51,8 +54,9 @@ pub(crate) fn long_pair(g: f64, r_s: f64, r: f64) -> (f64, f64) {
     }
 }
 
-/// `P`, `A_a` on the half spectrum of an `M^3` mesh, and the mesh's own
-/// potential kernel at the offsets a particle's cloud has with itself.
+/// `P`, `A_a` on a rank's columns of the half spectrum of an `M^3` mesh (`M`
+/// rows of them), and the mesh's own potential kernel at the offsets a
+/// particle's cloud has with itself.
 pub(crate) struct Spectra {
     /// `P(q)`, real.
     pub(crate) phi: Vec<f64>,
@@ -113,10 +117,43 @@ fn cic_window2(q: [usize; 3], m: usize) -> f64 {
         .product()
 }
 
+/// `(P, [A_0, A_1, A_2])` of the periodic box of side `length` on an `M^3` mesh
+/// at mode `q`: `P = -4 pi G / (k^2 L^3)` (times `exp(-k^2 r_s^2) / W^2` for the
+/// long range), `A_a = -k_a P` (zero on the Nyquist plane of axis `a`), both zero
+/// at `k = 0`.
+fn periodic_mode(
+    law: &GravityLaw,
+    reach: Reach,
+    length: f64,
+    m: usize,
+    q: [usize; 3],
+) -> (f64, [f64; 3]) {
+    let volume = length * length * length;
+    let k = q.map(|qa| 2.0 * PI * signed(qa, m) / length);
+    let k2 = k[0] * k[0] + k[1] * k[1] + k[2] * k[2];
+    let mut v = if k2 == 0.0 {
+        0.0
+    } else {
+        -4.0 * PI * law.g() / (k2 * volume)
+    };
+    if let Reach::Long { cells } = reach {
+        let r_s = cells * (length / m as f64);
+        v *= (-k2 * r_s * r_s).exp() / cic_window2(q, m);
+    }
+    let acc = std::array::from_fn(|a| if q[a] == m / 2 { 0.0 } else { -k[a] * v });
+    (v, acc)
+}
+
+/// The mode `q = (q0, q1, q2)` of column `c = q1 H + q2` of an `M^3` mesh's
+/// half spectrum.
+fn mode(q0: usize, c: usize, m: usize) -> [usize; 3] {
+    let h = m / 2 + 1;
+    [q0, c / h, c % h]
+}
+
 impl Spectra {
-    /// Zeroed spectra for `fft`'s mesh.
-    pub(crate) fn new(fft: &Fft3) -> Self {
-        let len = fft.spectrum_len();
+    /// Zeroed spectra of `len` modes (a rank's columns of every plane).
+    pub(crate) fn new(len: usize) -> Self {
         Spectra {
             phi: vec![0.0; len],
             acc: std::array::from_fn(|_| vec![0.0; len]),
@@ -124,44 +161,36 @@ impl Spectra {
         }
     }
 
-    /// The periodic box of side `length` on an `M^3` mesh:
-    /// `P = -4 pi G / (k^2 L^3)` (times `exp(-k^2 r_s^2) / W^2` for the long
-    /// range), `A_a = -k_a P` (zero on the Nyquist plane of axis `a`), both zero
-    /// at `k = 0`.
-    pub(crate) fn periodic(&mut self, law: &GravityLaw, reach: Reach, length: f64, m: usize) {
-        let h = m / 2 + 1;
-        let volume = length * length * length;
-        let h_cell = length / m as f64;
+    /// The periodic box of side `length` on an `M^3` mesh ([`periodic_mode`]),
+    /// at the modes of `columns` of every plane; the own kernel from every
+    /// mode, so that it has the same bits on every rank.
+    pub(crate) fn periodic(
+        &mut self,
+        law: &GravityLaw,
+        reach: Reach,
+        length: f64,
+        m: usize,
+        columns: Range<usize>,
+    ) {
+        let width = columns.len();
         let Spectra { phi, acc, .. } = self;
         let [ax, ay, az] = acc;
-        phi.par_chunks_mut(h)
-            .zip(ax.par_chunks_mut(h))
-            .zip(ay.par_chunks_mut(h))
-            .zip(az.par_chunks_mut(h))
+        phi.par_chunks_mut(width)
+            .zip(ax.par_chunks_mut(width))
+            .zip(ay.par_chunks_mut(width))
+            .zip(az.par_chunks_mut(width))
             .enumerate()
-            .for_each(|(row, (((p, a0), a1), a2))| {
-                let (q0, q1) = (row / m, row % m);
-                for q2 in 0..h {
-                    let q = [q0, q1, q2];
-                    let k = q.map(|qa| 2.0 * PI * signed(qa, m) / length);
-                    let k2 = k[0] * k[0] + k[1] * k[1] + k[2] * k[2];
-                    let mut v = if k2 == 0.0 {
-                        0.0
-                    } else {
-                        -4.0 * PI * law.g() / (k2 * volume)
-                    };
-                    if let Reach::Long { cells } = reach {
-                        let r_s = cells * h_cell;
-                        v *= (-k2 * r_s * r_s).exp() / cic_window2(q, m);
-                    }
-                    p[q2] = v;
-                    let nyquist = q.map(|qa| qa == m / 2);
-                    for (a, out) in [(0, &mut *a0), (1, &mut *a1), (2, &mut *a2)] {
-                        out[q2] = if nyquist[a] { 0.0 } else { -k[a] * v };
-                    }
+            .for_each(|(q0, (((p, a0), a1), a2))| {
+                for (k, c) in columns.clone().enumerate() {
+                    let (v, a) = periodic_mode(law, reach, length, m, mode(q0, c, m));
+                    p[k] = v;
+                    [a0[k], a1[k], a2[k]] = a;
                 }
             });
-        self.own = self.own_kernel(m);
+        let h = m / 2 + 1;
+        self.own = own_kernel(m, 0..m * h, |q0, c| {
+            periodic_mode(law, reach, length, m, mode(q0, c, m)).0
+        });
     }
 
     /// The isolated mesh of cell `cell` zero-padded to `M^3`: `P` and `A_a` are
@@ -173,17 +202,22 @@ impl Spectra {
     /// dividing the sampled one by `W^2`: the latter would amplify the ringing of
     /// the kernel's cut at the padded box's edge. That transform is the unsoftened
     /// one: the softening changes it at `k ~ 1/eps`, where `1 - W^2` is small
-    /// unless `eps` is below a cell, and then `exp(-k^2 r_s^2)` is. `work` is
-    /// scratch.
+    /// unless `eps` is below a cell, and then `exp(-k^2 r_s^2)` is. The modes are
+    /// `slab`'s columns, transformed over its ranks; `work` is scratch.
+    #[allow(clippy::too_many_arguments)]
     pub(crate) fn isolated(
         &mut self,
         law: &GravityLaw,
         reach: Reach,
         cell: f64,
-        fft: &mut Fft3,
+        slab: &mut Slab<Fft3>,
         work: &mut [Complex<f64>],
+        exchange: &dyn Exchange,
+        threads: &Threads,
     ) {
-        let m = fft.size();
+        let m = slab.size();
+        let columns = slab.columns();
+        let width = columns.len();
         let (g, eps2) = (law.g(), law.softening2());
         // (phi, k) of a unit source at distance r
         let pair = move |r2: f64| match reach {
@@ -203,7 +237,7 @@ impl Spectra {
         };
         let norm = 1.0 / (m * m * m) as f64;
         for component in 0..4 {
-            fft.forward(m, work, |i, j, row| {
+            let sample = |i: usize, j: usize, row: &mut [f64]| {
                 let (di, dj) = (signed(i, m), signed(j, m));
                 for (l, v) in row.iter_mut().enumerate() {
                     let d = [di, dj, signed(l, m)].map(|o| o * cell);
@@ -215,48 +249,57 @@ impl Spectra {
                         (false, a) => -k * d[a - 1],
                     };
                 }
-            });
+            };
+            slab.forward(m, work, sample, exchange, threads);
             // phi's transform is real, acc_a's imaginary
             let (out, imaginary) = match component {
                 0 => (&mut self.phi, false),
                 a => (&mut self.acc[a - 1], true),
             };
-            let h = m / 2 + 1;
-            out.par_chunks_mut(h)
-                .zip(work.par_chunks(h))
-                .enumerate()
-                .for_each(|(row, (o, w))| {
-                    for q2 in 0..h {
-                        let q = [row / m, row % m, q2];
-                        let v = if imaginary { w[q2].im } else { w[q2].re };
-                        o[q2] = v * norm;
-                        if let Reach::Long { cells } = reach {
-                            o[q2] += deconvolution(g, cells * cell, cell, q, m, component);
+            let work = &*work;
+            let columns = columns.clone();
+            threads.install(|| {
+                out.par_chunks_mut(width)
+                    .zip(work.par_chunks(width))
+                    .enumerate()
+                    .for_each(|(q0, (o, w))| {
+                        for (k, c) in columns.clone().enumerate() {
+                            let v = if imaginary { w[k].im } else { w[k].re };
+                            o[k] = v * norm;
+                            if let Reach::Long { cells } = reach {
+                                let q = mode(q0, c, m);
+                                o[k] += deconvolution(g, cells * cell, cell, q, m, component);
+                            }
                         }
-                    }
-                });
+                    })
+            });
         }
-        self.own = self.own_kernel(m);
+        let phi = &self.phi;
+        let start = columns.start;
+        let mine = own_kernel(m, columns, |q0, c| phi[q0 * width + c - start]);
+        self.own = slab.sum(mine, exchange);
     }
+}
 
-    /// `g_c = sum_q P(q) cos(2 pi q.o_c / M)` over the full spectrum (the half
-    /// spectrum with the `0 < q2 < M/2` terms doubled, `P` being even), with
-    /// `o_c` the first `c` axes set to 1.
-    fn own_kernel(&self, m: usize) -> [f64; 4] {
-        let h = m / 2 + 1;
-        let mut own = [0.0; 4];
-        for (row, p) in self.phi.chunks(h).enumerate() {
-            let c = [row / m, row % m].map(|qa| (2.0 * PI * qa as f64 / m as f64).cos());
-            for (q2, &v) in p.iter().enumerate() {
-                let weight = if q2 == 0 || q2 == m / 2 { 1.0 } else { 2.0 };
-                let c2 = (2.0 * PI * q2 as f64 / m as f64).cos();
-                let v = weight * v;
-                own[0] += v;
-                own[1] += v * c[0];
-                own[2] += v * c[0] * c[1];
-                own[3] += v * c[0] * c[1] * c2;
-            }
+/// `g_c = sum_q P(q) cos(2 pi q.o_c / M)` over the modes of `columns` of every
+/// plane (`phi(q0, c)`), with the half spectrum's `0 < q2 < M/2` terms doubled
+/// (`P` is even), `o_c` the first `c` axes set to 1: over every column, the
+/// mesh's own potential kernel at the offsets of a cloud with itself.
+fn own_kernel(m: usize, columns: Range<usize>, phi: impl Fn(usize, usize) -> f64) -> [f64; 4] {
+    let cos: Vec<f64> = (0..m)
+        .map(|q| (2.0 * PI * q as f64 / m as f64).cos())
+        .collect();
+    let mut own = [0.0; 4];
+    for q0 in 0..m {
+        for c in columns.clone() {
+            let [_, q1, q2] = mode(q0, c, m);
+            let weight = if q2 == 0 || q2 == m / 2 { 1.0 } else { 2.0 };
+            let v = weight * phi(q0, c);
+            own[0] += v;
+            own[1] += v * cos[q0];
+            own[2] += v * cos[q0] * cos[q1];
+            own[3] += v * cos[q0] * cos[q1] * cos[q2];
         }
-        own
     }
+    own
 }

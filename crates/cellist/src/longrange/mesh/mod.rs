@@ -22,10 +22,13 @@
 mod cic;
 mod fft;
 pub(crate) mod green;
+mod m4;
+pub mod slab;
 #[cfg(test)]
 pub(crate) mod testkit;
 pub mod vic;
 
+pub use slab::{Alone, Exchange, Rank};
 pub use vic::{VicBoundary, VicParams, VortexInCell, MAX_VIC_GRID, MIN_VIC_GRID};
 
 use super::{FieldOut, Sources};
@@ -36,6 +39,7 @@ use fft::Fft3;
 use green::{Reach, Spectra};
 use rayon::prelude::*;
 use rustfft::num_complex::Complex;
+use slab::{gather_owned, owner, Slab};
 
 /// The largest grid accepted.
 pub const MAX_GRID: usize = 256;
@@ -107,8 +111,32 @@ fn check_law(law: &GravityLaw) -> Result<(), String> {
 /// Ladder rungs per factor 2 of the isolated cell size.
 const RUNGS: f64 = 8.0;
 
+/// `out = K F` (the potential) or `out = i K F` (`derivative`: a gradient or
+/// curl, whose kernel `K` is the Green's function's derivative over `i`),
+/// mode by mode.
+pub(crate) fn apply_kernel(
+    out: &mut [Complex<f64>],
+    hat: &[Complex<f64>],
+    kernel: &[f64],
+    derivative: bool,
+) {
+    out.par_chunks_mut(1024)
+        .zip(hat.par_chunks(1024))
+        .zip(kernel.par_chunks(1024))
+        .for_each(|((w, f), k)| {
+            for ((w, f), k) in w.iter_mut().zip(f).zip(k) {
+                *w = if derivative {
+                    Complex::new(-f.im * k, f.re * k)
+                } else {
+                    f * k
+                };
+            }
+        });
+}
+
 /// The mesh machinery shared by [`ParticleMesh`] and [`super::P3m`]: its
-/// geometry, transforms, Green's function and buffers.
+/// geometry, transforms, Green's function and buffers, on one rank's slab
+/// of planes along axis 0 (module `slab`; every plane in one process).
 pub(crate) struct MeshSolver {
     law: GravityLaw,
     params: MeshParams,
@@ -116,15 +144,19 @@ pub(crate) struct MeshSolver {
     geometry: Geometry,
     /// The ladder rung the isolated spectra were made for.
     rung: Option<i64>,
-    fft: Fft3,
+    slab: Slab<Fft3>,
     spectra: Spectra,
-    /// Cloud-in-cell masses, `grid^3`.
+    /// Cloud-in-cell masses on this rank's planes, `grid^2` each.
     mass: Vec<f64>,
-    /// Transformed masses and a product being inverted.
+    /// This rank's columns of the transformed masses, and of a product being
+    /// inverted.
     masses_hat: Vec<Complex<f64>>,
     work: Vec<Complex<f64>>,
-    /// phi and acc_x, acc_y, acc_z on the mesh, `grid^3` each.
+    /// phi and acc_x, acc_y, acc_z on this rank's planes and the one above,
+    /// `grid^2` each.
     fields: [Vec<f64>; 4],
+    /// `(acc, phi)` of every particle on one of the interlaced meshes.
+    got: Vec<[f64; 4]>,
 }
 
 impl MeshSolver {
@@ -133,14 +165,21 @@ impl MeshSolver {
         f.debug_struct(name)
             .field("params", &self.params)
             .field("cell", &self.cell())
+            .field("rank", &self.slab.rank())
             .finish_non_exhaustive()
     }
 
-    /// The solver for `law` carrying `reach` of it.
-    pub(crate) fn new(law: GravityLaw, params: MeshParams, reach: Reach) -> Result<Self, String> {
+    /// The solver for `law` carrying `reach` of it, on `rank`'s slab.
+    pub(crate) fn new(
+        law: GravityLaw,
+        params: MeshParams,
+        reach: Reach,
+        rank: Rank,
+    ) -> Result<Self, String> {
         params.check()?;
         check_law(&law)?;
         let n = params.grid;
+        rank.check(n)?;
         let (side, geometry) = match params.boundary {
             MeshBoundary::Isolated => (
                 2 * n,
@@ -161,24 +200,27 @@ impl MeshSolver {
                 },
             ),
         };
-        let fft = Fft3::new(side);
-        let mut spectra = Spectra::new(&fft);
+        let slab = Slab::new(Fft3::new(side), rank);
+        let len = slab.lines_len();
+        let mut spectra = Spectra::new(len);
         if let MeshBoundary::Periodic { length, .. } = params.boundary {
-            spectra.periodic(&law, reach, length, n);
+            spectra.periodic(&law, reach, length, n, slab.columns());
         }
-        let len = fft.spectrum_len();
+        let plane = n * n;
+        let (owned, window) = (slab.owned(n).len(), slab.window(n, 0, 1).count());
         Ok(MeshSolver {
             law,
             params,
             reach,
             geometry,
             rung: None,
-            fft,
+            slab,
             spectra,
-            mass: vec![0.0; n * n * n],
+            mass: vec![0.0; owned * plane],
             masses_hat: vec![Complex::default(); len],
             work: vec![Complex::default(); len],
-            fields: std::array::from_fn(|_| vec![0.0; n * n * n]),
+            fields: std::array::from_fn(|_| vec![0.0; window * plane]),
+            got: Vec::new(),
         })
     }
 
@@ -192,6 +234,11 @@ impl MeshSolver {
         &self.params
     }
 
+    /// This rank's place.
+    pub(crate) fn rank(&self) -> Rank {
+        self.slab.rank()
+    }
+
     /// The cell side `h` of the last (isolated) or every (periodic) evaluation.
     pub(crate) fn cell(&self) -> f64 {
         self.geometry.cell
@@ -202,7 +249,7 @@ impl MeshSolver {
     /// bounding box, so every particle is at least a cell inside it (half a cell
     /// on the interlaced mesh). The Green's function is re-made when the rung
     /// changes.
-    fn cover(&mut self, positions: &[[f64; 3]]) {
+    fn cover(&mut self, positions: &[[f64; 3]], threads: &Threads, exchange: &dyn Exchange) {
         let mut lo = [f64::INFINITY; 3];
         let mut hi = [f64::NEG_INFINITY; 3];
         for x in positions {
@@ -227,29 +274,48 @@ impl MeshSolver {
             let MeshSolver {
                 law,
                 reach,
-                fft,
+                slab,
                 spectra,
                 work,
                 ..
             } = self;
-            spectra.isolated(law, *reach, cell, fft, work);
+            spectra.isolated(law, *reach, cell, slab, work, exchange, threads);
             self.rung = Some(rung);
         }
     }
 
-    /// Places the mesh for `positions` (isolated: re-covers them), outside any
-    /// pool; [`MeshSolver::solve`] then uses this geometry.
-    pub(crate) fn place(&mut self, positions: &[[f64; 3]], threads: &Threads) {
+    /// Places the mesh for `positions` (isolated: re-covers them);
+    /// [`MeshSolver::solve`] then uses this geometry.
+    pub(crate) fn place(
+        &mut self,
+        positions: &[[f64; 3]],
+        threads: &Threads,
+        exchange: &dyn Exchange,
+    ) {
         if self.params.boundary == MeshBoundary::Isolated {
-            threads.install(|| self.cover(positions));
+            self.cover(positions, threads, exchange);
         }
     }
 
     /// Writes the mesh's `acc_i` and `phi_i` (own cloud removed) of `sources` to
-    /// `out`, for the geometry of the last [`MeshSolver::place`].
-    pub(crate) fn solve(&mut self, sources: &Sources, out: FieldOut, threads: &Threads) {
+    /// `out`, for the geometry of the last [`MeshSolver::place`]. Each rank
+    /// assigns the masses to its planes (every particle in input order, so that
+    /// each node sums in the order of one process) and interpolates the
+    /// particles whose stencil's lower plane it holds; their results are
+    /// gathered on every rank.
+    pub(crate) fn solve(
+        &mut self,
+        sources: &Sources,
+        out: FieldOut,
+        threads: &Threads,
+        exchange: &dyn Exchange,
+    ) {
         let n = self.geometry.grid;
         let half = 0.5 * self.geometry.cell;
+        let rank = self.slab.rank();
+        let owned = self.slab.owned_window(n);
+        let window = self.slab.window(n, 0, 1);
+        self.got.resize(sources.mass.len(), [0.0; 4]);
         // the two interlaced meshes: the second's nodes are half a cell lower
         for pass in 0..2 {
             let mut geometry = self.geometry;
@@ -258,25 +324,42 @@ impl MeshSolver {
             }
             self.mass.fill(0.0);
             for (x, &m) in sources.position.iter().zip(sources.mass) {
-                geometry.stencil(x).each(n, |k, w| self.mass[k] += w * m);
+                geometry
+                    .stencil(x)
+                    .each(n, owned, |k, w| self.mass[k] += w * m);
             }
+            self.transform(threads, exchange);
+            let fields = &self.fields;
+            let own = &self.spectra.own;
+            gather_owned(
+                rank,
+                exchange,
+                &mut self.got,
+                |i| owner(geometry.stencil(&sources.position[i]).base(), n, rank.count),
+                |i| {
+                    let stencil = geometry.stencil(&sources.position[i]);
+                    let mut sum = [0.0; 4];
+                    stencil.each(n, window, |k, w| {
+                        for (s, f) in sum.iter_mut().zip(fields) {
+                            *s += w * f[k];
+                        }
+                    });
+                    [
+                        sum[1],
+                        sum[2],
+                        sum[3],
+                        sum[0] - sources.mass[i] * stencil.own(own),
+                    ]
+                },
+                threads,
+            );
+            let got = &self.got;
             threads.install(|| {
-                self.transform();
-                let fields = &self.fields;
-                let own = &self.spectra.own;
                 out.acc
                     .par_iter_mut()
                     .zip(out.phi.par_iter_mut())
-                    .zip(sources.position.par_iter().zip(sources.mass))
-                    .for_each(|((acc, phi), (x, &m))| {
-                        let stencil = geometry.stencil(x);
-                        let mut sum = [0.0; 4];
-                        stencil.each(n, |k, w| {
-                            for (s, f) in sum.iter_mut().zip(fields) {
-                                *s += w * f[k];
-                            }
-                        });
-                        let got = [sum[1], sum[2], sum[3], sum[0] - m * stencil.own(own)];
+                    .zip(got.par_iter())
+                    .for_each(|((acc, phi), got)| {
                         if pass == 0 {
                             *acc = [0.5 * got[0], 0.5 * got[1], 0.5 * got[2]];
                             *phi = 0.5 * got[3];
@@ -292,33 +375,34 @@ impl MeshSolver {
     }
 
     /// The mesh fields from the mesh masses: `phi = IFFT(P FFT(mass))` and
-    /// `acc_a = IFFT(i A_a FFT(mass))`.
-    fn transform(&mut self) {
+    /// `acc_a = IFFT(i A_a FFT(mass))`, on this rank's window of planes.
+    fn transform(&mut self, threads: &Threads, exchange: &dyn Exchange) {
         let n = self.geometry.grid;
-        let mass = &self.mass;
-        self.fft.forward(n, &mut self.masses_hat, |i, j, row| {
-            row.copy_from_slice(&mass[(i * n + j) * n..][..n]);
-        });
-        for (q, field) in self.fields.iter_mut().enumerate() {
+        let MeshSolver {
+            slab,
+            mass,
+            masses_hat,
+            work,
+            fields,
+            spectra,
+            ..
+        } = self;
+        let first = slab.owned(n).start;
+        slab.forward(
+            n,
+            masses_hat,
+            |i, j, row| row.copy_from_slice(&mass[((i - first) * n + j) * n..][..n]),
+            exchange,
+            threads,
+        );
+        for (q, field) in fields.iter_mut().enumerate() {
             let kernel = match q {
-                0 => &self.spectra.phi,
-                a => &self.spectra.acc[a - 1],
+                0 => &spectra.phi,
+                a => &spectra.acc[a - 1],
             };
-            self.work
-                .par_chunks_mut(1024)
-                .zip(self.masses_hat.par_chunks(1024))
-                .zip(kernel.par_chunks(1024))
-                .for_each(|((w, f), k)| {
-                    for ((w, f), k) in w.iter_mut().zip(f).zip(k) {
-                        // P F for phi, i A_a F for acc_a
-                        *w = if q == 0 {
-                            f * k
-                        } else {
-                            Complex::new(-f.im * k, f.re * k)
-                        };
-                    }
-                });
-            self.fft.inverse(n, &mut self.work, field);
+            // P F for phi, i A_a F for acc_a
+            threads.install(|| apply_kernel(work, masses_hat, kernel, q != 0));
+            slab.inverse(n, work, field, (0, 1), exchange, threads);
         }
     }
 }
@@ -348,8 +432,15 @@ impl ParticleMesh {
     /// The solver for `law` with `params`; refuses a law with repulsion, a grid
     /// that is not a power of two `>= 8`, a bad periodic box.
     pub fn new(law: GravityLaw, params: MeshParams) -> Result<Self, String> {
+        Self::on_rank(law, params, Rank::ALONE)
+    }
+
+    /// The solver on `rank`'s slab of a mesh shared by several ranks, each of
+    /// which holds every particle; refuses what [`ParticleMesh::new`] refuses and
+    /// more ranks than the grid has planes.
+    pub fn on_rank(law: GravityLaw, params: MeshParams, rank: Rank) -> Result<Self, String> {
         Ok(ParticleMesh {
-            solver: MeshSolver::new(law, params, Reach::Full)?,
+            solver: MeshSolver::new(law, params, Reach::Full, rank)?,
         })
     }
 
@@ -361,13 +452,33 @@ impl ParticleMesh {
 
     /// Fills `out` with the mesh's accelerations and potentials of `sources`.
     pub fn compute(&mut self, sources: &Sources, out: FieldOut, threads: &Threads) {
+        self.compute_shared(sources, out, threads, &Alone);
+    }
+
+    /// [`ParticleMesh::compute`] on the ranks of `exchange`, every rank calling
+    /// it with every particle: each transforms its slab of the mesh, and every
+    /// rank gets every particle's result: the accelerations of one process bit
+    /// for bit, the potentials to rounding on an isolated mesh (the own-cloud
+    /// kernel's sum over the modes is split among the ranks).
+    pub fn compute_shared(
+        &mut self,
+        sources: &Sources,
+        out: FieldOut,
+        threads: &Threads,
+        exchange: &dyn Exchange,
+    ) {
+        assert_eq!(
+            Rank::of(exchange),
+            self.solver.rank(),
+            "the exchange's ranks"
+        );
         if sources.mass.len() < 2 {
             out.acc.fill([0.0; 3]);
             out.phi.fill(0.0);
             return;
         }
-        self.solver.place(sources.position, threads);
-        self.solver.solve(sources, out, threads);
+        self.solver.place(sources.position, threads, exchange);
+        self.solver.solve(sources, out, threads, exchange);
     }
 }
 
@@ -509,6 +620,82 @@ mod tests {
             let b = run(&m, &x, |s, o| p3m.compute(s, o, &two));
             assert_eq!(format!("{a:?}"), format!("{b:?}"));
         }
+    }
+
+    /// PM and P3M of `(m, x)` on `ranks` thread-ranks ([`slab::testkit::Hub`]),
+    /// each rank's result.
+    fn shared(params: MeshParams, m: &[f64], x: &[[f64; 3]], ranks: usize) -> Vec<(Field, Field)> {
+        slab::testkit::Hub::run(ranks, |exchange| {
+            let rank = Rank::of(exchange);
+            let threads = Threads::single();
+            let mut pm = ParticleMesh::on_rank(law(), params, rank).unwrap();
+            let mut p3m = P3m::on_rank(law(), params, 1.25, rank).unwrap();
+            // twice: the second call reuses the Green's function
+            let mut run_both = || {
+                (
+                    run(m, x, |s, o| pm.compute_shared(s, o, &threads, exchange)),
+                    run(m, x, |s, o| p3m.compute_shared(s, o, &threads, exchange)),
+                )
+            };
+            run_both();
+            run_both()
+        })
+    }
+
+    /// `a` and `b` have the same accelerations, bit for bit, and potentials
+    /// within `tolerance` of the largest.
+    fn same_field(a: &Field, b: &Field, tolerance: f64, what: &str) {
+        assert_eq!(a.0, b.0, "{what}: accelerations");
+        let scale = b.1.iter().fold(0.0f64, |s, p| s.max(p.abs()));
+        for (p, q) in a.1.iter().zip(&b.1) {
+            assert!(
+                (p - q).abs() <= tolerance * scale,
+                "{what}: phi {p} against {q}"
+            );
+        }
+    }
+
+    #[test]
+    fn ranks_sharing_the_mesh_match_one_process() {
+        let (m, x) = cloud(600, 1.0, [0.3; 3], 21);
+        let periodic = MeshParams {
+            grid: 16,
+            boundary: MeshBoundary::Periodic {
+                origin: [-2.0; 3],
+                length: 4.0,
+            },
+        };
+        let threads = Threads::single();
+        for params in [isolated(16), periodic] {
+            let want_pm = pm(params, &m, &x, &threads);
+            let mut p3m = P3m::new(law(), params, 1.25).unwrap();
+            let want_p3m = run(&m, &x, |s, o| p3m.compute(s, o, &threads));
+            // the periodic own kernel is summed over every mode on every rank,
+            // the isolated one over each rank's modes, then over the ranks
+            let tolerance = match params.boundary {
+                MeshBoundary::Periodic { .. } => 0.0,
+                MeshBoundary::Isolated => 1e-14,
+            };
+            for ranks in [2, 3, 4] {
+                for (r, (got_pm, got_p3m)) in shared(params, &m, &x, ranks).iter().enumerate() {
+                    let what = format!("{params:?} rank {r} of {ranks}");
+                    same_field(got_pm, &want_pm, tolerance, &format!("pm {what}"));
+                    same_field(got_p3m, &want_p3m, tolerance, &format!("p3m {what}"));
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn more_ranks_than_planes_are_refused() {
+        let rank = Rank { index: 0, count: 9 };
+        let error = ParticleMesh::on_rank(law(), isolated(8), rank).unwrap_err();
+        assert!(
+            error.contains("9 ranks") && error.contains("8 planes"),
+            "{error}"
+        );
+        assert!(P3m::on_rank(law(), isolated(8), 1.25, rank).is_err());
+        assert!(ParticleMesh::on_rank(law(), isolated(16), rank).is_ok());
     }
 
     #[test]

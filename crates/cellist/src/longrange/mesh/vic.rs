@@ -60,8 +60,9 @@
 //! not done.
 
 use super::fft::Fft2;
-use super::RUNGS;
-use crate::interpolation::m4prime_stencil;
+use super::m4::{assign_rows, Plane};
+use super::slab::{part, Alone, Exchange, Rank, Slab};
+use super::{apply_kernel, RUNGS};
 use crate::longrange::biot_savart::BlobKernel;
 use crate::threads::Threads;
 use rayon::prelude::*;
@@ -129,58 +130,6 @@ impl VicParams {
     }
 }
 
-/// Where the mesh lies: node `(i, j)` is at `origin + H (i, j)`, stored at
-/// `i grid + j` (axis 0 is `x`).
-#[derive(Clone, Copy, Debug, PartialEq)]
-struct Plane {
-    origin: [f64; 2],
-    cell: f64,
-    grid: usize,
-    periodic: bool,
-}
-
-/// The 4 x 4 nodes and weights of one particle.
-struct Stencil {
-    /// The stencil's row: `floor(u_x)` (wrapped into the mesh if periodic).
-    row: usize,
-    /// Node indices along each axis.
-    node: [[usize; 4]; 2],
-    weight: [[f64; 4]; 2],
-}
-
-impl Plane {
-    /// The M4' stencil of `x`. Periodic positions are wrapped into the mesh;
-    /// unbounded ones lie at least 2 cells inside it (and are clamped there).
-    #[inline(always)]
-    fn stencil(&self, x: &[f64; 2]) -> Stencil {
-        let n = self.grid;
-        let mut node = [[0; 4]; 2];
-        let mut weight = [[0.0; 4]; 2];
-        let mut row = 0;
-        for a in 0..2 {
-            let u = (x[a] - self.origin[a]) / self.cell;
-            let (first, w) = if self.periodic {
-                m4prime_stencil(u.rem_euclid(n as f64))
-            } else {
-                m4prime_stencil(u.clamp(1.0, (n - 3) as f64))
-            };
-            for (k, out) in node[a].iter_mut().enumerate() {
-                *out = if self.periodic {
-                    (first + k as i64).rem_euclid(n as i64) as usize
-                } else {
-                    (first + k as i64) as usize
-                };
-            }
-            weight[a] = w;
-            if a == 0 {
-                // node 1 is floor(u), wrapped
-                row = node[0][1];
-            }
-        }
-        Stencil { row, node, weight }
-    }
-}
-
 /// Mesh rows per assignment task, fixed by the grid alone.
 fn band_rows(grid: usize) -> usize {
     (grid / 64).max(4)
@@ -231,15 +180,18 @@ pub struct VortexInCell {
     /// The ladder rung the unbounded spectra were made for (`Some(0)` once the
     /// periodic ones are made, in the first evaluation's pool).
     rung: Option<i64>,
-    fft: Fft2,
-    /// `A_x`, `A_y` with `hat u_a = i A_a hat Gamma` (`1 / M^2` included).
+    /// The transform, on this rank's slab of rows (every row in one process).
+    slab: Slab<Fft2>,
+    /// `A_x`, `A_y` with `hat u_a = i A_a hat Gamma` (`1 / M^2` included), on
+    /// this rank's columns.
     spectra: [Vec<f64>; 2],
-    /// Circulation per node, `w_g H^2`, `grid^2`.
+    /// Circulation per node, `w_g H^2`, on this rank's rows of `grid`.
     circulation: Vec<f64>,
-    /// The transformed circulation and a product being inverted.
+    /// This rank's columns of the transformed circulation and of a product
+    /// being inverted.
     hat: Vec<Complex<f64>>,
     work: Vec<Complex<f64>>,
-    /// `u`, `v` on the mesh, `grid^2` each.
+    /// `u`, `v` on this rank's rows, one more below and two above.
     fields: [Vec<f64>; 2],
     /// Each particle's place in `sorted`.
     rank: Vec<u32>,
@@ -256,6 +208,7 @@ impl std::fmt::Debug for VortexInCell {
             .field("params", &self.params)
             .field("sigma", &self.kernel.sigma())
             .field("cell", &self.plane.cell)
+            .field("rank", &self.slab.rank())
             .finish_non_exhaustive()
     }
 }
@@ -265,7 +218,15 @@ impl VortexInCell {
     /// a power of two in `MIN_VIC_GRID..=MAX_VIC_GRID`, a bad periodic box, a core
     /// `sigma` that is not finite and `> 0`.
     pub fn new(params: VicParams, kernel: BlobKernel) -> Result<Self, String> {
+        Self::on_rank(params, kernel, Rank::ALONE)
+    }
+
+    /// The solver on `rank`'s slab of rows of a mesh shared by several ranks,
+    /// each of which holds every particle; refuses what [`VortexInCell::new`]
+    /// refuses and more ranks than the grid has rows.
+    pub fn on_rank(params: VicParams, kernel: BlobKernel, rank: Rank) -> Result<Self, String> {
         params.check()?;
+        rank.check(params.grid)?;
         let sigma = kernel.sigma();
         if !(sigma.is_finite() && sigma > 0.0) {
             return Err(format!("sigma must be finite and > 0, got {sigma}"));
@@ -291,19 +252,20 @@ impl VortexInCell {
                 },
             ),
         };
-        let fft = Fft2::new(side);
-        let len = fft.spectrum_len();
+        let slab = Slab::new(Fft2::new(side), rank);
+        let len = slab.lines_len();
+        let (owned, window) = (slab.owned(n).len(), slab.window(n, 1, 2).count());
         Ok(VortexInCell {
             params,
             kernel,
             plane,
             rung: None,
-            fft,
+            slab,
             spectra: [vec![0.0; len], vec![0.0; len]],
-            circulation: vec![0.0; n * n],
+            circulation: vec![0.0; owned * n],
             hat: vec![Complex::default(); len],
             work: vec![Complex::default(); len],
-            fields: [vec![0.0; n * n], vec![0.0; n * n]],
+            fields: [vec![0.0; window * n], vec![0.0; window * n]],
             rank: Vec::new(),
             sorted: Vec::new(),
             starts: vec![0; n + 1],
@@ -331,6 +293,22 @@ impl VortexInCell {
         velocity: &mut [[f64; 2]],
         threads: &Threads,
     ) {
+        self.compute_shared(positions, gamma, velocity, threads, &Alone);
+    }
+
+    /// [`VortexInCell::compute`] on the ranks of `exchange`, every rank calling
+    /// it with every particle: each assigns to and transforms its slab of rows
+    /// and interpolates the particles of its rows, and every rank gets every
+    /// particle's velocity, the same bits as one process's.
+    pub fn compute_shared(
+        &mut self,
+        positions: &[[f64; 2]],
+        gamma: &[f64],
+        velocity: &mut [[f64; 2]],
+        threads: &Threads,
+        exchange: &dyn Exchange,
+    ) {
+        assert_eq!(Rank::of(exchange), self.slab.rank(), "the exchange's ranks");
         crate::longrange::biot_savart::assert_lengths(positions, gamma, velocity);
         assert!(
             positions.len() <= u32::MAX as usize,
@@ -339,21 +317,21 @@ impl VortexInCell {
         if positions.is_empty() {
             return;
         }
-        threads.install(|| {
-            match self.params.boundary {
-                VicBoundary::Unbounded => self.cover(positions),
-                VicBoundary::Periodic { length, .. } => {
-                    if self.rung.is_none() {
-                        self.periodic_spectra(length);
-                        self.rung = Some(0);
-                    }
+        match self.params.boundary {
+            VicBoundary::Unbounded => self.cover(positions, threads, exchange),
+            VicBoundary::Periodic { length, .. } => {
+                if self.rung.is_none() {
+                    threads.install(|| self.periodic_spectra(length));
+                    self.rung = Some(0);
                 }
             }
+        }
+        threads.install(|| {
             self.sort(positions, gamma);
             self.assign();
-            self.solve();
-            self.interpolate(velocity);
         });
+        self.solve(threads, exchange);
+        self.interpolate(velocity, threads, exchange);
     }
 
     /// `A_x = k_y g / L^2`, `A_y = -k_x g / L^2` with
@@ -362,15 +340,16 @@ impl VortexInCell {
     /// with `hat Gamma` the DFT of the node circulations.
     fn periodic_spectra(&mut self, length: f64) {
         let n = self.params.grid;
-        let h = n / 2 + 1;
+        let columns = self.slab.columns();
         let s2 = self.kernel.sigma().powi(2);
         let area = length * length;
         let [ax, ay] = &mut self.spectra;
-        ax.par_chunks_mut(h)
-            .zip(ay.par_chunks_mut(h))
+        ax.par_chunks_mut(columns.len())
+            .zip(ay.par_chunks_mut(columns.len()))
             .enumerate()
             .for_each(|(row, (ox, oy))| {
-                for q1 in 0..h {
+                for (k, q1) in columns.clone().enumerate() {
+                    let (ox, oy) = (&mut ox[k], &mut oy[k]);
                     let k = [row, q1].map(|q| 2.0 * PI * signed(q, n) / length);
                     let k2 = k[0] * k[0] + k[1] * k[1];
                     let g = if k2 == 0.0 {
@@ -378,8 +357,8 @@ impl VortexInCell {
                     } else {
                         (-0.5 * k2 * s2).exp() / (k2 * area)
                     };
-                    ox[q1] = if q1 == n / 2 { 0.0 } else { k[1] * g };
-                    oy[q1] = if row == n / 2 { 0.0 } else { -k[0] * g };
+                    *ox = if q1 == n / 2 { 0.0 } else { k[1] * g };
+                    *oy = if row == n / 2 { 0.0 } else { -k[0] * g };
                 }
             });
     }
@@ -388,23 +367,25 @@ impl VortexInCell {
     /// `2^(j/8) >= extent / (grid - 6)` (`extent` at least `sigma`), the nodes lie
     /// on the lattice `H Z^2` with the bounding box at least 2 cells inside; the
     /// kernel's spectra are re-made when the rung changes.
-    fn cover(&mut self, positions: &[[f64; 2]]) {
+    fn cover(&mut self, positions: &[[f64; 2]], threads: &Threads, exchange: &dyn Exchange) {
         let init = || ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
-        let (lo, hi) = positions
-            .par_iter()
-            .fold(init, |(mut lo, mut hi), x| {
-                for a in 0..2 {
-                    lo[a] = lo[a].min(x[a]);
-                    hi[a] = hi[a].max(x[a]);
-                }
-                (lo, hi)
-            })
-            .reduce(init, |(l0, h0), (l1, h1)| {
-                (
-                    [l0[0].min(l1[0]), l0[1].min(l1[1])],
-                    [h0[0].max(h1[0]), h0[1].max(h1[1])],
-                )
-            });
+        let (lo, hi) = threads.install(|| {
+            positions
+                .par_iter()
+                .fold(init, |(mut lo, mut hi), x| {
+                    for a in 0..2 {
+                        lo[a] = lo[a].min(x[a]);
+                        hi[a] = hi[a].max(x[a]);
+                    }
+                    (lo, hi)
+                })
+                .reduce(init, |(l0, h0), (l1, h1)| {
+                    (
+                        [l0[0].min(l1[0]), l0[1].min(l1[1])],
+                        [h0[0].max(h1[0]), h0[1].max(h1[1])],
+                    )
+                })
+        });
         let extent = (hi[0] - lo[0]).max(hi[1] - lo[1]);
         assert!(
             extent.is_finite(),
@@ -420,50 +401,49 @@ impl VortexInCell {
         self.plane.cell = cell;
         self.plane.origin = lo.map(|l| cell * ((l / cell).floor() - 2.0));
         if self.rung != Some(rung) {
-            self.unbounded_spectra(cell);
+            self.unbounded_spectra(cell, threads, exchange);
             self.rung = Some(rung);
         }
     }
 
-    /// `A_a` = the imaginary part of the DFT of `K_sigma`'s component `a` sampled
+    /// `A_a` = the imaginary part of the DFT of `K_sigma`'s component `a`,
+    /// `K_x = -f(r^2) d_y`, `K_y = f(r^2) d_x` ([`BlobKernel::factor`]), sampled
     /// at the offsets `d = H (o_x, o_y)`, `-M/2 < o < M/2` (zero on `o = M/2`),
-    /// divided by `M^2`: `K_sigma` is real and odd, so its transform is `i A_a M^2`.
-    /// `K_y(o_x, o_y) = -K_x(o_y, o_x)` gives `A_y(q0, q1) = -A_x(q1, q0)`, read
-    /// from the half spectrum as `A_x(-q1, -q0)` when `q0 > M/2` (`A_x` is odd).
-    fn unbounded_spectra(&mut self, cell: f64) {
-        let m = self.fft.size();
-        let h = m / 2 + 1;
+    /// divided by `M^2`: `K_sigma` is real and odd, so its transform is
+    /// `i A_a M^2`. This rank's columns, transformed over the ranks.
+    fn unbounded_spectra(&mut self, cell: f64, threads: &Threads, exchange: &dyn Exchange) {
+        let m = self.slab.size();
         let norm = 1.0 / (m * m) as f64;
         let kernel = self.kernel;
-        self.fft.forward(m, &mut self.work, |i, row| {
-            let dx = signed(i, m) * cell;
-            for (l, v) in row.iter_mut().enumerate() {
-                let dy = signed(l, m) * cell;
-                *v = if i == m / 2 || l == m / 2 {
-                    0.0
-                } else {
-                    -kernel.factor(dx * dx + dy * dy) * dy
-                };
-            }
-        });
-        let [ax, ay] = &mut self.spectra;
-        ax.par_chunks_mut(1024)
-            .zip(self.work.par_chunks(1024))
-            .for_each(|(o, w)| {
-                for (o, w) in o.iter_mut().zip(w) {
-                    *o = w.im * norm;
+        for (a, spectrum) in self.spectra.iter_mut().enumerate() {
+            let sample = |i: usize, _: usize, row: &mut [f64]| {
+                let dx = signed(i, m) * cell;
+                for (l, v) in row.iter_mut().enumerate() {
+                    let dy = signed(l, m) * cell;
+                    let f = kernel.factor(dx * dx + dy * dy);
+                    *v = if i == m / 2 || l == m / 2 {
+                        0.0
+                    } else if a == 0 {
+                        -f * dy
+                    } else {
+                        f * dx
+                    };
                 }
+            };
+            self.slab
+                .forward(m, &mut self.work, sample, exchange, threads);
+            let work = &self.work;
+            threads.install(|| {
+                spectrum
+                    .par_chunks_mut(1024)
+                    .zip(work.par_chunks(1024))
+                    .for_each(|(o, w)| {
+                        for (o, w) in o.iter_mut().zip(w) {
+                            *o = w.im * norm;
+                        }
+                    })
             });
-        let ax = &*ax;
-        ay.par_chunks_mut(h).enumerate().for_each(|(q0, row)| {
-            for (q1, out) in row.iter_mut().enumerate() {
-                *out = if q0 <= m / 2 {
-                    -ax[q1 * h + q0]
-                } else {
-                    ax[(m - q1) % m * h + (m - q0)]
-                };
-            }
-        });
+        }
     }
 
     /// Counting-sorts the particles by stencil row: `sorted[starts[r]..starts[r +
@@ -498,102 +478,101 @@ impl VortexInCell {
         }
     }
 
-    /// The node circulations `w_g H^2`: each task owns a band of rows and adds the
-    /// particles of stencil rows `r0 - 2 ..= r1` (wrapped if periodic) that touch
-    /// it, row by row in sorted order, so that every node sums its particles in
-    /// an order fixed by the data.
+    /// The node circulations `w_g H^2` on this rank's rows: each task owns a
+    /// band of them ([`assign_rows`]).
     fn assign(&mut self) {
         let plane = self.plane;
-        let n = plane.grid as i64;
         let band = band_rows(plane.grid);
+        let first = self.slab.owned(plane.grid).start;
         let (sorted, starts) = (&self.sorted, &self.starts);
         self.circulation
             .par_chunks_mut(band * plane.grid)
             .enumerate()
-            .for_each(|(b, rows)| {
-                rows.fill(0.0);
-                let r0 = (b * band) as i64;
-                let r1 = r0 + (rows.len() / plane.grid) as i64;
-                let (first, last) = if plane.periodic {
-                    (r0 - 2, r1)
-                } else {
-                    ((r0 - 2).max(0), r1.min(n - 1))
-                };
-                for base in first..=last {
-                    let wrapped = base.rem_euclid(n) as usize;
-                    for p in &sorted[starts[wrapped]..starts[wrapped + 1]] {
-                        let s = plane.stencil(&[p[0], p[1]]);
-                        for (k, &wx) in s.weight[0].iter().enumerate() {
-                            // the stencil's rows are base - 1 ..= base + 2, unwrapped
-                            let r = base - 1 + k as i64;
-                            if r < r0 || r >= r1 {
-                                continue;
-                            }
-                            let gx = p[2] * wx;
-                            let row = &mut rows[(r - r0) as usize * plane.grid..];
-                            for (&c, &wy) in s.node[1].iter().zip(&s.weight[1]) {
-                                row[c] += gx * wy;
-                            }
-                        }
-                    }
-                }
-            });
+            .for_each(|(b, rows)| assign_rows(&plane, sorted, starts, first + b * band, rows));
     }
 
-    /// The mesh velocities from the node circulations: `u_a = IFFT(i A_a FFT(w H^2))`.
-    fn solve(&mut self) {
+    /// The mesh velocities on this rank's window of rows from the node
+    /// circulations: `u_a = IFFT(i A_a FFT(w H^2))`.
+    fn solve(&mut self, threads: &Threads, exchange: &dyn Exchange) {
         let n = self.plane.grid;
+        let first = self.slab.owned(n).start;
         let circulation = &self.circulation;
-        self.fft.forward(n, &mut self.hat, |i, row| {
-            row.copy_from_slice(&circulation[i * n..][..n]);
-        });
+        self.slab.forward(
+            n,
+            &mut self.hat,
+            |i, _, row| row.copy_from_slice(&circulation[(i - first) * n..][..n]),
+            exchange,
+            threads,
+        );
         for (field, a) in self.fields.iter_mut().zip(&self.spectra) {
-            self.work
-                .par_chunks_mut(1024)
-                .zip(self.hat.par_chunks(1024))
-                .zip(a.par_chunks(1024))
-                .for_each(|((w, f), a)| {
-                    for ((w, f), a) in w.iter_mut().zip(f).zip(a) {
-                        *w = Complex::new(-f.im * a, f.re * a);
-                    }
-                });
-            self.fft.inverse(n, &mut self.work, field);
+            threads.install(|| apply_kernel(&mut self.work, &self.hat, a, true));
+            self.slab
+                .inverse(n, &mut self.work, field, (1, 2), exchange, threads);
         }
     }
 
     /// `velocity_p = sum_g u_g W_p(g)` with the assignment's weights, computed
     /// in sorted order (neighbours read neighbouring nodes) and gathered back.
-    fn interpolate(&mut self, velocity: &mut [[f64; 2]]) {
+    /// On several ranks each interpolates the particles of its rows, which are
+    /// contiguous in sorted order, and the ranks' blocks are gathered.
+    fn interpolate(
+        &mut self,
+        velocity: &mut [[f64; 2]],
+        threads: &Threads,
+        exchange: &dyn Exchange,
+    ) {
         let plane = self.plane;
         let n = plane.grid;
+        let rank = self.slab.rank();
+        let window = self.slab.window(n, 1, 2);
+        let starts = &self.starts;
+        let block = |r: usize| {
+            let rows = part(n, r, rank.count);
+            starts[rows.start]..starts[rows.end]
+        };
+        let mine = block(rank.index);
         let [fu, fv] = &self.fields;
-        self.sorted.par_chunks_mut(1024).for_each(|chunk| {
-            for p in chunk {
-                let s = plane.stencil(&[p[0], p[1]]);
-                let mut sum = [0.0; 2];
-                for (&r, &wx) in s.node[0].iter().zip(&s.weight[0]) {
-                    let (ru, rv) = (&fu[r * n..][..n], &fv[r * n..][..n]);
-                    let mut row = [0.0; 2];
-                    for (&c, &wy) in s.node[1].iter().zip(&s.weight[1]) {
-                        row[0] += wy * ru[c];
-                        row[1] += wy * rv[c];
+        threads.install(|| {
+            self.sorted[mine.clone()]
+                .par_chunks_mut(1024)
+                .for_each(|chunk| {
+                    for p in chunk {
+                        let s = plane.stencil(&[p[0], p[1]]);
+                        let mut sum = [0.0; 2];
+                        for (&r, &wx) in s.node[0].iter().zip(&s.weight[0]) {
+                            let r = window
+                                .local(r)
+                                .expect("the rows around a particle of this rank's rows");
+                            let (ru, rv) = (&fu[r * n..][..n], &fv[r * n..][..n]);
+                            let mut row = [0.0; 2];
+                            for (&c, &wy) in s.node[1].iter().zip(&s.weight[1]) {
+                                row[0] += wy * ru[c];
+                                row[1] += wy * rv[c];
+                            }
+                            sum[0] += wx * row[0];
+                            sum[1] += wx * row[1];
+                        }
+                        // the position is no longer needed: keep the velocity there
+                        p[0] = sum[0];
+                        p[1] = sum[1];
                     }
-                    sum[0] += wx * row[0];
-                    sum[1] += wx * row[1];
-                }
-                // the position is no longer needed: keep the velocity there
-                p[0] = sum[0];
-                p[1] = sum[1];
-            }
+                })
         });
-        let (sorted, rank) = (&self.sorted, &self.rank);
-        velocity
-            .par_iter_mut()
-            .zip(rank.par_iter())
-            .for_each(|(out, &k)| {
-                let p = sorted[k as usize];
-                *out = [p[0], p[1]];
-            });
+        if rank.count > 1 {
+            let counts: Vec<usize> = (0..rank.count).map(|r| 3 * block(r).len()).collect();
+            let own = self.sorted[mine].to_vec();
+            exchange.all_gather(own.as_flattened(), &counts, self.sorted.as_flattened_mut());
+        }
+        let (sorted, order) = (&self.sorted, &self.rank);
+        threads.install(|| {
+            velocity
+                .par_iter_mut()
+                .zip(order.par_iter())
+                .for_each(|(out, &k)| {
+                    let p = sorted[k as usize];
+                    *out = [p[0], p[1]];
+                })
+        });
     }
 }
 
@@ -753,6 +732,46 @@ mod tests {
     }
 
     #[test]
+    fn ranks_sharing_the_mesh_match_one_process() {
+        let mut rng = Rng::new(8);
+        let n = 3000;
+        let x: Vec<[f64; 2]> = (0..n).map(|_| [rng.normal(), 0.7 * rng.normal()]).collect();
+        let g: Vec<f64> = (0..n).map(|_| rng.uniform() - 0.4).collect();
+        let kernel = BlobKernel::new(0.08);
+        let periodic = VicParams {
+            grid: 32,
+            boundary: VicBoundary::Periodic {
+                origin: [-1.0, -1.5],
+                length: 2.5,
+            },
+        };
+        for params in [unbounded(32), periodic] {
+            let mut vic = VortexInCell::new(params, kernel).unwrap();
+            let want = run(&mut vic, &x, &g, &Threads::single());
+            for ranks in [2, 3, 4] {
+                let got = super::super::slab::testkit::Hub::run(ranks, |exchange| {
+                    let mut vic =
+                        VortexInCell::on_rank(params, kernel, Rank::of(exchange)).unwrap();
+                    let mut v = vec![[0.0; 2]; n];
+                    for _ in 0..2 {
+                        vic.compute_shared(&x, &g, &mut v, &Threads::single(), exchange);
+                    }
+                    v
+                });
+                for (r, v) in got.iter().enumerate() {
+                    assert_eq!(v, &want, "{params:?}: rank {r} of {ranks}");
+                }
+            }
+        }
+        let many = Rank {
+            index: 0,
+            count: 17,
+        };
+        let error = VortexInCell::on_rank(unbounded(16), kernel, many).unwrap_err();
+        assert!(error.contains("17 ranks"), "{error}");
+    }
+
+    #[test]
     fn the_kernel_follows_the_cell() {
         // one solver, clouds of different spreads: the unbounded kernel must be
         // re-made for each cell
@@ -870,23 +889,21 @@ mod tests {
                     let t = std::time::Instant::now();
                     vic.compute(&x, &g, &mut v, &threads);
                     best = best.min(t.elapsed().as_secs_f64());
-                    threads.install(|| {
-                        let mut lap = std::time::Instant::now();
-                        let mut time = |k: usize| {
-                            phases[k] = phases[k].min(lap.elapsed().as_secs_f64());
-                            lap = std::time::Instant::now();
-                        };
-                        vic.cover(&x);
-                        time(0);
-                        vic.sort(&x, &g);
-                        time(1);
-                        vic.assign();
-                        time(2);
-                        vic.solve();
-                        time(3);
-                        vic.interpolate(&mut v);
-                        time(4);
-                    });
+                    let mut lap = std::time::Instant::now();
+                    let mut time = |k: usize| {
+                        phases[k] = phases[k].min(lap.elapsed().as_secs_f64());
+                        lap = std::time::Instant::now();
+                    };
+                    vic.cover(&x, &threads, &Alone);
+                    time(0);
+                    threads.install(|| vic.sort(&x, &g));
+                    time(1);
+                    threads.install(|| vic.assign());
+                    time(2);
+                    vic.solve(&threads, &Alone);
+                    time(3);
+                    vic.interpolate(&mut v, &threads, &Alone);
+                    time(4);
                 }
                 let [cover, sort, assign, solve, interpolate] = phases;
                 println!(

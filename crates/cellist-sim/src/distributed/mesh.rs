@@ -1,0 +1,171 @@
+//! The mesh solvers on several ranks: gravity's particle-mesh and P3M, and the
+//! vortex model's vortex-in-cell velocity, each rank holding every particle
+//! (the state is replicated, [`super::replicated`]) and a slab of the mesh's
+//! planes. The engine does the physics and the slab FFT
+//! ([`cellist::longrange::mesh::slab`]); this module gives it MPI's
+//! collectives ([`MpiExchange`]): the all-to-all transposes of the FFT and
+//! the all-gathers of the particles' results.
+
+use super::ring::Waited;
+use cellist::longrange::{
+    Exchange, FieldOut, FieldSolver, P3m, ParticleMesh, Sources, VortexInCell,
+};
+use cellist::models::vortex::VelocityField;
+use cellist::Threads;
+use mpi::datatype::{Partition, PartitionMut};
+use mpi::topology::SimpleCommunicator;
+use mpi::traits::*;
+use mpi::Count;
+use std::time::Instant;
+
+/// The engine's [`Exchange`] on the ranks of an MPI communicator, the time
+/// spent in its collectives added to `waited`.
+pub struct MpiExchange {
+    world: SimpleCommunicator,
+    waited: Waited,
+}
+
+impl MpiExchange {
+    /// The exchange on the ranks of `world`.
+    pub fn new(world: SimpleCommunicator) -> Self {
+        MpiExchange {
+            world,
+            waited: Waited::default(),
+        }
+    }
+
+    /// The time spent in the collectives, shared.
+    pub fn waited(&self) -> Waited {
+        self.waited.clone()
+    }
+
+    fn timed(&self, exchange: impl FnOnce()) {
+        let t = Instant::now();
+        exchange();
+        if let Ok(mut w) = self.waited.lock() {
+            *w += t.elapsed();
+        }
+    }
+}
+
+/// MPI's counts and displacements of blocks of `counts` numbers laid end to end.
+fn layout(counts: &[usize]) -> (Vec<Count>, Vec<Count>) {
+    let counts: Vec<Count> = counts.iter().map(|&c| c as Count).collect();
+    let displacements = counts
+        .iter()
+        .scan(0, |at, &c| {
+            let start = *at;
+            *at += c;
+            Some(start)
+        })
+        .collect();
+    (counts, displacements)
+}
+
+impl Exchange for MpiExchange {
+    fn rank(&self) -> usize {
+        self.world.rank() as usize
+    }
+
+    fn ranks(&self) -> usize {
+        self.world.size() as usize
+    }
+
+    fn all_to_all(
+        &self,
+        send: &[f64],
+        send_counts: &[usize],
+        receive: &mut [f64],
+        receive_counts: &[usize],
+    ) {
+        let (sc, sd) = layout(send_counts);
+        let (rc, rd) = layout(receive_counts);
+        self.timed(|| {
+            self.world.all_to_all_varcount_into(
+                &Partition::new(send, sc, sd),
+                &mut PartitionMut::new(receive, rc, rd),
+            )
+        });
+    }
+
+    fn all_gather(&self, mine: &[f64], counts: &[usize], out: &mut [f64]) {
+        let (c, d) = layout(counts);
+        self.timed(|| {
+            self.world
+                .all_gather_varcount_into(mine, &mut PartitionMut::new(out, c, d))
+        });
+    }
+}
+
+/// Gravity's mesh solvers on the ranks of an [`MpiExchange`].
+#[derive(Debug)]
+// built once per run and matched once per step: its size does not matter
+#[allow(clippy::large_enum_variant)]
+pub enum MeshGravitySolver {
+    /// Particle-mesh.
+    Pm(ParticleMesh),
+    /// P3M, its short range divided by blocks of bodies.
+    P3m(P3m),
+}
+
+/// A gravity mesh solver on several ranks: the engine's [`FieldSolver`] for a
+/// run whose bodies every rank holds.
+pub struct MeshGravity {
+    solver: MeshGravitySolver,
+    exchange: MpiExchange,
+}
+
+impl MeshGravity {
+    /// `solver`, built for this rank's slab of `exchange`'s ranks.
+    pub fn new(solver: MeshGravitySolver, exchange: MpiExchange) -> Self {
+        MeshGravity { solver, exchange }
+    }
+}
+
+impl std::fmt::Debug for MeshGravity {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{:?} on {} ranks", self.solver, self.exchange.ranks())
+    }
+}
+
+impl FieldSolver for MeshGravity {
+    fn compute(&mut self, sources: &Sources, out: FieldOut, threads: &Threads) {
+        match &mut self.solver {
+            MeshGravitySolver::Pm(s) => s.compute_shared(sources, out, threads, &self.exchange),
+            MeshGravitySolver::P3m(s) => s.compute_shared(sources, out, threads, &self.exchange),
+        }
+    }
+}
+
+/// The vortex-in-cell velocity on several ranks: the engine's
+/// [`VelocityField`] for a run whose particles every rank holds.
+pub struct MeshVortex {
+    solver: VortexInCell,
+    exchange: MpiExchange,
+}
+
+impl MeshVortex {
+    /// `solver`, built for this rank's slab of `exchange`'s ranks.
+    pub fn new(solver: VortexInCell, exchange: MpiExchange) -> Self {
+        MeshVortex { solver, exchange }
+    }
+}
+
+impl std::fmt::Debug for MeshVortex {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{:?} on {} ranks", self.solver, self.exchange.ranks())
+    }
+}
+
+impl VelocityField for MeshVortex {
+    fn compute(
+        &mut self,
+        positions: &[[f64; 2]],
+        gamma: &[f64],
+        velocity: &mut [[f64; 2]],
+        threads: &Threads,
+    ) {
+        self.solver
+            .compute_shared(positions, gamma, velocity, threads, &self.exchange);
+    }
+}
