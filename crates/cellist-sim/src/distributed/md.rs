@@ -188,7 +188,15 @@ impl<const D: usize> PairSums<D> {
                 }
             }
             PairSums::Halo(halo) => {
-                // the old list goes first: one list in memory at a time
+                // in place while the cells stay those of the last build
+                if let Some(h) = halo.as_mut() {
+                    match h.rebuild(subdomain, points, owned, threads) {
+                        Ok(true) => return None,
+                        Ok(false) => {}
+                        Err(e) => return Some(e.to_string()),
+                    }
+                }
+                // else the old list goes first: one list in memory at a time
                 let first = halo.take().is_none();
                 let built = HaloForces::build(subdomain, points, owned, *potential, skin, threads);
                 match built {

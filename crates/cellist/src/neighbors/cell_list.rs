@@ -96,6 +96,13 @@ impl<const D: usize> CellList<D> {
         list
     }
 
+    /// True when this list bins in `grid` over `domain` with `cutoff`: what
+    /// [`CellList::build_on_grid`] with them would make, so that
+    /// [`CellList::rebin_in`] may be used instead.
+    pub fn is_on(&self, domain: &Domain<D>, grid: &CellGrid<D>, cutoff: f64) -> bool {
+        self.domain == *domain && self.grid == *grid && self.cutoff == cutoff
+    }
+
     /// Sorts new positions into the same grid, reusing every buffer (the arrays are
     /// not reallocated once they have grown to the particle count).
     pub fn rebin(&mut self, points: &[[f64; D]]) {

@@ -14,7 +14,7 @@ const SIDE_MARGIN: f64 = 1e-10;
 /// `s_k = L_k / M_k > cutoff`. On open axes particles beyond the grid are clamped
 /// into the outermost cells, which stays correct because those cells are wider than
 /// the cutoff.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct CellGrid<const D: usize> {
     dims: [usize; D],
     lo: [f64; D],

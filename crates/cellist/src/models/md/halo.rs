@@ -72,6 +72,33 @@ impl<const D: usize> HaloForces<D> {
         })
     }
 
+    /// Builds the list of new `points` (the first `owned` own) again in
+    /// place when they bin in the cells of the last build ([`halo_cells`] of
+    /// the same subdomain and about as many own atoms): the list of
+    /// [`HaloForces::build`], with the buffers of the last build kept (no
+    /// allocation once they have grown). `Ok(false)`, and nothing changed,
+    /// when the cells differ.
+    pub fn rebuild(
+        &mut self,
+        subdomain: &Subdomain<D>,
+        points: &[[f64; D]],
+        owned: usize,
+        threads: &Threads,
+    ) -> Result<bool, GeometryError> {
+        assert!(owned <= points.len());
+        let (domain, grid, side) =
+            halo_cells(subdomain, owned, self.potential.cutoff() + self.skin)?;
+        if !self.pairs.cells.is_on(&domain, &grid, side) {
+            return Ok(false);
+        }
+        self.pairs.rebin(points, threads);
+        self.pairs.build_list(owned, threads);
+        self.owned = owned;
+        self.reference.clear();
+        self.reference.extend_from_slice(&points[..owned]);
+        Ok(true)
+    }
+
     /// The own atoms' positions at the build (the reference of the skin/2
     /// test).
     pub fn reference(&self) -> &[[f64; D]] {
@@ -290,6 +317,16 @@ mod tests {
                     HaloForces::build(&subdomain, &all, own.len(), lj, skin, &threads).unwrap();
                 let mut out = vec![AtomForce::default(); all.len()];
                 halo.forces(&all, true, &threads, &mut out);
+                // a list of other positions rebuilt in place for these gives
+                // the fresh list's sums, bit for bit
+                let moved: Vec<[f64; D]> = all.iter().map(|x| x.map(|c| c + 0.05)).collect();
+                let mut again =
+                    HaloForces::build(&subdomain, &moved, own.len(), lj, skin, &threads).unwrap();
+                let in_place = again.rebuild(&subdomain, &all, own.len(), &threads);
+                assert_eq!(in_place, Ok(true), "the cells changed");
+                let mut out_again = vec![AtomForce::default(); all.len()];
+                again.forces(&all, true, &threads, &mut out_again);
+                assert_eq!(out_again, out, "rebuilt in place");
                 for (k, o) in from.iter().zip(&out) {
                     let s = &mut sums[*k];
                     for d in 0..D {
