@@ -1,6 +1,6 @@
 //! Lennard-Jones molecular dynamics by domain decomposition: each rank owns the
 //! atoms of its subdomain, receives ghosts within cutoff + skin of it, and
-//! computes the forces on its own atoms in one of two ways ([`PairSums`]):
+//! computes the forces on its own atoms in one of two ways (`PairSums`):
 //!
 //! - by default over a half cluster list of its own atoms and the ghosts of
 //!   half the directions ([`HaloForces`], [`Images::HalfShell`]): each pair

@@ -73,7 +73,7 @@ impl<const D: usize> HaloForces<D> {
     }
 
     /// Builds the list of new `points` (the first `owned` own) again in
-    /// place when they bin in the cells of the last build ([`halo_cells`] of
+    /// place when they bin in the cells of the last build (`halo_cells` of
     /// the same subdomain and about as many own atoms): the list of
     /// [`HaloForces::build`], with the buffers of the last build kept (no
     /// allocation once they have grown). `Ok(false)`, and nothing changed,
