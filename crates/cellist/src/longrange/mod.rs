@@ -16,7 +16,7 @@ pub use biot_savart::{add_velocity_at, BlobKernel, DirectBiotSavart};
 pub use direct::{DirectSum, PartialField};
 pub use mesh::{MeshBoundary, MeshParams, ParticleMesh, VicBoundary, VicParams, VortexInCell};
 pub use p3m::P3m;
-pub use tree::{BarnesHut, TreeParams, VortexTree};
+pub use tree::{BarnesHut, Share, TreeParams, VortexTree};
 
 use crate::interactions::GravityLaw;
 use crate::threads::Threads;
