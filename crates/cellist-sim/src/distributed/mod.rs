@@ -16,16 +16,19 @@
 //!
 //! What runs distributed, on the driver like every model (rank 0 writes the
 //! outputs): md and pse by domain decomposition ([`md::DistributedMd`],
-//! [`pse::DistributedPse`]), and the direct solvers of gravity and of the
-//! vortex model by the ring pass ([`ring`]), their O(N) state replicated on
-//! every rank ([`replicated::Replicated`]) and their O(N^2) sums divided. Whatever can fail on
+//! [`pse::DistributedPse`]), and gravity and the vortex model with their
+//! direct solvers by the ring pass ([`ring`]) and with their Barnes-Hut trees
+//! by parts of the tree ([`tree`]), their state replicated on every rank
+//! ([`replicated`]) and their field sums divided ([`parts`]). Whatever can fail on
 //! one rank only is agreed ([`agree`]): every rank stops with the message of
 //! the lowest rank that failed, none waits in an exchange.
 
 pub mod md;
+pub mod parts;
 pub mod pse;
 pub mod replicated;
 pub mod ring;
+pub mod tree;
 
 pub use ring::ring_gravity;
 

@@ -535,23 +535,44 @@ fn run_setup<L: Launch>(
     let solver =
         Solver::new(&setup.choice, setup.law, setup.bodies.len()).map_err(|e| scenario.error(e))?;
     #[cfg(feature = "mpi")]
-    let (solver, ranks) = match crate::distributed::replicated::gravity_ring(setup.law) {
-        Some((ring_solver, ranks)) => {
-            if setup.choice != SolverChoice::Direct {
+    let distributed = match setup.choice {
+        SolverChoice::BarnesHut(params) => {
+            crate::distributed::replicated::gravity_tree(setup.law, params)
+                .transpose()
+                .map_err(|e| scenario.error(e))?
+        }
+        _ => crate::distributed::replicated::gravity_ring(setup.law),
+    };
+    #[cfg(feature = "mpi")]
+    let (solver, ranks) = match distributed {
+        Some((distributed_solver, ranks)) => {
+            let tree = matches!(setup.choice, SolverChoice::BarnesHut(_));
+            if setup.choice != SolverChoice::Direct && !tree {
                 return Err(scenario.error(format!(
-                    "solver {} does not run on {} MPI ranks: only solver = \"direct\" runs \
-                     distributed (by the ring pass); run the others in one process",
+                    "solver {} does not run on {} MPI ranks: only solver = \"direct\" (by the \
+                     ring pass) and \"barnes-hut\" (the tree's walks divided) run distributed; \
+                     run the others in one process",
                     setup.solver_name,
                     ranks.count()
                 )));
             }
-            context.say(format!(
-                "mpi: {} ranks; the direct sum by the ring pass, each rank summing for a block of \
-                 about {} bodies (the bodies held by every rank)",
-                ranks.count(),
-                setup.bodies.len() / ranks.count() as usize
-            ));
-            (ring_solver, ranks)
+            let (p, n) = (ranks.count(), setup.bodies.len());
+            context.say(if tree {
+                format!(
+                    "mpi: {p} ranks; the Barnes-Hut tree built alike on every rank over all {n} \
+                     bodies (the bodies held by every rank), each rank walking and summing its \
+                     part of the tree's groups (a run of the Morton order, balanced by the last \
+                     step's interactions), the parts' fields all-gathered: the forces of one \
+                     process to the bit"
+                )
+            } else {
+                format!(
+                    "mpi: {p} ranks; the direct sum by the ring pass, each rank summing for a \
+                     block of about {} bodies (the bodies held by every rank)",
+                    n / p as usize
+                )
+            });
+            (distributed_solver, ranks)
         }
         None => (solver, Ranks::One),
     };

@@ -510,22 +510,40 @@ pub fn run<L: Launch>(
     let snapshots = out.snapshots(steps, ["vorticity.csv", "vorticity.png", "vorticity.gif"]);
     let n = seeded.positions.len();
     #[cfg(feature = "mpi")]
-    let ring = crate::distributed::replicated::vortex_ring(BlobKernel::new(params.sigma));
+    let ring = match velocity {
+        VelocitySolver::BarnesHut(tree) => {
+            crate::distributed::replicated::vortex_tree(tree, BlobKernel::new(params.sigma))
+                .transpose()
+                .map_err(|e| err(format!("system: {e}")))?
+        }
+        _ => crate::distributed::replicated::vortex_ring(BlobKernel::new(params.sigma)),
+    };
     #[cfg(feature = "mpi")]
     if let Some((_, r)) = &ring {
-        if velocity != VelocitySolver::Direct {
+        if matches!(velocity, VelocitySolver::Mesh(_)) {
             return Err(err(format!(
                 "velocity.solver does not run on {} MPI ranks unless it is \"direct\" (by the \
-                 ring pass); run the tree and mesh solvers in one process",
+                 ring pass) or \"barnes-hut\" (the tree's walks divided); run the mesh solver \
+                 in one process",
                 r.count()
             )));
         }
-        context.say(format!(
-            "mpi: {} ranks; the direct velocity by the ring pass, each rank summing for a block of \
-             about {} particles (the particles held by every rank)",
-            r.count(),
-            n / r.count() as usize
-        ));
+        let p = r.count();
+        context.say(if velocity == VelocitySolver::Direct {
+            format!(
+                "mpi: {p} ranks; the direct velocity by the ring pass, each rank summing for a \
+                 block of about {} particles (the particles held by every rank)",
+                n / p as usize
+            )
+        } else {
+            format!(
+                "mpi: {p} ranks; the Barnes-Hut tree built alike on every rank over all the \
+                 particles (held by every rank), each rank walking and summing its part of the \
+                 tree's groups (a run of the Morton order, balanced by the last evaluation's \
+                 interactions), the parts' velocities all-gathered: the velocities of one \
+                 process to the bit"
+            )
+        });
     }
     let engine = VelocityEngine::new(params.solver, BlobKernel::new(params.sigma), n)
         .map_err(|e| err(format!("system: {e}")))?;
