@@ -559,11 +559,10 @@ fn run_setup<L: Launch>(
             let (p, n) = (ranks.count(), setup.bodies.len());
             context.say(if tree {
                 format!(
-                    "mpi: {p} ranks; the Barnes-Hut tree built alike on every rank over all {n} \
-                     bodies (the bodies held by every rank), each rank walking and summing its \
-                     part of the tree's groups (a run of the Morton order, balanced by the last \
-                     step's interactions), the parts' fields all-gathered: the forces of one \
-                     process to the bit"
+                    "mpi: {p} ranks; the Barnes-Hut tree of all {n} bodies built alike on every \
+                     rank (the bodies held by every rank), each rank walking a run of its groups \
+                     balanced by interactions, the results all-gathered: one process's forces \
+                     to the bit"
                 )
             } else {
                 format!(

@@ -537,11 +537,10 @@ pub fn run<L: Launch>(
             )
         } else {
             format!(
-                "mpi: {p} ranks; the Barnes-Hut tree built alike on every rank over all the \
-                 particles (held by every rank), each rank walking and summing its part of the \
-                 tree's groups (a run of the Morton order, balanced by the last evaluation's \
-                 interactions), the parts' velocities all-gathered: the velocities of one \
-                 process to the bit"
+                "mpi: {p} ranks; the Barnes-Hut tree of all the particles built alike on every \
+                 rank (the particles held by every rank), each rank walking a run of its groups \
+                 balanced by interactions, the results all-gathered: one process's velocities \
+                 to the bit"
             )
         });
     }

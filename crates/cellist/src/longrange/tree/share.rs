@@ -59,6 +59,12 @@ impl Split {
     pub fn new(tree: &Octree, cost: &[f64], parts: usize) -> Self {
         assert!(parts > 0);
         let n = tree.order.len();
+        if parts == 1 {
+            return Split {
+                groups: vec![0, tree.groups.len()],
+                particles: vec![0, n],
+            };
+        }
         let weighed = cost.len() == n;
         let weights: Vec<f64> = tree
             .groups
