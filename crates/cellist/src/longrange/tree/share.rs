@@ -6,10 +6,10 @@
 //! only on the tree, so a divided evaluation gives every particle the bits of
 //! the undivided one. The parts are contiguous runs of the groups in Morton
 //! order (each part's targets lie close together in space and in memory),
-//! balanced by the last evaluation's cost: a particle weighs `1 + n_nodes +
-//! n_particles`, its group's list lengths, which every process learns with the
-//! results (at the first evaluation, or when the particle count changed, every
-//! particle weighs 1).
+//! balanced by the last evaluation's cost: a particle weighs one plus its
+//! interactions (its group's accepted nodes and listed particles, itself
+//! excluded), which every process learns with the results (at the first
+//! evaluation, or when the particle count changed, every particle weighs 1).
 
 use super::build::Octree;
 

@@ -266,7 +266,7 @@ pub(super) struct Solver<M, L, const W: usize> {
     /// Per own group of the last evaluation, its interactions.
     counts: Vec<(u64, u64)>,
     /// Per particle (input order), its weight in the next [`Split`]: `1 +` its
-    /// group's list lengths in the last divided evaluation.
+    /// interactions in the last divided evaluation.
     cost: Vec<f64>,
     /// The same in tree order, as gathered.
     sorted_cost: Vec<f64>,
