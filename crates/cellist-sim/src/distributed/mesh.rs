@@ -6,7 +6,7 @@
 //! collectives ([`MpiExchange`]): the all-to-all transposes of the FFT and
 //! the all-gathers of the particles' results.
 
-use super::ring::Waited;
+use super::parts::Figures;
 use cellist::longrange::{
     Exchange, FieldOut, FieldSolver, P3m, ParticleMesh, Sources, VortexInCell,
 };
@@ -19,10 +19,10 @@ use mpi::Count;
 use std::time::Instant;
 
 /// The engine's [`Exchange`] on the ranks of an MPI communicator, the time
-/// spent in its collectives added to `waited`.
+/// spent in its collectives added to its [`Figures`].
 pub struct MpiExchange {
     world: SimpleCommunicator,
-    waited: Waited,
+    figures: Figures,
 }
 
 impl MpiExchange {
@@ -30,21 +30,19 @@ impl MpiExchange {
     pub fn new(world: SimpleCommunicator) -> Self {
         MpiExchange {
             world,
-            waited: Waited::default(),
+            figures: Figures::new("Slab-decomposed mesh", "in the transposes and gathers"),
         }
     }
 
     /// The time spent in the collectives, shared.
-    pub fn waited(&self) -> Waited {
-        self.waited.clone()
+    pub fn figures(&self) -> Figures {
+        self.figures.clone()
     }
 
     fn timed(&self, exchange: impl FnOnce()) {
         let t = Instant::now();
         exchange();
-        if let Ok(mut w) = self.waited.lock() {
-            *w += t.elapsed();
-        }
+        self.figures.add_wait(t.elapsed());
     }
 }
 

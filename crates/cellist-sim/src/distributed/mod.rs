@@ -16,20 +16,23 @@
 //!
 //! What runs distributed, on the driver like every model (rank 0 writes the
 //! outputs): md and pse by domain decomposition ([`md::DistributedMd`],
-//! [`pse::DistributedPse`]); the direct solvers of gravity and of the
-//! vortex model by the ring pass ([`ring`]), and their mesh solvers (PM, P3M,
-//! vortex-in-cell) on a slab-decomposed mesh ([`mesh`]), their O(N) state
-//! replicated on every rank ([`replicated`]) and their sums and transforms
-//! divided. Whatever can fail on
+//! [`pse::DistributedPse`]), and gravity and the vortex model with their
+//! direct solvers by the ring pass ([`ring`]), their Barnes-Hut trees by
+//! parts of the tree ([`tree`]) and their mesh solvers (PM, P3M,
+//! vortex-in-cell) on a slab-decomposed mesh ([`mesh`]), their state
+//! replicated on every rank ([`replicated`]) and their field sums and
+//! transforms divided ([`parts`]). Whatever can fail on
 //! one rank only is agreed ([`agree`]): every rank stops with the message of
 //! the lowest rank that failed, none waits in an exchange.
 
 pub mod md;
 pub mod mesh;
+pub mod parts;
 pub mod pse;
 pub mod pull;
 pub mod replicated;
 pub mod ring;
+pub mod tree;
 
 pub use ring::ring_gravity;
 

@@ -1,15 +1,19 @@
-//! Models whose state every rank holds in full and advances alike: gravity
-//! and the vortex model, their direct solvers' all-pairs sums divided among
-//! the ranks by the ring pass ([`super::ring`]), their mesh solvers on a mesh
-//! cut into slabs of planes ([`super::mesh`]). Every rank takes the same steps
-//! on the same bits, so the checks agree without messages; rank 0 writes the
-//! outputs ([`Ranks::Replicated`]).
+//! Models whose state every rank holds in full and advances alike, their
+//! field sums divided among the ranks: gravity and the vortex model with their
+//! direct solvers by the ring pass ([`super::ring`]), with their Barnes-Hut
+//! trees by parts of the tree ([`super::tree`]) and with their mesh solvers on
+//! a mesh cut into slabs of planes ([`super::mesh`]). Every rank takes the same
+//! steps on the same bits, so the checks agree without messages; rank 0 writes
+//! the outputs ([`Ranks::Replicated`]).
 
 use super::mesh::{MeshGravity, MeshGravitySolver, MeshVortex, MpiExchange};
 use super::ring::{RingGravity, RingVortex};
+use super::tree::{TreeGravity, TreeVortex};
 use crate::ranks::Ranks;
 use cellist::interactions::GravityLaw;
-use cellist::longrange::{BlobKernel, MeshParams, P3m, ParticleMesh, Rank, VortexInCell};
+use cellist::longrange::{
+    BlobKernel, MeshParams, P3m, ParticleMesh, Rank, TreeParams, VortexInCell,
+};
 use cellist::models::gravity::{Solver, SolverChoice};
 use cellist::models::vortex::{VelocityEngine, VelocitySolver};
 use mpi::traits::Communicator;
@@ -19,11 +23,29 @@ use mpi::traits::Communicator;
 pub fn gravity_ring(law: GravityLaw) -> Option<(Solver, Ranks)> {
     let world = super::world_of_many()?;
     let solver = RingGravity::new(world.duplicate(), law);
-    let waited = solver.waited();
+    let figures = solver.figures();
     Some((
         Solver::External(Box::new(solver)),
-        Ranks::Replicated { world, waited },
+        Ranks::Replicated { world, figures },
     ))
+}
+
+/// On several ranks, gravity's Barnes-Hut tree divided among them for `law`
+/// with `params`, and its ranks; `None` in one process.
+pub fn gravity_tree(
+    law: GravityLaw,
+    params: TreeParams,
+) -> Option<Result<(Solver, Ranks), String>> {
+    let world = super::world_of_many()?;
+    Some(
+        TreeGravity::new(world.duplicate(), law, params).map(|solver| {
+            let figures = solver.figures();
+            (
+                Solver::External(Box::new(solver)),
+                Ranks::Replicated { world, figures },
+            )
+        }),
+    )
 }
 
 /// On several ranks, the vortex model's direct solver by the ring pass for
@@ -31,11 +53,29 @@ pub fn gravity_ring(law: GravityLaw) -> Option<(Solver, Ranks)> {
 pub fn vortex_ring(kernel: BlobKernel) -> Option<(VelocityEngine, Ranks)> {
     let world = super::world_of_many()?;
     let solver = RingVortex::new(world.duplicate(), kernel);
-    let waited = solver.waited();
+    let figures = solver.figures();
     Some((
         VelocityEngine::External(Box::new(solver)),
-        Ranks::Replicated { world, waited },
+        Ranks::Replicated { world, figures },
     ))
+}
+
+/// On several ranks, the vortex model's Barnes-Hut tree divided among them
+/// for blobs of `kernel` with `params`, and its ranks; `None` in one process.
+pub fn vortex_tree(
+    params: TreeParams,
+    kernel: BlobKernel,
+) -> Option<Result<(VelocityEngine, Ranks), String>> {
+    let world = super::world_of_many()?;
+    Some(
+        TreeVortex::new(world.duplicate(), params, kernel).map(|solver| {
+            let figures = solver.figures();
+            (
+                VelocityEngine::External(Box::new(solver)),
+                Ranks::Replicated { world, figures },
+            )
+        }),
+    )
 }
 
 /// What the slab decomposition of a mesh of `grid` planes along x gives each
@@ -95,11 +135,11 @@ pub fn gravity_mesh(
             },
             slabs(mesh.grid, ranks)
         );
-        let waited = exchange.waited();
+        let figures = exchange.figures();
         let solver = MeshGravity::new(solver, exchange);
         (
             Solver::External(Box::new(solver)),
-            Ranks::Replicated { world, waited },
+            Ranks::Replicated { world, figures },
             line,
         )
     }))
@@ -126,11 +166,11 @@ pub fn vortex_mesh(
             rank.count,
             slabs(params.grid, rank.count)
         );
-        let waited = exchange.waited();
+        let figures = exchange.figures();
         let solver = MeshVortex::new(solver, exchange);
         (
             VelocityEngine::External(Box::new(solver)),
-            Ranks::Replicated { world, waited },
+            Ranks::Replicated { world, figures },
             line,
         )
     }))

@@ -11,17 +11,15 @@
 //! the field at the block it owns over all blocks by the ring, and the blocks'
 //! results are gathered on every rank.
 
+use super::parts::{all_gather_parts, Figures};
 use cellist::interactions::GravityLaw;
 use cellist::longrange::{
     add_velocity_at, BlobKernel, FieldOut, FieldSolver, PartialField, Sources,
 };
 use cellist::models::vortex::VelocityField;
 use cellist::Threads;
-use mpi::datatype::PartitionMut;
 use mpi::topology::SimpleCommunicator;
 use mpi::traits::*;
-use mpi::Count;
-use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 /// Passes every rank's `block` (a few numbers per particle) round the ring:
@@ -122,46 +120,19 @@ fn ring_gravity_timed<C: Communicator>(
     (acc, phi, waited)
 }
 
-/// The particles `[lo, hi)` of `n` that rank `rank` of `ranks` sums for.
-fn block(n: usize, rank: usize, ranks: usize) -> std::ops::Range<usize> {
-    n * rank / ranks..n * (rank + 1) / ranks
+/// The blocks `n` particles are cut into on the ranks of `world`: rank `r`
+/// sums for the particles `bounds[r]..bounds[r + 1]`, `bounds[r] = n r / P`;
+/// and this rank's block.
+fn blocks(n: usize, world: &SimpleCommunicator) -> (Vec<usize>, std::ops::Range<usize>) {
+    let (rank, ranks) = (world.rank() as usize, world.size() as usize);
+    let bounds: Vec<usize> = (0..=ranks).map(|r| n * r / ranks).collect();
+    let mine = bounds[rank]..bounds[rank + 1];
+    (bounds, mine)
 }
 
-/// Largest over mean particles per rank of the blocks `n` particles are cut
-/// into on `ranks` ranks: the balance of the ring's sums.
-pub fn block_imbalance(n: usize, ranks: usize) -> f64 {
-    let most = (0..ranks).map(|r| block(n, r, ranks).len()).max();
-    most.unwrap_or(0) as f64 * ranks as f64 / n.max(1) as f64
-}
-
-/// `values` (`width` numbers per particle of this rank's block) gathered from
-/// every rank's block into `out` (all particles, in order).
-fn gather_blocks(world: &SimpleCommunicator, values: &[f64], width: usize, out: &mut [f64]) {
-    let ranks = world.size() as usize;
-    let n = out.len() / width;
-    let counts: Vec<Count> = (0..ranks)
-        .map(|r| (block(n, r, ranks).len() * width) as Count)
-        .collect();
-    let displacements: Vec<Count> = (0..ranks)
-        .map(|r| (block(n, r, ranks).start * width) as Count)
-        .collect();
-    let mut partition = PartitionMut::new(out, counts, &displacements[..]);
-    world.all_gather_varcount_into(values, &mut partition);
-}
-
-/// The time a distributed solver has waited for messages, shared with the
-/// model that reports it.
-pub type Waited = Arc<Mutex<Duration>>;
-
-/// The time waited so far.
-pub fn waited_so_far(waited: &Waited) -> Duration {
-    waited.lock().map_or(Duration::ZERO, |w| *w)
-}
-
-fn add_wait(waited: &Waited, d: Duration) {
-    if let Ok(mut w) = waited.lock() {
-        *w += d;
-    }
+/// The figures of a ring pass.
+fn ring_figures() -> Figures {
+    Figures::new("Ring pass", "waiting for blocks and gathering the results")
 }
 
 /// Gravity's direct sum by the ring pass: the engine's [`FieldSolver`] for a
@@ -169,7 +140,7 @@ fn add_wait(waited: &Waited, d: Duration) {
 pub struct RingGravity {
     world: SimpleCommunicator,
     law: GravityLaw,
-    waited: Waited,
+    figures: Figures,
 }
 
 impl RingGravity {
@@ -178,13 +149,13 @@ impl RingGravity {
         RingGravity {
             world,
             law,
-            waited: Waited::default(),
+            figures: ring_figures(),
         }
     }
 
-    /// The waiting time, shared.
-    pub fn waited(&self) -> Waited {
-        self.waited.clone()
+    /// The figures, shared.
+    pub fn figures(&self) -> Figures {
+        self.figures.clone()
     }
 }
 
@@ -197,7 +168,7 @@ impl std::fmt::Debug for RingGravity {
 impl FieldSolver for RingGravity {
     fn compute(&mut self, sources: &Sources, out: FieldOut, threads: &Threads) {
         let n = sources.mass.len();
-        let mine = block(n, self.world.rank() as usize, self.world.size() as usize);
+        let (bounds, mine) = blocks(n, &self.world);
         let (acc, phi, waited) = ring_gravity_timed(
             &self.world,
             self.law,
@@ -206,14 +177,10 @@ impl FieldSolver for RingGravity {
             threads,
         );
         let t = Instant::now();
-        gather_blocks(
-            &self.world,
-            acc.as_flattened(),
-            3,
-            out.acc.as_flattened_mut(),
-        );
-        gather_blocks(&self.world, &phi, 1, out.phi);
-        add_wait(&self.waited, waited + t.elapsed());
+        let acc_out = out.acc.as_flattened_mut();
+        all_gather_parts(&self.world, acc.as_flattened(), 3, &bounds, acc_out);
+        all_gather_parts(&self.world, &phi, 1, &bounds, out.phi);
+        self.figures.add(waited + t.elapsed(), &bounds);
     }
 }
 
@@ -222,7 +189,7 @@ impl FieldSolver for RingGravity {
 pub struct RingVortex {
     world: SimpleCommunicator,
     kernel: BlobKernel,
-    waited: Waited,
+    figures: Figures,
 }
 
 impl RingVortex {
@@ -231,13 +198,13 @@ impl RingVortex {
         RingVortex {
             world,
             kernel,
-            waited: Waited::default(),
+            figures: ring_figures(),
         }
     }
 
-    /// The waiting time, shared.
-    pub fn waited(&self) -> Waited {
-        self.waited.clone()
+    /// The figures, shared.
+    pub fn figures(&self) -> Figures {
+        self.figures.clone()
     }
 }
 
@@ -256,7 +223,7 @@ impl VelocityField for RingVortex {
         threads: &Threads,
     ) {
         let n = positions.len();
-        let mine = block(n, self.world.rank() as usize, self.world.size() as usize);
+        let (bounds, mine) = blocks(n, &self.world);
         let targets = &positions[mine.clone()];
         let own: Vec<f64> = targets
             .iter()
@@ -275,12 +242,8 @@ impl VelocityField for RingVortex {
             add_velocity_at(&self.kernel, targets, &held_x, &held_gamma, &mut u, threads);
         });
         let t = Instant::now();
-        gather_blocks(
-            &self.world,
-            u.as_flattened(),
-            2,
-            velocity.as_flattened_mut(),
-        );
-        add_wait(&self.waited, waited + t.elapsed());
+        let velocity = velocity.as_flattened_mut();
+        all_gather_parts(&self.world, u.as_flattened(), 2, &bounds, velocity);
+        self.figures.add(waited + t.elapsed(), &bounds);
     }
 }

@@ -532,42 +532,48 @@ fn run_setup<L: Launch>(
 ) -> SimResult<L::Output> {
     let (threads, out_dir) = (context.threads, &context.out_dir);
     let started = Instant::now();
-    #[cfg(feature = "mpi")]
-    let mesh =
-        crate::distributed::replicated::gravity_mesh(&setup.choice, setup.law, setup.bodies.len())
-            .transpose()
-            .map_err(|e| scenario.error(e))?;
     // the solver of one process (a distributed mesh builds its own slab)
     let single =
         || Solver::new(&setup.choice, setup.law, setup.bodies.len()).map_err(|e| scenario.error(e));
     #[cfg(feature = "mpi")]
-    let (solver, ranks) = match (
-        mesh,
-        crate::distributed::replicated::gravity_ring(setup.law),
-    ) {
-        (Some((mesh_solver, ranks, line)), _) => {
-            context.say(line);
-            (mesh_solver, ranks)
-        }
-        (None, Some((ring_solver, ranks))) => {
-            if setup.choice != SolverChoice::Direct {
-                return Err(scenario.error(format!(
-                    "solver {} does not run on {} MPI ranks: only the solvers \"direct\" (by the \
-                     ring pass), \"pm\" and \"p3m\" (on a slab-decomposed mesh) run \
-                     distributed; run the others in one process",
-                    setup.solver_name,
-                    ranks.count()
-                )));
+    let distributed = {
+        use crate::distributed::replicated::{gravity_mesh, gravity_ring, gravity_tree};
+        let (p, n) = (
+            crate::distributed::world_of_many()
+                .map_or(1, |w| mpi::traits::Communicator::size(&w) as usize),
+            setup.bodies.len(),
+        );
+        match setup.choice {
+            SolverChoice::Pm(_) | SolverChoice::P3m { .. } => {
+                gravity_mesh(&setup.choice, setup.law, n)
+                    .transpose()
+                    .map_err(|e| scenario.error(e))?
             }
-            context.say(format!(
-                "mpi: {} ranks; the direct sum by the ring pass, each rank summing for a block of \
-                 about {} bodies (the bodies held by every rank)",
-                ranks.count(),
-                setup.bodies.len() / ranks.count() as usize
-            ));
-            (ring_solver, ranks)
+            SolverChoice::BarnesHut(params) => gravity_tree(setup.law, params)
+                .transpose()
+                .map_err(|e| scenario.error(e))?
+                .map(|(solver, ranks)| {
+                    let line = format!(
+                        "mpi: {p} ranks; the Barnes-Hut tree of all {n} bodies built alike on                          every rank (the bodies held by every rank), each rank walking a run of                          its groups balanced by interactions, the results all-gathered: one                          process's forces to the bit"
+                    );
+                    (solver, ranks, line)
+                }),
+            SolverChoice::Direct => gravity_ring(setup.law).map(|(solver, ranks)| {
+                let line = format!(
+                    "mpi: {p} ranks; the direct sum by the ring pass, each rank summing for a                      block of about {} bodies (the bodies held by every rank)",
+                    n / p
+                );
+                (solver, ranks, line)
+            }),
         }
-        (None, None) => (single()?, Ranks::One),
+    };
+    #[cfg(feature = "mpi")]
+    let (solver, ranks) = match distributed {
+        Some((solver, ranks, line)) => {
+            context.say(line);
+            (solver, ranks)
+        }
+        None => (single()?, Ranks::One),
     };
     #[cfg(not(feature = "mpi"))]
     let (solver, ranks) = (single()?, Ranks::One);

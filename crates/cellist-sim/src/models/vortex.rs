@@ -509,45 +509,46 @@ pub fn run<L: Launch>(
     out.check().map_err(err)?;
     let snapshots = out.snapshots(steps, ["vorticity.csv", "vorticity.png", "vorticity.gif"]);
     let n = seeded.positions.len();
-    #[cfg(feature = "mpi")]
-    let mesh = crate::distributed::replicated::vortex_mesh(velocity, BlobKernel::new(params.sigma))
-        .transpose()
-        .map_err(|e| err(format!("system: {e}")))?;
-    #[cfg(feature = "mpi")]
-    let ring = match mesh {
-        Some(_) => None,
-        None => crate::distributed::replicated::vortex_ring(BlobKernel::new(params.sigma)),
-    };
-    #[cfg(feature = "mpi")]
-    if let Some((_, r)) = &ring {
-        if velocity != VelocitySolver::Direct {
-            return Err(err(format!(
-                "velocity.solver does not run on {} MPI ranks unless it is \"direct\" (by the \
-                 ring pass) or \"mesh\" (on a slab-decomposed mesh); run the tree solver in one \
-                 process",
-                r.count()
-            )));
-        }
-        context.say(format!(
-            "mpi: {} ranks; the direct velocity by the ring pass, each rank summing for a block of \
-             about {} particles (the particles held by every rank)",
-            r.count(),
-            n / r.count() as usize
-        ));
-    }
     // the engine of one process (a distributed mesh builds its own slab)
     let single = || {
         VelocityEngine::new(params.solver, BlobKernel::new(params.sigma), n)
             .map_err(|e| err(format!("system: {e}")))
     };
     #[cfg(feature = "mpi")]
-    let (engine, ranks) = match (mesh, ring) {
-        (Some((engine, ranks, line)), _) => {
+    let distributed = {
+        use crate::distributed::replicated::{vortex_mesh, vortex_ring, vortex_tree};
+        let kernel = BlobKernel::new(params.sigma);
+        let p = crate::distributed::world_of_many()
+            .map_or(1, |w| mpi::traits::Communicator::size(&w) as usize);
+        match velocity {
+            VelocitySolver::Mesh(_) => vortex_mesh(velocity, kernel)
+                .transpose()
+                .map_err(|e| err(format!("system: {e}")))?,
+            VelocitySolver::BarnesHut(tree) => vortex_tree(tree, kernel)
+                .transpose()
+                .map_err(|e| err(format!("system: {e}")))?
+                .map(|(engine, ranks)| {
+                    let line = format!(
+                        "mpi: {p} ranks; the Barnes-Hut tree of all the particles built alike                          on every rank (the particles held by every rank), each rank walking a                          run of its groups balanced by interactions, the results all-gathered:                          one process's velocities to the bit"
+                    );
+                    (engine, ranks, line)
+                }),
+            VelocitySolver::Direct => vortex_ring(kernel).map(|(engine, ranks)| {
+                let line = format!(
+                    "mpi: {p} ranks; the direct velocity by the ring pass, each rank summing                      for a block of about {} particles (the particles held by every rank)",
+                    n / p
+                );
+                (engine, ranks, line)
+            }),
+        }
+    };
+    #[cfg(feature = "mpi")]
+    let (engine, ranks) = match distributed {
+        Some((engine, ranks, line)) => {
             context.say(line);
             (engine, ranks)
         }
-        (None, Some(ring)) => ring,
-        (None, None) => (single()?, Ranks::One),
+        None => (single()?, Ranks::One),
     };
     #[cfg(not(feature = "mpi"))]
     let (engine, ranks) = (single()?, Ranks::One);

@@ -19,7 +19,7 @@ pub use mesh::{
     VortexInCell,
 };
 pub use p3m::P3m;
-pub use tree::{BarnesHut, TreeParams, VortexTree};
+pub use tree::{BarnesHut, Share, TreeParams, VortexTree};
 
 use crate::interactions::GravityLaw;
 use crate::threads::Threads;

@@ -2,6 +2,7 @@
 //! the centre of mass, and the SIMD sums of a group's lists.
 
 use super::build::Node;
+use super::share::{Share, Whole};
 use super::walk::{copy, Group, Lists, Solver, Target, Walk, LANES};
 use super::TreeParams;
 use crate::interactions::GravityLaw;
@@ -22,7 +23,7 @@ use crate::threads::Threads;
 #[derive(Debug)]
 pub struct BarnesHut {
     law: GravityLaw,
-    solver: Solver<Multipole, GravityLists, [f64; 4]>,
+    solver: Solver<Multipole, GravityLists, 4>,
 }
 
 /// A node's mass and traceless quadrupole `xx, xy, xz, yy, yz, zz` about its
@@ -40,7 +41,8 @@ impl BarnesHut {
         Ok(BarnesHut { law, solver })
     }
 
-    /// `(node, particle)` interactions of the last evaluation.
+    /// `(node, particle)` interactions of the last evaluation (of this
+    /// process's part, for [`compute_shared`](Self::compute_shared)).
     pub fn interactions(&self) -> (u64, u64) {
         self.solver.interactions
     }
@@ -48,6 +50,20 @@ impl BarnesHut {
     /// Fills `out` with the tree's accelerations and potentials of `sources`:
     /// `acc_i ~ sum_{j != i} acc_ij`, `phi_i ~ sum_{j != i} phi_ij`.
     pub fn compute(&mut self, sources: &Sources, out: FieldOut, threads: &Threads) {
+        self.compute_shared(sources, out, threads, &mut Whole);
+    }
+
+    /// [`compute`](Self::compute) divided among processes that each hold every
+    /// body (see [`Share`]): this one walks and sums only the groups of its
+    /// part, `share` brings the others' sums, and every body's field has the
+    /// bits of the undivided evaluation.
+    pub fn compute_shared(
+        &mut self,
+        sources: &Sources,
+        out: FieldOut,
+        threads: &Threads,
+        share: &mut dyn Share,
+    ) {
         let kernel = Kernel::new(&self.law);
         let quadrupole = self.solver.params.quadrupole;
         let repulsion = self.law.has_repulsion();
@@ -58,6 +74,7 @@ impl BarnesHut {
             sources.mass,
             0.0,
             threads,
+            share,
             of_node,
             |lists: &mut GravityLists, group, target| {
                 lists.gather(&group, quadrupole);

@@ -33,14 +33,19 @@
 //!
 //! The walk gathers (every group writes only its own particles) in parallel, and
 //! the lists and sums run in an order fixed by the tree, so 1 and N threads give
-//! the same bits.
+//! the same bits. For the same reason an evaluation can be divided among
+//! processes that each hold every particle (`share`: each walks a contiguous
+//! run of the groups and receives the others' results) and still give every
+//! particle the bits of one process.
 
 mod build;
 mod gravity;
+mod share;
 mod vortex;
 mod walk;
 
 pub use gravity::BarnesHut;
+pub use share::Share;
 pub use vortex::VortexTree;
 
 /// The tree's settings.

@@ -4,6 +4,7 @@
 //! nodes).
 
 use super::build::Node;
+use super::share::{Share, Whole};
 use super::walk::{copy, Group, Lists, Solver, Target, Walk, LANES};
 use super::TreeParams;
 use crate::longrange::biot_savart::BlobKernel;
@@ -69,7 +70,7 @@ pub struct VortexTree {
     kernel: BlobKernel,
     /// The positions at `z = 0`, for the octree.
     lifted: Vec<[f64; 3]>,
-    solver: Solver<Coefficients, VortexLists, [f64; 2]>,
+    solver: Solver<Coefficients, VortexLists, 2>,
 }
 
 impl VortexTree {
@@ -84,7 +85,8 @@ impl VortexTree {
         })
     }
 
-    /// `(node, particle)` interactions of the last evaluation.
+    /// `(node, particle)` interactions of the last evaluation (of this
+    /// process's part, for [`compute_shared`](Self::compute_shared)).
     pub fn interactions(&self) -> (u64, u64) {
         self.solver.interactions
     }
@@ -98,6 +100,21 @@ impl VortexTree {
         velocity: &mut [[f64; 2]],
         threads: &Threads,
     ) {
+        self.compute_shared(positions, gamma, velocity, threads, &mut Whole);
+    }
+
+    /// [`compute`](Self::compute) divided among processes that each hold every
+    /// particle (see [`Share`]): this one walks and sums only the groups of its
+    /// part, `share` brings the others' velocities, and every particle's
+    /// velocity has the bits of the undivided evaluation.
+    pub fn compute_shared(
+        &mut self,
+        positions: &[[f64; 2]],
+        gamma: &[f64],
+        velocity: &mut [[f64; 2]],
+        threads: &Threads,
+        share: &mut dyn Share,
+    ) {
         crate::longrange::biot_savart::assert_lengths(positions, gamma, velocity);
         self.lifted.clear();
         self.lifted
@@ -109,6 +126,7 @@ impl VortexTree {
             gamma,
             CLEARANCE * kernel.sigma(),
             threads,
+            share,
             of_node,
             |lists: &mut VortexLists, group, target| {
                 lists.gather(&group);

@@ -7,10 +7,12 @@
 //! node moments and its list sums.
 
 use super::build::{Node, Octree, Sizes};
+use super::share::{Share, Split};
 use super::TreeParams;
 use crate::simd::F64x4;
 use crate::threads::{DisjointSlice, Threads};
 use rayon::prelude::*;
+use std::ops::Range;
 use std::sync::Mutex;
 
 /// Entries per step of the list sums: one AVX2 vector.
@@ -248,18 +250,26 @@ pub(super) fn copy(dst: &mut Vec<f64>, ids: &[u32], value: f64, of: impl Fn(usiz
 
 /// What a tree solver keeps between evaluations, whatever its kernel: the
 /// settings, the octree, the walk, the nodes' kernel moments `M`, the results
-/// `T` in tree order, one list scratch `L` per thread and the last interaction
-/// counts.
+/// (`W` numbers per particle) in tree order, one list scratch `L` per thread,
+/// the last interaction counts and, for a divided evaluation, the particles'
+/// last costs.
 #[derive(Debug)]
-pub(super) struct Solver<M, L, T> {
+pub(super) struct Solver<M, L, const W: usize> {
     pub params: TreeParams,
     tree: Octree,
     walk: Walk,
     moments: Vec<M>,
-    sorted: Vec<T>,
+    sorted: Vec<[f64; W]>,
     scratch: Vec<Mutex<L>>,
-    /// `(node, particle)` interactions of the last evaluation.
+    /// `(node, particle)` interactions of the last evaluation's own groups.
     pub interactions: (u64, u64),
+    /// Per own group of the last evaluation, its interactions.
+    counts: Vec<(u64, u64)>,
+    /// Per particle (input order), its weight in the next [`Split`]: `1 +` its
+    /// interactions in the last divided evaluation.
+    cost: Vec<f64>,
+    /// The same in tree order, as gathered.
+    sorted_cost: Vec<f64>,
 }
 
 /// One walk group as a kernel sees it: the tree, the walk, the nodes' moments,
@@ -298,7 +308,7 @@ impl<M> Group<'_, M> {
     }
 }
 
-impl<M: Send + Sync, L: Default + Send, T: Copy + Default + Send> Solver<M, L, T> {
+impl<M: Send + Sync, L: Default + Send, const W: usize> Solver<M, L, W> {
     /// An empty solver with `params` (checked).
     pub fn new(params: TreeParams) -> Result<Self, String> {
         params.check()?;
@@ -310,13 +320,20 @@ impl<M: Send + Sync, L: Default + Send, T: Copy + Default + Send> Solver<M, L, T
             sorted: Vec::new(),
             scratch: Vec::new(),
             interactions: (0, 0),
+            counts: Vec::new(),
+            cost: Vec::new(),
+            sorted_cost: Vec::new(),
         })
     }
 
-    /// One evaluation: the octree of `lifted` (the positions in 3D), the sorted
-    /// `positions` (`D` axes) and `weights`, every node's centre and moments by
-    /// `of_node` (see [`Walk::nodes`] for `clearance`), then `per_group` for
-    /// every group in parallel, each writing the results of its own particles.
+    /// One evaluation, divided by `share`: the octree of `lifted` (the
+    /// positions in 3D), the sorted `positions` (`D` axes) and `weights`, every
+    /// node's centre and moments by `of_node` (see [`Walk::nodes`] for
+    /// `clearance`), then `per_group` for every group of this process's part
+    /// ([`Split`]) in parallel, each writing the results of its own particles and
+    /// returning its interactions; then the other parts' results (and costs)
+    /// are gathered, so that every particle's result is that of the undivided
+    /// evaluation.
     #[allow(clippy::too_many_arguments)]
     pub fn evaluate<const D: usize>(
         &mut self,
@@ -325,8 +342,9 @@ impl<M: Send + Sync, L: Default + Send, T: Copy + Default + Send> Solver<M, L, T
         weights: &[f64],
         clearance: f64,
         threads: &Threads,
+        share: &mut dyn Share,
         of_node: impl Fn(&Node, &Walk) -> ([f64; 3], M) + Sync,
-        per_group: impl Fn(&mut L, Group<M>, &mut [T]) -> (u64, u64) + Sync,
+        per_group: impl Fn(&mut L, Group<M>, &mut [[f64; W]]) -> (u64, u64) + Sync,
     ) {
         assert!(lifted.len() == positions.len() && positions.len() == weights.len());
         let sizes = Sizes {
@@ -344,15 +362,18 @@ impl<M: Send + Sync, L: Default + Send, T: Copy + Default + Send> Solver<M, L, T
             threads,
             of_node,
         );
-        self.sorted.resize(positions.len(), T::default());
+        self.sorted.resize(positions.len(), [0.0; W]);
         while self.scratch.len() < threads.count() {
             self.scratch.push(Mutex::new(L::default()));
         }
+        let (part, parts) = share.part();
+        let split = Split::new(&self.tree, &self.cost, parts);
+        let own = split.groups[part]..split.groups[part + 1];
         let (tree, walk, moments) = (&self.tree, &self.walk, &self.moments[..]);
         let shared = DisjointSlice::new(&mut self.sorted);
         let scratch = &self.scratch;
-        self.interactions = threads.install(|| {
-            tree.groups
+        threads.install(|| {
+            tree.groups[own.clone()]
                 .par_iter()
                 .map(|&group| {
                     let thread = rayon::current_thread_index().unwrap_or(0);
@@ -369,12 +390,39 @@ impl<M: Send + Sync, L: Default + Send, T: Copy + Default + Send> Solver<M, L, T
                     };
                     per_group(&mut lists, group, target)
                 })
-                .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1))
+                .collect_into_vec(&mut self.counts)
         });
+        self.interactions = self
+            .counts
+            .iter()
+            .fold((0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
+        if parts > 1 {
+            self.gather_costs(own, &split, share);
+        }
+        share.all_gather(self.sorted.as_flattened_mut(), W, &split.particles);
+    }
+
+    /// Every particle's weight for the next split, `1 +` its group's
+    /// interactions per particle: this process's groups (`own` of the tree's
+    /// groups) from their `counts`, the others' gathered by `share`.
+    fn gather_costs(&mut self, own: Range<usize>, split: &Split, share: &mut dyn Share) {
+        let n = self.tree.order.len();
+        self.sorted_cost.resize(n, 0.0);
+        for (&group, &(nodes, particles)) in self.tree.groups[own].iter().zip(&self.counts) {
+            let node = &self.tree.nodes[group as usize];
+            let range = node.start as usize..node.end as usize;
+            let per_particle = 1.0 + (nodes + particles) as f64 / range.len() as f64;
+            self.sorted_cost[range].fill(per_particle);
+        }
+        share.all_gather(&mut self.sorted_cost, 1, &split.particles);
+        self.cost.resize(n, 0.0);
+        for (&i, &c) in self.tree.order.iter().zip(&self.sorted_cost) {
+            self.cost[i as usize] = c;
+        }
     }
 
     /// `(input index, result)` of every particle of the last evaluation.
-    pub fn results(&self) -> impl Iterator<Item = (usize, &T)> {
+    pub fn results(&self) -> impl Iterator<Item = (usize, &[f64; W])> {
         self.tree
             .order
             .iter()
