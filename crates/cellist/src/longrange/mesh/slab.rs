@@ -354,16 +354,45 @@ impl<F: Planes> Slab<F> {
             &receive_counts,
         );
         self.planes.resize(mine.count * len, Complex::default());
-        let mut from = self.receive.as_slice();
-        for s in 0..ranks {
-            let cols = part(len, s, ranks);
-            for plane in self.planes.chunks_mut(len) {
-                let (block, rest) = from.split_at(cols.len());
-                plane[cols.clone()].copy_from_slice(block);
-                from = rest;
-            }
-        }
+        unpack_columns(&self.receive, &mut self.planes, len, ranks);
         threads.install(|| self.fft.inverse_planes(corner, &mut self.planes, out));
+    }
+
+    /// `out` (`k`-th chunk of [`Slab::plane_len`]: row `wanting(columns)[k]`)
+    /// = whole rows (planes' half spectra) of a real array `a(q0, c)` of which
+    /// every rank holds its columns of every row (`mine`: `M` rows of
+    /// [`Slab::columns`]), `wanting(cols)` being the rows that the rank of
+    /// columns `cols` asks for: one all-to-all, in which every value travels
+    /// as it is (the same bits as reading a whole array in one process).
+    pub(crate) fn whole_rows(
+        &self,
+        mine: &[f64],
+        wanting: impl Fn(Range<usize>) -> Vec<usize>,
+        out: &mut [f64],
+        exchange: &dyn Exchange,
+    ) {
+        debug_assert_eq!(Rank::of(exchange), self.rank);
+        let (len, ranks) = (self.plane_len(), self.rank.count);
+        let width = self.columns().len();
+        debug_assert_eq!(mine.len(), self.size() * width);
+        let asked: Vec<Vec<usize>> = (0..ranks).map(|r| wanting(part(len, r, ranks))).collect();
+        // to rank r: my columns of each row it asks for
+        let send_counts: Vec<usize> = asked.iter().map(|rows| rows.len() * width).collect();
+        let send: Vec<f64> = asked
+            .iter()
+            .flatten()
+            .flat_map(|&q0| &mine[q0 * width..][..width])
+            .copied()
+            .collect();
+        let rows = asked[self.rank.index].len();
+        debug_assert_eq!(out.len(), rows * len);
+        // from rank s: its columns of each of my rows
+        let receive_counts: Vec<usize> = (0..ranks)
+            .map(|s| rows * part(len, s, ranks).len())
+            .collect();
+        let mut receive = vec![0.0; rows * len];
+        exchange.all_to_all(&send, &send_counts, &mut receive, &receive_counts);
+        unpack_columns(&receive, out, len, ranks);
     }
 
     /// The sum over the ranks of each rank's `partial`, in rank order (the
@@ -386,6 +415,21 @@ impl<F: Planes> Slab<F> {
             }
         }
         total
+    }
+}
+
+/// `rows` (chunks of a plane's half spectrum of `len` numbers) = the blocks of
+/// `received` from the ranks `0, 1, ..` in order, rank `s`'s block holding its
+/// columns `part(len, s, ranks)` of each row in turn.
+fn unpack_columns<T: Copy>(received: &[T], rows: &mut [T], len: usize, ranks: usize) {
+    let mut from = received;
+    for s in 0..ranks {
+        let cols = part(len, s, ranks);
+        for row in rows.chunks_mut(len) {
+            let (block, rest) = from.split_at(cols.len());
+            row[cols.clone()].copy_from_slice(block);
+            from = rest;
+        }
     }
 }
 
@@ -664,6 +708,33 @@ mod tests {
                         &lines[q0 * cols.len()..][..cols.len()],
                         &want[q0 * len..][cols.clone()]
                     );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn whole_rows_are_the_rows_of_the_whole_array() {
+        // a 16 x 9 array (a 2-d mesh of side 16), each rank asking for rows set
+        // by its columns, one of them twice
+        let (m, len) = (16, 9);
+        let mut rng = Rng::new(11);
+        let whole: Vec<f64> = (0..m * len).map(|_| rng.uniform()).collect();
+        let asks = |cols: Range<usize>| vec![(3 * cols.start + 5) % m, cols.end % m, 0, 0];
+        for ranks in [1, 2, 3, 4] {
+            let got = Hub::run(ranks, |exchange| {
+                let slab = Slab::new(Fft2::new(m), Rank::of(exchange));
+                let cols = slab.columns();
+                let mine: Vec<f64> = (0..m)
+                    .flat_map(|q0| whole[q0 * len..][cols.clone()].to_vec())
+                    .collect();
+                let mut out = vec![0.0; 4 * len];
+                slab.whole_rows(&mine, asks, &mut out, exchange);
+                (cols, out)
+            });
+            for (r, (cols, out)) in got.into_iter().enumerate() {
+                for (row, q0) in out.chunks(len).zip(asks(cols)) {
+                    assert_eq!(row, &whole[q0 * len..][..len], "rank {r} of {ranks}");
                 }
             }
         }

@@ -68,6 +68,7 @@ use crate::threads::Threads;
 use rayon::prelude::*;
 use rustfft::num_complex::Complex;
 use std::f64::consts::PI;
+use std::ops::Range;
 
 /// The smallest grid accepted.
 pub const MIN_VIC_GRID: usize = 16;
@@ -406,44 +407,61 @@ impl VortexInCell {
         }
     }
 
-    /// `A_a` = the imaginary part of the DFT of `K_sigma`'s component `a`,
-    /// `K_x = -f(r^2) d_y`, `K_y = f(r^2) d_x` ([`BlobKernel::factor`]), sampled
-    /// at the offsets `d = H (o_x, o_y)`, `-M/2 < o < M/2` (zero on `o = M/2`),
-    /// divided by `M^2`: `K_sigma` is real and odd, so its transform is
-    /// `i A_a M^2`. This rank's columns, transformed over the ranks.
+    /// `A_x` = the imaginary part of the DFT of `K_sigma`'s x component
+    /// `K_x = -f(r^2) d_y` ([`BlobKernel::factor`]), sampled at the offsets
+    /// `d = H (o_x, o_y)`, `-M/2 < o < M/2` (zero on `o = M/2`), divided by
+    /// `M^2`: `K_sigma` is real and odd, so its transform is `i A_a M^2`. This
+    /// rank's columns, transformed over the ranks. `K_y(d_x, d_y) = f(r^2) d_x =
+    /// -K_x(d_y, d_x)`, and the sampled kernels are the same transposed, so
+    /// `A_y(q0, q1) = -A_x(q1, q0)` and, `A_x` being odd, `= A_x(-q1, -q0)`: the
+    /// half spectrum's rows `q1` and `-q1` of `A_x` for this rank's columns
+    /// `q1`, gathered from every rank ([`Slab::whole_rows`]), give `A_y` on
+    /// them (the row `q1` for `q0 <= M/2`, the row `-q1` for `q0 > M/2`).
     fn unbounded_spectra(&mut self, cell: f64, threads: &Threads, exchange: &dyn Exchange) {
         let m = self.slab.size();
         let norm = 1.0 / (m * m) as f64;
         let kernel = self.kernel;
-        for (a, spectrum) in self.spectra.iter_mut().enumerate() {
-            let sample = |i: usize, _: usize, row: &mut [f64]| {
-                let dx = signed(i, m) * cell;
-                for (l, v) in row.iter_mut().enumerate() {
-                    let dy = signed(l, m) * cell;
-                    let f = kernel.factor(dx * dx + dy * dy);
-                    *v = if i == m / 2 || l == m / 2 {
-                        0.0
-                    } else if a == 0 {
-                        -f * dy
+        let sample = |i: usize, _: usize, row: &mut [f64]| {
+            let dx = signed(i, m) * cell;
+            for (l, v) in row.iter_mut().enumerate() {
+                let dy = signed(l, m) * cell;
+                *v = if i == m / 2 || l == m / 2 {
+                    0.0
+                } else {
+                    -kernel.factor(dx * dx + dy * dy) * dy
+                };
+            }
+        };
+        self.slab
+            .forward(m, &mut self.work, sample, exchange, threads);
+        let [ax, ay] = &mut self.spectra;
+        let work = &self.work;
+        threads.install(|| {
+            ax.par_chunks_mut(1024)
+                .zip(work.par_chunks(1024))
+                .for_each(|(o, w)| {
+                    for (o, w) in o.iter_mut().zip(w) {
+                        *o = w.im * norm;
+                    }
+                })
+        });
+        let (h, width) = (self.slab.plane_len(), self.slab.columns().len());
+        let transposed =
+            |cols: Range<usize>| -> Vec<usize> { cols.flat_map(|q1| [q1, (m - q1) % m]).collect() };
+        let mut rows = vec![0.0; 2 * width * h];
+        self.slab.whole_rows(ax, transposed, &mut rows, exchange);
+        threads.install(|| {
+            ay.par_chunks_mut(width).enumerate().for_each(|(q0, out)| {
+                for (o, pair) in out.iter_mut().zip(rows.chunks(2 * h)) {
+                    let (row, mirror) = pair.split_at(h);
+                    *o = if q0 <= m / 2 {
+                        -row[q0]
                     } else {
-                        f * dx
+                        mirror[m - q0]
                     };
                 }
-            };
-            self.slab
-                .forward(m, &mut self.work, sample, exchange, threads);
-            let work = &self.work;
-            threads.install(|| {
-                spectrum
-                    .par_chunks_mut(1024)
-                    .zip(work.par_chunks(1024))
-                    .for_each(|(o, w)| {
-                        for (o, w) in o.iter_mut().zip(w) {
-                            *o = w.im * norm;
-                        }
-                    })
-            });
-        }
+            })
+        });
     }
 
     /// Counting-sorts the particles by stencil row: `sorted[starts[r]..starts[r +
@@ -769,6 +787,64 @@ mod tests {
         };
         let error = VortexInCell::on_rank(unbounded(16), kernel, many).unwrap_err();
         assert!(error.contains("17 ranks"), "{error}");
+    }
+
+    #[test]
+    fn the_unbounded_spectra_are_the_sampled_kernels_transforms() {
+        // grid 16, padded to M = 32: A_a(q) = -sum_o K_a(H o) sin(2 pi q.o / M) / M^2
+        // summed term by term, against the spectra on 1 to 3 ranks (A_y read
+        // off A_x's transposed and mirrored modes)
+        let (grid, cell, kernel) = (16, 0.1, BlobKernel::new(0.15));
+        let (m, h) = (32, 17);
+        let sampled = |a: usize, i: usize, l: usize| {
+            if i == m / 2 || l == m / 2 {
+                return 0.0;
+            }
+            let d = [signed(i, m) * cell, signed(l, m) * cell];
+            let f = kernel.factor(d[0] * d[0] + d[1] * d[1]);
+            if a == 0 {
+                -f * d[1]
+            } else {
+                f * d[0]
+            }
+        };
+        let want: [Vec<f64>; 2] = std::array::from_fn(|a| {
+            (0..m * h)
+                .map(|mode| {
+                    let (q0, q1) = (mode / h, mode % h);
+                    let mut sum = 0.0;
+                    for i in 0..m {
+                        for l in 0..m {
+                            let turns = ((q0 * i + q1 * l) % m) as f64 / m as f64;
+                            sum -= sampled(a, i, l) * (2.0 * PI * turns).sin();
+                        }
+                    }
+                    sum / (m * m) as f64
+                })
+                .collect()
+        });
+        let peak = want.iter().flatten().fold(0.0f64, |p, v| p.max(v.abs()));
+        for ranks in [1, 2, 3] {
+            let got = super::super::slab::testkit::Hub::run(ranks, |exchange| {
+                let mut vic =
+                    VortexInCell::on_rank(unbounded(grid), kernel, Rank::of(exchange)).unwrap();
+                vic.unbounded_spectra(cell, &Threads::single(), exchange);
+                (vic.slab.columns(), vic.spectra)
+            });
+            for (r, (cols, spectra)) in got.into_iter().enumerate() {
+                for (a, (got, want)) in spectra.iter().zip(&want).enumerate() {
+                    for (q0, row) in got.chunks(cols.len()).enumerate() {
+                        for (v, c) in row.iter().zip(cols.clone()) {
+                            let w = want[q0 * h + c];
+                            assert!(
+                                (v - w).abs() < 1e-12 * peak,
+                                "A_{a}({q0}, {c}) on rank {r} of {ranks}: {v} against {w}"
+                            );
+                        }
+                    }
+                }
+            }
+        }
     }
 
     #[test]
