@@ -699,6 +699,14 @@ fn main() {
             ),
         ),
         (
+            "-np 9: a vortex mesh of 16 rows for 9 ranks, one message",
+            refused_once(
+                9,
+                &["run", &vic, "--set", "system.velocity.grid=16"],
+                "9 ranks share a vortex mesh of only 16 rows",
+            ),
+        ),
+        (
             "-np 4: a missing scenario, one message",
             refused_once(
                 4,

@@ -224,7 +224,8 @@ impl VortexInCell {
 
     /// The solver on `rank`'s slab of rows of a mesh shared by several ranks,
     /// each of which holds every particle; refuses what [`VortexInCell::new`]
-    /// refuses and more ranks than the grid has rows.
+    /// refuses and more ranks than half the grid's rows (or the columns of its
+    /// half spectrum).
     pub fn on_rank(params: VicParams, kernel: BlobKernel, rank: Rank) -> Result<Self, String> {
         params.check()?;
         rank.check(params.grid)?;
@@ -254,6 +255,17 @@ impl VortexInCell {
             ),
         };
         let slab = Slab::new(Fft2::new(side), rank);
+        // the M4' stencil reads two rows above a slab from the next rank
+        // alone, and every rank needs a column of the half spectrum
+        let most = (n / 2).min(slab.plane_len());
+        if rank.count > most {
+            return Err(format!(
+                "{} ranks share a vortex mesh of only {n} rows (grid {n}): its slabs need at \
+                 least 2 rows and one spectrum column per rank; use at most {most} ranks or a \
+                 finer grid",
+                rank.count
+            ));
+        }
         let len = slab.lines_len();
         let (owned, window) = (slab.owned(n).len(), slab.window(n, 1, 2).count());
         Ok(VortexInCell {
