@@ -703,7 +703,7 @@ fn main() {
             refused_once(
                 9,
                 &["run", &vic, "--set", "system.velocity.grid=16"],
-                "9 ranks share a vortex mesh of only 16 rows",
+                "9 ranks share a mesh of only 16 planes (grid 16): its slabs need at least 2",
             ),
         ),
         (

@@ -108,6 +108,30 @@ impl Rank {
     }
 }
 
+impl Rank {
+    /// Refuses more ranks than leave every slab of the `planes` planes at
+    /// least `rows` of them (a stencil that reads `rows` planes beyond its
+    /// slab from the next rank alone) and every rank a column of a plane's
+    /// `columns` of half spectrum.
+    pub(crate) fn check_slabs(
+        &self,
+        planes: usize,
+        rows: usize,
+        columns: usize,
+    ) -> Result<(), String> {
+        let most = (planes / rows.max(1)).min(columns);
+        if self.count > most {
+            return Err(format!(
+                "{} ranks share a mesh of only {planes} planes (grid {planes}): its slabs need \
+                 at least {rows} planes and one spectrum column per rank; use at most {most} \
+                 ranks or a finer grid",
+                self.count
+            ));
+        }
+        Ok(())
+    }
+}
+
 /// Part `r` of `len` items cut into `ranks` contiguous parts as even as can
 /// be: `len r / ranks .. len (r + 1) / ranks`.
 pub(crate) fn part(len: usize, r: usize, ranks: usize) -> Range<usize> {

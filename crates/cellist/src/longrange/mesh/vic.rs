@@ -255,17 +255,8 @@ impl VortexInCell {
             ),
         };
         let slab = Slab::new(Fft2::new(side), rank);
-        // the M4' stencil reads two rows above a slab from the next rank
-        // alone, and every rank needs a column of the half spectrum
-        let most = (n / 2).min(slab.plane_len());
-        if rank.count > most {
-            return Err(format!(
-                "{} ranks share a vortex mesh of only {n} rows (grid {n}): its slabs need at \
-                 least 2 rows and one spectrum column per rank; use at most {most} ranks or a \
-                 finer grid",
-                rank.count
-            ));
-        }
+        // the M4' stencil reads two rows above a slab from the next rank alone
+        rank.check_slabs(n, 2, slab.plane_len())?;
         let len = slab.lines_len();
         let (owned, window) = (slab.owned(n).len(), slab.window(n, 1, 2).count());
         Ok(VortexInCell {
