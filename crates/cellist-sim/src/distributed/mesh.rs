@@ -6,6 +6,7 @@
 //! collectives ([`MpiExchange`]): the all-to-all transposes of the FFT and
 //! the all-gathers of the particles' results.
 
+use super::layout;
 use super::parts::Figures;
 use cellist::longrange::{
     Exchange, FieldOut, FieldSolver, P3m, ParticleMesh, Sources, VortexInCell,
@@ -15,7 +16,6 @@ use cellist::Threads;
 use mpi::datatype::{Partition, PartitionMut};
 use mpi::topology::SimpleCommunicator;
 use mpi::traits::*;
-use mpi::Count;
 use std::time::Instant;
 
 /// The engine's [`Exchange`] on the ranks of an MPI communicator, the time
@@ -44,20 +44,6 @@ impl MpiExchange {
         exchange();
         self.figures.add_wait(t.elapsed());
     }
-}
-
-/// MPI's counts and displacements of blocks of `counts` numbers laid end to end.
-fn layout(counts: &[usize]) -> (Vec<Count>, Vec<Count>) {
-    let counts: Vec<Count> = counts.iter().map(|&c| c as Count).collect();
-    let displacements = counts
-        .iter()
-        .scan(0, |at, &c| {
-            let start = *at;
-            *at += c;
-            Some(start)
-        })
-        .collect();
-    (counts, displacements)
 }
 
 impl Exchange for MpiExchange {

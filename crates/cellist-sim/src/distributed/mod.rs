@@ -595,3 +595,17 @@ pub fn agree_blowup<C: Communicator>(
         }
     })
 }
+
+/// MPI's counts and displacements of blocks of `counts` numbers laid end to end.
+pub(crate) fn layout(counts: &[usize]) -> (Vec<mpi::Count>, Vec<mpi::Count>) {
+    let counts: Vec<mpi::Count> = counts.iter().map(|&c| c as mpi::Count).collect();
+    let displacements = counts
+        .iter()
+        .scan(0, |at, &c| {
+            let start = *at;
+            *at += c;
+            Some(start)
+        })
+        .collect();
+    (counts, displacements)
+}

@@ -19,7 +19,6 @@
 use mpi::collective::SystemOperation;
 use mpi::datatype::PartitionMut;
 use mpi::traits::*;
-use mpi::Count;
 
 /// Particles per block, on average over dense ids: about 0.5 MB of rows.
 pub const BLOCK_ROWS: usize = 4096;
@@ -157,17 +156,13 @@ fn gather_rows<C: Communicator>(
     let mut counts = vec![0u64; world.size() as usize];
     root.gather_into_root(&(ids.len() as u64), &mut counts[..]);
     let total: u64 = counts.iter().sum();
-    let offsets = |scale: u64| -> (Vec<Count>, Vec<Count>) {
-        let sizes: Vec<Count> = counts.iter().map(|&c| (c * scale) as Count).collect();
-        let starts = sizes
-            .iter()
-            .scan(0, |at, &s| {
-                let start = *at;
-                *at += s;
-                Some(start)
-            })
-            .collect();
-        (sizes, starts)
+    let offsets = |scale: u64| {
+        super::layout(
+            &counts
+                .iter()
+                .map(|&c| (c * scale) as usize)
+                .collect::<Vec<_>>(),
+        )
     };
     all_ids.resize(total as usize, 0);
     let (sizes, starts) = offsets(1);
