@@ -310,9 +310,14 @@ pub struct BenchVortexArgs {
     /// The solver.
     #[arg(long, value_enum)]
     pub solver: VortexSolverArg,
-    /// Particles (rounded to a square lattice, n^2).
+    /// Particles (2D: rounded to a square lattice; 3D: a vortex ring of radius
+    /// 1 and core 0.2 on a lattice of about N particles).
     #[arg(long)]
     pub n: usize,
+    /// The dimension: 2 (two Gaussian vortices, velocity) or 3 (a vortex ring,
+    /// velocity and its gradient, the stretching's input).
+    #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u8).range(2..=3))]
+    pub dim: u8,
     /// Opening angle (barnes-hut), in (0, 1.2].
     #[arg(long, default_value_t = 0.4)]
     pub theta: f64,

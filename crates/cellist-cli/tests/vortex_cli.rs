@@ -4,43 +4,11 @@
 //! period, the ellipse's effective viscosity, thread independence, outputs,
 //! restarts and `cellist bench vortex`.
 
-use std::collections::BTreeMap;
 use std::f64::consts::PI;
 use std::path::Path;
 
 mod common;
-use common::{cellist, run_scenario as run};
-
-fn text(bytes: &[u8]) -> String {
-    String::from_utf8(bytes.to_vec()).unwrap()
-}
-
-/// Runs `scenario` (with `extra` flags) in `dir/name`, asserting success.
-fn ok_run(dir: &Path, name: &str, scenario: &str, extra: &[&str]) -> std::path::PathBuf {
-    let (out, o) = run(dir, name, scenario, extra);
-    assert!(
-        o.status.success(),
-        "{name}: {}\n{}",
-        text(&o.stdout),
-        text(&o.stderr)
-    );
-    out
-}
-
-/// A CSV file as its header and columns by name.
-fn columns(path: &Path) -> (String, BTreeMap<String, Vec<f64>>) {
-    let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-    let mut lines = text.lines();
-    let header = lines.next().unwrap().to_string();
-    let names: Vec<String> = header.split(',').map(str::to_string).collect();
-    let mut cols: BTreeMap<String, Vec<f64>> = names.iter().map(|n| (n.clone(), vec![])).collect();
-    for line in lines {
-        for (name, v) in names.iter().zip(line.split(',')) {
-            cols.get_mut(name).unwrap().push(v.parse().unwrap());
-        }
-    }
-    (header, cols)
-}
+use common::{cellist, csv_columns as columns, ok_run, run_scenario as run, text};
 
 /// A Lamb-Oseen scenario: circulation 1, t0 = 1, nu = 0.01 (core 0.2), on
 /// `[-0.9, 0.9]^2` at spacing `h`.

@@ -87,14 +87,40 @@ pub fn parse_field_of<const D: usize>(
     text: &str,
     name: &str,
 ) -> Result<(Vec<[f64; D]>, Vec<f64>), InputError> {
-    let (mut points, mut phi) = (Vec::new(), Vec::new());
-    let expected = format!("{},{name}", AXES[..D].join(","));
+    let (points, values) = parse_field_columns::<D, 1>(path, text, [name])?;
+    Ok((points, values.into_iter().map(|[v]| v).collect()))
+}
+
+/// Reads a field file of `W` value columns called `names` (`x,y,z,ax,ay,az` for
+/// 3D vortex particles): an optional header naming them (further columns after
+/// them are allowed and skipped, so that a field file cellist wrote reads back),
+/// then `D + W` numbers per line (as many as the header names, if there is
+/// one), separated by commas or blanks.
+pub fn read_field_columns<const D: usize, const W: usize>(
+    path: &Path,
+    names: [&str; W],
+) -> Result<(Vec<[f64; D]>, Vec<[f64; W]>), InputError> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| InputError::file(path, format!("cannot read: {e}")))?;
+    parse_field_columns(path, &text, names)
+}
+
+/// [`read_field_columns`] on text already read.
+pub fn parse_field_columns<const D: usize, const W: usize>(
+    path: &Path,
+    text: &str,
+    names: [&str; W],
+) -> Result<(Vec<[f64; D]>, Vec<[f64; W]>), InputError> {
+    const { assert!(D + W <= 12, "at most 12 columns are read") };
+    let (mut points, mut values) = (Vec::new(), Vec::new());
+    let mut columns: Vec<String> = AXES[..D].iter().chain(&names).map(|s| s.to_string()).collect();
+    let expected = columns.join(",");
     let mut first = true;
     for (index, tokens) in data_lines(text) {
         let header = first && tokens.first().is_some_and(|t| t.parse::<f64>().is_err());
         first = false;
         if header {
-            if tokens.join(",") != expected {
+            if tokens.len() < D + W || tokens[..D + W].join(",") != expected {
                 return Err(InputError::at(
                     path,
                     index + 1,
@@ -104,30 +130,35 @@ pub fn parse_field_of<const D: usize>(
                     ),
                 ));
             }
+            columns = tokens.iter().map(|t| t.to_string()).collect();
             continue;
         }
-        if tokens.len() != D + 1 {
+        if tokens.len() != columns.len() {
             return Err(InputError::at(
                 path,
                 index + 1,
-                format!("{} values; expected {} ({expected})", tokens.len(), D + 1),
+                format!(
+                    "{} values; expected {} ({})",
+                    tokens.len(),
+                    columns.len(),
+                    columns.join(",")
+                ),
             ));
         }
-        let mut values = [0.0; 4];
-        for (k, token) in tokens.iter().enumerate() {
-            let name = expected.split(',').nth(k).unwrap_or("value");
-            values[k] = parse_finite(path, index + 1, token, || name.to_string())?;
+        let mut numbers = [0.0; 12];
+        for (k, token) in tokens.iter().take(D + W).enumerate() {
+            numbers[k] = parse_finite(path, index + 1, token, || columns[k].clone())?;
         }
-        points.push(std::array::from_fn(|a| values[a]));
-        phi.push(values[D]);
+        points.push(std::array::from_fn(|a| numbers[a]));
+        values.push(std::array::from_fn(|c| numbers[D + c]));
     }
     if points.is_empty() {
         return Err(InputError::file(
             path,
-            format!("no particles; expected lines x,y[,z],{name}"),
+            format!("no particles; expected lines {expected}"),
         ));
     }
-    Ok((points, phi))
+    Ok((points, values))
 }
 
 #[cfg(test)]
@@ -161,5 +192,24 @@ mod tests {
         assert!(bad("x,y,z,phi\n").contains("f.csv:1: the header is"));
         assert!(bad("0.1 0.2 abc\n").contains("f.csv:1: phi is 'abc'"));
         assert!(bad("# nothing\n").contains("no particles"));
+    }
+
+    #[test]
+    fn vector_columns_read_with_or_without_further_columns() {
+        let names = ["ax", "ay", "az"];
+        let written = "x,y,z,ax,ay,az,u,v,w\n1,2,3,4,5,6,7,8,9\n";
+        let (p, a) = parse_field_columns::<3, 3>(Path::new("f.csv"), written, names).unwrap();
+        assert_eq!((p, a), (vec![[1.0, 2.0, 3.0]], vec![[4.0, 5.0, 6.0]]));
+        let plain = "1 2 3 4 5 6\n0 0 0 -1 -2 -3\n";
+        let (_, a) = parse_field_columns::<3, 3>(Path::new("f.txt"), plain, names).unwrap();
+        assert_eq!(a[1], [-1.0, -2.0, -3.0]);
+        let bad = parse_field_columns::<3, 3>(Path::new("f.txt"), "1 2 3 4 5 nan\n", names)
+            .unwrap_err()
+            .to_string();
+        assert!(bad.starts_with("f.txt:1: az"), "{bad}");
+        let short = parse_field_columns::<3, 3>(Path::new("f.txt"), "1 2 3 4 5\n", names)
+            .unwrap_err()
+            .to_string();
+        assert_eq!(short, "f.txt:1: 5 values; expected 6 (x,y,z,ax,ay,az)");
     }
 }

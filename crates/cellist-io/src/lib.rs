@@ -41,7 +41,8 @@ pub use dump::{
 pub use error::InputError;
 pub use field_chart::{field_chart, palette_rgb, write_chart, FieldChart};
 pub use field_csv::{
-    field_header, parse_field, read_field, read_field_of, write_field, write_field_columns,
+    field_header, parse_field, parse_field_columns, read_field, read_field_columns, read_field_of,
+    write_field, write_field_columns,
 };
 pub use field_picture::FieldPainter;
 pub use gsd::{write_hoomd_frame, GsdData, GsdWriter, HoomdFrame};

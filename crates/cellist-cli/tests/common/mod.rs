@@ -102,6 +102,36 @@ pub fn ok(run: &Output) {
     );
 }
 
+/// Runs `scenario` (with `extra` flags) in `dir/name`, asserting success, and
+/// returns its output folder.
+#[allow(dead_code)]
+pub fn ok_run(dir: &Path, name: &str, scenario: &str, extra: &[&str]) -> PathBuf {
+    let (out, o) = run_scenario(dir, name, scenario, extra);
+    assert!(
+        o.status.success(),
+        "{name}: {}\n{}",
+        text(&o.stdout),
+        text(&o.stderr)
+    );
+    out
+}
+
+/// A CSV file as its header and columns by name.
+#[allow(dead_code)]
+pub fn csv_columns(path: &Path) -> (String, BTreeMap<String, Vec<f64>>) {
+    let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let mut lines = text.lines();
+    let header = lines.next().unwrap().to_string();
+    let names: Vec<String> = header.split(',').map(str::to_string).collect();
+    let mut cols: BTreeMap<String, Vec<f64>> = names.iter().map(|n| (n.clone(), vec![])).collect();
+    for line in lines {
+        for (name, v) in names.iter().zip(line.split(',')) {
+            cols.get_mut(name).unwrap().push(v.parse().unwrap());
+        }
+    }
+    (header, cols)
+}
+
 /// An md scenario whose atoms start far too hot for its step: the run blows
 /// up within a few steps (an atom leaves through the fixed z boundary).
 #[allow(dead_code)]

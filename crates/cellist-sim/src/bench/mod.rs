@@ -8,6 +8,7 @@ mod lj;
 mod neighbors;
 mod pse;
 mod vortex;
+mod vortex3;
 
 pub use billiards::{billiards, BilliardsBench, BilliardsRequest};
 pub use gravity::{gravity, GravityBench, GravityRequest, GravitySolver};
@@ -15,6 +16,7 @@ pub use lj::{lj, LjBench, LjRequest};
 pub use neighbors::{neighbors, NeighborsBench, NeighborsRequest};
 pub use pse::{pse, PseBench, PseMethod, PseRequest};
 pub use vortex::{vortex, VortexBench, VortexBenchSolver};
+pub use vortex3::vortex3;
 
 // the engine's names a benchmark's flags and figures need
 pub use cellist::models::md::late_note;

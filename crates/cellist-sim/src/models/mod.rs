@@ -9,6 +9,7 @@ pub mod gravity;
 pub mod md;
 pub mod pse;
 pub mod vortex;
+pub mod vortex3;
 
 use crate::error::SimResult;
 use crate::launch::{Execute, Launch, RunContext, RunSummary};

@@ -46,19 +46,19 @@ struct SystemKeys {
     pse_cutoff_factor: f64,
 }
 
-fn one_and_a_half() -> f64 {
+pub(super) fn one_and_a_half() -> f64 {
     1.5
 }
 
-fn gaussian() -> String {
+pub(super) fn gaussian() -> String {
     "gaussian".into()
 }
 
-fn threshold() -> f64 {
+pub(super) fn threshold() -> f64 {
     1e-12
 }
 
-fn four() -> f64 {
+pub(super) fn four() -> f64 {
     4.0
 }
 
@@ -79,9 +79,10 @@ struct InitialKeys {
     file: Option<PathBuf>,
 }
 
+/// `system.velocity`: the solver and its settings (both dimensions).
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
-struct VelocityKeys {
+pub(super) struct VelocityKeys {
     kind: String,
     theta: Option<f64>,
     leaf_size: Option<usize>,
@@ -106,9 +107,20 @@ impl Default for VelocityKeys {
     }
 }
 
+/// The scenario's dimension, read before its other keys (which depend on it).
+#[derive(Deserialize)]
+struct Dimension {
+    #[serde(default = "two")]
+    dimension: u64,
+}
+
+fn two() -> u64 {
+    2
+}
+
 /// The most particles an initial condition may seed (about 2.4 GB of state and
 /// buffers).
-const MAX_SEEDED: f64 = 5e7;
+pub(super) const MAX_SEEDED: f64 = 5e7;
 
 /// The particles, their lattice and how they are described.
 struct Seeded {
@@ -316,8 +328,28 @@ fn seed_particles(scenario: &Scenario, sys: &SystemKeys) -> SimResult<Seeded> {
     })
 }
 
-/// The velocity solver of `system.velocity`.
-fn solver(scenario: &Scenario, v: &VelocityKeys, center: [f64; 2]) -> SimResult<VelocitySolver> {
+/// The velocity solver `system.velocity` names, its keys checked, before the
+/// dimension's own settings: the tree's, or the mesh's grid and periodic box side.
+pub(super) enum SolverChoice {
+    /// All pairs.
+    Direct,
+    /// The Barnes-Hut tree.
+    BarnesHut(TreeParams),
+    /// Vortex-in-cell: `grid` (if given) and the periodic box's side (`None`:
+    /// unbounded).
+    Mesh {
+        grid: Option<usize>,
+        periodic: Option<f64>,
+    },
+}
+
+/// The solver of `system.velocity` (the tree's theta `theta` unless given),
+/// its keys checked against the solver's.
+pub(super) fn solver_choice(
+    scenario: &Scenario,
+    v: &VelocityKeys,
+    theta: f64,
+) -> SimResult<SolverChoice> {
     let err = |m: String| scenario.error(m);
     let only = |ok: &[&str]| -> SimResult<()> {
         let given = [
@@ -336,7 +368,6 @@ fn solver(scenario: &Scenario, v: &VelocityKeys, center: [f64; 2]) -> SimResult<
             None => Ok(()),
         }
     };
-    let check = |r: Result<(), String>| r.map_err(|m| err(format!("system.velocity: {m}")));
     /// The velocity solvers.
     #[derive(Clone, Copy)]
     enum Kind {
@@ -352,35 +383,32 @@ fn solver(scenario: &Scenario, v: &VelocityKeys, center: [f64; 2]) -> SimResult<
     match choice("system.velocity.kind", &v.kind, &kinds).map_err(err)? {
         Kind::Direct => {
             only(&[])?;
-            Ok(VelocitySolver::Direct)
+            Ok(SolverChoice::Direct)
         }
         Kind::BarnesHut => {
             only(&["theta", "leaf_size", "group_size"])?;
             let d = TreeParams::default();
             let params = TreeParams {
-                theta: v.theta.unwrap_or(0.4),
+                theta: v.theta.unwrap_or(theta),
                 quadrupole: true,
                 leaf_size: v.leaf_size.unwrap_or(d.leaf_size),
                 group_size: v.group_size.unwrap_or(d.group_size),
             };
-            check(params.check())?;
-            Ok(VelocitySolver::BarnesHut(params))
+            params
+                .check()
+                .map_err(|m| err(format!("system.velocity: {m}")))?;
+            Ok(SolverChoice::BarnesHut(params))
         }
         Kind::Mesh => {
             only(&["grid", "boundary", "box"])?;
-            let boundary = match (v.boundary.as_deref().unwrap_or("unbounded"), v.side) {
-                ("unbounded", None) => VicBoundary::Unbounded,
+            let periodic = match (v.boundary.as_deref().unwrap_or("unbounded"), v.side) {
+                ("unbounded", None) => None,
                 ("unbounded", Some(_)) => {
                     return Err(err(
                         "system.velocity: box is for boundary = \"periodic\"".into(),
                     ))
                 }
-                ("periodic", Some(side)) if side.is_finite() && side > 0.0 => {
-                    VicBoundary::Periodic {
-                        origin: [center[0] - 0.5 * side, center[1] - 0.5 * side],
-                        length: side,
-                    }
-                }
+                ("periodic", Some(side)) if side.is_finite() && side > 0.0 => Some(side),
                 ("periodic", Some(side)) => {
                     return Err(err(format!(
                         "system.velocity.box must be > 0, got {side}"
@@ -397,14 +425,38 @@ fn solver(scenario: &Scenario, v: &VelocityKeys, center: [f64; 2]) -> SimResult<
                     )))
                 }
             };
-            let params = VicParams {
-                grid: v.grid.unwrap_or(256),
-                boundary,
-            };
-            check(params.check())?;
-            Ok(VelocitySolver::Mesh(params))
+            Ok(SolverChoice::Mesh {
+                grid: v.grid,
+                periodic,
+            })
         }
     }
+}
+
+/// The velocity solver of `system.velocity`.
+fn solver(scenario: &Scenario, v: &VelocityKeys, center: [f64; 2]) -> SimResult<VelocitySolver> {
+    let err = |m: String| scenario.error(m);
+    Ok(match solver_choice(scenario, v, 0.4)? {
+        SolverChoice::Direct => VelocitySolver::Direct,
+        SolverChoice::BarnesHut(params) => VelocitySolver::BarnesHut(params),
+        SolverChoice::Mesh { grid, periodic } => {
+            let boundary = match periodic {
+                None => VicBoundary::Unbounded,
+                Some(side) => VicBoundary::Periodic {
+                    origin: [center[0] - 0.5 * side, center[1] - 0.5 * side],
+                    length: side,
+                },
+            };
+            let params = VicParams {
+                grid: grid.unwrap_or(256),
+                boundary,
+            };
+            params
+                .check()
+                .map_err(|m| err(format!("system.velocity: {m}")))?;
+            VelocitySolver::Mesh(params)
+        }
+    })
 }
 
 /// Runs a vortex scenario, from the checkpoint `restart` if given.
@@ -413,16 +465,20 @@ pub fn run<L: Launch>(
     context: &RunContext,
     launch: L,
 ) -> SimResult<L::Output> {
+    let dimension: Dimension = scenario.parse()?;
+    match dimension.dimension {
+        2 => {}
+        3 => return super::vortex3::run(scenario, context, launch),
+        d => {
+            return Err(scenario.error(format!(
+                "dimension must be 2 or 3 for the vortex model, got {d}"
+            )))
+        }
+    }
     let keys: VortexScenario = scenario.parse()?;
     debug_assert_eq!(keys.model, "vortex");
     let (threads, out_dir) = (context.threads, &context.out_dir);
     let err = |m: String| scenario.error(m);
-    if keys.dimension != 2 {
-        return Err(err(format!(
-            "dimension must be 2 for the vortex model, got {}",
-            keys.dimension
-        )));
-    }
     let started = Instant::now();
     let sys = &keys.system;
     if !(sys.nu.is_finite() && sys.nu >= 0.0) {

@@ -14,36 +14,42 @@ use std::path::{Path, PathBuf};
 pub fn write_field_csv(path: &Path, field: &Field) -> SimResult {
     let what = || path.display().to_string();
     let mut file = AtomicFile::create(path).map_err(SimError::output(what()))?;
-    let mut columns: Vec<(&str, &[f64])> = vec![(field.value_name, &field.values)];
+    let mut columns: Vec<(&str, &[f64])> = Vec::new();
+    if field.value_written {
+        columns.push((field.value_name, &field.values));
+    }
     columns.extend(field.extra.iter().map(|(name, v)| (*name, &v[..])));
     write_field_columns(file.writer(), field.dimension, &field.positions, &columns)
         .map_err(SimError::output(what()))?;
     file.commit().map_err(SimError::output(what()))
 }
 
-/// The z of the particle layer a 3D field's pictures show: the layer nearest the
-/// middle of the box along z; `None` in 2D.
+/// The coordinate along the normal axis (`field.axes[2]`) of the particle
+/// layer a 3D field's pictures show: the layer nearest the middle of the box
+/// along it; `None` in 2D.
 fn middle_layer(field: &Field) -> Option<f64> {
+    let normal = field.axes[2];
     (field.dimension == 3).then(|| {
-        let middle = field.origin[2] + 0.5 * field.side;
+        let middle = field.origin[normal] + 0.5 * field.side;
         field
             .positions
             .iter()
-            .map(|x| x[2])
+            .map(|x| x[normal])
             .min_by(|a, b| (a - middle).abs().total_cmp(&(b - middle).abs()))
             .unwrap_or(middle)
     })
 }
 
-/// The particles to draw: all of a 2D field; in 3D those within half a spacing
-/// of the `layer`.
+/// The particles to draw, in the picture's axes (`field.axes`): all of a 2D
+/// field; in 3D those within half a spacing of the `layer`.
 fn slice(field: &Field, layer: Option<f64>) -> impl Iterator<Item = ([f64; 2], f64)> + '_ {
+    let [across, up, normal] = field.axes;
     field
         .positions
         .iter()
         .zip(&field.values)
-        .filter(move |(x, _)| layer.is_none_or(|z| (x[2] - z).abs() < 0.5 * field.spacing))
-        .map(|(x, &v)| ([x[0], x[1]], v))
+        .filter(move |(x, _)| layer.is_none_or(|z| (x[normal] - z).abs() < 0.5 * field.spacing))
+        .map(move |(x, &v)| ([x[across], x[up]], v))
 }
 
 /// What the field pictures say: the quantity in the title (followed by the
@@ -87,12 +93,13 @@ impl FieldFiles {
         let field = model.field().ok_or_else(|| {
             SimError::Internal(format!("model {} has no field", model.info().name))
         })?;
-        let lo = [field.origin[0], field.origin[1]];
+        let lo = [field.origin[field.axes[0]], field.origin[field.axes[1]]];
         let mut chart = FieldChart::new(lo, field.side, field.spacing, field.scale);
         chart.width = chart.width.max(size);
         chart.value_label = labels.value.to_string();
         chart.unit = labels.unit.to_string();
         chart.periodic = field.periodic;
+        chart.axes = [field.axes[0], field.axes[1]].map(|a| ["x", "y", "z"][a].to_string());
         let palette = FieldPainter::palette();
         let files = SnapshotFiles {
             png,
@@ -125,7 +132,11 @@ impl<M: Model> Observer<M> for FieldFiles {
         }
         let layer = middle_layer(&field);
         let what = match layer {
-            Some(z) => format!("{} in the layer z = {z:.4}", self.labels.title),
+            Some(z) => format!(
+                "{} in the layer {} = {z:.4}",
+                self.labels.title,
+                ["x", "y", "z"][field.axes[2]]
+            ),
             None => self.labels.title.to_string(),
         };
         self.chart.title = snapshot_title(&what, step, model.dt());

@@ -6,6 +6,7 @@ pub mod md;
 pub mod model;
 pub mod pse;
 pub mod vortex;
+pub mod vortex3;
 
 pub use model::{
     check, Blowup, Checked, CheckedArray, Field, Ids, Model, ModelInfo, ParticleBlock, Particles,

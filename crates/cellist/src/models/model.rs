@@ -207,11 +207,18 @@ pub struct Field {
     pub values: Vec<f64>,
     /// The values' column name in field files ("phi").
     pub value_name: &'static str,
+    /// Whether field CSV files carry the values (false: the values are for
+    /// pictures and trajectories only, the CSV's columns are `extra`).
+    pub value_written: bool,
     /// The particles' strengths, where the model defines them apart from the
     /// values (pse: `omega_p = phi_p V_p`), in input order.
     pub strengths: Option<Vec<f64>>,
     /// Further per-particle columns for field files, after the values.
     pub extra: Vec<(&'static str, Vec<f64>)>,
+    /// The axes of the pictures of a 3D field: `[across, up, normal]`; they
+    /// show the section through the middle of the box along `normal`
+    /// (`[0, 1, 2]`: the layer nearest the middle in z).
+    pub axes: [usize; 3],
     /// The lower corner of the (cubic) box the pictures show.
     pub origin: [f64; 3],
     /// Whether that box is periodic (pictures wrap across its edges).

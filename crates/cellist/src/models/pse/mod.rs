@@ -428,20 +428,42 @@ pub fn advance(
     mut rate: impl FnMut(&[f64], &mut [f64]),
     threads: &Threads,
 ) {
-    let [k1, k2, k3, k4] = stages;
+    let [k1, rest @ ..] = stages;
+    rate(phi, k1);
+    advance_from(integrator, dt, phi, k1, rest, trial, rate, threads);
+}
+
+/// [`advance`] from the rate `k1 = L phi` of the current state, known already
+/// (a model that keeps the rate of its state): the explicit Runge-Kutta
+/// tableaux
+///
+/// ```text
+/// euler: phi += dt k1
+/// rk2:   k2 = L(phi + dt/2 k1),                      phi += dt k2
+/// rk4:   k2 = L(phi + dt/2 k1), k3 = L(phi + dt/2 k2), k4 = L(phi + dt k3),
+///        phi += dt/6 (k1 + 2 k2 + 2 k3 + k4)
+/// ```
+#[allow(clippy::too_many_arguments)]
+pub fn advance_from(
+    integrator: Integrator,
+    dt: f64,
+    phi: &mut [f64],
+    k1: &[f64],
+    [k2, k3, k4]: &mut [Vec<f64>; 3],
+    trial: &mut [f64],
+    mut rate: impl FnMut(&[f64], &mut [f64]),
+    threads: &Threads,
+) {
     match integrator {
         Integrator::Euler => {
-            rate(phi, k1);
             combine(phi, None, &[(dt, k1)], threads);
         }
         Integrator::Rk2 => {
-            rate(phi, k1);
             combine(trial, Some(phi), &[(0.5 * dt, k1)], threads);
             rate(trial, k2);
             combine(phi, None, &[(dt, k2)], threads);
         }
         Integrator::Rk4 => {
-            rate(phi, k1);
             combine(trial, Some(phi), &[(0.5 * dt, k1)], threads);
             rate(trial, k2);
             combine(trial, Some(phi), &[(0.5 * dt, k2)], threads);
@@ -449,12 +471,7 @@ pub fn advance(
             combine(trial, Some(phi), &[(dt, k3)], threads);
             rate(trial, k4);
             let sixth = dt / 6.0;
-            let terms = [
-                (sixth, &k1[..]),
-                (2.0 * sixth, k2),
-                (2.0 * sixth, k3),
-                (sixth, k4),
-            ];
+            let terms = [(sixth, k1), (2.0 * sixth, k2), (2.0 * sixth, k3), (sixth, k4)];
             combine(phi, None, &terms, threads);
         }
     }

@@ -1,0 +1,102 @@
+//! `cellist bench vortex --dim 3`: one evaluation of the velocity and its
+//! gradient (the stretching's input) of 3D vortex particles by a solver, timed,
+//! with the errors against the direct sum.
+
+use super::vortex::{errors, VortexBench, VortexBenchSolver};
+use crate::error::{SimError, SimResult};
+use crate::study::median;
+use cellist::longrange::biot_savart3::velocity_and_gradient_at;
+use cellist::longrange::{BlobKernel3, TreeParams, Vic3Boundary, Vic3Params};
+use cellist::models::vortex3::{seed3, InitialVorticity3, Ring, Velocity3Engine, Velocity3Solver};
+use cellist::Threads;
+use std::time::Instant;
+
+/// The most particles the 3D vortex benchmark seeds.
+const MAX_VORTEX3_PARTICLES: usize = 20_000_000;
+
+/// The benchmark's ring: radius 1, core 0.2, circulation 1, about the z axis.
+const RING: Ring = Ring {
+    radius: 1.0,
+    circulation: 1.0,
+    core: 0.2,
+    center: [0.0; 3],
+    axis: [0.0, 0.0, 1.0],
+};
+
+/// A vortex ring (radius 1, core 0.2) on a lattice of about `n` particles
+/// (`sigma = 1.5 h`): the median time of `repeat` evaluations of the velocity
+/// and its gradient by `solver` (after an untimed one that builds its tables)
+/// and the errors against the direct sum on `sample` evenly spread targets.
+pub fn vortex3(
+    solver: VortexBenchSolver,
+    n: usize,
+    repeat: usize,
+    sample: usize,
+    threads: &Threads,
+) -> SimResult<VortexBench> {
+    if !(100..=MAX_VORTEX3_PARTICLES).contains(&n) {
+        return Err(SimError::Input(format!(
+            "--n must be in 100..={MAX_VORTEX3_PARTICLES} with --dim 3, got {n}"
+        )));
+    }
+    if repeat == 0 || sample == 0 {
+        return Err(SimError::Input(
+            "--repeat and --sample must be at least 1".into(),
+        ));
+    }
+    // the seeded torus of tube radius 4 s holds 2 pi^2 R (4 s)^2 / h^3 particles
+    let tube = RING.radius * 2.0 * std::f64::consts::PI.powi(2) * (4.0 * RING.core).powi(2);
+    let h = (tube / n as f64).cbrt();
+    let (positions, alpha) = seed3(&InitialVorticity3::Rings(vec![RING]), h);
+    let n = positions.len();
+    let sigma = 1.5 * h;
+    let (kind, name) = match solver {
+        VortexBenchSolver::Direct => (Velocity3Solver::Direct, "direct".to_string()),
+        VortexBenchSolver::BarnesHut { theta } => (
+            Velocity3Solver::BarnesHut(TreeParams {
+                theta,
+                ..TreeParams::default()
+            }),
+            format!("barnes-hut (theta {theta})"),
+        ),
+        VortexBenchSolver::Mesh { grid } => {
+            // the particles span 2 (R + 4 s) along x and y; the mesh adds a margin
+            let across = 2.0 * (RING.radius + 4.0 * RING.core) / h;
+            let grid = grid.unwrap_or_else(|| ((across + 8.0) as usize).next_power_of_two());
+            let params = Vic3Params {
+                grid,
+                boundary: Vic3Boundary::Unbounded,
+            };
+            (Velocity3Solver::Mesh(params), format!("mesh (grid {grid}^3)"))
+        }
+    };
+    let mut engine = Velocity3Engine::new(kind, sigma, n).map_err(SimError::Input)?;
+    let mut velocity = vec![[0.0; 3]; n];
+    let mut gradient = vec![[0.0; 9]; n];
+    let mut samples = Vec::with_capacity(repeat + 1);
+    for _ in 0..=repeat {
+        let start = Instant::now();
+        engine.compute(&positions, &alpha, &mut velocity, &mut gradient, threads);
+        samples.push(start.elapsed().as_secs_f64());
+    }
+    // the errors on evenly spread targets against the direct sum
+    let stride = n.div_ceil(sample.min(n));
+    let targets: Vec<usize> = (0..n).step_by(stride).collect();
+    let points: Vec<[f64; 3]> = targets.iter().map(|&i| positions[i]).collect();
+    let kernel = BlobKernel3::new(sigma);
+    let (exact_u, exact_g) = velocity_and_gradient_at(&kernel, &points, &positions, &alpha, threads);
+    let u: Vec<[f64; 3]> = targets.iter().map(|&i| velocity[i]).collect();
+    let g: Vec<[f64; 9]> = targets.iter().map(|&i| gradient[i]).collect();
+    let (rms_relative_error, max_error_over_peak_speed) = errors(&u, &exact_u);
+    let (gradient_error, _) = errors(&g, &exact_g);
+    Ok(VortexBench {
+        solver: name,
+        n,
+        spacing: h,
+        seconds: median(&samples[1..]),
+        targets: targets.len(),
+        rms_relative_error,
+        max_error_over_peak_speed,
+        rms_relative_gradient_error: Some(gradient_error),
+    })
+}
