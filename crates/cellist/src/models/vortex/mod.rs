@@ -620,8 +620,8 @@ fn evaluate(
             weight,
             cutoff,
             positions,
-            gamma,
-            &mut out.gamma,
+            gamma.as_chunks::<1>().0,
+            out.gamma.as_chunks_mut().0,
             threads,
         )
         .map_err(|e| VortexError::Step(format!("the PSE cell list: {e}")))?;
