@@ -240,8 +240,8 @@ mod tests {
     use crate::random::Rng;
 
     /// Circulations as one-component strengths.
-    fn scalar(g: &[f64]) -> &[[f64; 1]] {
-        g.as_chunks::<1>().0
+    fn scalar(g: &[f64]) -> Vec<[f64; 1]> {
+        g.iter().map(|&g| [g]).collect()
     }
 
     #[test]
@@ -261,14 +261,14 @@ mod tests {
             }
             m
         };
-        let before = moments(&x, scalar(&g));
+        let before = moments(&x, &scalar(&g));
         let lattice = Lattice {
             origin: [0.013, -0.02],
             spacing: 0.05,
             periodic: None,
             reach: 0,
         };
-        let after = remesh(&x, scalar(&g), &lattice, 0.0).unwrap();
+        let after = remesh(&x, &scalar(&g), &lattice, 0.0).unwrap();
         assert_eq!(after.dropped, [0.0]);
         let now = moments(&after.positions, &after.strength);
         for k in 0..4 {

@@ -29,7 +29,7 @@ pub use diagnostics::{energy_and_enstrophy, log_plus_e1, Moments};
 pub use initial::{lamb_oseen_speed, lamb_oseen_vorticity, seed, InitialVorticity, ELLIPSE_Q};
 pub use model::{Extras, VortexModel};
 
-use super::pse::{combine, moving_rate, Integrator, PairWeight};
+use super::pse::{combine, moving_rate, one_component, one_component_mut, Integrator, PairWeight};
 use crate::geometry::Domain;
 use crate::geometry::{wrap_coordinate, Boundary};
 use crate::interpolation::{remesh, Lattice};
@@ -542,7 +542,7 @@ impl VortexSystem {
             let t = Instant::now();
             let r = remesh(
                 &self.positions,
-                self.gamma.as_chunks::<1>().0,
+                one_component(&self.gamma),
                 &self.params.lattice(),
                 self.params.remesh_threshold,
             )
@@ -620,8 +620,8 @@ fn evaluate(
             weight,
             cutoff,
             positions,
-            gamma.as_chunks::<1>().0,
-            out.gamma.as_chunks_mut().0,
+            one_component(gamma),
+            one_component_mut(&mut out.gamma),
             threads,
         )
         .map_err(|e| VortexError::Step(format!("the PSE cell list: {e}")))?;
