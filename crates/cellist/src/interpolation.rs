@@ -13,6 +13,10 @@
 //! a tensor-product assignment conserves a particle set's total, its first moments
 //! and its second moments (circulation, linear and angular impulse).
 
+mod remesh;
+
+pub use remesh::{remesh, Lattice, Remeshed};
+
 /// `M4'(s)`.
 #[inline(always)]
 pub fn m4prime(s: f64) -> f64 {

@@ -149,7 +149,7 @@ pub fn lattice<const D: usize>(n: usize, length: f64, jitter: f64, seed: u64) ->
 #[derive(Clone, Debug)]
 enum Pairs<const D: usize> {
     Direct(AllPairs<D>),
-    CellList(Box<ListPairs<D>>),
+    CellList(Box<ListPairs<D, 1>>),
 }
 
 /// Static particles with a field, in a cache-friendly order of their own (cell by
@@ -522,26 +522,30 @@ pub fn row_weights<const D: usize>(
     weights
 }
 
-/// The PSE rate of particles that move (the vortex model's diffusion): `out_i =
-/// sum_j w(r_ij^2) (phi_j - phi_i)` over the pairs within `cutoff` in `domain`
-/// (open, or periodic by the minimum image), with the same pair sums as
-/// [`PseSystem`]'s cell-list method. The cell list and its half Verlet list are
-/// built for these positions on every call. `positions`, `phi` and `out` are in
-/// the caller's order; each particle's sum runs in an order fixed by the data.
-pub fn moving_rate<const D: usize>(
+/// The PSE rate of particles that move (the vortex model's diffusion), for `W`
+/// strength components per particle (`W = 1`: a circulation in 2D; `W = 3`: the
+/// vector strength `alpha` in 3D): `out_i = sum_j w(r_ij^2) (phi_j - phi_i)`
+/// component by component, over the pairs within `cutoff` in `domain` (open, or
+/// periodic by the minimum image), with the same pair sums as [`PseSystem`]'s
+/// cell-list method. One neighbour search and one weight per pair serve every
+/// component, and each component gets the bits of a scalar call with it alone.
+/// The cell list and its half Verlet list are built for these positions on every
+/// call. `positions`, `phi` and `out` are in the caller's order; each particle's
+/// sum runs in an order fixed by the data.
+pub fn moving_rate<const D: usize, const W: usize>(
     domain: &Domain<D>,
     weight: &PairWeight,
     cutoff: f64,
     positions: &[[f64; D]],
-    phi: &[f64],
-    out: &mut [f64],
+    phi: &[[f64; W]],
+    out: &mut [[f64; W]],
     threads: &Threads,
 ) -> Result<(), GeometryError> {
     let cells = CellList::build_in(domain, cutoff, positions, threads)?;
     let mut pairs = ListPairs::new(&cells, cutoff, threads);
     let mut slot_phi = Vec::with_capacity(phi.len());
     cells.permute(phi, &mut slot_phi);
-    let mut slot_out = vec![0.0; phi.len()];
+    let mut slot_out = vec![[0.0; W]; phi.len()];
     pairs.sum(
         weight,
         Summed::Rate,
@@ -568,9 +572,26 @@ impl<const D: usize> Pairs<D> {
     ) {
         match self {
             Pairs::Direct(p) => p.sum(weight, summed, positions, phi, out, threads),
-            Pairs::CellList(p) => p.sum(weight, summed, positions, phi, out, threads),
+            Pairs::CellList(p) => {
+                let (phi, out) = (one_component(phi), one_component_mut(out));
+                p.sum(weight, summed, positions, phi, out, threads)
+            }
         }
     }
+}
+
+/// Scalars as strengths of one component, `phi_i = [phi_i]` (for
+/// [`moving_rate`] and the remeshing with `W = 1`), without a copy.
+pub fn one_component(values: &[f64]) -> &[[f64; 1]] {
+    // SAFETY: `[f64; 1]` has the size and alignment of `f64`, so a slice of n
+    // of them is a slice of n f64.
+    unsafe { std::slice::from_raw_parts(values.as_ptr().cast::<[f64; 1]>(), values.len()) }
+}
+
+/// [`one_component`], mutable.
+pub fn one_component_mut(values: &mut [f64]) -> &mut [[f64; 1]] {
+    // SAFETY: as in `one_component`; the borrow is exclusive for the result's life.
+    unsafe { std::slice::from_raw_parts_mut(values.as_mut_ptr().cast::<[f64; 1]>(), values.len()) }
 }
 
 /// Elements per task of the vector updates.

@@ -1,7 +1,9 @@
 //! The pair sums of the PSE rate, `out_i = sum_j w(r_ij^2) (phi_j - phi_i)`, each pair
 //! evaluated once and applied to both particles (so that `sum_i out_i = 0` to
 //! round-off), in parallel without atomics and with every particle's sum in an
-//! order fixed by the data, never by the thread count:
+//! order fixed by the data, never by the thread count. The cell-list sum takes
+//! `W` components per particle (`phi_i` in `R^W`), all weighted by the pair's one
+//! `w`, each component with the operations of a scalar sum:
 //! - all pairs: blocks of particles met in a round-robin tournament, each round a
 //!   set of disjoint block pairs run in parallel;
 //! - cell list: a half Verlet list of the static particles, built once, summed
@@ -26,25 +28,27 @@ pub(super) enum Summed {
 /// scattered.
 const BLOCK: usize = 16;
 
-/// One block of pairs: separations by axis, `phi_j - phi_i`, and the pair values.
-struct PairBlock<const D: usize> {
+/// One block of pairs: separations by axis, `phi_j - phi_i` by component, and
+/// the pair values by component.
+struct PairBlock<const D: usize, const W: usize> {
     d: [[f64; BLOCK]; D],
-    dphi: [f64; BLOCK],
-    value: [f64; BLOCK],
+    dphi: [[f64; BLOCK]; W],
+    value: [[f64; BLOCK]; W],
 }
 
-impl<const D: usize> Default for PairBlock<D> {
+impl<const D: usize, const W: usize> Default for PairBlock<D, W> {
     fn default() -> Self {
         PairBlock {
             d: [[1.0; BLOCK]; D],
-            dphi: [0.0; BLOCK],
-            value: [0.0; BLOCK],
+            dphi: [[0.0; BLOCK]; W],
+            value: [[0.0; BLOCK]; W],
         }
     }
 }
 
-impl<const D: usize> PairBlock<D> {
-    /// `value[k] = w(|d_k|^2) dphi[k]` (or `w` alone) for every lane.
+impl<const D: usize, const W: usize> PairBlock<D, W> {
+    /// `value[c][k] = w(|d_k|^2) dphi[c][k]` (or `w` alone) for every lane and
+    /// component.
     #[inline(always)]
     fn evaluate(&mut self, weight: &PairWeight, summed: Summed) {
         for k in 0..BLOCK {
@@ -53,10 +57,12 @@ impl<const D: usize> PairBlock<D> {
                 r2 += self.d[a][k] * self.d[a][k];
             }
             let w = weight.at(r2);
-            self.value[k] = match summed {
-                Summed::Rate => w * self.dphi[k],
-                Summed::Weights => w,
-            };
+            for c in 0..W {
+                self.value[c][k] = match summed {
+                    Summed::Rate => w * self.dphi[c][k],
+                    Summed::Weights => w,
+                };
+            }
         }
     }
 }
@@ -113,7 +119,7 @@ impl<const D: usize> AllPairs<D> {
             for round in &self.rounds {
                 round.par_iter().for_each(|&(a, b)| {
                     let (ra, rb) = (block(a), block(b));
-                    let mut pb = PairBlock::<D>::default();
+                    let mut pb = PairBlock::<D, 1>::default();
                     if a == b {
                         // SAFETY: each block occurs once in round 0.
                         let out_a = unsafe { shared.range(ra.clone()) };
@@ -152,7 +158,7 @@ impl<const D: usize> AllPairs<D> {
     #[inline(always)]
     fn row(
         &self,
-        pb: &mut PairBlock<D>,
+        pb: &mut PairBlock<D, 1>,
         weight: &PairWeight,
         summed: Summed,
         i: usize,
@@ -184,12 +190,12 @@ impl<const D: usize> AllPairs<D> {
                         d
                     };
                 }
-                pb.dphi[k] = phi[j] - phii;
+                pb.dphi[0][k] = phi[j] - phii;
             }
             pb.evaluate(weight, summed);
             for (k, o) in out_chunk.iter_mut().enumerate() {
-                acc += pb.value[k];
-                *o += sign * pb.value[k];
+                acc += pb.value[0][k];
+                *o += sign * pb.value[0][k];
             }
         }
         acc
@@ -197,16 +203,17 @@ impl<const D: usize> AllPairs<D> {
 }
 
 /// The pairs within the cutoff of static particles: a half Verlet list (no skin)
-/// over a cell list, and the layers that sum it in parallel.
+/// over a cell list, and the layers that sum it in parallel, for `W` components
+/// per particle.
 #[derive(Clone, Debug)]
-pub(super) struct ListPairs<const D: usize> {
+pub(super) struct ListPairs<const D: usize, const W: usize> {
     list: VerletList<D>,
     plan: LayerPlan,
-    halo: Vec<f64>,
+    halo: Vec<[f64; W]>,
     tallies: Vec<()>,
 }
 
-impl<const D: usize> ListPairs<D> {
+impl<const D: usize, const W: usize> ListPairs<D, W> {
     /// The list for the particles of `cells` (binned for at least `cutoff`).
     pub(super) fn new(cells: &CellList<D>, cutoff: f64, threads: &Threads) -> Self {
         let plan = LayerPlan::new(cells);
@@ -229,8 +236,8 @@ impl<const D: usize> ListPairs<D> {
         weight: &PairWeight,
         summed: Summed,
         positions: &[[f64; D]],
-        phi: &[f64],
-        out: &mut [f64],
+        phi: &[[f64; W]],
+        out: &mut [[f64; W]],
         threads: &Threads,
     ) {
         let list = &self.list;
@@ -242,10 +249,10 @@ impl<const D: usize> ListPairs<D> {
             &mut self.tallies,
             threads,
             |rows, sums, _| {
-                let mut pb = PairBlock::<D>::default();
+                let mut pb = PairBlock::<D, W>::default();
                 for i in rows {
                     let (xi, phii) = (positions[i], phi[i]);
-                    let mut acc = 0.0;
+                    let mut acc = [0.0; W];
                     for block in list.row(i).chunks(BLOCK) {
                         for (k, &entry) in block.iter().enumerate() {
                             let (j, image) = unpack(entry);
@@ -253,12 +260,17 @@ impl<const D: usize> ListPairs<D> {
                             for a in 0..D {
                                 pb.d[a][k] = (xj[a] + s[a]) - xi[a];
                             }
-                            pb.dphi[k] = phi[j] - phii;
+                            for c in 0..W {
+                                pb.dphi[c][k] = phi[j][c] - phii[c];
+                            }
                         }
                         pb.evaluate(weight, summed);
                         for (k, &entry) in block.iter().enumerate() {
-                            acc += pb.value[k];
-                            sums.add(unpack(entry).0, &(sign * pb.value[k]));
+                            let value: [f64; W] = std::array::from_fn(|c| pb.value[c][k]);
+                            for c in 0..W {
+                                acc[c] += value[c];
+                            }
+                            sums.add(unpack(entry).0, &value.map(|v| sign * v));
                         }
                     }
                     sums.add(i, &acc);

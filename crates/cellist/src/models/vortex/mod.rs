@@ -18,21 +18,21 @@
 //!
 //! both advanced in the same Runge-Kutta stages, with `eps = sigma`. Every
 //! `remesh_every` steps the circulations go back onto the lattice with the M4'
-//! kernel (module `remesh`), which keeps the particles overlapping.
+//! kernel ([`crate::interpolation::remesh`]), which keeps the particles
+//! overlapping.
 
 mod diagnostics;
 mod initial;
 mod model;
-mod remesh;
 
 pub use diagnostics::{energy_and_enstrophy, log_plus_e1, Moments};
 pub use initial::{lamb_oseen_speed, lamb_oseen_vorticity, seed, InitialVorticity, ELLIPSE_Q};
 pub use model::{Extras, VortexModel};
-pub use remesh::{remesh, Lattice, Remeshed};
 
-use super::pse::{combine, moving_rate, Integrator, PairWeight};
+use super::pse::{combine, moving_rate, one_component, one_component_mut, Integrator, PairWeight};
 use crate::geometry::Domain;
 use crate::geometry::{wrap_coordinate, Boundary};
+use crate::interpolation::{remesh, Lattice};
 use crate::longrange::mesh::{VicBoundary, VicParams, VortexInCell};
 use crate::longrange::tree::{TreeParams, VortexTree};
 use crate::longrange::{BlobKernel, DirectBiotSavart};
@@ -89,7 +89,7 @@ impl VortexParams {
 
     /// The remeshing lattice `origin + h (k, l)`, folded into the periodic box if
     /// there is one, keeping the nodes within the PSE cutoff of the kept ones.
-    fn lattice(&self) -> Lattice {
+    fn lattice(&self) -> Lattice<2> {
         let reach = if self.nu > 0.0 {
             (self.pse_cutoff_factor * self.sigma / self.spacing).ceil() as usize
         } else {
@@ -98,7 +98,7 @@ impl VortexParams {
         Lattice {
             origin: self.origin,
             spacing: self.spacing,
-            periodic: self.periodic_box(),
+            periodic: self.periodic_box().map(|(lo, length)| (lo, [length; 2])),
             reach,
         }
     }
@@ -542,19 +542,20 @@ impl VortexSystem {
             let t = Instant::now();
             let r = remesh(
                 &self.positions,
-                &self.gamma,
+                one_component(&self.gamma),
                 &self.params.lattice(),
                 self.params.remesh_threshold,
             )
             .map_err(VortexError::Step)?;
             self.times.remesh += t.elapsed();
-            if r.gamma.is_empty() {
+            if r.strength.is_empty() {
                 return Err(VortexError::Step(
                     "remeshing left no particle above the threshold".into(),
                 ));
             }
-            let dropped = self.dropped + r.dropped;
-            return self.set_particles(r.positions, r.gamma, dropped, threads);
+            let dropped = self.dropped + r.dropped[0];
+            let gamma = r.strength.into_flattened();
+            return self.set_particles(r.positions, gamma, dropped, threads);
         }
         self.refresh(threads)
     }
@@ -619,8 +620,8 @@ fn evaluate(
             weight,
             cutoff,
             positions,
-            gamma,
-            &mut out.gamma,
+            one_component(gamma),
+            one_component_mut(&mut out.gamma),
             threads,
         )
         .map_err(|e| VortexError::Step(format!("the PSE cell list: {e}")))?;
