@@ -120,15 +120,32 @@ pub(crate) fn apply_kernel(
     kernel: &[f64],
     derivative: bool,
 ) {
-    out.par_chunks_mut(1024)
-        .zip(hat.par_chunks(1024))
-        .zip(kernel.par_chunks(1024))
-        .for_each(|((w, f), k)| {
-            for ((w, f), k) in w.iter_mut().zip(f).zip(k) {
+    apply_kernels(out, &[(1.0, hat, kernel)], derivative);
+}
+
+/// `out = sum_t s_t K_t F_t`, or `i` times that (`derivative`), mode by mode,
+/// over the terms `(s_t, F_t, K_t)` (at least one) in order; one term gives
+/// the bits of `K F` (`s = 1`).
+pub(crate) fn apply_kernels(
+    out: &mut [Complex<f64>],
+    terms: &[(f64, &[Complex<f64>], &[f64])],
+    derivative: bool,
+) {
+    const CHUNK: usize = 1024;
+    out.par_chunks_mut(CHUNK)
+        .enumerate()
+        .for_each(|(chunk, w)| {
+            let at = chunk * CHUNK;
+            let term = |&(s, f, k): &(f64, &[Complex<f64>], &[f64]), i: usize| f[i] * k[i] * s;
+            for (i, w) in (at..).zip(w.iter_mut()) {
+                let mut sum = term(&terms[0], i);
+                for t in &terms[1..] {
+                    sum += term(t, i);
+                }
                 *w = if derivative {
-                    Complex::new(-f.im * k, f.re * k)
+                    Complex::new(-sum.im, sum.re)
                 } else {
-                    f * k
+                    sum
                 };
             }
         });
