@@ -15,8 +15,8 @@ pub mod tree;
 pub use biot_savart::{add_velocity_at, BlobKernel, DirectBiotSavart};
 pub use direct::{DirectSum, PartialField};
 pub use mesh::{
-    Alone, Exchange, MeshBoundary, MeshParams, ParticleMesh, Rank, VicBoundary, VicParams,
-    VortexInCell,
+    Alone, Exchange, MeshBoundary, MeshParams, ParticleMesh, Rank, Vic3Boundary, Vic3Params,
+    VicBoundary, VicParams, VortexInCell, VortexInCell3,
 };
 pub use p3m::P3m;
 pub use tree::{BarnesHut, Share, TreeParams, VortexTree};

@@ -68,7 +68,7 @@ pub(crate) struct Spectra {
 
 /// The signed frequency (or offset) of index `q` on a mesh of side `m`:
 /// `q` for `q <= m/2`, else `q - m`.
-fn signed(q: usize, m: usize) -> f64 {
+pub(super) fn signed(q: usize, m: usize) -> f64 {
     if q <= m / 2 {
         q as f64
     } else {
@@ -146,7 +146,7 @@ fn periodic_mode(
 
 /// The mode `q = (q0, q1, q2)` of column `c = q1 H + q2` of an `M^3` mesh's
 /// half spectrum.
-fn mode(q0: usize, c: usize, m: usize) -> [usize; 3] {
+pub(super) fn mode(q0: usize, c: usize, m: usize) -> [usize; 3] {
     let h = m / 2 + 1;
     [q0, c / h, c % h]
 }

@@ -27,9 +27,11 @@ pub mod slab;
 #[cfg(test)]
 pub(crate) mod testkit;
 pub mod vic;
+pub mod vic3;
 
 pub use slab::{Alone, Exchange, Rank};
 pub use vic::{VicBoundary, VicParams, VortexInCell, MAX_VIC_GRID, MIN_VIC_GRID};
+pub use vic3::{Vic3Boundary, Vic3Params, VortexInCell3, MAX_VIC3_GRID, MIN_VIC3_GRID};
 
 use super::{FieldOut, Sources};
 use crate::interactions::GravityLaw;
@@ -120,15 +122,32 @@ pub(crate) fn apply_kernel(
     kernel: &[f64],
     derivative: bool,
 ) {
-    out.par_chunks_mut(1024)
-        .zip(hat.par_chunks(1024))
-        .zip(kernel.par_chunks(1024))
-        .for_each(|((w, f), k)| {
-            for ((w, f), k) in w.iter_mut().zip(f).zip(k) {
+    apply_kernels(out, &[(1.0, hat, kernel)], derivative);
+}
+
+/// One term `(s, F, K)` of [`apply_kernels`]: a factor, a transformed mesh
+/// and a kernel.
+pub(crate) type Term<'a> = (f64, &'a [Complex<f64>], &'a [f64]);
+
+/// `out = sum_t s_t K_t F_t`, or `i` times that (`derivative`), mode by mode,
+/// over the terms `(s_t, F_t, K_t)` (at least one) in order; one term gives
+/// the bits of `K F` (`s = 1`).
+pub(crate) fn apply_kernels(out: &mut [Complex<f64>], terms: &[Term], derivative: bool) {
+    const CHUNK: usize = 1024;
+    out.par_chunks_mut(CHUNK)
+        .enumerate()
+        .for_each(|(chunk, w)| {
+            let at = chunk * CHUNK;
+            let term = |&(s, f, k): &Term, i: usize| f[i] * k[i] * s;
+            for (i, w) in (at..).zip(w.iter_mut()) {
+                let mut sum = term(&terms[0], i);
+                for t in &terms[1..] {
+                    sum += term(t, i);
+                }
                 *w = if derivative {
-                    Complex::new(-f.im * k, f.re * k)
+                    Complex::new(-sum.im, sum.re)
                 } else {
-                    f * k
+                    sum
                 };
             }
         });

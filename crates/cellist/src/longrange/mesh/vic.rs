@@ -59,16 +59,17 @@
 //! offset) but makes the on-node error `2.2e-4` instead of round-off, so it is
 //! not done.
 
+use super::apply_kernel;
 use super::fft::Fft2;
-use super::m4::{assign_rows, Plane};
+use super::green::signed;
+use super::m4::{Plane, Sorted};
 use super::slab::{part, Alone, Exchange, Rank, Slab};
-use super::{apply_kernel, RUNGS};
 use crate::longrange::biot_savart::BlobKernel;
 use crate::threads::Threads;
 use rayon::prelude::*;
 use rustfft::num_complex::Complex;
 use std::f64::consts::PI;
-use std::ops::Range;
+use std::ops::{Range, RangeInclusive};
 
 /// The smallest grid accepted.
 pub const MIN_VIC_GRID: usize = 16;
@@ -76,11 +77,6 @@ pub const MIN_VIC_GRID: usize = 16;
 /// The largest grid accepted (an unbounded mesh is padded to `(2 grid)^2`: grid
 /// 4096 takes about 2 GB).
 pub const MAX_VIC_GRID: usize = 4096;
-
-/// Mesh cells per axis beyond the particles' bounding box on an unbounded mesh:
-/// 2 on each side for the M4' support, 1 for snapping the mesh to the lattice
-/// `H Z^2`, and 1 to spare.
-const SPARE_CELLS: usize = 6;
 
 /// The VIC mesh's boundary.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -113,37 +109,37 @@ pub struct VicParams {
 impl VicParams {
     /// Checks the grid and the periodic box.
     pub fn check(&self) -> Result<(), String> {
-        if !(self.grid.is_power_of_two() && (MIN_VIC_GRID..=MAX_VIC_GRID).contains(&self.grid)) {
-            return Err(format!(
-                "grid must be a power of two in {MIN_VIC_GRID}..={MAX_VIC_GRID}, got {}",
-                self.grid
-            ));
-        }
-        if let VicBoundary::Periodic { origin, length } = self.boundary {
-            if !(length.is_finite() && length > 0.0) {
-                return Err(format!("length must be finite and > 0, got {length}"));
-            }
-            if origin.iter().any(|c| !c.is_finite()) {
-                return Err(format!("origin must be finite, got {origin:?}"));
-            }
-        }
-        Ok(())
+        let periodic = match &self.boundary {
+            VicBoundary::Unbounded => None,
+            VicBoundary::Periodic { origin, length } => Some((&origin[..], *length)),
+        };
+        check_mesh(self.grid, MIN_VIC_GRID..=MAX_VIC_GRID, periodic)
     }
 }
 
-/// Mesh rows per assignment task, fixed by the grid alone.
-fn band_rows(grid: usize) -> usize {
-    (grid / 64).max(4)
-}
-
-/// The signed frequency (or offset) of index `q` on a mesh of side `m`:
-/// `q` for `q <= m/2`, else `q - m`.
-fn signed(q: usize, m: usize) -> f64 {
-    if q <= m / 2 {
-        q as f64
-    } else {
-        q as f64 - m as f64
+/// Checks a vortex-in-cell mesh: `grid` a power of two in `range` and, if
+/// `periodic`, its box `(origin, length)` finite with `length > 0`.
+pub(super) fn check_mesh(
+    grid: usize,
+    range: RangeInclusive<usize>,
+    periodic: Option<(&[f64], f64)>,
+) -> Result<(), String> {
+    if !(grid.is_power_of_two() && range.contains(&grid)) {
+        return Err(format!(
+            "grid must be a power of two in {}..={}, got {grid}",
+            range.start(),
+            range.end()
+        ));
     }
+    if let Some((origin, length)) = periodic {
+        if !(length.is_finite() && length > 0.0) {
+            return Err(format!("length must be finite and > 0, got {length}"));
+        }
+        if origin.iter().any(|c| !c.is_finite()) {
+            return Err(format!("origin must be finite, got {origin:?}"));
+        }
+    }
+    Ok(())
 }
 
 /// The vortex-in-cell velocity of 2D Gaussian vortex blobs: assignment of the
@@ -194,13 +190,9 @@ pub struct VortexInCell {
     work: Vec<Complex<f64>>,
     /// `u`, `v` on this rank's rows, one more below and two above.
     fields: [Vec<f64>; 2],
-    /// Each particle's place in `sorted`.
-    rank: Vec<u32>,
-    /// `(x, y, Gamma)` counting-sorted by stencil row, in input order within one
-    /// (after the interpolation: `(u, v, Gamma)`).
-    sorted: Vec<[f64; 3]>,
-    /// `sorted[starts[r]..starts[r + 1]]` is row `r`.
-    starts: Vec<usize>,
+    /// `(x, y, Gamma)` counting-sorted by stencil row (after the
+    /// interpolation: `(u, v, Gamma)`).
+    sorted: Sorted<3>,
 }
 
 impl std::fmt::Debug for VortexInCell {
@@ -270,9 +262,7 @@ impl VortexInCell {
             hat: vec![Complex::default(); len],
             work: vec![Complex::default(); len],
             fields: [vec![0.0; window * n], vec![0.0; window * n]],
-            rank: Vec::new(),
-            sorted: Vec::new(),
-            starts: vec![0; n + 1],
+            sorted: Sorted::new(n),
         })
     }
 
@@ -372,38 +362,8 @@ impl VortexInCell {
     /// on the lattice `H Z^2` with the bounding box at least 2 cells inside; the
     /// kernel's spectra are re-made when the rung changes.
     fn cover(&mut self, positions: &[[f64; 2]], threads: &Threads, exchange: &dyn Exchange) {
-        let init = || ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
-        let (lo, hi) = threads.install(|| {
-            positions
-                .par_iter()
-                .fold(init, |(mut lo, mut hi), x| {
-                    for a in 0..2 {
-                        lo[a] = lo[a].min(x[a]);
-                        hi[a] = hi[a].max(x[a]);
-                    }
-                    (lo, hi)
-                })
-                .reduce(init, |(l0, h0), (l1, h1)| {
-                    (
-                        [l0[0].min(l1[0]), l0[1].min(l1[1])],
-                        [h0[0].max(h1[0]), h0[1].max(h1[1])],
-                    )
-                })
-        });
-        let extent = (hi[0] - lo[0]).max(hi[1] - lo[1]);
-        assert!(
-            extent.is_finite(),
-            "positions must be finite (bounding box {lo:?} to {hi:?})"
-        );
-        let n = self.params.grid;
-        let need = extent.max(self.kernel.sigma()) / (n - SPARE_CELLS) as f64;
-        let mut rung = (RUNGS * need.log2()).ceil() as i64;
-        if (rung as f64 / RUNGS).exp2() < need {
-            rung += 1;
-        }
-        let cell = (rung as f64 / RUNGS).exp2();
-        self.plane.cell = cell;
-        self.plane.origin = lo.map(|l| cell * ((l / cell).floor() - 2.0));
+        let rung = self.plane.cover(positions, self.kernel.sigma(), threads);
+        let cell = self.plane.cell;
         if self.rung != Some(rung) {
             self.unbounded_spectra(cell, threads, exchange);
             self.rung = Some(rung);
@@ -467,49 +427,18 @@ impl VortexInCell {
         });
     }
 
-    /// Counting-sorts the particles by stencil row: `sorted[starts[r]..starts[r +
-    /// 1]]` are those of row `r` in input order, particle `i` at `rank[i]`.
+    /// Counting-sorts the particles by stencil row ([`Sorted::sort`]).
     fn sort(&mut self, positions: &[[f64; 2]], gamma: &[f64]) {
-        let plane = self.plane;
-        positions
-            .par_iter()
-            .map(|x| {
-                assert!(
-                    x[0].is_finite() && x[1].is_finite(),
-                    "position {x:?} is not finite"
-                );
-                plane.stencil(x).row as u32
-            })
-            .collect_into_vec(&mut self.rank);
-        let starts = &mut self.starts;
-        starts.fill(0);
-        for &r in &self.rank {
-            starts[r as usize + 1] += 1;
-        }
-        for r in 0..plane.grid {
-            starts[r + 1] += starts[r];
-        }
-        let mut cursor = starts[..plane.grid].to_vec();
-        self.sorted.resize(positions.len(), [0.0; 3]);
-        for ((rank, x), &g) in self.rank.iter_mut().zip(positions).zip(gamma) {
-            let at = &mut cursor[*rank as usize];
-            self.sorted[*at] = [x[0], x[1], g];
-            *rank = *at as u32;
-            *at += 1;
-        }
+        let entry = |i: usize| [positions[i][0], positions[i][1], gamma[i]];
+        self.sorted.sort(&self.plane, positions, entry);
     }
 
     /// The node circulations `w_g H^2` on this rank's rows: each task owns a
-    /// band of them ([`assign_rows`]).
+    /// band of them ([`Sorted::assign`]).
     fn assign(&mut self) {
-        let plane = self.plane;
-        let band = band_rows(plane.grid);
-        let first = self.slab.owned(plane.grid).start;
-        let (sorted, starts) = (&self.sorted, &self.starts);
-        self.circulation
-            .par_chunks_mut(band * plane.grid)
-            .enumerate()
-            .for_each(|(b, rows)| assign_rows(&plane, sorted, starts, first + b * band, rows));
+        let first = self.slab.owned(self.plane.grid).start;
+        self.sorted
+            .assign(&self.plane, first, &mut self.circulation);
     }
 
     /// The mesh velocities on this rank's window of rows from the node
@@ -546,7 +475,7 @@ impl VortexInCell {
         let n = plane.grid;
         let rank = self.slab.rank();
         let window = self.slab.window(n, 1, 2);
-        let starts = &self.starts;
+        let starts = &self.sorted.starts;
         let block = |r: usize| {
             let rows = part(n, r, rank.count);
             starts[rows.start]..starts[rows.end]
@@ -554,25 +483,12 @@ impl VortexInCell {
         let mine = block(rank.index);
         let [fu, fv] = &self.fields;
         threads.install(|| {
-            self.sorted[mine.clone()]
+            self.sorted.entries[mine.clone()]
                 .par_chunks_mut(1024)
                 .for_each(|chunk| {
                     for p in chunk {
                         let s = plane.stencil(&[p[0], p[1]]);
-                        let mut sum = [0.0; 2];
-                        for (&r, &wx) in s.node[0].iter().zip(&s.weight[0]) {
-                            let r = window
-                                .local(r)
-                                .expect("the rows around a particle of this rank's rows");
-                            let (ru, rv) = (&fu[r * n..][..n], &fv[r * n..][..n]);
-                            let mut row = [0.0; 2];
-                            for (&c, &wy) in s.node[1].iter().zip(&s.weight[1]) {
-                                row[0] += wy * ru[c];
-                                row[1] += wy * rv[c];
-                            }
-                            sum[0] += wx * row[0];
-                            sum[1] += wx * row[1];
-                        }
+                        let sum = plane.gather(&s, window, [fu, fv]);
                         // the position is no longer needed: keep the velocity there
                         p[0] = sum[0];
                         p[1] = sum[1];
@@ -581,10 +497,14 @@ impl VortexInCell {
         });
         if rank.count > 1 {
             let counts: Vec<usize> = (0..rank.count).map(|r| 3 * block(r).len()).collect();
-            let own = self.sorted[mine].to_vec();
-            exchange.all_gather(own.as_flattened(), &counts, self.sorted.as_flattened_mut());
+            let own = self.sorted.entries[mine].to_vec();
+            exchange.all_gather(
+                own.as_flattened(),
+                &counts,
+                self.sorted.entries.as_flattened_mut(),
+            );
         }
-        let (sorted, order) = (&self.sorted, &self.rank);
+        let (sorted, order) = (&self.sorted.entries, &self.sorted.rank);
         threads.install(|| {
             velocity
                 .par_iter_mut()
