@@ -54,32 +54,40 @@ impl Invariants3 {
     }
 }
 
-/// Where a ring is, weighted by `|alpha|`: `z` along its initial axis (from the
-/// origin), `radius` from the axis line through its initial centre, `speed`
-/// along the axis.
+/// Where a ring is, weighted by `w_p = |alpha_p|`: `z` along its initial axis
+/// (from the origin), `radius` from the axis line through its initial centre,
+/// and `speed = dz/dt`, the rate of that weighted mean: with the strengths'
+/// rates `dw_p/dt = alpha_p . (d alpha_p / dt) / w_p`,
+///
+/// ```text
+/// dz/dt = (sum_p w_p u_p . a + sum_p (dw_p/dt) (z_p - z)) / sum_p w_p.
+/// ```
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct RingPlace {
     /// `sum |alpha| x . a / sum |alpha|`.
     pub z: f64,
     /// `sum |alpha| |x_perp| / sum |alpha|`.
     pub radius: f64,
-    /// `sum |alpha| u . a / sum |alpha|`.
+    /// `dz/dt`.
     pub speed: f64,
 }
 
 /// Lloyd iterations of the ring tracking.
 const TRACKING_ROUNDS: usize = 8;
 
-/// The places of `rings` (with their initial axes and centres), each particle
-/// counted for the ring nearest in `(z, r)` to that ring's place `last` (the
-/// previous observation's): weighted 2-means, so that rings that pass through
-/// each other (leapfrogging) keep their identity. One ring takes every particle.
+/// The places of `rings` (with their initial axes and centres) of particles
+/// at `x` with strengths `alpha`, velocities `u` and strength rates `rate`,
+/// each particle counted for the ring nearest in `(z, r)` to that ring's place
+/// `last` (the previous observation's): weighted k-means, so that rings that
+/// pass through each other (leapfrogging) keep their identity. One ring takes
+/// every particle.
 pub fn ring_places(
     rings: &[Ring],
     last: &[RingPlace],
     x: &[[f64; 3]],
     alpha: &[[f64; 3]],
     u: &[[f64; 3]],
+    rate: &[[f64; 3]],
 ) -> Vec<RingPlace> {
     let coordinates = |ring: &Ring, x: [f64; 3]| {
         let (_, _, r) = ring.cylindrical(x);
@@ -87,9 +95,10 @@ pub fn ring_places(
     };
     let mut places = last.to_vec();
     let rounds = if rings.len() == 1 { 1 } else { TRACKING_ROUNDS };
+    let mut owner = vec![0usize; x.len()];
     for _ in 0..rounds {
         let mut sums = vec![[0.0f64; 4]; rings.len()];
-        for ((x, a), u) in x.iter().zip(alpha).zip(u) {
+        for (p, (x, a)) in x.iter().zip(alpha).enumerate() {
             let weight = dot(*a, *a).sqrt();
             let nearest = (0..rings.len())
                 .min_by(|&i, &j| {
@@ -100,21 +109,36 @@ pub fn ring_places(
                     d(i).total_cmp(&d(j))
                 })
                 .unwrap_or(0);
+            owner[p] = nearest;
             let (z, r) = coordinates(&rings[nearest], *x);
             let s = &mut sums[nearest];
             s[0] += weight;
             s[1] += weight * z;
             s[2] += weight * r;
-            s[3] += weight * dot(*u, rings[nearest].axis);
         }
         for (place, s) in places.iter_mut().zip(&sums) {
             if s[0] > 0.0 {
-                *place = RingPlace {
-                    z: s[1] / s[0],
-                    radius: s[2] / s[0],
-                    speed: s[3] / s[0],
-                };
+                place.z = s[1] / s[0];
+                place.radius = s[2] / s[0];
             }
+        }
+    }
+    // the rate of each ring's weighted mean z, for its particles of the last round
+    let mut sums = vec![[0.0f64; 2]; rings.len()];
+    for p in 0..x.len() {
+        let (k, a) = (owner[p], alpha[p]);
+        let weight = dot(a, a).sqrt();
+        if weight == 0.0 {
+            continue;
+        }
+        let z = dot(x[p], rings[k].axis);
+        let growth = dot(a, rate[p]) / weight;
+        sums[k][0] += weight;
+        sums[k][1] += weight * dot(u[p], rings[k].axis) + growth * (z - places[k].z);
+    }
+    for (place, s) in places.iter_mut().zip(&sums) {
+        if s[0] > 0.0 {
+            place.speed = s[1] / s[0];
         }
     }
     places
@@ -170,15 +194,39 @@ mod tests {
         }
         let alpha = vec![[0.0, 0.0, 1.0]; x.len()];
         let u = vec![[0.0, 0.0, 0.5]; x.len()];
+        // the inner ring's strengths grow: its weighted z stays, the speed is u
+        let rate: Vec<[f64; 3]> = (0..x.len()).map(|p| [0.0, 0.0, (p % 2) as f64]).collect();
         // last seen: the first ring large, the second small
         let last = [
             RingPlace { z: 0.0, radius: 1.1, speed: 0.0 },
             RingPlace { z: 0.2, radius: 0.6, speed: 0.0 },
         ];
-        let places = ring_places(&rings, &last, &x, &alpha, &u);
+        let places = ring_places(&rings, &last, &x, &alpha, &u, &rate);
         assert!((places[0].radius - 1.2).abs() < 1e-12, "{places:?}");
         assert!((places[1].radius - 0.5).abs() < 1e-12, "{places:?}");
         assert!((places[0].z - 0.1).abs() < 1e-12 && (places[1].speed - 0.5).abs() < 1e-12);
+        assert!((places[0].speed - 0.5).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_ring_speed_is_the_rate_of_its_weighted_position() {
+        // two particles of one ring at z = 0 and z = 1, the upper one's strength
+        // growing: the weighted z moves up even where nothing moves
+        let ring = [Ring {
+            radius: 1.0,
+            circulation: 1.0,
+            core: 0.1,
+            center: [0.0; 3],
+            axis: [0.0, 0.0, 1.0],
+        }];
+        let x = [[1.0, 0.0, 0.0], [1.0, 0.0, 1.0]];
+        let alpha = [[0.0, 1.0, 0.0], [0.0, 1.0, 0.0]];
+        let u = [[0.0; 3]; 2];
+        let rate = [[0.0; 3], [0.0, 0.5, 0.0]];
+        let place = ring_places(&ring, &initial_places(&ring), &x, &alpha, &u, &rate)[0];
+        // z = (w0 z0 + w1 z1) / (w0 + w1); dz/dt = (dw1 (z1 - z)) / (w0 + w1) = 0.5 * 0.5 / 2
+        assert!((place.z - 0.5).abs() < 1e-15);
+        assert!((place.speed - 0.125).abs() < 1e-15, "{place:?}");
     }
 
     #[test]

@@ -27,7 +27,7 @@
 //! alpha_p <- (1 - f) alpha_p + f |alpha_p| w_p / |w_p|,    w_p = curl u(x_p),
 //! ```
 //!
-//! keeping each particle's `|alpha_p|`.
+//! (`f = 1` keeps each particle's `|alpha_p|` and takes the direction of `w_p`).
 
 mod diagnostics;
 mod initial;
@@ -37,54 +37,14 @@ pub use diagnostics::{abc_errors, initial_places, ring_places, Invariants3, Ring
 pub use initial::{cross, dot, seed3, Abc, InitialVorticity3, Ring, RING_CUT};
 pub use model::{Extras3, View3, Vortex3Model};
 
-use super::pse::{advance_from, Integrator, PairWeight};
+use super::pse::{advance_from, moving_rate, Integrator, PairWeight};
+use crate::interpolation::{remesh, Lattice};
 use super::vortex::VortexError;
 use crate::geometry::{wrap_coordinate, Boundary, Domain};
 use crate::longrange::{
     BlobKernel3, DirectBiotSavart3, TreeParams, Vic3Boundary, Vic3Params, VortexInCell3,
     VortexTree3,
 };
-use temp::{moving_rates, remesh, Lattice};
-
-mod temp {
-    #![allow(missing_docs, clippy::all)]
-    use crate::geometry::{Domain, GeometryError};
-    use crate::models::pse::{moving_rate, PairWeight};
-    use crate::threads::Threads;
-    pub struct Lattice<const D: usize> {
-        pub origin: [f64; D],
-        pub spacing: f64,
-        pub periodic: Option<([f64; D], f64)>,
-        pub reach: usize,
-    }
-    pub struct Remeshed {
-        pub positions: Vec<[f64; 3]>,
-        pub strengths: Vec<[f64; 3]>,
-        pub dropped: [f64; 3],
-    }
-    pub fn remesh(_x: &[[f64; 3]], _a: &[[f64; 3]], _l: &Lattice<3>, _t: f64) -> Result<Remeshed, String> {
-        Err("remesh stub".into())
-    }
-    pub fn moving_rates(
-        d: &Domain<3>,
-        w: &PairWeight,
-        c: f64,
-        x: &[[f64; 3]],
-        a: &[[f64; 3]],
-        out: &mut [[f64; 3]],
-        t: &Threads,
-    ) -> Result<(), GeometryError> {
-        let mut r = vec![0.0; x.len()];
-        for k in 0..3 {
-            let phi: Vec<f64> = a.iter().map(|v| v[k]).collect();
-            moving_rate(d, w, c, x, &phi, &mut r, t)?;
-            for (o, v) in out.iter_mut().zip(&r) {
-                o[k] += v;
-            }
-        }
-        Ok(())
-    }
-}
 use crate::threads::Threads;
 use std::time::{Duration, Instant};
 
@@ -166,7 +126,7 @@ impl Vortex3Params {
         Lattice {
             origin: [0.0; 3],
             spacing: self.spacing,
-            periodic: self.periodic_box(),
+            periodic: self.periodic_box().map(|(lo, length)| (lo, [length; 3])),
             reach,
         }
     }
@@ -285,6 +245,8 @@ struct Rater {
     solver: Velocity3Engine,
     /// The gradient of the last evaluation.
     gradient: Vec<[f64; 9]>,
+    /// The PSE rates of the last evaluation.
+    diffusion: Vec<[f64; 3]>,
     times: Stage3Times,
 }
 
@@ -322,8 +284,12 @@ impl Rater {
                 },
                 None => Domain::open_around(x),
             };
-            moving_rates(&domain, &self.weight, cutoff, x, alpha, stretch, threads)
+            self.diffusion.resize(n, [0.0; 3]);
+            moving_rate(&domain, &self.weight, cutoff, x, alpha, &mut self.diffusion, threads)
                 .map_err(|e| VortexError::Step(format!("the PSE cell list: {e}")))?;
+            for (s, d) in stretch.iter_mut().zip(&self.diffusion) {
+                *s = [0, 1, 2].map(|c| s[c] + d[c]);
+            }
         }
         self.times.diffusion += t2.elapsed();
         Ok(())
@@ -395,6 +361,7 @@ impl Vortex3System {
                 weight: PairWeight::new(3, params.nu, params.sigma, params.spacing.powi(3)),
                 solver,
                 gradient: Vec::new(),
+                diffusion: Vec::new(),
                 times: Stage3Times::default(),
             },
             state: Vec::new(),
@@ -436,6 +403,12 @@ impl Vortex3System {
     /// The velocity of every particle in the current state.
     pub fn velocity(&self) -> &[[f64; 3]] {
         split(&self.current).0
+    }
+
+    /// `d alpha_p / dt` of every particle in the current state (stretching and
+    /// diffusion).
+    pub fn strength_rate(&self) -> &[[f64; 3]] {
+        split(&self.current).1
     }
 
     /// The velocity gradient of every particle in the current state.
@@ -549,13 +522,13 @@ impl Vortex3System {
             let r = remesh(self.positions(), self.alpha(), &params.lattice(), params.remesh_threshold)
                 .map_err(VortexError::Step)?;
             self.rater.times.remesh += t.elapsed();
-            if r.strengths.is_empty() {
+            if r.strength.is_empty() {
                 return Err(VortexError::Step(
                     "remeshing left no particle above the threshold".into(),
                 ));
             }
             let dropped = [0, 1, 2].map(|c| self.dropped[c] + r.dropped[c]);
-            self.set_particles(&r.positions, &r.strengths, dropped, threads)?;
+            self.set_particles(&r.positions, &r.strength, dropped, threads)?;
         } else {
             self.refresh(threads)?;
         }
@@ -570,9 +543,9 @@ impl Vortex3System {
         }
     }
 
-    /// The Pedrizzetti relaxation of the current state by `factor`, towards
-    /// `curl u` of the current rate (particles where it vanishes keep their
-    /// strength).
+    /// The Pedrizzetti relaxation of the current state by `factor`:
+    /// `alpha <- (1 - f) alpha + f |alpha| w / |w|` with `w = curl u` of the
+    /// current rate (particles where it vanishes keep their strength).
     fn relax(&mut self, factor: f64) {
         let n = self.len();
         let alpha = self.state[3 * n..].as_chunks_mut::<3>().0;

@@ -157,7 +157,8 @@ impl Vortex3Model {
         match &self.extras {
             Extras3::None => {}
             Extras3::Ring(_) | Extras3::Rings(_) => {
-                self.places = ring_places(self.extras.rings(), &self.places, x, alpha, u);
+                let rate = s.strength_rate();
+                self.places = ring_places(self.extras.rings(), &self.places, x, alpha, u, rate);
                 if matches!(self.extras, Extras3::Ring(_)) {
                     let p = self.places[0];
                     values.extend([p.z, p.radius, p.speed]);
