@@ -7,12 +7,14 @@
 //! the data, so 1 and N threads give the same bits.
 
 pub mod biot_savart;
+pub mod biot_savart3;
 pub mod direct;
 pub mod mesh;
 pub mod p3m;
 pub mod tree;
 
 pub use biot_savart::{add_velocity_at, BlobKernel, DirectBiotSavart};
+pub use biot_savart3::{velocity_and_gradient_at, BlobKernel3, DirectBiotSavart3};
 pub use direct::{DirectSum, PartialField};
 pub use mesh::{
     Alone, Exchange, MeshBoundary, MeshParams, ParticleMesh, Rank, VicBoundary, VicParams,
