@@ -157,34 +157,10 @@ impl BlobKernel3 {
         let c = T::splat;
         let x = r2 * c(self.inv_two_sigma2);
         let e = exp_nonpositive(-x);
-        let two_x = x + x;
-        // near: the series of I_4, then down
-        let mut p = c(SERIES[SERIES_TERMS - 1]);
-        for &a in SERIES[..SERIES_TERMS - 1].iter().rev() {
-            p = p * x + c(a);
-        }
-        let n4 = e * p;
-        let n3 = (two_x * n4 + e) / c(7.0);
-        let n2 = (two_x * n3 + e) / c(5.0);
-        let n1 = (two_x * n2 + e) / c(3.0);
-        // middle: I_1 from erfc, then up
-        let z = x.sqrt();
-        let t = c(2.0) / (c(2.0) + z);
-        let s = (t - c(ERFC_MID)) * c(ERFC_SCALE);
-        let mut p = c(ERFC_FIT[0]);
-        for &a in &ERFC_FIT[1..] {
-            p = p * s + c(a);
-        }
-        let q = c(1.0) - e * (t * p + c(2.0 / PI.sqrt()) * z);
-        let m1 = c(PI.sqrt() / 4.0) * q / (x * z);
-        let m2 = (c(3.0) * m1 - e) / two_x;
-        let m3 = (c(5.0) * m2 - e) / two_x;
-        let m4 = (c(7.0) * m3 - e) / two_x;
-        let far = self.far(r2);
-        let (near, middle) = ([n1, n2, n3, n4], [m1, m2, m3, m4]);
+        let (n, m, f) = (near(x, e), middle(x, e), self.far(r2));
         std::array::from_fn(|k| {
-            let blob = T::select_less(x, c(SERIES_BELOW), near[k], middle[k]) * c(self.scale[k]);
-            T::select_less(x, c(FAR), blob, far[k])
+            let blob = T::select_less(x, c(SERIES_BELOW), n[k], m[k]) * c(self.scale[k]);
+            T::select_less(x, c(FAR), blob, f[k])
         })
     }
 
@@ -194,19 +170,80 @@ impl BlobKernel3 {
     #[inline(always)]
     pub fn far<T: Sqrt>(&self, r2: T) -> [T; 4] {
         let c = T::splat;
-        let inv = c(1.0) / r2;
-        let g = c(0.25 / PI) * inv / r2.sqrt();
+        let inv_r = c(1.0) / r2.sqrt();
+        let inv = inv_r * inv_r;
+        let g = c(0.25 / PI) * inv * inv_r;
         let g2 = c(-3.0) * g * inv;
         let g3 = c(-5.0) * g2 * inv;
         let g4 = c(-7.0) * g3 * inv;
         [g, g2, g3, g4]
     }
 
-    /// Whether `r2` is in the point-vortex range of [`BlobKernel3::radial`].
+    /// [`BlobKernel3::radial`] with the bits of every lane, computing only the
+    /// ranges that some lane is in.
     #[inline(always)]
-    fn is_far(&self, r2: F64x4) -> bool {
-        !F64x4::any_less(r2 * F64x4::splat(self.inv_two_sigma2), F64x4::splat(FAR))
+    pub(crate) fn radial_or_far(&self, r2: F64x4) -> [F64x4; 4] {
+        let c = F64x4::splat;
+        let x = r2 * c(self.inv_two_sigma2);
+        let blob_lanes = F64x4::mask_less(x, c(FAR));
+        if blob_lanes == 0 {
+            return self.far(r2);
+        }
+        let e = exp_nonpositive(-x);
+        let blob = match F64x4::mask_less(x, c(SERIES_BELOW)) {
+            0 => middle(x, e),
+            0b1111 => near(x, e),
+            _ => {
+                let (n, m) = (near(x, e), middle(x, e));
+                std::array::from_fn(|k| F64x4::select_less(x, c(SERIES_BELOW), n[k], m[k]))
+            }
+        };
+        let blob: [F64x4; 4] = std::array::from_fn(|k| blob[k] * c(self.scale[k]));
+        if blob_lanes == 0b1111 {
+            return blob;
+        }
+        let far = self.far(r2);
+        std::array::from_fn(|k| F64x4::select_less(x, c(FAR), blob[k], far[k]))
     }
+}
+
+/// `[I_1, I_2, I_3, I_4]` at `x` (with `e = exp(-x)`) from the series of `I_4`
+/// and the downward recurrence (see [`BlobKernel3::radial`]).
+#[inline(always)]
+fn near<T: Sqrt>(x: T, e: T) -> [T; 4] {
+    let c = T::splat;
+    let two_x = x + x;
+    let mut p = c(SERIES[SERIES_TERMS - 1]);
+    for &a in SERIES[..SERIES_TERMS - 1].iter().rev() {
+        p = p * x + c(a);
+    }
+    let i4 = e * p;
+    let i3 = (two_x * i4 + e) * c(1.0 / 7.0);
+    let i2 = (two_x * i3 + e) * c(1.0 / 5.0);
+    let i1 = (two_x * i2 + e) * c(1.0 / 3.0);
+    [i1, i2, i3, i4]
+}
+
+/// `[I_1, I_2, I_3, I_4]` at `x` (with `e = exp(-x)`) from `erfc` and the
+/// upward recurrence (see [`BlobKernel3::radial`]).
+#[inline(always)]
+fn middle<T: Sqrt>(x: T, e: T) -> [T; 4] {
+    let c = T::splat;
+    let z = x.sqrt();
+    let inv_z = c(1.0) / z;
+    let half_inv_x = c(0.5) * inv_z * inv_z;
+    let t = c(2.0) / (c(2.0) + z);
+    let s = (t - c(ERFC_MID)) * c(ERFC_SCALE);
+    let mut p = c(ERFC_FIT[0]);
+    for &a in &ERFC_FIT[1..] {
+        p = p * s + c(a);
+    }
+    let q = c(1.0) - e * (t * p + c(2.0 / PI.sqrt()) * z);
+    let i1 = c(PI.sqrt() / 4.0) * q * inv_z * inv_z * inv_z;
+    let i2 = (c(3.0) * i1 - e) * half_inv_x;
+    let i3 = (c(5.0) * i2 - e) * half_inv_x;
+    let i4 = (c(7.0) * i3 - e) * half_inv_x;
+    [i1, i2, i3, i4]
 }
 
 /// Running sums per target: `u` (0..3), `S = sum alpha_q g` (3..6) and
@@ -482,11 +519,7 @@ fn row<const SYMMETRIC: bool>(
         let r: [F64x4; 3] = std::array::from_fn(|c| sx[c] - F64x4::load(&px[c][j..]));
         let aj: [F64x4; 3] = std::array::from_fn(|c| F64x4::load(&pa[c][j..]));
         let r2 = r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
-        let [g, g2, ..] = if kernel.is_far(r2) {
-            kernel.far(r2)
-        } else {
-            kernel.radial(r2)
-        };
+        let [g, g2, ..] = kernel.radial_or_far(r2);
         for (s, t) in acc.iter_mut().zip(terms(aj, r, g, g2)) {
             *s = *s + t;
         }
@@ -697,15 +730,18 @@ mod tests {
             1e300,
             f64::INFINITY,
         ];
-        for round in 0..4000 {
-            let r2: [f64; 4] = std::array::from_fn(|l| match (round + l) % 3 {
+        // lanes from mixed ranges, then all four from one range (the shortcuts
+        // of `radial_or_far`)
+        for round in 0..6000 {
+            let pick = |l: usize| if round < 3000 { round + l } else { round / 4 };
+            let r2: [f64; 4] = std::array::from_fn(|l| match pick(l) % 3 {
                 0 => special[(round / 3 + l) % special.len()],
                 1 => at(2.0 * rng.uniform()),
                 _ => at(60.0 * rng.uniform()),
             });
-            let lanes = k
-                .radial(F64x4::load(&r2))
-                .map(|v| v.to_array().map(f64::to_bits));
+            let bits = |v: [F64x4; 4]| v.map(|v| v.to_array().map(f64::to_bits));
+            let lanes = bits(k.radial(F64x4::load(&r2)));
+            assert_eq!(lanes, bits(k.radial_or_far(F64x4::load(&r2))), "{r2:?}");
             for (l, &r2) in r2.iter().enumerate() {
                 let scalar = k.radial(r2).map(f64::to_bits);
                 assert_eq!(lanes.map(|v| v[l]), scalar, "{r2}");

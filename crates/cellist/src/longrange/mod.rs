@@ -21,7 +21,7 @@ pub use mesh::{
     VortexInCell,
 };
 pub use p3m::P3m;
-pub use tree::{BarnesHut, Share, TreeParams, VortexTree};
+pub use tree::{BarnesHut, Share, TreeParams, VortexTree, VortexTree3};
 
 use crate::interactions::GravityLaw;
 use crate::threads::Threads;
