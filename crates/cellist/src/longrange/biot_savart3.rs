@@ -266,14 +266,24 @@ fn cross<T: Real>(b: [T; 3], c: [T; 3]) -> [T; 3] {
 #[inline(always)]
 pub(crate) fn terms<T: Real>(alpha: [T; 3], r: [T; 3], g: T, g2: T) -> [T; SUMS] {
     let w = cross(alpha, r);
-    std::array::from_fn(|k| match k {
-        0..3 => w[k] * g,
-        3..6 => alpha[k - 3] * g,
-        _ => {
-            let (a, e) = ((k - 6) / 3, (k - 6) % 3);
-            w[a] * g2 * r[e]
-        }
-    })
+    let v = [w[0] * g2, w[1] * g2, w[2] * g2];
+    [
+        w[0] * g,
+        w[1] * g,
+        w[2] * g,
+        alpha[0] * g,
+        alpha[1] * g,
+        alpha[2] * g,
+        v[0] * r[0],
+        v[0] * r[1],
+        v[0] * r[2],
+        v[1] * r[0],
+        v[1] * r[1],
+        v[1] * r[2],
+        v[2] * r[0],
+        v[2] * r[1],
+        v[2] * r[2],
+    ]
 }
 
 /// The velocity `u` and gradient `[S]_x + T` of a target's [`SUMS`].
@@ -354,7 +364,8 @@ const LANES: usize = 4;
 
 /// All pairs of particles, each once: blocks of `BLOCK` particles meet in the
 /// rounds of a round-robin tournament, the block pairs of a round in parallel,
-/// each pair adding its terms to both particles' [`SUMS`].
+/// each pair adding its terms to both particles' running sums of `u`,
+/// `S` and `T`.
 #[derive(Clone, Debug)]
 pub struct DirectBiotSavart3 {
     kernel: BlobKernel3,

@@ -30,8 +30,9 @@ const PAIR: [[usize; 3]; 3] = [[0, 1, 2], [1, 3, 4], [2, 4, 5]];
 /// on the same octree and walk as [`BarnesHut`](super::BarnesHut). The law is
 /// `u = curl psi` with `psi(x) = sum_q alpha_q G(x - x_q)`, `G` the radial
 /// Green's function of the blob (`G'(r) / r = -g`). An accepted node, with
-/// centre `c` (the centre of its `|alpha|`), `d = x - c` and the moments of
-/// [`Moments`], gives each component of `psi` to second order,
+/// centre `c` (the centre of its `|alpha|`), `d = x - c` and the moments
+/// `M_c = sum alpha_c`, `D_cj = sum alpha_c y_j`, `Q_cjk = sum alpha_c y_j y_k`
+/// of its particles (`y = x_q - c`), gives each component of `psi` to second order,
 ///
 /// `psi_c = M_c G(d) - D_cj d_j G(d) + 1/2 Q_cjk d_j d_k G(d)`
 ///
@@ -456,18 +457,29 @@ mod tests {
     #[test]
     #[ignore]
     fn measure_tree() {
-        for (name, (x, alpha, kernel)) in [("cloud", cloud(1, 100_000)), ("ring", ring(0.0415))] {
+        for (name, (x, alpha, kernel)) in [("ring", ring(0.0415)), ("cloud", cloud(1, 100_000))] {
             let n = x.len();
             eprintln!("{name}: {n} particles, sigma {:.4}", kernel.sigma());
             let sample: Vec<usize> = (0..n).step_by(50).collect();
             let targets: Vec<[f64; 3]> = sample.iter().map(|&i| x[i]).collect();
             let two = Threads::new(2).unwrap();
             let want = velocity_and_gradient_at(&kernel, &targets, &x, &alpha, &two);
-            for theta in [0.3, 0.4, 0.5, 0.6] {
-                for threads in [1, 2] {
+            // (theta, leaf_size, group_size, threads)
+            let settings = [
+                (0.4, 16, 64, 1),
+                (0.4, 8, 32, 1),
+                (0.4, 16, 32, 1),
+                (0.4, 32, 128, 1),
+                (0.3, 8, 32, 1),
+                (0.4, 16, 64, 2),
+            ];
+            for (theta, leaf_size, group_size, threads) in settings {
+                {
                     let params = TreeParams {
                         theta,
-                        ..VortexTree3::default_params()
+                        leaf_size,
+                        group_size,
+                        quadrupole: true,
                     };
                     let start = Instant::now();
                     let ((u, g), counts) =
@@ -476,7 +488,7 @@ mod tests {
                     let u: Vec<[f64; 3]> = sample.iter().map(|&i| u[i]).collect();
                     let g: Vec<[f64; 9]> = sample.iter().map(|&i| g[i]).collect();
                     eprintln!(
-                        "  tree theta {theta}, {threads} threads: {time:.2} s, RMS error u {:.2e}, grad {:.2e}, interactions {counts:?}",
+                        "  tree theta {theta}, leaf {leaf_size}, group {group_size}, {threads} threads: {time:.2} s, RMS error u {:.2e}, grad {:.2e}, interactions {counts:?}",
                         rms_error(&u, &want.0),
                         rms_error(&g, &want.1)
                     );
