@@ -7,19 +7,21 @@
 //! the data, so 1 and N threads give the same bits.
 
 pub mod biot_savart;
+pub mod biot_savart3;
 pub mod direct;
 pub mod mesh;
 pub mod p3m;
 pub mod tree;
 
 pub use biot_savart::{add_velocity_at, BlobKernel, DirectBiotSavart};
+pub use biot_savart3::{velocity_and_gradient_at, BlobKernel3, DirectBiotSavart3};
 pub use direct::{DirectSum, PartialField};
 pub use mesh::{
     Alone, Exchange, MeshBoundary, MeshParams, ParticleMesh, Rank, Vic3Boundary, Vic3Params,
     VicBoundary, VicParams, VortexInCell, VortexInCell3,
 };
 pub use p3m::P3m;
-pub use tree::{BarnesHut, Share, TreeParams, VortexTree};
+pub use tree::{BarnesHut, Share, TreeParams, VortexTree, VortexTree3};
 
 use crate::interactions::GravityLaw;
 use crate::threads::Threads;

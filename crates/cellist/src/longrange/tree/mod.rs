@@ -42,11 +42,13 @@ mod build;
 mod gravity;
 mod share;
 mod vortex;
+mod vortex3;
 mod walk;
 
 pub use gravity::BarnesHut;
 pub use share::Share;
 pub use vortex::VortexTree;
+pub use vortex3::VortexTree3;
 
 /// The tree's settings.
 #[derive(Clone, Copy, Debug, PartialEq)]
