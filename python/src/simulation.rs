@@ -449,7 +449,8 @@ impl Simulation {
         self.array(py, "forces")
     }
 
-    /// Particle strengths (pse): the field value times the particle volume.
+    /// Particle strengths: pse, (N,), the field value times the particle volume;
+    /// 3D vortex, (N, 3), the vector strengths alpha = omega h^3.
     #[getter]
     fn strengths<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         self.array(py, "strengths")

@@ -155,6 +155,17 @@ def test_other_models_expose_their_arrays(tmp_path, cli):
         assert sim.circulations.shape == (len(sim),)
         assert sim.velocities.shape == (len(sim), 2)
         assert sim.circulations.sum() == pytest.approx(gamma0.sum(), rel=1e-9, abs=1e-12)
+    ring = (examples / "vortex-ring.toml").read_text().replace(
+        "core = 0.2, spacing = 0.1", "core = 0.4, spacing = 0.2").replace(
+        "grid = 64", "grid = 16")
+    with cellist.Simulation.from_toml(ring, threads=1, out=tmp_path / "ring") as sim:
+        sim.run(2)
+        n = len(sim)
+        assert sim.positions.shape == (n, 3)
+        assert sim.velocities.shape == (n, 3)
+        assert sim.strengths.shape == (n, 3)
+        # the ring moves along +z
+        assert sim.velocities[:, 2].mean() > 0
     with cellist.Simulation.from_toml(str(examples / "gravity-two-body.toml"), threads=1,
                                       out=tmp_path / "gravity") as sim:
         sim.run(5)

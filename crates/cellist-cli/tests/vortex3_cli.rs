@@ -46,7 +46,14 @@ fn a_ring_run_writes_its_columns_fields_pictures_and_trajectories() {
     assert!(t["ring_speed"][0] > 0.0 && (t["ring_radius"][0] - 1.0).abs() < 0.05);
     let csv = std::fs::read_to_string(out.join("w_2.csv")).unwrap();
     assert!(csv.starts_with("x,y,z,ax,ay,az,u,v,w\n"), "{}", &csv[..60]);
-    for file in ["vorticity_0.png", "vorticity_2.png", "vorticity.gif", "ring.png", "t.pvd", "t.gsd"] {
+    for file in [
+        "vorticity_0.png",
+        "vorticity_2.png",
+        "vorticity.gif",
+        "ring.png",
+        "t.pvd",
+        "t.gsd",
+    ] {
         assert!(out.join(file).is_file(), "{file} is missing");
     }
 }
@@ -60,13 +67,28 @@ fn threads_do_not_change_the_files_and_a_restart_is_bit_for_bit() {
         ("direct", "{ kind = \"direct\" }"),
     ] {
         let scenario = format!(
-            "{}field = {{ every = 2, file = \"w.csv\" }}\ncheckpoint = {{ every = 2, file = \"state.ckpt\" }}\n",
+            "{}field = {{ every = 2, file = \"w.csv\" }}\npng = {{ every = 2 }}\ncheckpoint = {{ every = 2, file = \"state.ckpt\" }}\n",
             ring(0.4, 0.2, velocity, 4, 0.05)
                 .replace("[run]", "nu = 0.001\nremesh_every = 2\nremesh_threshold = 1e-6\nrelaxation = { factor = 0.3, every = 3 }\n[run]")
         );
-        let one = ok_run(dir.path(), &format!("{name}-1"), &scenario, &["--threads", "1"]);
-        let two = ok_run(dir.path(), &format!("{name}-2"), &scenario, &["--threads", "2"]);
-        let split = ok_run(dir.path(), &format!("{name}-split"), &scenario, &["--set", "run.steps=2"]);
+        let one = ok_run(
+            dir.path(),
+            &format!("{name}-1"),
+            &scenario,
+            &["--threads", "1"],
+        );
+        let two = ok_run(
+            dir.path(),
+            &format!("{name}-2"),
+            &scenario,
+            &["--threads", "2"],
+        );
+        let split = ok_run(
+            dir.path(),
+            &format!("{name}-split"),
+            &scenario,
+            &["--set", "run.steps=2"],
+        );
         let ckpt = split.join("state.ckpt");
         let (_, o) = run(
             dir.path(),
@@ -80,7 +102,12 @@ fn threads_do_not_change_the_files_and_a_restart_is_bit_for_bit() {
             let b = common::outputs(other);
             assert_eq!(a.keys().collect::<Vec<_>>(), b.keys().collect::<Vec<_>>());
             for (file, bytes) in &a {
-                assert!(b[file] == *bytes, "{name}: {} differs in {}", file.display(), other.display());
+                assert!(
+                    b[file] == *bytes,
+                    "{name}: {} differs in {}",
+                    file.display(),
+                    other.display()
+                );
             }
         }
     }
@@ -103,8 +130,11 @@ fn the_abc_flow_error_falls_at_second_order_with_the_spacing() {
         );
         let out = ok_run(dir.path(), &format!("abc{n}"), &scenario, &[]);
         let (header, t) = columns(&out.join("thermo.csv"));
-        assert!(header.ends_with(",helicity,omega_l2_error,omega_max_error"), "{header}");
-        assert_eq!(t["omega_l2_error"][0], 0.0);
+        assert!(
+            header.ends_with(",helicity,omega_l2_error,omega_max_error"),
+            "{header}"
+        );
+        assert!(t["omega_l2_error"][0] < 1e-15);
         // half a time unit at either spacing
         assert!((t["time"].last().unwrap() - 0.5).abs() < 1e-12);
         errors.push(*t["omega_l2_error"].last().unwrap());
@@ -133,7 +163,10 @@ fn a_ring_moves_at_the_thin_ring_speed_with_every_solver() {
             "{name}: {speed} against the thin-ring {expected}"
         );
         let rate = t["ring_speed"][0];
-        assert!((rate - speed).abs() < 0.02 * speed, "{name}: dz/dt {rate} against {speed}");
+        assert!(
+            (rate - speed).abs() < 0.02 * speed,
+            "{name}: dz/dt {rate} against {speed}"
+        );
     }
 }
 
@@ -153,28 +186,46 @@ fn bad_input_is_refused_with_one_message() {
             "system.initial.extent is a key of 2D initial conditions",
         ),
         (
-            base.replace("kind = \"ring\", radius = 1.0, circulation = 1.0, core = 0.3,", "kind = \"lamb-oseen\","),
+            base.replace(
+                "kind = \"ring\", radius = 1.0, circulation = 1.0, core = 0.3,",
+                "kind = \"lamb-oseen\",",
+            ),
             "2D initial conditions",
         ),
         (
-            base.replace("kind = \"ring\", radius = 1.0, circulation = 1.0, core = 0.3, spacing = 0.1", "kind = \"abc\", spacing = 0.39269908169872414"),
+            base.replace(
+                "kind = \"ring\", radius = 1.0, circulation = 1.0, core = 0.3, spacing = 0.1",
+                "kind = \"abc\", spacing = 0.39269908169872414",
+            ),
             "the abc initial condition needs the periodic mesh solver",
         ),
         (
             base.replace(
                 "kind = \"ring\", radius = 1.0, circulation = 1.0, core = 0.3, spacing = 0.1",
-                &format!("kind = \"file\", spacing = 0.1, path = \"{}\"", nan.display()),
+                &format!(
+                    "kind = \"file\", spacing = 0.1, path = \"{}\"",
+                    nan.display()
+                ),
             ),
             "nan.csv:3: ax is NaN",
         ),
-        (base.replace("dimension = 3", "dimension = 4"), "dimension must be 2 or 3"),
-        (base.replace("[run]", "stretching = \"sideways\"\n[run]"), "system.stretching"),
+        (
+            base.replace("dimension = 3", "dimension = 4"),
+            "dimension must be 2 or 3",
+        ),
+        (
+            base.replace("[run]", "stretching = \"sideways\"\n[run]"),
+            "system.stretching",
+        ),
     ];
     for (k, (scenario, expected)) in cases.iter().enumerate() {
         let (_, o) = run(dir.path(), &format!("bad{k}"), scenario, &[]);
         let err = text(&o.stderr);
         assert_eq!(o.status.code(), Some(2), "case {k}: {err}");
-        assert!(err.contains(expected), "case {k}: expected '{expected}' in: {err}");
+        assert!(
+            err.contains(expected),
+            "case {k}: expected '{expected}' in: {err}"
+        );
         assert!(!err.contains("panicked"), "{err}");
     }
 }
@@ -198,4 +249,3 @@ fn bench_vortex_3d_reports_time_and_errors() {
         assert!(u < bound && g < 10.0 * bound, "{solver}: {u} {g}");
     }
 }
-

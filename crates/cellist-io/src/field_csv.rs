@@ -113,7 +113,11 @@ pub fn parse_field_columns<const D: usize, const W: usize>(
 ) -> Result<(Vec<[f64; D]>, Vec<[f64; W]>), InputError> {
     const { assert!(D + W <= 12, "at most 12 columns are read") };
     let (mut points, mut values) = (Vec::new(), Vec::new());
-    let mut columns: Vec<String> = AXES[..D].iter().chain(&names).map(|s| s.to_string()).collect();
+    let mut columns: Vec<String> = AXES[..D]
+        .iter()
+        .chain(&names)
+        .map(|s| s.to_string())
+        .collect();
     let expected = columns.join(",");
     let mut first = true;
     for (index, tokens) in data_lines(text) {

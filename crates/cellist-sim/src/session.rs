@@ -105,15 +105,36 @@ pub fn named_arrays(model: &dyn Model, step: u64) -> Vec<NamedArray> {
         }
         out.push((f.value_name.to_string(), f.values, 1));
         let extra = |name: &str| f.extra.iter().find(|(n, _)| *n == name).map(|(_, v)| v);
-        if let (Some(u), Some(v)) = (extra("u"), extra("v")) {
-            let velocities = u.iter().zip(v).flat_map(|(&a, &b)| [a, b]).collect();
-            out.push(("velocities".into(), velocities, 2));
+        // vectors kept in columns of their own: (u, v[, w]), (ax, ay, az)
+        let vector = |names: &[&str]| -> Option<Vec<f64>> {
+            let columns: Vec<&Vec<f64>> = names.iter().map(|n| extra(n)).collect::<Option<_>>()?;
+            Some(
+                (0..columns[0].len())
+                    .flat_map(|i| columns.iter().map(move |c| c[i]))
+                    .collect(),
+            )
+        };
+        let velocity_names: &[&str] = if d == 3 {
+            &["u", "v", "w"]
+        } else {
+            &["u", "v"]
+        };
+        let grouped: [(&str, &[&str]); 2] = [
+            ("velocities", velocity_names),
+            ("strengths", &["ax", "ay", "az"]),
+        ];
+        let mut taken: Vec<&str> = vec!["gamma"];
+        for (name, names) in grouped {
+            if let Some(values) = vector(names) {
+                out.push((name.into(), values, names.len()));
+                taken.extend_from_slice(names);
+            }
         }
         if let Some(gamma) = extra("gamma") {
             out.push(("circulations".into(), gamma.clone(), 1));
         }
         for (name, values) in &f.extra {
-            if !matches!(*name, "u" | "v" | "gamma") {
+            if !taken.contains(name) {
                 out.push((name.to_string(), values.clone(), 1));
             }
         }

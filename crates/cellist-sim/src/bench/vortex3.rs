@@ -67,7 +67,10 @@ pub fn vortex3(
                 grid,
                 boundary: Vic3Boundary::Unbounded,
             };
-            (Velocity3Solver::Mesh(params), format!("mesh (grid {grid}^3)"))
+            (
+                Velocity3Solver::Mesh(params),
+                format!("mesh (grid {grid}^3)"),
+            )
         }
     };
     let mut engine = Velocity3Engine::new(kind, sigma, n).map_err(SimError::Input)?;
@@ -84,7 +87,8 @@ pub fn vortex3(
     let targets: Vec<usize> = (0..n).step_by(stride).collect();
     let points: Vec<[f64; 3]> = targets.iter().map(|&i| positions[i]).collect();
     let kernel = BlobKernel3::new(sigma);
-    let (exact_u, exact_g) = velocity_and_gradient_at(&kernel, &points, &positions, &alpha, threads);
+    let (exact_u, exact_g) =
+        velocity_and_gradient_at(&kernel, &points, &positions, &alpha, threads);
     let u: Vec<[f64; 3]> = targets.iter().map(|&i| velocity[i]).collect();
     let g: Vec<[f64; 9]> = targets.iter().map(|&i| gradient[i]).collect();
     let (rms_relative_error, max_error_over_peak_speed) = errors(&u, &exact_u);

@@ -19,8 +19,8 @@ use crate::scenario::keys::choice;
 use crate::scenario::Scenario;
 use cellist::longrange::{Vic3Boundary, Vic3Params};
 use cellist::models::vortex3::{
-    seed3, Abc, Extras3, InitialVorticity3, Relaxation, Ring, Stretching, Velocity3Solver,
-    View3, Vortex3Model, Vortex3Params, Vortex3System, RING_CUT,
+    seed3, Abc, Extras3, InitialVorticity3, Relaxation, Ring, Stretching, Velocity3Solver, View3,
+    Vortex3Model, Vortex3Params, Vortex3System, RING_CUT,
 };
 use cellist::models::Model;
 use cellist_io::read_field_columns;
@@ -154,18 +154,24 @@ fn vector(key: &str, v: &Option<Vec<f64>>, default: [f64; 3]) -> Result<[f64; 3]
 /// The ring of `keys` (`key` names it in messages), its core resolved by at
 /// least 2 spacings `h`.
 fn ring_of(key: &str, keys: &RingKeys, h: f64) -> Result<Ring, String> {
-    let positive = |name: &str, v: Option<f64>, default: Option<f64>| match v.or(default) {
+    let positive = |name: &str, v: Option<f64>, default: Option<f64>| {
+        match v.or(default) {
         Some(v) if v.is_finite() && v > 0.0 => Ok(v),
         Some(v) => Err(format!("{key}.{name} must be > 0, got {v}")),
         None => Err(format!(
             "{key}.{name} is missing (a ring needs radius and core; circulation, center and axis have defaults)"
         )),
+    }
     };
     let radius = positive("radius", keys.radius, None)?;
     let core = positive("core", keys.core, None)?;
     let circulation = match keys.circulation.unwrap_or(1.0) {
         g if g.is_finite() && g != 0.0 => g,
-        g => return Err(format!("{key}.circulation must be finite and nonzero, got {g}")),
+        g => {
+            return Err(format!(
+                "{key}.circulation must be finite and nonzero, got {g}"
+            ))
+        }
     };
     let center = vector(&format!("{key}.center"), &keys.center, [0.0; 3])?;
     let axis = vector(&format!("{key}.axis"), &keys.axis, [0.0, 0.0, 1.0])?;
@@ -194,9 +200,8 @@ fn ring_of(key: &str, keys: &RingKeys, h: f64) -> Result<Ring, String> {
     })
 }
 
-/// Seeds the particles of `system.initial` for a run of `duration` time
-/// units (the pictures' view follows the rings that far).
-fn seed_particles(scenario: &Scenario, sys: &System3Keys, duration: f64) -> SimResult<Seeded3> {
+/// Seeds the particles of `system.initial`.
+fn seed_particles(scenario: &Scenario, sys: &System3Keys) -> SimResult<Seeded3> {
     let err = |m: String| scenario.error(m);
     let i = &sys.initial;
     let two_d = [
@@ -248,11 +253,13 @@ fn seed_particles(scenario: &Scenario, sys: &System3Keys, duration: f64) -> SimR
     if !(h.is_finite() && h > 0.0) {
         return Err(err(format!("system.initial.spacing must be > 0, got {h}")));
     }
-    let sigma = sys.sigma_over_h * h;
     let field = match kind {
-        Initial3::Ring => Some(InitialVorticity3::Rings(vec![
-            ring_of("system.initial", &i.ring, h).map_err(err)?,
-        ])),
+        Initial3::Ring => Some(InitialVorticity3::Rings(vec![ring_of(
+            "system.initial",
+            &i.ring,
+            h,
+        )
+        .map_err(err)?])),
         Initial3::Rings => {
             let list = i.rings.as_deref().unwrap_or_default();
             if list.is_empty() {
@@ -271,7 +278,9 @@ fn seed_particles(scenario: &Scenario, sys: &System3Keys, duration: f64) -> SimR
         Initial3::Abc => {
             let coefficient = |name: &str, v: Option<f64>| match v.unwrap_or(1.0) {
                 v if v.is_finite() => Ok(v),
-                v => Err(err(format!("system.initial.{name} must be finite, got {v}"))),
+                v => Err(err(format!(
+                    "system.initial.{name} must be finite, got {v}"
+                ))),
             };
             let abc = Abc {
                 a: coefficient("a", i.a)?,
@@ -313,7 +322,7 @@ fn seed_particles(scenario: &Scenario, sys: &System3Keys, duration: f64) -> SimR
     let (positions, alpha) = seed3(&field, h);
     let (extras, view, what) = match field {
         InitialVorticity3::Rings(rings) => {
-            let view = ring_view(&rings, sigma, duration, h);
+            let view = ring_view(&rings, h);
             let what = match rings.as_slice() {
                 [r] => format!(
                     "a vortex ring of radius {}, circulation {} and core {}",
@@ -352,8 +361,8 @@ fn seed_particles(scenario: &Scenario, sys: &System3Keys, duration: f64) -> SimR
 
 /// The square the pictures of rings show: the plane through the first ring's
 /// axis, drawn upwards (the axis's largest component), wide enough for every
-/// ring and long enough for the first ring's thin-ring travel over `duration`.
-fn ring_view(rings: &[Ring], sigma: f64, duration: f64, h: f64) -> View3 {
+/// ring with a margin; the model moves it along the axis with the rings.
+fn ring_view(rings: &[Ring], h: f64) -> View3 {
     let first = rings[0];
     let up = (0..3)
         .max_by(|&a, &b| first.axis[a].abs().total_cmp(&first.axis[b].abs()))
@@ -367,14 +376,10 @@ fn ring_view(rings: &[Ring], sigma: f64, duration: f64, h: f64) -> View3 {
             (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt() + r.radius + RING_CUT * r.core
         })
         .fold(0.0, f64::max);
-    let travel = (first.thin_speed(sigma) * duration).clamp(-20.0 * reach, 20.0 * reach);
-    let side = 2.0 * reach + travel.abs() + 4.0 * h;
-    let middle = [0, 1, 2].map(|a| first.center[a] + 0.5 * travel * first.axis[a]);
-    let mut origin = [0, 1, 2].map(|a| middle[a] - 0.5 * side);
-    origin[normal] = first.center[normal] - 0.5 * side;
+    let side = 2.0 * reach + 4.0 * h;
     View3 {
         axes: [across, up, normal],
-        origin,
+        origin: first.center.map(|c| c - 0.5 * side),
         side,
         periodic: false,
     }
@@ -395,44 +400,48 @@ fn solver3(
         }
         return Ok(Velocity3Solver::BarnesHut(default_tree()));
     };
-    Ok(match solver_choice(scenario, velocity, default_tree().theta)? {
-        SolverChoice::Direct | SolverChoice::BarnesHut(_) | SolverChoice::Mesh { periodic: None, .. }
-            if abc =>
-        {
-            return Err(err(abc_needs.into()))
-        }
-        SolverChoice::Direct => Velocity3Solver::Direct,
-        SolverChoice::BarnesHut(p) => Velocity3Solver::BarnesHut(p),
-        SolverChoice::Mesh { grid, periodic } => {
-            let boundary = match periodic {
-                None => Vic3Boundary::Unbounded,
-                Some(side) if abc => {
-                    if (side - Abc::SIDE).abs() > 1e-9 * Abc::SIDE {
-                        return Err(err(format!(
+    Ok(
+        match solver_choice(scenario, velocity, default_tree().theta)? {
+            SolverChoice::Direct
+            | SolverChoice::BarnesHut(_)
+            | SolverChoice::Mesh { periodic: None, .. }
+                if abc =>
+            {
+                return Err(err(abc_needs.into()))
+            }
+            SolverChoice::Direct => Velocity3Solver::Direct,
+            SolverChoice::BarnesHut(p) => Velocity3Solver::BarnesHut(p),
+            SolverChoice::Mesh { grid, periodic } => {
+                let boundary = match periodic {
+                    None => Vic3Boundary::Unbounded,
+                    Some(side) if abc => {
+                        if (side - Abc::SIDE).abs() > 1e-9 * Abc::SIDE {
+                            return Err(err(format!(
                             "system.velocity.box must be 2 pi = {} for the abc flow, got {side}",
                             Abc::SIDE
                         )));
+                        }
+                        Vic3Boundary::Periodic {
+                            origin: [0.0; 3],
+                            length: Abc::SIDE,
+                        }
                     }
-                    Vic3Boundary::Periodic {
-                        origin: [0.0; 3],
-                        length: Abc::SIDE,
-                    }
-                }
-                Some(side) => Vic3Boundary::Periodic {
-                    origin: [-0.5 * side; 3],
-                    length: side,
-                },
-            };
-            let params = Vic3Params {
-                grid: grid.unwrap_or(64),
-                boundary,
-            };
-            params
-                .check()
-                .map_err(|m| err(format!("system.velocity: {m}")))?;
-            Velocity3Solver::Mesh(params)
-        }
-    })
+                    Some(side) => Vic3Boundary::Periodic {
+                        origin: [-0.5 * side; 3],
+                        length: side,
+                    },
+                };
+                let params = Vic3Params {
+                    grid: grid.unwrap_or(64),
+                    boundary,
+                };
+                params
+                    .check()
+                    .map_err(|m| err(format!("system.velocity: {m}")))?;
+                Velocity3Solver::Mesh(params)
+            }
+        },
+    )
 }
 
 /// The tree settings of 3D runs unless the scenario sets them.
@@ -479,7 +488,8 @@ pub fn run<L: Launch>(
     }
     if keys.decomposition.is_some() {
         return Err(err(
-            "[decomposition] applies to md and pse (domain decomposition), not to the vortex model".into(),
+            "[decomposition] applies to md and pse (domain decomposition), not to the vortex model"
+                .into(),
         ));
     }
     let stretching = choice(
@@ -493,7 +503,7 @@ pub fn run<L: Launch>(
     .map_err(err)?;
     let run = &keys.run;
     let integrator = run.integrator().map_err(err)?;
-    let seeded = seed_particles(scenario, sys, run.steps as f64 * run.dt)?;
+    let seeded = seed_particles(scenario, sys)?;
     let abc = matches!(seeded.extras, Extras3::Abc(_));
     let solver = solver3(scenario, sys.velocity.as_ref(), abc)?;
     let mut h = sys.initial.spacing;
@@ -522,7 +532,9 @@ pub fn run<L: Launch>(
                 "{message}; use a smaller dt, or set run.allow_unstable = true to run anyway"
             )));
         }
-        context.warn(format!("{message}; running anyway (run.allow_unstable = true)"));
+        context.warn(format!(
+            "{message}; running anyway (run.allow_unstable = true)"
+        ));
     }
     let relaxation = match &sys.relaxation {
         None => None,
@@ -567,7 +579,9 @@ pub fn run<L: Launch>(
         Velocity3Solver::Direct => "direct (all pairs)".to_string(),
         Velocity3Solver::BarnesHut(p) => format!("barnes-hut (theta {})", p.theta),
         Velocity3Solver::Mesh(p) => match p.boundary {
-            Vic3Boundary::Unbounded => format!("mesh (vortex-in-cell, grid {}^3, unbounded)", p.grid),
+            Vic3Boundary::Unbounded => {
+                format!("mesh (vortex-in-cell, grid {}^3, unbounded)", p.grid)
+            }
             Vic3Boundary::Periodic { length, .. } => format!(
                 "mesh (vortex-in-cell, grid {}^3, periodic box of side {length})",
                 p.grid

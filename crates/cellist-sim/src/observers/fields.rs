@@ -140,6 +140,8 @@ impl<M: Model> Observer<M> for FieldFiles {
             None => self.labels.title.to_string(),
         };
         self.chart.title = snapshot_title(&what, step, model.dt());
+        // a view that follows the particles (3D vortex rings) moves its corner
+        self.chart.lo = [field.origin[field.axes[0]], field.origin[field.axes[1]]];
         let pixels = self
             .chart
             .render(slice(&field, layer))

@@ -471,7 +471,12 @@ pub fn advance_from(
             combine(trial, Some(phi), &[(dt, k3)], threads);
             rate(trial, k4);
             let sixth = dt / 6.0;
-            let terms = [(sixth, k1), (2.0 * sixth, k2), (2.0 * sixth, k3), (sixth, k4)];
+            let terms = [
+                (sixth, k1),
+                (2.0 * sixth, k2),
+                (2.0 * sixth, k3),
+                (sixth, k4),
+            ];
             combine(phi, None, &terms, threads);
         }
     }

@@ -198,8 +198,16 @@ mod tests {
         let rate: Vec<[f64; 3]> = (0..x.len()).map(|p| [0.0, 0.0, (p % 2) as f64]).collect();
         // last seen: the first ring large, the second small
         let last = [
-            RingPlace { z: 0.0, radius: 1.1, speed: 0.0 },
-            RingPlace { z: 0.2, radius: 0.6, speed: 0.0 },
+            RingPlace {
+                z: 0.0,
+                radius: 1.1,
+                speed: 0.0,
+            },
+            RingPlace {
+                z: 0.2,
+                radius: 0.6,
+                speed: 0.0,
+            },
         ];
         let places = ring_places(&rings, &last, &x, &alpha, &u, &rate);
         assert!((places[0].radius - 1.2).abs() < 1e-12, "{places:?}");
@@ -231,11 +239,18 @@ mod tests {
 
     #[test]
     fn the_exact_abc_field_has_no_error() {
-        let abc = Abc { a: 1.0, b: 1.0, c: 1.0 };
+        let abc = Abc {
+            a: 1.0,
+            b: 1.0,
+            c: 1.0,
+        };
         let h = 0.5;
         let x = vec![[0.1, 0.2, 0.3], [1.0, 2.0, 3.0]];
         let decay = 0.9;
-        let alpha: Vec<_> = x.iter().map(|x| abc.velocity(*x).map(|c| c * decay * h * h * h)).collect();
+        let alpha: Vec<_> = x
+            .iter()
+            .map(|x| abc.velocity(*x).map(|c| c * decay * h * h * h))
+            .collect();
         let (l2, max) = abc_errors(&abc, decay, &x, &alpha, h);
         assert!(l2 < 1e-15 && max < 1e-15);
         let (l2, _) = abc_errors(&abc, 1.0, &x, &alpha, h);

@@ -244,8 +244,14 @@ mod tests {
                 flux += r.vorticity(x)[1] * h * h;
             }
         }
-        assert!((flux - r.circulation).abs() < 1e-6 * r.circulation, "{flux}");
-        assert!((flux - r.circulation).abs() > 1e-9 * r.circulation, "the cut at 4 cores: {flux}");
+        assert!(
+            (flux - r.circulation).abs() < 1e-6 * r.circulation,
+            "{flux}"
+        );
+        assert!(
+            (flux - r.circulation).abs() > 1e-9 * r.circulation,
+            "the cut at 4 cores: {flux}"
+        );
     }
 
     #[test]
@@ -266,14 +272,20 @@ mod tests {
         }
         // the total vorticity of a ring is zero by symmetry
         let total: f64 = alpha.iter().map(|a| a[0].abs() + a[1].abs()).sum();
-        let sum = alpha.iter().fold([0.0; 3], |s, a| [s[0] + a[0], s[1] + a[1], s[2] + a[2]]);
+        let sum = alpha
+            .iter()
+            .fold([0.0; 3], |s, a| [s[0] + a[0], s[1] + a[1], s[2] + a[2]]);
         assert!(sum.iter().all(|c| c.abs() < 1e-9 * total), "{sum:?}");
     }
 
     #[test]
     fn the_abc_flow_is_its_own_vorticity() {
         // curl u = u, checked by central differences
-        let abc = Abc { a: 1.0, b: 0.7, c: 0.4 };
+        let abc = Abc {
+            a: 1.0,
+            b: 0.7,
+            c: 0.4,
+        };
         let x = [0.3, 1.1, -0.7];
         let e = 1e-5;
         let d = |a: usize, b: usize| {
@@ -292,11 +304,17 @@ mod tests {
 
     #[test]
     fn the_abc_lattice_fills_the_box() {
-        let field = InitialVorticity3::Abc(Abc { a: 1.0, b: 1.0, c: 1.0 });
+        let field = InitialVorticity3::Abc(Abc {
+            a: 1.0,
+            b: 1.0,
+            c: 1.0,
+        });
         let h = Abc::SIDE / 8.0;
         let (x, _) = seed3(&field, h);
         assert_eq!(x.len(), 512);
         assert_eq!(field.nodes_visited(h), 512.0);
-        assert!(x.iter().all(|p| p.iter().all(|&c| (0.0..Abc::SIDE - 0.5 * h).contains(&c))));
+        assert!(x
+            .iter()
+            .all(|p| p.iter().all(|&c| (0.0..Abc::SIDE - 0.5 * h).contains(&c))));
     }
 }

@@ -38,9 +38,9 @@ pub use initial::{cross, dot, seed3, Abc, InitialVorticity3, Ring, RING_CUT};
 pub use model::{Extras3, View3, Vortex3Model};
 
 use super::pse::{advance_from, moving_rate, Integrator, PairWeight};
-use crate::interpolation::{remesh, Lattice};
 use super::vortex::VortexError;
 use crate::geometry::{wrap_coordinate, Boundary, Domain};
+use crate::interpolation::{remesh, Lattice};
 use crate::longrange::{
     BlobKernel3, DirectBiotSavart3, TreeParams, Vic3Boundary, Vic3Params, VortexInCell3,
     VortexTree3,
@@ -204,7 +204,9 @@ impl Velocity3Engine {
             Velocity3Solver::BarnesHut(p) => {
                 Velocity3Engine::Tree(Box::new(VortexTree3::new(p, kernel)?))
             }
-            Velocity3Solver::Mesh(p) => Velocity3Engine::Mesh(Box::new(VortexInCell3::new(p, sigma)?)),
+            Velocity3Solver::Mesh(p) => {
+                Velocity3Engine::Mesh(Box::new(VortexInCell3::new(p, sigma)?))
+            }
         })
     }
 
@@ -253,7 +255,12 @@ struct Rater {
 impl Rater {
     /// The rate of the flat state `[x_1 .. x_N, alpha_1 .. alpha_N]` into `out`
     /// (`[u_1 .. u_N, d alpha_1 / dt .. d alpha_N / dt]`), the gradient kept.
-    fn rate(&mut self, state: &[f64], out: &mut [f64], threads: &Threads) -> Result<(), VortexError> {
+    fn rate(
+        &mut self,
+        state: &[f64],
+        out: &mut [f64],
+        threads: &Threads,
+    ) -> Result<(), VortexError> {
         if let Some(i) = first_non_finite(state) {
             return Err(VortexError::Step(format!(
                 "an intermediate stage of particle {i} is not finite"
@@ -285,8 +292,16 @@ impl Rater {
                 None => Domain::open_around(x),
             };
             self.diffusion.resize(n, [0.0; 3]);
-            moving_rate(&domain, &self.weight, cutoff, x, alpha, &mut self.diffusion, threads)
-                .map_err(|e| VortexError::Step(format!("the PSE cell list: {e}")))?;
+            moving_rate(
+                &domain,
+                &self.weight,
+                cutoff,
+                x,
+                alpha,
+                &mut self.diffusion,
+                threads,
+            )
+            .map_err(|e| VortexError::Step(format!("the PSE cell list: {e}")))?;
             for (s, d) in stretch.iter_mut().zip(&self.diffusion) {
                 *s = [0, 1, 2].map(|c| s[c] + d[c]);
             }
@@ -301,7 +316,11 @@ impl Rater {
 pub fn stretching(alpha: &[f64; 3], g: &[f64; 9], transpose: bool) -> [f64; 3] {
     std::array::from_fn(|a| {
         (0..3).fold(0.0, |s, b| {
-            let entry = if transpose { g[3 * b + a] } else { g[3 * a + b] };
+            let entry = if transpose {
+                g[3 * b + a]
+            } else {
+                g[3 * a + b]
+            };
             s + alpha[b] * entry
         })
     })
@@ -519,8 +538,13 @@ impl Vortex3System {
         }
         if params.remesh_every > 0 && step % params.remesh_every == 0 {
             let t = Instant::now();
-            let r = remesh(self.positions(), self.alpha(), &params.lattice(), params.remesh_threshold)
-                .map_err(VortexError::Step)?;
+            let r = remesh(
+                self.positions(),
+                self.alpha(),
+                &params.lattice(),
+                params.remesh_threshold,
+            )
+            .map_err(VortexError::Step)?;
             self.rater.times.remesh += t.elapsed();
             if r.strength.is_empty() {
                 return Err(VortexError::Step(

@@ -97,6 +97,9 @@ pub struct Vortex3Model {
     view: View3,
     /// The largest `|omega|` at the start: the end of the pictures' colour scale.
     scale: f64,
+    /// The `|alpha|`-weighted position of the seeded rings along the first one's
+    /// axis: the pictures follow the rings from there.
+    start: f64,
     /// The ring places of the last thermo row (the tracking's start).
     places: Vec<RingPlace>,
     /// The thermo values of the last observed state (without the time).
@@ -111,7 +114,13 @@ const REMEDY: &str = "the step is too large for the flow (a particle should move
 impl Vortex3Model {
     /// The model of `system`, its diagnostics computed for step 0; pictures show
     /// the section `view`.
-    pub fn new(system: Vortex3System, integrator: Integrator, dt: f64, extras: Extras3, view: View3) -> Self {
+    pub fn new(
+        system: Vortex3System,
+        integrator: Integrator,
+        dt: f64,
+        extras: Extras3,
+        view: View3,
+    ) -> Self {
         let volume = system.params().spacing.powi(3);
         let scale = system
             .alpha()
@@ -126,6 +135,7 @@ impl Vortex3Model {
             count_may_change: system.params().remesh_every > 0,
         };
         let places = initial_places(extras.rings());
+        let start = ring_position(&extras, &system);
         let mut model = Vortex3Model {
             info,
             system,
@@ -134,6 +144,7 @@ impl Vortex3Model {
             extras,
             view,
             scale,
+            start,
             places,
             observed: Vec::new(),
         };
@@ -196,6 +207,38 @@ impl Vortex3Model {
     }
 }
 
+impl Vortex3Model {
+    /// The pictures' corner: the seeded view's, moved along the rings' axis as
+    /// far as the rings' weighted position has moved (a state's own, so that a
+    /// restart draws the same pictures).
+    fn view_origin(&self) -> [f64; 3] {
+        let shift = ring_position(&self.extras, &self.system) - self.start;
+        match self.extras.rings().first() {
+            Some(ring) => [0, 1, 2].map(|a| self.view.origin[a] + shift * ring.axis[a]),
+            None => self.view.origin,
+        }
+    }
+}
+
+/// `sum |alpha| x . a / sum |alpha|` along the first ring's axis `a` (0 without
+/// rings).
+fn ring_position(extras: &Extras3, system: &Vortex3System) -> f64 {
+    let Some(ring) = extras.rings().first() else {
+        return 0.0;
+    };
+    let (mut weight, mut moment) = (0.0, 0.0);
+    for (x, a) in system.positions().iter().zip(system.alpha()) {
+        let w = super::dot(*a, *a).sqrt();
+        weight += w;
+        moment += w * super::dot(*x, ring.axis);
+    }
+    if weight > 0.0 {
+        moment / weight
+    } else {
+        0.0
+    }
+}
+
 impl Model for Vortex3Model {
     fn info(&self) -> &ModelInfo {
         &self.info
@@ -252,7 +295,10 @@ impl Model for Vortex3Model {
         Some(Field {
             dimension: 3,
             positions: s.positions().to_vec(),
-            values: alpha.iter().map(|a| super::dot(*a, *a).sqrt() / volume).collect(),
+            values: alpha
+                .iter()
+                .map(|a| super::dot(*a, *a).sqrt() / volume)
+                .collect(),
             value_name: "omega_magnitude",
             value_written: false,
             strengths: None,
@@ -265,7 +311,7 @@ impl Model for Vortex3Model {
                 ("w", component(u, 2)),
             ],
             axes: self.view.axes,
-            origin: self.view.origin,
+            origin: self.view_origin(),
             periodic: self.view.periodic,
             side: self.view.side,
             spacing: s.params().spacing,
@@ -309,7 +355,12 @@ impl Model for Vortex3Model {
         self.scale = state.f64s_of("scale", 1)?[0];
         self.observed = state.f64s("observed")?;
         self.system
-            .set_particles(&positions, &alpha, [dropped[0], dropped[1], dropped[2]], threads)
+            .set_particles(
+                &positions,
+                &alpha,
+                [dropped[0], dropped[1], dropped[2]],
+                threads,
+            )
             .map_err(|e| StateError(e.to_string()))
     }
 }

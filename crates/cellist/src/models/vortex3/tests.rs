@@ -6,7 +6,9 @@ fn cloud(n: usize, seed: u64) -> (Vec<[f64; 3]>, Vec<[f64; 3]>) {
     let mut rng = Rng::new(seed);
     let mut draw = |scale: f64| scale * (2.0 * rng.uniform() - 1.0);
     let x = (0..n).map(|_| [draw(0.5), draw(0.5), draw(0.5)]).collect();
-    let a = (0..n).map(|_| [draw(1e-3), draw(1e-3), draw(1e-3)]).collect();
+    let a = (0..n)
+        .map(|_| [draw(1e-3), draw(1e-3), draw(1e-3)])
+        .collect();
     (x, a)
 }
 
@@ -35,14 +37,23 @@ fn the_transpose_scheme_keeps_the_total_vorticity() {
     };
     let size: f64 = a.iter().map(|a| dot(*a, *a).sqrt()).sum();
     for nu in [0.0, 0.01] {
-        let mut s = Vortex3System::new(params(nu, Stretching::Transpose), x.clone(), a.clone(), &threads).unwrap();
+        let mut s = Vortex3System::new(
+            params(nu, Stretching::Transpose),
+            x.clone(),
+            a.clone(),
+            &threads,
+        )
+        .unwrap();
         let before = total(&s);
         for step in 1..=5 {
             s.step(Integrator::Rk4, 0.05, step, &threads).unwrap();
         }
         let after = total(&s);
         for c in 0..3 {
-            assert!((after[c] - before[c]).abs() < 1e-13 * size, "nu {nu}: {before:?} -> {after:?}");
+            assert!(
+                (after[c] - before[c]).abs() < 1e-13 * size,
+                "nu {nu}: {before:?} -> {after:?}"
+            );
         }
         // the strengths did change: stretching acts
         assert_ne!(s.alpha(), &a[..]);
@@ -61,18 +72,23 @@ fn the_transpose_scheme_keeps_the_total_vorticity() {
 fn one_and_two_threads_and_a_restart_give_the_same_bits() {
     let (x, a) = cloud(200, 2);
     let mut p = params(0.01, Stretching::Transpose);
-    p.relaxation = Some(Relaxation { factor: 0.3, every: 2 });
-    let run = |threads: usize, steps: std::ops::RangeInclusive<u64>, from: Option<&Vortex3System>| {
-        let threads = Threads::new(threads).unwrap();
-        let mut s = Vortex3System::new(p, x.clone(), a.clone(), &threads).unwrap();
-        if let Some(from) = from {
-            s.set_particles(from.positions(), from.alpha(), from.dropped(), &threads).unwrap();
-        }
-        for step in steps {
-            s.step(Integrator::Rk2, 0.05, step, &threads).unwrap();
-        }
-        s
-    };
+    p.relaxation = Some(Relaxation {
+        factor: 0.3,
+        every: 2,
+    });
+    let run =
+        |threads: usize, steps: std::ops::RangeInclusive<u64>, from: Option<&Vortex3System>| {
+            let threads = Threads::new(threads).unwrap();
+            let mut s = Vortex3System::new(p, x.clone(), a.clone(), &threads).unwrap();
+            if let Some(from) = from {
+                s.set_particles(from.positions(), from.alpha(), from.dropped(), &threads)
+                    .unwrap();
+            }
+            for step in steps {
+                s.step(Integrator::Rk2, 0.05, step, &threads).unwrap();
+            }
+            s
+        };
     let one = run(1, 1..=4, None);
     let two = run(2, 1..=4, None);
     assert_eq!(one.positions(), two.positions());
@@ -122,9 +138,15 @@ fn stretching_and_curl_read_the_gradient_by_its_layout() {
 #[test]
 fn bad_parameters_are_named() {
     let mut p = params(0.0, Stretching::Transpose);
-    p.relaxation = Some(Relaxation { factor: 1.5, every: 1 });
+    p.relaxation = Some(Relaxation {
+        factor: 1.5,
+        every: 1,
+    });
     assert!(p.check().unwrap_err().contains("relaxation.factor"));
-    p.relaxation = Some(Relaxation { factor: 0.5, every: 0 });
+    p.relaxation = Some(Relaxation {
+        factor: 0.5,
+        every: 0,
+    });
     assert!(p.check().unwrap_err().contains("relaxation.every"));
     let (x, mut a) = cloud(10, 4);
     a[3][1] = f64::NAN;
