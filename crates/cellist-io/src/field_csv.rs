@@ -91,6 +91,9 @@ pub fn parse_field_of<const D: usize>(
     Ok((points, values.into_iter().map(|[v]| v).collect()))
 }
 
+/// Points and their `W` values per particle, as a field file holds them.
+pub type FieldColumns<const D: usize, const W: usize> = (Vec<[f64; D]>, Vec<[f64; W]>);
+
 /// Reads a field file of `W` value columns called `names` (`x,y,z,ax,ay,az` for
 /// 3D vortex particles): an optional header naming them (further columns after
 /// them are allowed and skipped, so that a field file cellist wrote reads back),
@@ -99,7 +102,7 @@ pub fn parse_field_of<const D: usize>(
 pub fn read_field_columns<const D: usize, const W: usize>(
     path: &Path,
     names: [&str; W],
-) -> Result<(Vec<[f64; D]>, Vec<[f64; W]>), InputError> {
+) -> Result<FieldColumns<D, W>, InputError> {
     let text = std::fs::read_to_string(path)
         .map_err(|e| InputError::file(path, format!("cannot read: {e}")))?;
     parse_field_columns(path, &text, names)
@@ -110,7 +113,7 @@ pub fn parse_field_columns<const D: usize, const W: usize>(
     path: &Path,
     text: &str,
     names: [&str; W],
-) -> Result<(Vec<[f64; D]>, Vec<[f64; W]>), InputError> {
+) -> Result<FieldColumns<D, W>, InputError> {
     const { assert!(D + W <= 12, "at most 12 columns are read") };
     let (mut points, mut values) = (Vec::new(), Vec::new());
     let mut columns: Vec<String> = AXES[..D]

@@ -89,6 +89,33 @@ fn advise_whole_pages(start: usize, bytes: usize, page: usize, advice: libc::c_i
 #[cfg(not(target_os = "linux"))]
 fn advise_huge_pages(_start: usize, _bytes: usize) {}
 
+/// A slice of `W n` numbers as `n` arrays of `W` (a particle's `W`
+/// components side by side: `[x | alpha]` states, one-component strengths),
+/// without a copy. Panics unless the length is a multiple of `W`.
+pub fn as_arrays<const W: usize>(values: &[f64]) -> &[[f64; W]] {
+    assert!(
+        W > 0 && values.len() % W == 0,
+        "{} numbers are not arrays of {W}",
+        values.len()
+    );
+    // SAFETY: `[f64; W]` has the size of W f64 and the alignment of f64, so
+    // the len / W arrays cover exactly the same memory.
+    unsafe { std::slice::from_raw_parts(values.as_ptr().cast::<[f64; W]>(), values.len() / W) }
+}
+
+/// [`as_arrays`], mutable.
+pub fn as_arrays_mut<const W: usize>(values: &mut [f64]) -> &mut [[f64; W]] {
+    assert!(
+        W > 0 && values.len() % W == 0,
+        "{} numbers are not arrays of {W}",
+        values.len()
+    );
+    // SAFETY: as in `as_arrays`; the borrow is exclusive for the result's life.
+    unsafe {
+        std::slice::from_raw_parts_mut(values.as_mut_ptr().cast::<[f64; W]>(), values.len() / W)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     #[test]

@@ -536,13 +536,10 @@ pub fn run<L: Launch>(
             "{message}; running anyway (run.allow_unstable = true)"
         ));
     }
-    let relaxation = match &sys.relaxation {
-        None => None,
-        Some(r) => Some(Relaxation {
-            factor: r.factor,
-            every: r.every,
-        }),
-    };
+    let relaxation = sys.relaxation.as_ref().map(|r| Relaxation {
+        factor: r.factor,
+        every: r.every,
+    });
     let params = Vortex3Params {
         nu: sys.nu,
         spacing: h,

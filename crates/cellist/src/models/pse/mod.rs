@@ -20,6 +20,7 @@ pub use model::{PseModel, INFO};
 
 use crate::geometry::norm2;
 use crate::geometry::{Domain, GeometryError};
+use crate::memory::{as_arrays, as_arrays_mut};
 use crate::neighbors::{CellList, OrderedRows};
 use crate::random::Rng;
 use crate::threads::Threads;
@@ -578,25 +579,11 @@ impl<const D: usize> Pairs<D> {
         match self {
             Pairs::Direct(p) => p.sum(weight, summed, positions, phi, out, threads),
             Pairs::CellList(p) => {
-                let (phi, out) = (one_component(phi), one_component_mut(out));
+                let (phi, out) = (as_arrays::<1>(phi), as_arrays_mut::<1>(out));
                 p.sum(weight, summed, positions, phi, out, threads)
             }
         }
     }
-}
-
-/// Scalars as strengths of one component, `phi_i = [phi_i]` (for
-/// [`moving_rate`] and the remeshing with `W = 1`), without a copy.
-pub fn one_component(values: &[f64]) -> &[[f64; 1]] {
-    // SAFETY: `[f64; 1]` has the size and alignment of `f64`, so a slice of n
-    // of them is a slice of n f64.
-    unsafe { std::slice::from_raw_parts(values.as_ptr().cast::<[f64; 1]>(), values.len()) }
-}
-
-/// [`one_component`], mutable.
-pub fn one_component_mut(values: &mut [f64]) -> &mut [[f64; 1]] {
-    // SAFETY: as in `one_component`; the borrow is exclusive for the result's life.
-    unsafe { std::slice::from_raw_parts_mut(values.as_mut_ptr().cast::<[f64; 1]>(), values.len()) }
 }
 
 /// Elements per task of the vector updates.

@@ -29,13 +29,14 @@ pub use diagnostics::{energy_and_enstrophy, log_plus_e1, Moments};
 pub use initial::{lamb_oseen_speed, lamb_oseen_vorticity, seed, InitialVorticity, ELLIPSE_Q};
 pub use model::{Extras, VortexModel};
 
-use super::pse::{combine, moving_rate, one_component, one_component_mut, Integrator, PairWeight};
+use super::pse::{combine, moving_rate, Integrator, PairWeight};
 use crate::geometry::Domain;
 use crate::geometry::{wrap_coordinate, Boundary};
 use crate::interpolation::{remesh, Lattice};
 use crate::longrange::mesh::{VicBoundary, VicParams, VortexInCell};
 use crate::longrange::tree::{TreeParams, VortexTree};
 use crate::longrange::{BlobKernel, DirectBiotSavart};
+use crate::memory::{as_arrays, as_arrays_mut};
 use crate::threads::Threads;
 use std::fmt;
 use std::time::{Duration, Instant};
@@ -542,7 +543,7 @@ impl VortexSystem {
             let t = Instant::now();
             let r = remesh(
                 &self.positions,
-                one_component(&self.gamma),
+                as_arrays::<1>(&self.gamma),
                 &self.params.lattice(),
                 self.params.remesh_threshold,
             )
@@ -620,8 +621,8 @@ fn evaluate(
             weight,
             cutoff,
             positions,
-            one_component(gamma),
-            one_component_mut(&mut out.gamma),
+            as_arrays::<1>(gamma),
+            as_arrays_mut::<1>(&mut out.gamma),
             threads,
         )
         .map_err(|e| VortexError::Step(format!("the PSE cell list: {e}")))?;

@@ -45,6 +45,7 @@ use crate::longrange::{
     BlobKernel3, DirectBiotSavart3, TreeParams, Vic3Boundary, Vic3Params, VortexInCell3,
     VortexTree3,
 };
+use crate::memory::{as_arrays, as_arrays_mut};
 use crate::threads::Threads;
 use std::time::{Duration, Instant};
 
@@ -188,7 +189,7 @@ impl Vortex3Params {
 #[derive(Debug)]
 pub enum Velocity3Engine {
     /// All pairs.
-    Direct(DirectBiotSavart3),
+    Direct(Box<DirectBiotSavart3>),
     /// The Barnes-Hut octree.
     Tree(Box<VortexTree3>),
     /// Vortex-in-cell.
@@ -200,7 +201,9 @@ impl Velocity3Engine {
     pub fn new(kind: Velocity3Solver, sigma: f64, n: usize) -> Result<Self, String> {
         let kernel = BlobKernel3::new(sigma);
         Ok(match kind {
-            Velocity3Solver::Direct => Velocity3Engine::Direct(DirectBiotSavart3::new(kernel, n)),
+            Velocity3Solver::Direct => {
+                Velocity3Engine::Direct(Box::new(DirectBiotSavart3::new(kernel, n)))
+            }
             Velocity3Solver::BarnesHut(p) => {
                 Velocity3Engine::Tree(Box::new(VortexTree3::new(p, kernel)?))
             }
@@ -269,8 +272,8 @@ impl Rater {
         let n = state.len() / 6;
         let (x, alpha) = split(state);
         let (velocity, stretch) = out.split_at_mut(3 * n);
-        let (velocity, _) = velocity.as_chunks_mut::<3>();
-        let (stretch, _) = stretch.as_chunks_mut::<3>();
+        let velocity = as_arrays_mut::<3>(velocity);
+        let stretch = as_arrays_mut::<3>(stretch);
         self.gradient.resize(n, [0.0; 9]);
         let t = Instant::now();
         self.solver
@@ -334,7 +337,7 @@ pub fn curl(g: &[f64; 9]) -> [f64; 3] {
 /// The positions and strengths of a flat state `[x_1 .. x_N, alpha_1 .. alpha_N]`.
 fn split(state: &[f64]) -> (&[[f64; 3]], &[[f64; 3]]) {
     let (x, alpha) = state.split_at(state.len() / 2);
-    (x.as_chunks::<3>().0, alpha.as_chunks::<3>().0)
+    (as_arrays::<3>(x), as_arrays::<3>(alpha))
 }
 
 /// The first particle of a flat state with a NaN or infinite value.
@@ -532,7 +535,7 @@ impl Vortex3System {
         let params = self.rater.params;
         if let Some((lo, length)) = params.periodic_box() {
             let n = self.len();
-            for x in self.state[..3 * n].as_chunks_mut::<3>().0 {
+            for x in as_arrays_mut::<3>(&mut self.state[..3 * n]) {
                 *x = [0, 1, 2].map(|a| wrap_coordinate(x[a], lo[a], length));
             }
         }
@@ -572,7 +575,7 @@ impl Vortex3System {
     /// current rate (particles where it vanishes keep their strength).
     fn relax(&mut self, factor: f64) {
         let n = self.len();
-        let alpha = self.state[3 * n..].as_chunks_mut::<3>().0;
+        let alpha = as_arrays_mut::<3>(&mut self.state[3 * n..]);
         for (a, g) in alpha.iter_mut().zip(&self.current_gradient) {
             let w = curl(g);
             let size_w = dot(w, w).sqrt();
