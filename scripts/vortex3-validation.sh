@@ -3,7 +3,7 @@
 # in 3D"): a thin ring's speed against the Fraenkel-Saffman formula by solver
 # and spacing, the ABC flow's vorticity error by spacing (inviscid and viscous),
 # and the invariants of a ring travelling two diameters.
-#   bash scripts/vortex3-validation.sh [ring|abc|travel ...]   (default: all)
+#   bash scripts/vortex3-validation.sh [ring|abc|travel|effects ...]   (default: all)
 # Results in out/vortex3-validation/; the tables are printed.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -11,7 +11,7 @@ cargo build --release --quiet
 C=./target/release/cellist
 OUT=out/vortex3-validation
 mkdir -p "$OUT"
-CASES=${*:-ring abc travel}
+CASES=${*:-ring abc travel effects}
 
 last() { tail -1 "$1" | tr ',' ' '; }
 col() { head -1 "$1" | tr ',' '\n' | grep -nx "$2" | cut -d: -f1; }
@@ -111,6 +111,33 @@ for r in rows[:: max(1, len(rows) // 5)] + [last]:
           r["energy"], f"{(float(r['energy']) - float(first['energy'])) / float(first['energy']):+.2e}",
           max(abs(float(r[k])) for k in ("total_vorticity_x", "total_vorticity_y", "total_vorticity_z")))
 PY
+    ;;
+effects)
+    # the ring of examples/vortex-ring.toml over 3 time units: what remeshing,
+    # the relaxation and viscosity each change
+    echo "variant particles speed impulse_z_change enstrophy_change max_total_vorticity"
+    for variant in base no-remeshing relaxation viscous classical; do
+        sets=(--set run.steps=60 --set output.thermo_every=10 --set 'output.gif={every=0}' --set 'output.field={every=0}')
+        case $variant in
+            no-remeshing) sets+=(--set system.remesh_every=0) ;;
+            relaxation) sets+=(--set 'system.relaxation={factor=0.3,every=5}') ;;
+            viscous) sets+=(--set system.nu=0.005) ;;
+            classical) sets+=(--set 'system.stretching="classical"') ;;
+        esac
+        dir="$OUT/effects-$variant"
+        $C run examples/vortex-ring.toml --out "$dir" "${sets[@]}" > "$dir.log" 2>&1
+        python3 - "$dir" "$variant" <<'PY'
+import csv, json, sys
+rows = list(csv.DictReader(open(sys.argv[1] + "/thermo.csv")))
+a, b = rows[0], rows[-1]
+f = lambda r, k: float(r[k])
+speed = (f(b, "ring_z") - f(a, "ring_z")) / f(b, "time")
+particles = json.load(open(sys.argv[1] + "/summary.json"))["particles"]
+total = max(abs(f(b, k)) for k in ("total_vorticity_x", "total_vorticity_y", "total_vorticity_z"))
+print(sys.argv[2], particles, f"{speed:.5f}", f"{(f(b, 'impulse_z') - f(a, 'impulse_z')) / f(a, 'impulse_z'):+.2e}",
+      f"{(f(b, 'enstrophy') - f(a, 'enstrophy')) / f(a, 'enstrophy'):+.2e}", f"{total:.1e}")
+PY
+    done
     ;;
 esac
 done

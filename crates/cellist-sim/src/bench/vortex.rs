@@ -68,6 +68,23 @@ pub(super) fn errors<const W: usize>(computed: &[[f64; W]], exact: &[[f64; W]]) 
     ((err2 / norm2).sqrt(), max_err / max_size)
 }
 
+/// The median seconds of `repeat` calls of `evaluate` after an untimed one
+/// (which builds the solver's tables).
+pub(super) fn median_seconds(repeat: usize, mut evaluate: impl FnMut()) -> f64 {
+    let mut samples = Vec::with_capacity(repeat + 1);
+    for _ in 0..=repeat {
+        let start = Instant::now();
+        evaluate();
+        samples.push(start.elapsed().as_secs_f64());
+    }
+    median(&samples[1..])
+}
+
+/// About `sample` of the indices `0..n`, evenly spread (all if `n` is smaller).
+pub(super) fn spread_targets(n: usize, sample: usize) -> Vec<usize> {
+    (0..n).step_by(n.div_ceil(sample.min(n))).collect()
+}
+
 /// Two Gaussian vortices on a lattice of about `n` particles over `[-1, 1]^2`
 /// (`sigma = 1.5 h`): the median time of `repeat` velocity evaluations by
 /// `solver` (after an untimed one that builds its tables) and the error against
@@ -124,15 +141,11 @@ pub fn vortex(
     };
     let mut engine = VelocityEngine::new(kind, kernel, n).map_err(SimError::Input)?;
     let mut velocity = vec![[0.0; 2]; n];
-    let mut samples = Vec::with_capacity(repeat + 1);
-    for _ in 0..=repeat {
-        let start = Instant::now();
-        engine.compute(&positions, &gamma, &mut velocity, threads);
-        samples.push(start.elapsed().as_secs_f64());
-    }
+    let seconds = median_seconds(repeat, || {
+        engine.compute(&positions, &gamma, &mut velocity, threads)
+    });
     // the error on evenly spread targets against the one-sided direct sum
-    let stride = n.div_ceil(sample.min(n));
-    let targets: Vec<usize> = (0..n).step_by(stride).collect();
+    let targets = spread_targets(n, sample);
     let points: Vec<[f64; 2]> = targets.iter().map(|&i| positions[i]).collect();
     let exact = velocity_at(&kernel, &points, &positions, &gamma, threads);
     let computed: Vec<[f64; 2]> = targets.iter().map(|&i| velocity[i]).collect();
@@ -141,7 +154,7 @@ pub fn vortex(
         solver: name,
         n,
         spacing: h,
-        seconds: median(&samples[1..]),
+        seconds,
         targets: targets.len(),
         rms_relative_error,
         max_error_over_peak_speed,

@@ -2,14 +2,12 @@
 //! gradient (the stretching's input) of 3D vortex particles by a solver, timed,
 //! with the errors against the direct sum.
 
-use super::vortex::{errors, VortexBench, VortexBenchSolver};
+use super::vortex::{errors, median_seconds, spread_targets, VortexBench, VortexBenchSolver};
 use crate::error::{SimError, SimResult};
-use crate::study::median;
 use cellist::longrange::biot_savart3::velocity_and_gradient_at;
 use cellist::longrange::{BlobKernel3, TreeParams, Vic3Boundary, Vic3Params};
 use cellist::models::vortex3::{seed3, InitialVorticity3, Ring, Velocity3Engine, Velocity3Solver};
 use cellist::Threads;
-use std::time::Instant;
 
 /// The most particles the 3D vortex benchmark seeds.
 const MAX_VORTEX3_PARTICLES: usize = 20_000_000;
@@ -76,15 +74,11 @@ pub fn vortex3(
     let mut engine = Velocity3Engine::new(kind, sigma, n).map_err(SimError::Input)?;
     let mut velocity = vec![[0.0; 3]; n];
     let mut gradient = vec![[0.0; 9]; n];
-    let mut samples = Vec::with_capacity(repeat + 1);
-    for _ in 0..=repeat {
-        let start = Instant::now();
-        engine.compute(&positions, &alpha, &mut velocity, &mut gradient, threads);
-        samples.push(start.elapsed().as_secs_f64());
-    }
+    let seconds = median_seconds(repeat, || {
+        engine.compute(&positions, &alpha, &mut velocity, &mut gradient, threads)
+    });
     // the errors on evenly spread targets against the direct sum
-    let stride = n.div_ceil(sample.min(n));
-    let targets: Vec<usize> = (0..n).step_by(stride).collect();
+    let targets = spread_targets(n, sample);
     let points: Vec<[f64; 3]> = targets.iter().map(|&i| positions[i]).collect();
     let kernel = BlobKernel3::new(sigma);
     let (exact_u, exact_g) =
@@ -97,7 +91,7 @@ pub fn vortex3(
         solver: name,
         n,
         spacing: h,
-        seconds: median(&samples[1..]),
+        seconds,
         targets: targets.len(),
         rms_relative_error,
         max_error_over_peak_speed,

@@ -7,12 +7,13 @@ use crate::driver::{JobSpec, LastFrame};
 use crate::error::SimResult;
 use crate::hosted::Hosted;
 use crate::launch::{Launch, RunContext};
-use crate::models::field_output::FieldScenario;
+use crate::models::field_output::{FieldScenario, RunKeys};
 use crate::observers::{ChartLabels, FieldPlan, OutputPlan, PlotSpec, TableStyle};
 use crate::ranks::Ranks;
 use crate::scenario::keys::choice;
 use crate::scenario::Scenario;
 use cellist::longrange::{BlobKernel, TreeParams, VicBoundary, VicParams};
+use cellist::models::pse::Integrator;
 use cellist::models::vortex::{
     seed, Extras, InitialVorticity, VelocityEngine, VelocitySolver, VortexModel, VortexParams,
     VortexSystem,
@@ -459,6 +460,69 @@ fn solver(scenario: &Scenario, v: &VelocityKeys, center: [f64; 2]) -> SimResult<
     })
 }
 
+/// Checks the blob keys of both dimensions: `nu >= 0`, `sigma_over_h > 0`
+/// (warning below 1) and the kernel.
+pub(super) fn check_blob_keys(
+    scenario: &Scenario,
+    context: &RunContext,
+    nu: f64,
+    sigma_over_h: f64,
+    kernel: &str,
+) -> SimResult<()> {
+    let err = |m: String| scenario.error(m);
+    if !(nu.is_finite() && nu >= 0.0) {
+        return Err(err(format!("system.nu must be >= 0, got {nu}")));
+    }
+    if !(sigma_over_h.is_finite() && sigma_over_h > 0.0) {
+        return Err(err(format!(
+            "system.sigma_over_h must be > 0, got {sigma_over_h}"
+        )));
+    }
+    if kernel != "gaussian" {
+        return Err(err(format!(
+            "system.kernel '{kernel}' is unknown; expected \"gaussian\" (Gaussian blobs of core sigma and the Gaussian PSE kernel)"
+        )));
+    }
+    if sigma_over_h < 1.0 {
+        context.warn(format!(
+            "system.sigma_over_h = {sigma_over_h} < 1: the blobs hardly overlap, so the velocity and the PSE diffusion lose accuracy (1.5 to 2 is usual)"
+        ));
+    }
+    Ok(())
+}
+
+/// Refuses (or, with `run.allow_unstable`, warns of) a step above the
+/// diffusion's stability limit `R sigma^2 / (4 D nu)`: PSE's operator has
+/// eigenvalues in `[-2 S, 0]` with row sums `S` about `2 D nu / eps^2` (the
+/// kernel's second moment), `eps = sigma`, `R` the integrator's real bound.
+pub(super) fn check_diffusion_step(
+    scenario: &Scenario,
+    context: &RunContext,
+    run: &RunKeys,
+    integrator: Integrator,
+    nu: f64,
+    sigma: f64,
+    dimension: u32,
+) -> SimResult<()> {
+    let bound = 4 * dimension;
+    let limit = integrator.real_stability_bound() * sigma * sigma / (f64::from(bound) * nu);
+    if nu > 0.0 && run.dt > limit {
+        let message = format!(
+            "run.dt = {} exceeds the diffusion stability limit {limit:.4e} of {} (dt <= R sigma^2 / ({bound} nu) with sigma = {sigma})",
+            run.dt, run.integrator
+        );
+        if !run.allow_unstable {
+            return Err(scenario.error(format!(
+                "{message}; use a smaller dt, or set run.allow_unstable = true to run anyway"
+            )));
+        }
+        context.warn(format!(
+            "{message}; running anyway (run.allow_unstable = true)"
+        ));
+    }
+    Ok(())
+}
+
 /// Runs a vortex scenario, from the checkpoint `restart` if given.
 pub fn run<L: Launch>(
     scenario: &Scenario,
@@ -481,27 +545,7 @@ pub fn run<L: Launch>(
     let err = |m: String| scenario.error(m);
     let started = Instant::now();
     let sys = &keys.system;
-    if !(sys.nu.is_finite() && sys.nu >= 0.0) {
-        return Err(err(format!("system.nu must be >= 0, got {}", sys.nu)));
-    }
-    if !(sys.sigma_over_h.is_finite() && sys.sigma_over_h > 0.0) {
-        return Err(err(format!(
-            "system.sigma_over_h must be > 0, got {}",
-            sys.sigma_over_h
-        )));
-    }
-    if sys.kernel != "gaussian" {
-        return Err(err(format!(
-            "system.kernel '{}' is unknown; expected \"gaussian\" (Gaussian blobs of core sigma and the Gaussian PSE kernel)",
-            sys.kernel
-        )));
-    }
-    if sys.sigma_over_h < 1.0 {
-        context.warn(format!(
-            "system.sigma_over_h = {} < 1: the blobs hardly overlap, so the velocity and the PSE diffusion lose accuracy (1.5 to 2 is usual)",
-            sys.sigma_over_h
-        ));
-    }
+    check_blob_keys(scenario, context, sys.nu, sys.sigma_over_h, &sys.kernel)?;
     let seeded = seed_particles(scenario, sys)?;
     let velocity = solver(scenario, &sys.velocity, seeded.center)?;
     if keys.decomposition.is_some() {
@@ -514,24 +558,8 @@ pub fn run<L: Launch>(
     let run = &keys.run;
     let integrator = run.integrator().map_err(err)?;
     let h = sys.initial.spacing;
-    // PSE's operator has eigenvalues in [-2 S, 0] with row sums S about
-    // 4 nu / eps^2 (the kernel integrates to 4), eps = sigma
     let sigma = sys.sigma_over_h * h;
-    let limit = integrator.real_stability_bound() * sigma * sigma / (8.0 * sys.nu);
-    if sys.nu > 0.0 && run.dt > limit {
-        let message = format!(
-            "run.dt = {} exceeds the diffusion stability limit {limit:.4e} of {} (dt <= R sigma^2 / (8 nu) with sigma = {sigma})",
-            run.dt, run.integrator
-        );
-        if !run.allow_unstable {
-            return Err(err(format!(
-                "{message}; use a smaller dt, or set run.allow_unstable = true to run anyway"
-            )));
-        }
-        context.warn(format!(
-            "{message}; running anyway (run.allow_unstable = true)"
-        ));
-    }
+    check_diffusion_step(scenario, context, run, integrator, sys.nu, sigma, 2)?;
     let params = VortexParams {
         nu: sys.nu,
         spacing: h,

@@ -6,8 +6,8 @@
 
 use super::field_output::FieldScenario;
 use super::vortex::{
-    four, gaussian, one_and_a_half, solver_choice, threshold, SolverChoice, VelocityKeys,
-    MAX_SEEDED,
+    check_blob_keys, check_diffusion_step, four, gaussian, one_and_a_half, solver_choice,
+    threshold, SolverChoice, VelocityKeys, MAX_SEEDED,
 };
 use crate::driver::{JobSpec, LastFrame};
 use crate::error::SimResult;
@@ -471,21 +471,7 @@ pub fn run<L: Launch>(
     }
     let started = Instant::now();
     let sys = &keys.system;
-    if !(sys.nu.is_finite() && sys.nu >= 0.0) {
-        return Err(err(format!("system.nu must be >= 0, got {}", sys.nu)));
-    }
-    if !(sys.sigma_over_h.is_finite() && sys.sigma_over_h > 0.0) {
-        return Err(err(format!(
-            "system.sigma_over_h must be > 0, got {}",
-            sys.sigma_over_h
-        )));
-    }
-    if sys.kernel != "gaussian" {
-        return Err(err(format!(
-            "system.kernel '{}' is unknown; expected \"gaussian\"",
-            sys.kernel
-        )));
-    }
+    check_blob_keys(scenario, context, sys.nu, sys.sigma_over_h, &sys.kernel)?;
     if keys.decomposition.is_some() {
         return Err(err(
             "[decomposition] applies to md and pse (domain decomposition), not to the vortex model"
@@ -519,23 +505,7 @@ pub fn run<L: Launch>(
         h = Abc::SIDE / cells.round();
     }
     let sigma = sys.sigma_over_h * h;
-    // PSE's operator has eigenvalues in [-2 S, 0] with row sums S about
-    // 6 nu / eps^2 in 3D, eps = sigma
-    let limit = integrator.real_stability_bound() * sigma * sigma / (12.0 * sys.nu);
-    if sys.nu > 0.0 && run.dt > limit {
-        let message = format!(
-            "run.dt = {} exceeds the diffusion stability limit {limit:.4e} of {} (dt <= R sigma^2 / (12 nu) with sigma = {sigma})",
-            run.dt, run.integrator
-        );
-        if !run.allow_unstable {
-            return Err(err(format!(
-                "{message}; use a smaller dt, or set run.allow_unstable = true to run anyway"
-            )));
-        }
-        context.warn(format!(
-            "{message}; running anyway (run.allow_unstable = true)"
-        ));
-    }
+    check_diffusion_step(scenario, context, run, integrator, sys.nu, sigma, 3)?;
     let relaxation = sys.relaxation.as_ref().map(|r| Relaxation {
         factor: r.factor,
         every: r.every,

@@ -106,60 +106,77 @@ impl VortexParams {
 
     /// Checks every range, naming the parameter.
     pub fn check(&self) -> Result<(), String> {
-        let positive = |name: &str, v: f64| {
-            if v.is_finite() && v > 0.0 {
-                Ok(())
-            } else {
-                Err(format!("{name} must be finite and > 0, got {v}"))
-            }
-        };
-        positive("spacing", self.spacing)?;
-        positive("sigma", self.sigma)?;
-        if !(self.sigma * self.sigma).is_normal() {
-            return Err(format!(
-                "sigma = {} is too small: sigma^2 underflows",
-                self.sigma
-            ));
-        }
-        if !(self.nu.is_finite() && self.nu >= 0.0) {
-            return Err(format!("nu must be finite and >= 0, got {}", self.nu));
-        }
-        if !(self.pse_cutoff_factor.is_finite() && self.pse_cutoff_factor >= 2.0) {
-            return Err(format!(
-                "pse_cutoff_factor must be >= 2, got {}",
-                self.pse_cutoff_factor
-            ));
-        }
-        if !(self.remesh_threshold.is_finite() && (0.0..1.0).contains(&self.remesh_threshold)) {
-            return Err(format!(
-                "remesh_threshold must be in [0, 1), got {}",
-                self.remesh_threshold
-            ));
-        }
+        check_blob_params(
+            2,
+            [self.nu, self.spacing, self.sigma],
+            self.pse_cutoff_factor,
+            self.remesh_threshold,
+            self.periodic_box().map(|(_, length)| length),
+        )?;
         if self.origin.iter().any(|c| !c.is_finite()) {
             return Err(format!(
                 "the lattice origin must be finite, got {:?}",
                 self.origin
             ));
         }
-        if let Some((_, length)) = self.periodic_box() {
-            let cells = length / self.spacing;
-            if (cells - cells.round()).abs() > 1e-9 * cells || cells.round() < 4.0 {
-                return Err(format!(
-                    "the periodic box side {length} must be a whole number (at least 4) of spacings {}, got {cells}",
-                    self.spacing
-                ));
-            }
-            if self.pse_cutoff_factor * self.sigma > 0.5 * length {
-                return Err(format!(
-                    "the PSE cutoff {} sigma = {} must be at most half the periodic box side {length}",
-                    self.pse_cutoff_factor,
-                    self.pse_cutoff_factor * self.sigma
-                ));
-            }
-        }
         Ok(())
     }
+}
+
+/// Checks the parameters the 2D and 3D vortex models share, naming the bad
+/// one: `nu >= 0`, the spacing `h > 0` and core `sigma > 0` (with `sigma^D`
+/// representable), the PSE cutoff factor (at least 2), the remeshing
+/// threshold in `[0, 1)`, and a periodic box side (if any) of a whole number
+/// (at least 4) of spacings, at least twice the PSE cutoff.
+pub(crate) fn check_blob_params(
+    dimension: i32,
+    [nu, spacing, sigma]: [f64; 3],
+    pse_cutoff_factor: f64,
+    remesh_threshold: f64,
+    periodic_side: Option<f64>,
+) -> Result<(), String> {
+    let positive = |name: &str, v: f64| {
+        if v.is_finite() && v > 0.0 {
+            Ok(())
+        } else {
+            Err(format!("{name} must be finite and > 0, got {v}"))
+        }
+    };
+    positive("spacing", spacing)?;
+    positive("sigma", sigma)?;
+    if !sigma.powi(dimension).is_normal() {
+        return Err(format!(
+            "sigma = {sigma} is too small: sigma^{dimension} underflows"
+        ));
+    }
+    if !(nu.is_finite() && nu >= 0.0) {
+        return Err(format!("nu must be finite and >= 0, got {nu}"));
+    }
+    if !(pse_cutoff_factor.is_finite() && pse_cutoff_factor >= 2.0) {
+        return Err(format!(
+            "pse_cutoff_factor must be >= 2, got {pse_cutoff_factor}"
+        ));
+    }
+    if !(remesh_threshold.is_finite() && (0.0..1.0).contains(&remesh_threshold)) {
+        return Err(format!(
+            "remesh_threshold must be in [0, 1), got {remesh_threshold}"
+        ));
+    }
+    if let Some(length) = periodic_side {
+        let cells = length / spacing;
+        if (cells - cells.round()).abs() > 1e-9 * cells || cells.round() < 4.0 {
+            return Err(format!(
+                "the periodic box side {length} must be a whole number (at least 4) of spacings {spacing}, got {cells}"
+            ));
+        }
+        if pse_cutoff_factor * sigma > 0.5 * length {
+            return Err(format!(
+                "the PSE cutoff {pse_cutoff_factor} sigma = {} must be at most half the periodic box side {length}",
+                pse_cutoff_factor * sigma
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// Why a vortex system cannot be set up or a step cannot finish.

@@ -38,7 +38,7 @@ pub use initial::{cross, dot, seed3, Abc, InitialVorticity3, Ring, RING_CUT};
 pub use model::{Extras3, View3, Vortex3Model};
 
 use super::pse::{advance_from, moving_rate, Integrator, PairWeight};
-use super::vortex::VortexError;
+use super::vortex::{check_blob_params, VortexError};
 use crate::geometry::{wrap_coordinate, Boundary, Domain};
 use crate::interpolation::{remesh, Lattice};
 use crate::longrange::{
@@ -134,54 +134,20 @@ impl Vortex3Params {
 
     /// Checks every range, naming the parameter.
     pub fn check(&self) -> Result<(), String> {
-        for (name, v) in [("spacing", self.spacing), ("sigma", self.sigma)] {
-            if !(v.is_finite() && v > 0.0 && (v * v * v).is_normal()) {
-                return Err(format!("{name} must be finite and > 0, got {v}"));
-            }
+        check_blob_params(
+            3,
+            [self.nu, self.spacing, self.sigma],
+            self.pse_cutoff_factor,
+            self.remesh_threshold,
+            self.periodic_box().map(|(_, length)| length),
+        )?;
+        match self.relaxation {
+            Some(r) if !(r.factor.is_finite() && r.factor > 0.0 && r.factor <= 1.0) => Err(
+                format!("relaxation.factor must be in (0, 1], got {}", r.factor),
+            ),
+            Some(r) if r.every == 0 => Err("relaxation.every must be at least 1".into()),
+            _ => Ok(()),
         }
-        if !(self.nu.is_finite() && self.nu >= 0.0) {
-            return Err(format!("nu must be finite and >= 0, got {}", self.nu));
-        }
-        if !(self.pse_cutoff_factor.is_finite() && self.pse_cutoff_factor >= 2.0) {
-            return Err(format!(
-                "pse_cutoff_factor must be >= 2, got {}",
-                self.pse_cutoff_factor
-            ));
-        }
-        if !(self.remesh_threshold.is_finite() && (0.0..1.0).contains(&self.remesh_threshold)) {
-            return Err(format!(
-                "remesh_threshold must be in [0, 1), got {}",
-                self.remesh_threshold
-            ));
-        }
-        if let Some(r) = self.relaxation {
-            if !(r.factor.is_finite() && r.factor > 0.0 && r.factor <= 1.0) {
-                return Err(format!(
-                    "relaxation.factor must be in (0, 1], got {}",
-                    r.factor
-                ));
-            }
-            if r.every == 0 {
-                return Err("relaxation.every must be at least 1".into());
-            }
-        }
-        if let Some((_, length)) = self.periodic_box() {
-            let cells = length / self.spacing;
-            if (cells - cells.round()).abs() > 1e-9 * cells || cells.round() < 4.0 {
-                return Err(format!(
-                    "the periodic box side {length} must be a whole number (at least 4) of spacings {}, got {cells}",
-                    self.spacing
-                ));
-            }
-            if self.pse_cutoff_factor * self.sigma > 0.5 * length {
-                return Err(format!(
-                    "the PSE cutoff {} sigma = {} must be at most half the periodic box side {length}",
-                    self.pse_cutoff_factor,
-                    self.pse_cutoff_factor * self.sigma
-                ));
-            }
-        }
-        Ok(())
     }
 }
 
