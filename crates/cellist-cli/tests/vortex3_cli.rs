@@ -69,7 +69,7 @@ fn threads_do_not_change_the_files_and_a_restart_is_bit_for_bit() {
         let scenario = format!(
             "{}field = {{ every = 2, file = \"w.csv\" }}\npng = {{ every = 2 }}\ncheckpoint = {{ every = 2, file = \"state.ckpt\" }}\n",
             ring(0.4, 0.2, velocity, 4, 0.05)
-                .replace("[run]", "nu = 0.001\nremesh_every = 2\nremesh_threshold = 1e-6\nrelaxation = { factor = 0.3, every = 3 }\n[run]")
+                .replace("[run]", "nu = 0.001\npse_cutoff_factor = 2.0\nremesh_every = 2\nremesh_threshold = 1e-6\nrelaxation = { factor = 0.3, every = 3 }\n[run]")
         );
         let one = ok_run(
             dir.path(),

@@ -162,7 +162,7 @@ pub fn parse_field_columns<const D: usize, const W: usize>(
     if points.is_empty() {
         return Err(InputError::file(
             path,
-            format!("no particles; expected lines {expected}"),
+            format!("no particles; expected lines x,y[,z],{}", names.join(",")),
         ));
     }
     Ok((points, values))
