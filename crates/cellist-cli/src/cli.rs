@@ -321,8 +321,9 @@ pub struct BenchVortexArgs {
     /// Opening angle (barnes-hut), in (0, 1.2].
     #[arg(long, default_value_t = 0.4)]
     pub theta: f64,
-    /// Mesh nodes per axis (mesh): a power of two; default: the smallest at least
-    /// as fine as the particle lattice.
+    /// Mesh nodes per axis (mesh): a power of two; default: in 2D the smallest at
+    /// least as fine as the particle lattice, in 3D the one whose cell is nearest
+    /// the lattice spacing.
     #[arg(long)]
     pub grid: Option<usize>,
     /// Worker threads.

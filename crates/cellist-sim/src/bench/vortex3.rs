@@ -58,9 +58,11 @@ pub fn vortex3(
             format!("barnes-hut (theta {theta})"),
         ),
         VortexBenchSolver::Mesh { grid } => {
-            // the particles span 2 (R + 4 s) along x and y; the mesh adds a margin
-            let across = 2.0 * (RING.radius + 4.0 * RING.core) / h;
-            let grid = grid.unwrap_or_else(|| ((across + 8.0) as usize).next_power_of_two());
+            // the particles span 2 (R + 4 s) along x and y, and the mesh adds a
+            // margin: the power of two nearest to that many spacings (a cell of
+            // about h)
+            let across = 2.0 * (RING.radius + 4.0 * RING.core) / h + 4.0;
+            let grid = grid.unwrap_or_else(|| 1 << (across.log2().round() as u32).clamp(4, 7));
             let params = Vic3Params {
                 grid,
                 boundary: Vic3Boundary::Unbounded,

@@ -10,6 +10,7 @@ pub mod md;
 pub mod pse;
 pub mod vortex;
 pub mod vortex3;
+mod vortex_keys;
 
 use crate::error::SimResult;
 use crate::launch::{Execute, Launch, RunContext, RunSummary};

@@ -5,7 +5,7 @@
 //! on the plane through the rings' axis; VTK, GSD; checkpoints).
 
 use super::field_output::FieldScenario;
-use super::vortex::{
+use super::vortex_keys::{
     check_blob_keys, check_diffusion_step, four, gaussian, one_and_a_half, solver_choice,
     threshold, SolverChoice, VelocityKeys, MAX_SEEDED,
 };
