@@ -385,6 +385,9 @@ pub trait Real:
     fn max(self, b: Self) -> Self;
     /// `if a < b { then } else { otherwise }` (per lane).
     fn select_less(a: Self, b: Self, then: Self, otherwise: Self) -> Self;
+    /// `self * b + c`: rounded once in `f64` and in the AVX2 lanes, twice in
+    /// the portable lanes.
+    fn mul_add(self, b: Self, c: Self) -> Self;
     /// `self * 2^(k/4)` as `self * 2^(j/4) * 2^n` (the products in that
     /// order), where the integer `k = 4n + j` (`j` in `0..4`) is held by
     /// `rounded = k + ROUNDER` (its bit pattern minus that of [`ROUNDER`]),
@@ -421,6 +424,10 @@ impl Real for f64 {
             otherwise
         }
     }
+    #[inline(always)]
+    fn mul_add(self, b: Self, c: Self) -> Self {
+        f64::mul_add(self, b, c)
+    }
     /// `2^(j/4)` picked by selects between constants (no table lookup: with
     /// the powers passed in as an array, they became one indexed load, which
     /// kept loops of it from vectorising).
@@ -456,6 +463,10 @@ impl Real for F64x4 {
     #[inline(always)]
     fn select_less(a: Self, b: Self, then: Self, otherwise: Self) -> Self {
         F64x4::select_less(a, b, then, otherwise)
+    }
+    #[inline(always)]
+    fn mul_add(self, b: Self, c: Self) -> Self {
+        F64x4::mul_add(self, b, c)
     }
     #[inline(always)]
     fn times_two_to_quarters(self, rounded: Self) -> Self {
