@@ -385,8 +385,8 @@ pub trait Real:
     fn max(self, b: Self) -> Self;
     /// `if a < b { then } else { otherwise }` (per lane).
     fn select_less(a: Self, b: Self, then: Self, otherwise: Self) -> Self;
-    /// `self * b + c`: rounded once in `f64` and in the AVX2 lanes, twice in
-    /// the portable lanes.
+    /// `self * b + c`: rounded once with AVX2 and FMA, twice without (in `f64`
+    /// as in the lanes, so that they give the same bits).
     fn mul_add(self, b: Self, c: Self) -> Self;
     /// `self * 2^(k/4)` as `self * 2^(j/4) * 2^n` (the products in that
     /// order), where the integer `k = 4n + j` (`j` in `0..4`) is held by
@@ -426,7 +426,15 @@ impl Real for f64 {
     }
     #[inline(always)]
     fn mul_add(self, b: Self, c: Self) -> Self {
-        f64::mul_add(self, b, c)
+        if cfg!(all(
+            target_arch = "x86_64",
+            target_feature = "avx2",
+            target_feature = "fma"
+        )) {
+            f64::mul_add(self, b, c)
+        } else {
+            self * b + c
+        }
     }
     /// `2^(j/4)` picked by selects between constants (no table lookup: with
     /// the powers passed in as an array, they became one indexed load, which
