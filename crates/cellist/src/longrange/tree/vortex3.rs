@@ -8,7 +8,9 @@ use super::build::Node;
 use super::share::Whole;
 use super::walk::{copy, Group, Lists, Solver, Target, Walk, LANES};
 use super::TreeParams;
-use crate::longrange::biot_savart3::{add_terms, assemble, assert_lengths, BlobKernel3, RADIAL, SUMS};
+use crate::longrange::biot_savart3::{
+    add_terms, assemble, assert_lengths, BlobKernel3, RADIAL, SUMS,
+};
 use crate::simd::F64x4;
 use crate::threads::Threads;
 
