@@ -73,9 +73,9 @@ const TRIPLE: [[[usize; 3]; 3]; 3] = [
 /// `p = (d . Q_c d) / 2 - t . d`,
 ///
 /// and `u_a = eps_abc d_b psi_c`, `d u_a / d x_e = eps_abc d_b d_e psi_c`. The
-/// kernel's blob is kept: an accepted node's particles lie at least
-/// [`CLEARANCE`] `sigma` from the group's box, where the expansion of the
-/// blob law itself converges well. Opened leaves give their particles with the pair law of
+/// kernel's blob is kept: an accepted node's particles lie at least 3.5
+/// `sigma` from the group's box, where the expansion of the blob law itself
+/// converges well. Opened leaves give their particles with the pair law of
 /// [`DirectBiotSavart3`](crate::longrange::DirectBiotSavart3), the particle's
 /// own term included (it adds `[alpha]_x g(0)` to the gradient).
 ///
