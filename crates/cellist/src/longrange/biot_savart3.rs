@@ -278,27 +278,30 @@ fn cross<T: Real>(b: [T; 3], c: [T; 3]) -> [T; 3] {
     ]
 }
 
-/// Adds one source's terms of [`SUMS`] at a target, `r = x_target - x_source`,
-/// to `sums`: `(alpha x r) g_u`, `alpha g`, `(alpha x r)_a r_e g_2`, each by a
-/// fused multiply-add. With `g_u = g` these are the source's terms at the
-/// target; the source's terms from the target are the same with `alpha` the
-/// target's and `g_u = -g`.
+/// One source's terms of [`SUMS`] at a target, `r = x_target - x_source`:
+/// `(alpha x r) g`, `alpha g`, `(alpha x r)_a r_e g_2`. The source's terms from
+/// the target are the same with `alpha` the target's and `u` negated.
 #[inline(always)]
-pub(crate) fn add_terms<T: Real>(
-    sums: &mut [T; SUMS],
-    alpha: [T; 3],
-    r: [T; 3],
-    [g_u, g, g2]: [T; 3],
-) {
+pub(crate) fn terms<T: Real>(alpha: [T; 3], r: [T; 3], g: T, g2: T) -> [T; SUMS] {
     let w = cross(alpha, r);
-    for a in 0..3 {
-        sums[a] = w[a].mul_add(g_u, sums[a]);
-        sums[3 + a] = alpha[a].mul_add(g, sums[3 + a]);
-        let v = w[a] * g2;
-        for e in 0..3 {
-            sums[6 + 3 * a + e] = v.mul_add(r[e], sums[6 + 3 * a + e]);
-        }
-    }
+    let v = [w[0] * g2, w[1] * g2, w[2] * g2];
+    [
+        w[0] * g,
+        w[1] * g,
+        w[2] * g,
+        alpha[0] * g,
+        alpha[1] * g,
+        alpha[2] * g,
+        v[0] * r[0],
+        v[0] * r[1],
+        v[0] * r[2],
+        v[1] * r[0],
+        v[1] * r[1],
+        v[1] * r[2],
+        v[2] * r[0],
+        v[2] * r[1],
+        v[2] * r[2],
+    ]
 }
 
 /// The velocity `u` and gradient `[S]_x + T` of a target's [`SUMS`].
@@ -340,7 +343,9 @@ pub fn velocity_and_gradient_at(
                 for (p, a) in positions.iter().zip(alpha) {
                     let r = [x[0] - p[0], x[1] - p[1], x[2] - p[2]];
                     let [g, g2, ..] = kernel.radial(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]);
-                    add_terms(&mut sums, *a, r, [g, g, g2]);
+                    for (s, t) in sums.iter_mut().zip(terms(*a, r, g, g2)) {
+                        *s += t;
+                    }
                 }
                 assemble(&sums)
             })
@@ -544,16 +549,14 @@ fn row<const SYMMETRIC: bool>(
         let aj: [F64x4; 3] = std::array::from_fn(|c| F64x4::load(&pa[c][j..]));
         let r2 = r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
         let [g, g2, ..] = kernel.radial_or_far(r2);
-        add_terms(&mut acc, aj, r, [g, g, g2]);
+        for (s, t) in acc.iter_mut().zip(terms(aj, r, g, g2)) {
+            *s = *s + t;
+        }
         if SYMMETRIC {
-            // a loop, not `map`, which was left as a call
-            let mut partner = [F64x4::splat(0.0); SUMS];
-            for (v, p) in partner.iter_mut().zip(partner_sums.iter()) {
-                *v = F64x4::load(&p[j..]);
-            }
-            add_terms(&mut partner, sa, r, [-g, g, g2]);
-            for (p, v) in partner_sums.iter_mut().zip(partner) {
-                v.store(&mut p[j..]);
+            for (k, (p, t)) in partner_sums.iter_mut().zip(terms(sa, r, g, g2)).enumerate() {
+                let old = F64x4::load(&p[j..]);
+                let new = if k < 3 { old - t } else { old + t };
+                new.store(&mut p[j..]);
             }
         }
     }
@@ -562,15 +565,16 @@ fn row<const SYMMETRIC: bool>(
         let r: [f64; 3] = std::array::from_fn(|c| xi[c] - px[c][j]);
         let aj: [f64; 3] = std::array::from_fn(|c| pa[c][j]);
         let [g, g2, ..] = kernel.radial(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]);
-        add_terms(&mut sums, aj, r, [g, g, g2]);
+        for (s, t) in sums.iter_mut().zip(terms(aj, r, g, g2)) {
+            *s += t;
+        }
         if SYMMETRIC {
-            let mut partner = [0.0; SUMS];
-            for (v, p) in partner.iter_mut().zip(partner_sums.iter()) {
-                *v = p[j];
-            }
-            add_terms(&mut partner, ai, r, [-g, g, g2]);
-            for (p, v) in partner_sums.iter_mut().zip(partner) {
-                p[j] = v;
+            for (k, (p, t)) in partner_sums.iter_mut().zip(terms(ai, r, g, g2)).enumerate() {
+                if k < 3 {
+                    p[j] -= t;
+                } else {
+                    p[j] += t;
+                }
             }
         }
     }

@@ -8,9 +8,7 @@ use super::build::Node;
 use super::share::Whole;
 use super::walk::{copy, Group, Lists, Solver, Target, Walk, LANES};
 use super::TreeParams;
-use crate::longrange::biot_savart3::{
-    add_terms, assemble, assert_lengths, BlobKernel3, RADIAL, SUMS,
-};
+use crate::longrange::biot_savart3::{assemble, assert_lengths, terms, BlobKernel3, RADIAL, SUMS};
 use crate::simd::F64x4;
 use crate::threads::Threads;
 
@@ -262,7 +260,7 @@ impl VortexLists3 {
         }
     }
 
-    /// Adds the listed particles' pair terms ([`add_terms`]) to every target, its
+    /// Adds the listed particles' pair terms ([`terms`]) to every target, its
     /// own term included.
     #[inline(always)]
     fn particle_sums(&mut self, kernel: &BlobKernel3) {
@@ -274,7 +272,9 @@ impl VortexLists3 {
                 let r: [F64x4; 3] = std::array::from_fn(|a| F64x4::splat(t.x[a]) - x[a]);
                 let r2 = r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
                 let [g, g2, ..] = kernel.radial_or_far(r2);
-                add_terms(&mut t.sums, alpha, r, [g, g, g2]);
+                for (s, v) in t.sums.iter_mut().zip(terms(alpha, r, g, g2)) {
+                    *s = *s + v;
+                }
             }
         }
     }
