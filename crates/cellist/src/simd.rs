@@ -385,6 +385,9 @@ pub trait Real:
     fn max(self, b: Self) -> Self;
     /// `if a < b { then } else { otherwise }` (per lane).
     fn select_less(a: Self, b: Self, then: Self, otherwise: Self) -> Self;
+    /// `self * b + c`: rounded once with AVX2 and FMA, twice without (in `f64`
+    /// as in the lanes, so that they give the same bits).
+    fn mul_add(self, b: Self, c: Self) -> Self;
     /// `self * 2^(k/4)` as `self * 2^(j/4) * 2^n` (the products in that
     /// order), where the integer `k = 4n + j` (`j` in `0..4`) is held by
     /// `rounded = k + ROUNDER` (its bit pattern minus that of [`ROUNDER`]),
@@ -419,6 +422,18 @@ impl Real for f64 {
             then
         } else {
             otherwise
+        }
+    }
+    #[inline(always)]
+    fn mul_add(self, b: Self, c: Self) -> Self {
+        if cfg!(all(
+            target_arch = "x86_64",
+            target_feature = "avx2",
+            target_feature = "fma"
+        )) {
+            f64::mul_add(self, b, c)
+        } else {
+            self * b + c
         }
     }
     /// `2^(j/4)` picked by selects between constants (no table lookup: with
@@ -456,6 +471,10 @@ impl Real for F64x4 {
     #[inline(always)]
     fn select_less(a: Self, b: Self, then: Self, otherwise: Self) -> Self {
         F64x4::select_less(a, b, then, otherwise)
+    }
+    #[inline(always)]
+    fn mul_add(self, b: Self, c: Self) -> Self {
+        F64x4::mul_add(self, b, c)
     }
     #[inline(always)]
     fn times_two_to_quarters(self, rounded: Self) -> Self {

@@ -444,13 +444,10 @@ fn solver3(
     )
 }
 
-/// The tree settings of 3D runs unless the scenario sets them.
+/// The tree settings of 3D runs unless the scenario sets them: the engine's
+/// defaults for the 3D vortex tree.
 fn default_tree() -> cellist::longrange::TreeParams {
-    cellist::longrange::TreeParams {
-        theta: 0.4,
-        quadrupole: true,
-        ..Default::default()
-    }
+    cellist::longrange::VortexTree3::default_params()
 }
 
 /// Runs a 3D vortex scenario, from the checkpoint `restart` if given.

@@ -31,26 +31,30 @@ use crate::threads::{tournament, DisjointSlice, Threads};
 use rayon::prelude::*;
 use std::f64::consts::PI;
 
-/// Below this `x = r^2 / (2 sigma^2)` the kernel comes from the series of `I_4`
+/// Below this `x = r^2 / (2 sigma^2)` the kernel comes from the series of `I_5`
 /// (see [`BlobKernel3::radial`]).
 const SERIES_BELOW: f64 = 1.0;
 
 /// From this `x = r^2 / (2 sigma^2)` on, the kernel is the point vortex's:
 /// `1 - Q < 1e-18` and the derivatives' tails `Gamma(k + 1/2, x) / Gamma(k + 1/2)`
-/// are below `7e-18` (`k = 2`, which `g_2` needs) and `2e-15` (`k = 4`).
+/// are below `7e-18` (`k = 2`, which `g_2` needs), `2e-15` (`k = 4`) and
+/// `2e-14` (`k = 5`, the tree's third order).
 const FAR: f64 = 45.0;
 
-/// Terms of the series of `e^x I_4(x) = sum_n (2x)^n / (9 * 11 * ... * (2n + 9))`:
-/// the last is below `3e-20` of the first for `x <= 1`.
+/// The radial functions [`BlobKernel3::radial`] gives, `g_1` to `g_5`.
+pub(crate) const RADIAL: usize = 5;
+
+/// Terms of the series of `e^x I_5(x) = sum_n (2x)^n / (11 * 13 * ... * (2n + 11))`:
+/// the last is below `1e-20` of the first for `x <= 1`.
 const SERIES_TERMS: usize = 18;
 
-/// The series' coefficients `2^n / (9 * 11 * ... * (2n + 9))`.
+/// The series' coefficients `2^n / (11 * 13 * ... * (2n + 11))`.
 const SERIES: [f64; SERIES_TERMS] = {
     let mut c = [0.0; SERIES_TERMS];
-    c[0] = 1.0 / 9.0;
+    c[0] = 1.0 / 11.0;
     let mut n = 1;
     while n < SERIES_TERMS {
-        c[n] = c[n - 1] * 2.0 / (2 * n + 9) as f64;
+        c[n] = c[n - 1] * 2.0 / (2 * n + 11) as f64;
         n += 1;
     }
     c
@@ -59,25 +63,25 @@ const SERIES: [f64; SERIES_TERMS] = {
 /// `R(z) = exp(z^2) erfc(z) = t P(s)` on `1 <= z <= 6.75`, `t = 2 / (2 + z)`,
 /// `s = (t - ERFC_MID) * ERFC_SCALE` in `[-1, 1]`: `P` is the degree-16
 /// Chebyshev fit (mpmath, 40 digits) of `R / t`, relative error below `5e-16`
-/// evaluated in `f64`. Coefficients from the highest power down.
+/// evaluated in `f64`. Coefficients from the constant up.
 const ERFC_FIT: [f64; 17] = [
-    1.893349738660298e-14,
-    -1.0606970942076055e-11,
-    3.4540600683370004e-11,
-    1.3062947118952828e-10,
-    -1.0617371834367836e-09,
-    3.860065401228543e-10,
-    2.120305610111959e-08,
-    -5.928618091693069e-08,
-    -3.76128508256008e-07,
-    2.1036662975749964e-06,
-    8.059556023849295e-06,
-    -6.606132069280908e-05,
-    -0.0003250273289708313,
-    0.0018783210479327219,
-    0.02559181266867705,
-    0.13797794080804107,
     0.47630862986918354,
+    0.13797794080804107,
+    0.02559181266867705,
+    0.0018783210479327219,
+    -0.0003250273289708313,
+    -6.606132069280908e-05,
+    8.059556023849295e-06,
+    2.1036662975749964e-06,
+    -3.76128508256008e-07,
+    -5.928618091693069e-08,
+    2.120305610111959e-08,
+    3.860065401228543e-10,
+    -1.0617371834367836e-09,
+    1.3062947118952828e-10,
+    3.4540600683370004e-11,
+    -1.0606970942076055e-11,
+    1.893349738660298e-14,
 ];
 /// The centre of `t` over the fit's range.
 const ERFC_MID: f64 = 0.447_619_047_619_047_64;
@@ -107,18 +111,19 @@ impl Sqrt for F64x4 {
 
 /// The radial functions of the 3D blob law: `g(r) = Q(r / sigma) / (4 pi r^3)`
 /// and `g_{k+1} = (1/r) d g_k / dr` (`g_1 = g`), which the velocity (`g`), its
-/// gradient (`g_2`) and the tree's expansions (`g_3`, `g_4`) need.
+/// gradient (`g_2`) and the tree's expansions (`g_3` to `g_5`) need.
 ///
 /// With `x = r^2 / (2 sigma^2)`, `zeta_0 = (2 pi sigma^2)^(-3/2)` and
 /// `I_k(x) = int_0^1 s^(2k) exp(-x s^2) ds`:
 /// `g = zeta_0 I_1`, `g_2 = -zeta_0 I_2 / sigma^2`, `g_3 = zeta_0 I_3 / sigma^4`,
-/// `g_4 = -zeta_0 I_4 / sigma^6`, and `I_{k+1} = ((2k + 1) I_k - e^-x) / (2x)`.
+/// `g_4 = -zeta_0 I_4 / sigma^6`, `g_5 = zeta_0 I_5 / sigma^8`, and
+/// `I_{k+1} = ((2k + 1) I_k - e^-x) / (2x)`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BlobKernel3 {
     sigma: f64,
     inv_two_sigma2: f64,
-    /// `[zeta_0, -zeta_0 / sigma^2, zeta_0 / sigma^4, -zeta_0 / sigma^6]`.
-    scale: [f64; 4],
+    /// `[zeta_0, -zeta_0 / sigma^2, zeta_0 / sigma^4, -zeta_0 / sigma^6, zeta_0 / sigma^8]`.
+    scale: [f64; RADIAL],
 }
 
 impl BlobKernel3 {
@@ -134,6 +139,7 @@ impl BlobKernel3 {
                 -zeta0 / s2,
                 zeta0 / (s2 * s2),
                 -zeta0 / (s2 * s2 * s2),
+                zeta0 / (s2 * s2 * s2 * s2),
             ],
         }
     }
@@ -143,17 +149,17 @@ impl BlobKernel3 {
         self.sigma
     }
 
-    /// `[g, g_2, g_3, g_4]` at `|r|^2 = r2`, in branch-free arithmetic on `f64`
+    /// `[g, g_2, g_3, g_4, g_5]` at `|r|^2 = r2`, in branch-free arithmetic on `f64`
     /// or on the four lanes of an [`F64x4`] (the bits of four scalar calls):
     ///
-    /// - `x < 1`: `I_4 = e^-x sum_n (2x)^n / (9 * 11 * ... * (2n + 9))` (positive
+    /// - `x < 1`: `I_5 = e^-x sum_n (2x)^n / (11 * 13 * ... * (2n + 11))` (positive
     ///   terms), then down, `I_k = (2x I_{k+1} + e^-x) / (2k + 1)` (stable);
     /// - `1 <= x < 45`: `I_1 = sqrt(pi) Q / (4 x^(3/2))`,
     ///   `Q = 1 - e^-x (R(z) + 2 z / sqrt(pi))`, `z = sqrt x`, `R = e^(z^2) erfc z`
     ///   from a Chebyshev fit, then up by the recurrence;
     /// - `x >= 45`: the point vortex, [`BlobKernel3::far`].
     #[inline(always)]
-    pub fn radial<T: Sqrt>(&self, r2: T) -> [T; 4] {
+    pub fn radial<T: Sqrt>(&self, r2: T) -> [T; RADIAL] {
         let c = T::splat;
         let x = r2 * c(self.inv_two_sigma2);
         let e = exp_nonpositive(-x);
@@ -164,11 +170,11 @@ impl BlobKernel3 {
         })
     }
 
-    /// `[g, g_2, g_3, g_4]` of the point vortex, what [`BlobKernel3::radial`]
+    /// `[g, g_2, g_3, g_4, g_5]` of the point vortex, what [`BlobKernel3::radial`]
     /// gives for `r2 >= 90 sigma^2`: `g = 1 / (4 pi r^3)`, `g_2 = -3 g / r^2`,
-    /// `g_3 = -5 g_2 / r^2`, `g_4 = -7 g_3 / r^2`.
+    /// `g_3 = -5 g_2 / r^2`, `g_4 = -7 g_3 / r^2`, `g_5 = -9 g_4 / r^2`.
     #[inline(always)]
-    pub fn far<T: Sqrt>(&self, r2: T) -> [T; 4] {
+    pub fn far<T: Sqrt>(&self, r2: T) -> [T; RADIAL] {
         let c = T::splat;
         let inv_r = c(1.0) / r2.sqrt();
         let inv = inv_r * inv_r;
@@ -176,13 +182,14 @@ impl BlobKernel3 {
         let g2 = c(-3.0) * g * inv;
         let g3 = c(-5.0) * g2 * inv;
         let g4 = c(-7.0) * g3 * inv;
-        [g, g2, g3, g4]
+        let g5 = c(-9.0) * g4 * inv;
+        [g, g2, g3, g4, g5]
     }
 
     /// [`BlobKernel3::radial`] with the bits of every lane, computing only the
     /// ranges that some lane is in.
     #[inline(always)]
-    pub(crate) fn radial_or_far(&self, r2: F64x4) -> [F64x4; 4] {
+    pub(crate) fn radial_or_far(&self, r2: F64x4) -> [F64x4; RADIAL] {
         let c = F64x4::splat;
         let x = r2 * c(self.inv_two_sigma2);
         let blob_lanes = F64x4::mask_less(x, c(FAR));
@@ -198,7 +205,7 @@ impl BlobKernel3 {
                 std::array::from_fn(|k| F64x4::select_less(x, c(SERIES_BELOW), n[k], m[k]))
             }
         };
-        let blob: [F64x4; 4] = std::array::from_fn(|k| blob[k] * c(self.scale[k]));
+        let blob: [F64x4; RADIAL] = std::array::from_fn(|k| blob[k] * c(self.scale[k]));
         if blob_lanes == 0b1111 {
             return blob;
         }
@@ -207,43 +214,54 @@ impl BlobKernel3 {
     }
 }
 
-/// `[I_1, I_2, I_3, I_4]` at `x` (with `e = exp(-x)`) from the series of `I_4`
+/// `sum_k c[k] x^k` as `E(x^2) + x O(x^2)`, the even and odd powers' two
+/// Horner chains of fused multiply-adds side by side (half the dependent steps
+/// of one chain: the kernel's polynomials bound its latency).
+#[inline(always)]
+fn polynomial<T: Real>(c: &[f64], x: T) -> T {
+    let y = x * x;
+    let chain = |start: usize| {
+        let mut p = T::splat(0.0);
+        for &a in c.iter().skip(start).step_by(2).rev() {
+            p = p.mul_add(y, T::splat(a));
+        }
+        p
+    };
+    chain(1).mul_add(x, chain(0))
+}
+
+/// `[I_1, ..., I_5]` at `x` (with `e = exp(-x)`) from the series of `I_5`
 /// and the downward recurrence (see [`BlobKernel3::radial`]).
 #[inline(always)]
-fn near<T: Sqrt>(x: T, e: T) -> [T; 4] {
+fn near<T: Sqrt>(x: T, e: T) -> [T; RADIAL] {
     let c = T::splat;
     let two_x = x + x;
-    let mut p = c(SERIES[SERIES_TERMS - 1]);
-    for &a in SERIES[..SERIES_TERMS - 1].iter().rev() {
-        p = p * x + c(a);
-    }
-    let i4 = e * p;
+    let i5 = e * polynomial(&SERIES, x);
+    let i4 = (two_x * i5 + e) * c(1.0 / 9.0);
     let i3 = (two_x * i4 + e) * c(1.0 / 7.0);
     let i2 = (two_x * i3 + e) * c(1.0 / 5.0);
     let i1 = (two_x * i2 + e) * c(1.0 / 3.0);
-    [i1, i2, i3, i4]
+    [i1, i2, i3, i4, i5]
 }
 
-/// `[I_1, I_2, I_3, I_4]` at `x` (with `e = exp(-x)`) from `erfc` and the
+/// `[I_1, ..., I_5]` at `x` (with `e = exp(-x)`) from `erfc` and the
 /// upward recurrence (see [`BlobKernel3::radial`]).
 #[inline(always)]
-fn middle<T: Sqrt>(x: T, e: T) -> [T; 4] {
+fn middle<T: Sqrt>(x: T, e: T) -> [T; RADIAL] {
     let c = T::splat;
     let z = x.sqrt();
     let inv_z = c(1.0) / z;
     let half_inv_x = c(0.5) * inv_z * inv_z;
     let t = c(2.0) / (c(2.0) + z);
     let s = (t - c(ERFC_MID)) * c(ERFC_SCALE);
-    let mut p = c(ERFC_FIT[0]);
-    for &a in &ERFC_FIT[1..] {
-        p = p * s + c(a);
-    }
+    let p = polynomial(&ERFC_FIT, s);
     let q = c(1.0) - e * (t * p + c(2.0 / PI.sqrt()) * z);
     let i1 = c(PI.sqrt() / 4.0) * q * inv_z * inv_z * inv_z;
     let i2 = (c(3.0) * i1 - e) * half_inv_x;
     let i3 = (c(5.0) * i2 - e) * half_inv_x;
     let i4 = (c(7.0) * i3 - e) * half_inv_x;
-    [i1, i2, i3, i4]
+    let i5 = (c(9.0) * i4 - e) * half_inv_x;
+    [i1, i2, i3, i4, i5]
 }
 
 /// Running sums per target: `u` (0..3), `S = sum alpha_q g` (3..6) and
@@ -705,8 +723,8 @@ mod tests {
         assert!((k.radial(0.0)[0] - g0).abs() <= 1e-15 * g0);
     }
 
-    /// `g_3` and `g_4` (the tree's) against central differences of `g_2` and
-    /// `g_3`, `g_{k+1} = (d g_k / d r) / r`, across the three ranges.
+    /// `g_3` to `g_5` (the tree's) against central differences of `g_2` to
+    /// `g_4`, `g_{k+1} = (d g_k / d r) / r`, across the three ranges.
     #[test]
     fn higher_derivatives_are_the_differences_of_lower_ones() {
         let k = BlobKernel3::new(1.0);
@@ -714,7 +732,7 @@ mod tests {
             let h = 1e-5 * r;
             let (up, down) = (k.radial((r + h) * (r + h)), k.radial((r - h) * (r - h)));
             let here = k.radial(r * r);
-            for c in 1..3 {
+            for c in 1..4 {
                 let fd = (up[c] - down[c]) / (2.0 * h) / r;
                 assert!(
                     (fd - here[c + 1]).abs() <= 1e-7 * here[c + 1].abs(),
@@ -750,7 +768,7 @@ mod tests {
                 1 => at(2.0 * rng.uniform()),
                 _ => at(60.0 * rng.uniform()),
             });
-            let bits = |v: [F64x4; 4]| v.map(|v| v.to_array().map(f64::to_bits));
+            let bits = |v: [F64x4; RADIAL]| v.map(|v| v.to_array().map(f64::to_bits));
             let lanes = bits(k.radial(F64x4::load(&r2)));
             assert_eq!(lanes, bits(k.radial_or_far(F64x4::load(&r2))), "{r2:?}");
             for (l, &r2) in r2.iter().enumerate() {

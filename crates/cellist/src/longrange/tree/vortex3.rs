@@ -1,6 +1,6 @@
 //! The 3D vortex kernel on the tree: each node's vector moments of `alpha`
-//! about the centre of its `|alpha|` (monopole, first and second moments), the
-//! Taylor expansion of the regularised stream function they give, and the SIMD
+//! about the centre of its `|alpha|` (monopole, first, second and third moments), the
+//! Taylor expansion to third order of the regularised stream function they give, and the SIMD
 //! sums of a group's lists (the blob law for opened leaves' particles, the
 //! expansion for accepted nodes).
 
@@ -8,20 +8,41 @@ use super::build::Node;
 use super::share::Whole;
 use super::walk::{copy, Group, Lists, Solver, Target, Walk, LANES};
 use super::TreeParams;
-use crate::longrange::biot_savart3::{assemble, assert_lengths, terms, BlobKernel3, SUMS};
+use crate::longrange::biot_savart3::{assemble, assert_lengths, terms, BlobKernel3, RADIAL, SUMS};
 use crate::simd::F64x4;
 use crate::threads::Threads;
 
 /// A node's moments about its centre `c`, `y = x_q - c`: `M_c = sum alpha_c`
-/// (0..3), `D_cj = sum alpha_c y_j` (3..12, at `3 + 3c + j`) and
-/// `Q_cjk = sum alpha_c y_j y_k` (12..30, at `12 + 6c + [xx, xy, xz, yy, yz, zz]`).
+/// (0..3), `D_cj = sum alpha_c y_j` (3..12, at `3 + 3c + j`),
+/// `Q_cjk = sum alpha_c y_j y_k` (12..30, at `12 + 6c + [xx, xy, xz, yy, yz, zz]`),
+/// `O_cjkl = sum alpha_c y_j y_k y_l` (30..60, at `30 + 10c + TRIPLE[j][k][l]`),
+/// and from them `tr Q_c / 2` (60..63) and `t_cl = O_cjjl / 2` (63..72, at
+/// `63 + 3c + l`).
 type Moments = [f64; MOMENTS];
 
+/// An accepted node's particles lie farther than this many `sigma` from the
+/// group's box: nearer, the expansion of the blob's law (whose derivatives grow
+/// as `(d / sigma^2)^n exp(-d^2 / (2 sigma^2))`, not `1 / d^n`) converges
+/// slowly. 3.5 gave the ring of 10^5 particles its fastest evaluation at an RMS
+/// gradient error below 1e-4 (against 0, 2, 3, 4 and 5).
+const CLEARANCE: f64 = 3.5;
+
 /// Numbers per node's [`Moments`].
-const MOMENTS: usize = 30;
+const MOMENTS: usize = 72;
 
 /// The index of `(j, k)` among `[xx, xy, xz, yy, yz, zz]`.
 const PAIR: [[usize; 3]; 3] = [[0, 1, 2], [1, 3, 4], [2, 4, 5]];
+
+/// The axes `(j, k)` of the entries `[xx, xy, xz, yy, yz, zz]`.
+const ENTRIES: [(usize, usize); 6] = [(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)];
+
+/// The index of `(j, k, l)` among
+/// `[xxx, xxy, xxz, xyy, xyz, xzz, yyy, yyz, yzz, zzz]`.
+const TRIPLE: [[[usize; 3]; 3]; 3] = [
+    [[0, 1, 2], [1, 3, 4], [2, 4, 5]],
+    [[1, 3, 4], [3, 6, 7], [4, 7, 8]],
+    [[2, 4, 5], [4, 7, 8], [5, 8, 9]],
+];
 
 /// Barnes-Hut for the regularised 3D Biot-Savart law of [`BlobKernel3`]:
 ///
@@ -31,24 +52,28 @@ const PAIR: [[usize; 3]; 3] = [[0, 1, 2], [1, 3, 4], [2, 4, 5]];
 /// `u = curl psi` with `psi(x) = sum_q alpha_q G(x - x_q)`, `G` the radial
 /// Green's function of the blob (`G'(r) / r = -g`). An accepted node, with
 /// centre `c` (the centre of its `|alpha|`), `d = x - c` and the moments
-/// `M_c = sum alpha_c`, `D_cj = sum alpha_c y_j`, `Q_cjk = sum alpha_c y_j y_k`
-/// of its particles (`y = x_q - c`), gives each component of `psi` to second order,
+/// `M_c = sum alpha_c`, `D_cj = sum alpha_c y_j`, `Q_cjk = sum alpha_c y_j y_k`,
+/// `O_cjkl = sum alpha_c y_j y_k y_l` of its particles (`y = x_q - c`), gives
+/// each component of `psi` to third order,
 ///
-/// `psi_c = M_c G(d) - D_cj d_j G(d) + 1/2 Q_cjk d_j d_k G(d)`
+/// `psi_c = M_c G(d) - D_cj d_j G(d) + 1/2 Q_cjk d_j d_k G(d) - 1/6 O_cjkl d_j d_k d_l G(d)`
 ///
 /// (`d_j` the derivative along axis `j`), whose first and second derivatives
-/// with `f_n = (1/r d/dr)^n G = -g_n` ([`BlobKernel3::radial`]) are
+/// with `f_n = (1/r d/dr)^n G = -g_n` ([`BlobKernel3::radial`]),
+/// `P_be = O_cbej d_j`, `w = P d`, `t_l = O_cjjl / 2` and `q = Q_c d - t` are
 ///
-/// `d_b psi_c = A d_b - f_1 D_cb + f_2 (Q_c d)_b`,
-/// `d_b d_e psi_c = A delta_be + B d_b d_e + f_3 (d_b (Q_c d)_e + (Q_c d)_b d_e)
-///  - f_2 (d_b D_ce + D_cb d_e) + f_2 Q_cbe`,
+/// `d_b psi_c = A d_b + f_2 q_b - f_1 D_cb - f_3 w_b / 2`,
+/// `d_b d_e psi_c = A delta_be + B d_b d_e + d_b v_e + v_b d_e + f_2 Q_cbe - f_3 P_be`,
 ///
-/// `A = M_c f_1 + (tr Q_c / 2 - D_c . d) f_2 + (d . Q_c d) f_3 / 2`,
-/// `B = M_c f_2 + (tr Q_c / 2 - D_c . d) f_3 + (d . Q_c d) f_4 / 2`,
+/// `v = f_3 q - f_2 D_c - f_4 w / 2`,
+/// `A = M_c f_1 + (tr Q_c / 2 - D_c . d) f_2 + p f_3 - (w . d) f_4 / 6`,
+/// `B = M_c f_2 + (tr Q_c / 2 - D_c . d) f_3 + p f_4 - (w . d) f_5 / 6`,
+/// `p = (d . Q_c d) / 2 - t . d`,
 ///
 /// and `u_a = eps_abc d_b psi_c`, `d u_a / d x_e = eps_abc d_b d_e psi_c`. The
-/// kernel's blob is kept (no clearance): nodes near a target expand the blob
-/// law itself. Opened leaves give their particles with the pair law of
+/// kernel's blob is kept: an accepted node's particles lie at least 3.5
+/// `sigma` from the group's box, where the expansion of the blob law itself
+/// converges well. Opened leaves give their particles with the pair law of
 /// [`DirectBiotSavart3`](crate::longrange::DirectBiotSavart3), the particle's
 /// own term included (it adds `[alpha]_x g(0)` to the gradient).
 ///
@@ -65,10 +90,11 @@ pub struct VortexTree3 {
 }
 
 impl VortexTree3 {
-    /// The default settings: theta 0.4, leaves of 16, groups of 64.
+    /// The default settings: theta 0.38, leaves of 16, groups of 64 (the
+    /// fastest found for a ring of 10^5 particles at RMS errors below 1e-4).
     pub fn default_params() -> TreeParams {
         TreeParams {
-            theta: 0.4,
+            theta: 0.38,
             quadrupole: true,
             leaf_size: 16,
             group_size: 64,
@@ -112,7 +138,7 @@ impl VortexTree3 {
             positions,
             positions,
             &self.index,
-            0.0,
+            CLEARANCE * kernel.sigma(),
             threads,
             &mut Whole,
             |node, walk| of_node(node, walk, alpha),
@@ -147,21 +173,37 @@ fn of_node(node: &Node, walk: &Walk, alpha: &[[f64; 3]]) -> ([f64; 3], Moments) 
             node.corner[a] + 0.5 * node.side
         }
     });
+    let particles = range.map(|s| ([x[0][s], x[1][s], x[2][s]], strength(s)));
+    (centre, moments(centre, particles))
+}
+
+/// The [`Moments`] about `centre` of `particles` (positions and strengths).
+fn moments(centre: [f64; 3], particles: impl Iterator<Item = ([f64; 3], [f64; 3])>) -> Moments {
     let mut m = [0.0; MOMENTS];
-    for s in range {
-        let a = strength(s);
-        let y: [f64; 3] = std::array::from_fn(|j| x[j][s] - centre[j]);
+    for (x, a) in particles {
+        let y: [f64; 3] = std::array::from_fn(|j| x[j] - centre[j]);
         for c in 0..3 {
             m[c] += a[c];
             for j in 0..3 {
                 m[3 + 3 * c + j] += a[c] * y[j];
                 for k in j..3 {
                     m[12 + 6 * c + PAIR[j][k]] += a[c] * y[j] * y[k];
+                    for l in k..3 {
+                        m[30 + 10 * c + TRIPLE[j][k][l]] += a[c] * y[j] * y[k] * y[l];
+                    }
                 }
             }
         }
     }
-    (centre, m)
+    for c in 0..3 {
+        let q = 12 + 6 * c;
+        m[60 + c] = 0.5 * (m[q] + m[q + 3] + m[q + 5]);
+        for l in 0..3 {
+            let o = |j: usize| m[30 + 10 * c + TRIPLE[j][j][l]];
+            m[63 + 3 * c + l] = 0.5 * (o(0) + o(1) + o(2));
+        }
+    }
+    m
 }
 
 /// One group's lists (the shared walk lists plus the listed particles'
@@ -241,7 +283,6 @@ impl VortexLists3 {
     /// target: `u` to its sums 0..3, the gradient to 6..15.
     #[inline(always)]
     fn node_sums(&mut self, kernel: &BlobKernel3) {
-        let half = F64x4::splat(0.5);
         let node_x = &self.walk.node_x;
         for c in (0..node_x[0].len()).step_by(LANES) {
             let centre: [F64x4; 3] = std::array::from_fn(|a| F64x4::load(&node_x[a][c..]));
@@ -250,44 +291,109 @@ impl VortexLists3 {
             for t in self.targets.iter_mut() {
                 let d: [F64x4; 3] = std::array::from_fn(|a| F64x4::splat(t.x[a]) - centre[a]);
                 let r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-                let [f1, f2, f3, f4] = kernel.radial_or_far(r2).map(|g| -g);
-                // per component c of psi: its gradient and Hessian
-                let mut grad = [[F64x4::splat(0.0); 3]; 3];
-                let mut hess = [[F64x4::splat(0.0); 6]; 3];
-                for k in 0..3 {
-                    let dk = [m[3 + 3 * k], m[4 + 3 * k], m[5 + 3 * k]];
-                    let q = &m[12 + 6 * k..18 + 6 * k];
-                    let qd: [F64x4; 3] = std::array::from_fn(|b| {
-                        q[PAIR[b][0]] * d[0] + q[PAIR[b][1]] * d[1] + q[PAIR[b][2]] * d[2]
-                    });
-                    let dqd = qd[0] * d[0] + qd[1] * d[1] + qd[2] * d[2];
-                    let s1 = dk[0] * d[0] + dk[1] * d[1] + dk[2] * d[2];
-                    let level = half * (q[0] + q[3] + q[5]) - s1;
-                    let a = m[k] * f1 + level * f2 + half * dqd * f3;
-                    let b = m[k] * f2 + level * f3 + half * dqd * f4;
-                    grad[k] = std::array::from_fn(|i| a * d[i] - f1 * dk[i] + f2 * qd[i]);
-                    for i in 0..3 {
-                        for e in i..3 {
-                            let diagonal = if i == e { a } else { F64x4::splat(0.0) };
-                            hess[k][PAIR[i][e]] =
-                                diagonal + b * d[i] * d[e] + f3 * (d[i] * qd[e] + qd[i] * d[e])
-                                    - f2 * (d[i] * dk[e] + dk[i] * d[e])
-                                    + f2 * q[PAIR[i][e]];
-                        }
-                    }
-                }
-                // u_a = eps_abc d_b psi_c, (a, b, c) cyclic
+                let f = kernel.radial_or_far(r2).map(|g| -g);
+                let (u, grad) = expansion(&m, d, &f);
                 for a in 0..3 {
-                    let (b, c) = ((a + 1) % 3, (a + 2) % 3);
-                    t.sums[a] = t.sums[a] + grad[c][b] - grad[b][c];
-                    for e in 0..3 {
-                        let v = hess[c][PAIR[b][e]] - hess[b][PAIR[c][e]];
-                        t.sums[6 + 3 * a + e] = t.sums[6 + 3 * a + e] + v;
-                    }
+                    t.sums[a] = t.sums[a] + u[a];
+                }
+                for (s, g) in t.sums[6..].iter_mut().zip(grad) {
+                    *s = *s + g;
                 }
             }
         }
     }
+}
+
+/// `u` and `grad u` (row-major) at `d` from a node of moments `m` (see
+/// [`VortexTree3`]), with `f = [f_1, ..., f_5]` at `|d|`:
+/// `u_a = eps_abc d_b psi_c`, `d u_a / d x_e = eps_abc d_b d_e psi_c`.
+#[inline(always)]
+fn expansion(m: &[F64x4; MOMENTS], d: [F64x4; 3], f: &[F64x4; RADIAL]) -> ([F64x4; 3], [F64x4; 9]) {
+    let mut grad = [[F64x4::splat(0.0); 3]; 3];
+    let mut hess = [[F64x4::splat(0.0); 6]; 3];
+    for k in 0..3 {
+        (grad[k], hess[k]) = component(m, k, d, f);
+    }
+    // (a, b, c) cyclic
+    let cyclic = |a: usize| ((a + 1) % 3, (a + 2) % 3);
+    let u = std::array::from_fn(|a| {
+        let (b, c) = cyclic(a);
+        grad[c][b] - grad[b][c]
+    });
+    let gradient = std::array::from_fn(|i| {
+        let (a, e) = (i / 3, i % 3);
+        let (b, c) = cyclic(a);
+        hess[c][PAIR[b][e]] - hess[b][PAIR[c][e]]
+    });
+    (u, gradient)
+}
+
+/// `sum_j v[j] * d[j]` with fused multiply-adds.
+#[inline(always)]
+fn dot(v: [F64x4; 3], d: [F64x4; 3]) -> F64x4 {
+    v[2].mul_add(d[2], v[1].mul_add(d[1], v[0] * d[0]))
+}
+
+/// The gradient and Hessian (`[xx, xy, xz, yy, yz, zz]`) of the expansion's
+/// component `k` of `psi` at `d` from the node (see [`VortexTree3`]), with
+/// `f = [f_1, ..., f_5]`.
+#[inline(always)]
+fn component(
+    m: &[F64x4; MOMENTS],
+    k: usize,
+    d: [F64x4; 3],
+    f: &[F64x4; RADIAL],
+) -> ([F64x4; 3], [F64x4; 6]) {
+    let splat = F64x4::splat;
+    let dk = [m[3 + 3 * k], m[4 + 3 * k], m[5 + 3 * k]];
+    let q = &m[12 + 6 * k..18 + 6 * k];
+    let o = &m[30 + 10 * k..40 + 10 * k];
+    let tk = [m[63 + 3 * k], m[64 + 3 * k], m[65 + 3 * k]];
+    let qd: [F64x4; 3] = std::array::from_fn(|b| dot([0, 1, 2].map(|j| q[PAIR[b][j]]), d));
+    // P_be = O_bej d_j, [xx, xy, xz, yy, yz, zz]
+    let p: [F64x4; 6] = std::array::from_fn(|i| {
+        let (b, e) = ENTRIES[i];
+        dot([0, 1, 2].map(|j| o[TRIPLE[b][e][j]]), d)
+    });
+    let w: [F64x4; 3] = std::array::from_fn(|b| dot([0, 1, 2].map(|e| p[PAIR[b][e]]), d));
+    let level = m[60 + k] - dot(dk, d);
+    let half_dqd = splat(0.5) * dot(qd, d);
+    let pp = half_dqd - dot(tk, d);
+    let sixth_o3 = splat(1.0 / 6.0) * dot(w, d);
+    let a = m[k].mul_add(
+        f[0],
+        level.mul_add(f[1], pp.mul_add(f[2], -(sixth_o3 * f[3]))),
+    );
+    let bb = m[k].mul_add(
+        f[1],
+        level.mul_add(f[2], pp.mul_add(f[3], -(sixth_o3 * f[4]))),
+    );
+    let qt: [F64x4; 3] = std::array::from_fn(|b| qd[b] - tk[b]);
+    let half_f3 = splat(0.5) * f[2];
+    let half_f4 = splat(0.5) * f[3];
+    let grad: [F64x4; 3] = std::array::from_fn(|b| {
+        a.mul_add(
+            d[b],
+            f[1].mul_add(qt[b], half_f3.neg_mul_add(w[b], -(f[0] * dk[b]))),
+        )
+    });
+    let v: [F64x4; 3] =
+        std::array::from_fn(|e| f[2].mul_add(qt[e], half_f4.neg_mul_add(w[e], -(f[1] * dk[e]))));
+    let hess: [F64x4; 6] = std::array::from_fn(|i| {
+        let (b, e) = ENTRIES[i];
+        let bd = bb * d[b];
+        let own = f[1].mul_add(
+            q[i],
+            f[2].neg_mul_add(p[i], d[b].mul_add(v[e], v[b] * d[e])),
+        );
+        let h = bd.mul_add(d[e], own);
+        if b == e {
+            h + a
+        } else {
+            h
+        }
+    });
+    (grad, hess)
 }
 
 #[cfg(test)]
@@ -375,17 +481,17 @@ mod tests {
     #[test]
     fn matches_direct_within_the_stated_errors() {
         let cases = [
-            // cloud: measured u 0, 0, 0; grad 0, 0, 0
+            // cloud: measured u 9.9e-6, 1.9e-4, 2.8e-4; grad 1.5e-5, 3.2e-4, 4.0e-4
             (
                 "cloud",
                 cloud(3, 2000),
-                [(0.2, 1.0, 1.0), (0.4, 1.0, 1.0), (0.7, 1.0, 1.0)],
+                [(0.2, 2e-5, 3e-5), (0.4, 4e-4, 6e-4), (0.7, 6e-4, 8e-4)],
             ),
-            // ring: measured u 0, 0, 0; grad 0, 0, 0
+            // ring: measured u 1.3e-6, 8.0e-6, 1.8e-5; grad 2.8e-6, 1.8e-5, 2.8e-5
             (
                 "ring",
                 ring(0.13),
-                [(0.2, 1.0, 1.0), (0.4, 1.0, 1.0), (0.7, 1.0, 1.0)],
+                [(0.2, 3e-6, 6e-6), (0.4, 2e-5, 4e-5), (0.7, 4e-5, 6e-5)],
             ),
         ];
         for (name, (x, alpha, kernel), limits) in cases {
@@ -432,6 +538,52 @@ mod tests {
         }
     }
 
+    /// One node's expansion against the brute-force sums at a target in the
+    /// point-vortex range and at one in the blob's range: the third order's
+    /// error falls at least 12-fold (16-fold in theory) when the node's
+    /// particles draw in by half, and is small.
+    #[test]
+    fn the_expansion_is_of_third_order() {
+        let kernel = BlobKernel3::new(0.05);
+        // (target, the node's first side): 25 sigma and 5.4 sigma away
+        for (target, side) in [([1.0, 0.7, -0.4], 0.16), ([0.2, -0.15, 0.1], 0.04)] {
+            let mut last = [f64::INFINITY; 2];
+            for l in [side, side / 2.0, side / 4.0] {
+                let mut rng = Rng::new(3);
+                let x: Vec<[f64; 3]> = (0..20)
+                    .map(|_| std::array::from_fn(|_| l * (rng.uniform() - 0.5)))
+                    .collect();
+                let alpha: Vec<[f64; 3]> = (0..20)
+                    .map(|_| std::array::from_fn(|_| rng.uniform() - 0.3))
+                    .collect();
+                let centre = [0.1, -0.2, 0.05].map(|c| c * l);
+                let m = moments(centre, x.iter().copied().zip(alpha.iter().copied()));
+                let want =
+                    velocity_and_gradient_at(&kernel, &[target], &x, &alpha, &Threads::single());
+                let d = std::array::from_fn(|a| F64x4::splat(target[a] - centre[a]));
+                let r2 = (0..3).map(|a| (target[a] - centre[a]).powi(2)).sum::<f64>();
+                let f = kernel.radial_or_far(F64x4::splat(r2)).map(|g| -g);
+                let (u, g) = expansion(&m.map(F64x4::splat), d, &f);
+                let first = |v: &[F64x4]| v.iter().map(|v| v.to_array()[0]).collect::<Vec<f64>>();
+                let error = |got: Vec<f64>, want: &[f64]| {
+                    let norm =
+                        |v: &mut dyn Iterator<Item = f64>| v.map(|c| c * c).sum::<f64>().sqrt();
+                    norm(&mut got.iter().zip(want).map(|(a, b)| a - b))
+                        / norm(&mut want.iter().copied())
+                };
+                let errors = [error(first(&u), &want.0[0]), error(first(&g), &want.1[0])];
+                eprintln!("target {target:?}, l {l}: {errors:?}");
+                for k in 0..2 {
+                    assert!(
+                        errors[k] < 1e-3 && errors[k] * 12.0 < last[k],
+                        "{target:?}, l {l}: {errors:?} after {last:?}"
+                    );
+                }
+                last = errors;
+            }
+        }
+    }
+
     /// No particles, and one particle: no velocity, the gradient its own term
     /// `[alpha]_x g(0)`.
     #[test]
@@ -457,7 +609,7 @@ mod tests {
     #[test]
     #[ignore]
     fn measure_tree() {
-        for (name, (x, alpha, kernel)) in [("ring", ring(0.0415)), ("cloud", cloud(1, 100_000))] {
+        for (name, (x, alpha, kernel)) in [("ring", ring(0.0415))] {
             let n = x.len();
             eprintln!("{name}: {n} particles, sigma {:.4}", kernel.sigma());
             let sample: Vec<usize> = (0..n).step_by(50).collect();
@@ -466,12 +618,10 @@ mod tests {
             let want = velocity_and_gradient_at(&kernel, &targets, &x, &alpha, &two);
             // (theta, leaf_size, group_size, threads)
             let settings = [
+                (0.38, 16, 64, 1),
                 (0.4, 16, 64, 1),
-                (0.4, 8, 32, 1),
-                (0.4, 16, 32, 1),
-                (0.4, 32, 128, 1),
-                (0.3, 8, 32, 1),
-                (0.4, 16, 64, 2),
+                (0.38, 16, 32, 1),
+                (0.38, 16, 64, 2),
             ];
             for (theta, leaf_size, group_size, threads) in settings {
                 {
