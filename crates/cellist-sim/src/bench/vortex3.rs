@@ -5,7 +5,7 @@
 use super::vortex::{errors, median_seconds, spread_targets, VortexBench, VortexBenchSolver};
 use crate::error::{SimError, SimResult};
 use cellist::longrange::biot_savart3::velocity_and_gradient_at;
-use cellist::longrange::{BlobKernel3, TreeParams, Vic3Boundary, Vic3Params};
+use cellist::longrange::{BlobKernel3, TreeParams, Vic3Boundary, Vic3Params, VortexTree3};
 use cellist::models::vortex3::{seed3, InitialVorticity3, Ring, Velocity3Engine, Velocity3Solver};
 use cellist::Threads;
 
@@ -53,7 +53,7 @@ pub fn vortex3(
         VortexBenchSolver::BarnesHut { theta } => (
             Velocity3Solver::BarnesHut(TreeParams {
                 theta,
-                ..TreeParams::default()
+                ..VortexTree3::default_params()
             }),
             format!("barnes-hut (theta {theta})"),
         ),
