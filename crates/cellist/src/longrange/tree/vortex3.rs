@@ -400,9 +400,7 @@ fn component(
 mod tests {
     use super::*;
     use crate::longrange::biot_savart3::velocity_and_gradient_at;
-    use crate::longrange::DirectBiotSavart3;
     use crate::random::Rng;
-    use std::time::Instant;
 
     /// `n` blobs uniformly in the unit cube with random strengths of either
     /// sign, `sigma = 1.5 h`, `h = n^(-1/3)` the mean spacing.
@@ -600,69 +598,6 @@ mod tests {
         assert_eq!(u, [[0.0; 3]]);
         for (got, want) in g[0].iter().zip(want) {
             assert!((got - want).abs() <= 1e-15 * g0, "{:?}", g[0]);
-        }
-    }
-
-    /// Tree times and errors (against the brute-force sums at every 50th
-    /// particle) for the report: `cargo test --release -p cellist --lib
-    /// vortex3::tests::measure_tree -- --ignored --nocapture`.
-    #[test]
-    #[ignore]
-    fn measure_tree() {
-        for (name, (x, alpha, kernel)) in [("ring", ring(0.0415))] {
-            let n = x.len();
-            eprintln!("{name}: {n} particles, sigma {:.4}", kernel.sigma());
-            let sample: Vec<usize> = (0..n).step_by(50).collect();
-            let targets: Vec<[f64; 3]> = sample.iter().map(|&i| x[i]).collect();
-            let two = Threads::new(2).unwrap();
-            let want = velocity_and_gradient_at(&kernel, &targets, &x, &alpha, &two);
-            // (theta, leaf_size, group_size, threads)
-            let settings = [
-                (0.38, 16, 64, 1),
-                (0.4, 16, 64, 1),
-                (0.38, 16, 32, 1),
-                (0.38, 16, 64, 2),
-            ];
-            for (theta, leaf_size, group_size, threads) in settings {
-                {
-                    let params = TreeParams {
-                        theta,
-                        leaf_size,
-                        group_size,
-                        quadrupole: true,
-                    };
-                    let start = Instant::now();
-                    let ((u, g), counts) =
-                        tree_field(params, kernel, &x, &alpha, &Threads::new(threads).unwrap());
-                    let time = start.elapsed().as_secs_f64();
-                    let u: Vec<[f64; 3]> = sample.iter().map(|&i| u[i]).collect();
-                    let g: Vec<[f64; 9]> = sample.iter().map(|&i| g[i]).collect();
-                    eprintln!(
-                        "  tree theta {theta}, leaf {leaf_size}, group {group_size}, {threads} threads: {time:.2} s, RMS error u {:.2e}, grad {:.2e}, interactions {counts:?}",
-                        rms_error(&u, &want.0),
-                        rms_error(&g, &want.1)
-                    );
-                }
-            }
-        }
-    }
-
-    /// Direct times for the report: `cargo test --release -p cellist --lib
-    /// vortex3::tests::measure_direct -- --ignored --nocapture`.
-    #[test]
-    #[ignore]
-    fn measure_direct() {
-        let (x, alpha, kernel) = cloud(1, 100_000);
-        let n = x.len();
-        let (mut u, mut g) = (vec![[0.0; 3]; n], vec![[0.0; 9]; n]);
-        let mut direct = DirectBiotSavart3::new(kernel, n);
-        for threads in [2, 1] {
-            let start = Instant::now();
-            direct.compute(&x, &alpha, &mut u, &mut g, &Threads::new(threads).unwrap());
-            eprintln!(
-                "direct, {n} particles, {threads} threads: {:.2} s",
-                start.elapsed().as_secs_f64()
-            );
         }
     }
 }
