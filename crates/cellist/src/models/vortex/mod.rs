@@ -91,16 +91,11 @@ impl VortexParams {
     /// The remeshing lattice `origin + h (k, l)`, folded into the periodic box if
     /// there is one, keeping the nodes within the PSE cutoff of the kept ones.
     fn lattice(&self) -> Lattice<2> {
-        let reach = if self.nu > 0.0 {
-            (self.pse_cutoff_factor * self.sigma / self.spacing).ceil() as usize
-        } else {
-            0
-        };
         Lattice {
+            reach: pse_reach(self.nu, self.pse_cutoff_factor, self.sigma, self.spacing),
             origin: self.origin,
             spacing: self.spacing,
             periodic: self.periodic_box().map(|(lo, length)| (lo, [length; 2])),
-            reach,
         }
     }
 
@@ -120,6 +115,17 @@ impl VortexParams {
             ));
         }
         Ok(())
+    }
+}
+
+/// The nodes per axis a remeshing keeps around the kept ones: those within
+/// the PSE cutoff `pse_cutoff_factor * sigma` (PSE needs every neighbour
+/// within it, zeros included), none without viscosity.
+pub(crate) fn pse_reach(nu: f64, pse_cutoff_factor: f64, sigma: f64, spacing: f64) -> usize {
+    if nu > 0.0 {
+        (pse_cutoff_factor * sigma / spacing).ceil() as usize
+    } else {
+        0
     }
 }
 

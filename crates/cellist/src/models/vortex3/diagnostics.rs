@@ -254,7 +254,8 @@ mod tests {
         let (l2, max) = abc_errors(&abc, decay, &x, &alpha, h);
         assert!(l2 < 1e-15 && max < 1e-15);
         let (l2, _) = abc_errors(&abc, 1.0, &x, &alpha, h);
-        assert!((l2 - 0.1 / 0.9 * 0.9).abs() < 1e-12, "{l2}");
+        // against the undecayed field every value is 0.9 of it: 10 % off
+        assert!((l2 - 0.1).abs() < 1e-12, "{l2}");
     }
 
     #[test]

@@ -38,7 +38,7 @@ pub use initial::{cross, dot, seed3, Abc, InitialVorticity3, Ring, RING_CUT};
 pub use model::{Extras3, View3, Vortex3Model};
 
 use super::pse::{advance_from, moving_rate, Integrator, PairWeight};
-use super::vortex::{check_blob_params, VortexError};
+use super::vortex::{check_blob_params, pse_reach, VortexError};
 use crate::geometry::{wrap_coordinate, Boundary, Domain};
 use crate::interpolation::{remesh, Lattice};
 use crate::longrange::{
@@ -119,16 +119,11 @@ impl Vortex3Params {
     /// particles), folded into the periodic box if there is one, keeping the
     /// nodes within the PSE cutoff of the kept ones.
     fn lattice(&self) -> Lattice<3> {
-        let reach = if self.nu > 0.0 {
-            (self.pse_cutoff_factor * self.sigma / self.spacing).ceil() as usize
-        } else {
-            0
-        };
         Lattice {
             origin: [0.0; 3],
             spacing: self.spacing,
             periodic: self.periodic_box().map(|(lo, length)| (lo, [length; 3])),
-            reach,
+            reach: pse_reach(self.nu, self.pse_cutoff_factor, self.sigma, self.spacing),
         }
     }
 

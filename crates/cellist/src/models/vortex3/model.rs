@@ -10,19 +10,24 @@ use crate::state::{State, StateError};
 use crate::threads::Threads;
 use std::time::Duration;
 
-/// The thermo columns of every 3D vortex run.
-const COLUMNS: [&str; 10] = [
-    "time",
-    "total_vorticity_x",
-    "total_vorticity_y",
-    "total_vorticity_z",
-    "impulse_x",
-    "impulse_y",
-    "impulse_z",
-    "energy",
-    "enstrophy",
-    "helicity",
-];
+/// The thermo columns of every 3D vortex run followed by `extra`.
+macro_rules! columns {
+    ($($extra:literal),*) => {
+        &[
+            "time",
+            "total_vorticity_x",
+            "total_vorticity_y",
+            "total_vorticity_z",
+            "impulse_x",
+            "impulse_y",
+            "impulse_z",
+            "energy",
+            "enstrophy",
+            "helicity",
+            $($extra),*
+        ]
+    };
+}
 
 /// The thermo columns after the invariants that an initial condition adds.
 #[derive(Clone, Debug, PartialEq)]
@@ -40,24 +45,27 @@ pub enum Extras3 {
 }
 
 impl Extras3 {
-    /// The thermo columns of a run with these extras (those of several rings
-    /// are made once per run and kept for its length).
+    /// The thermo columns of a run with these extras. Those of several rings
+    /// depend on their number: they are made when the model is built and kept
+    /// for the process's life (`ModelInfo` holds static names).
     fn columns(&self) -> &'static [&'static str] {
-        let base = &COLUMNS[..];
-        let extra: Vec<String> = match self {
-            Extras3::None => Vec::new(),
-            Extras3::Ring(_) => vec!["ring_z".into(), "ring_radius".into(), "ring_speed".into()],
-            Extras3::Rings(rings) => (1..=rings.len())
-                .flat_map(|k| [format!("ring_{k}_z"), format!("ring_{k}_radius")])
-                .collect(),
-            Extras3::Abc(_) => vec!["omega_l2_error".into(), "omega_max_error".into()],
-        };
-        let names: Vec<&'static str> = base
-            .iter()
-            .copied()
-            .chain(extra.into_iter().map(|s| &*Box::leak(s.into_boxed_str())))
-            .collect();
-        Box::leak(names.into_boxed_slice())
+        match self {
+            Extras3::None => columns!(),
+            Extras3::Ring(_) => columns!("ring_z", "ring_radius", "ring_speed"),
+            Extras3::Abc(_) => columns!("omega_l2_error", "omega_max_error"),
+            Extras3::Rings(rings) => {
+                let base: &[&str] = columns!();
+                let names: Vec<&'static str> = base
+                    .iter()
+                    .copied()
+                    .chain((1..=rings.len()).flat_map(|k| {
+                        [format!("ring_{k}_z"), format!("ring_{k}_radius")]
+                            .map(|name| &*Box::leak(name.into_boxed_str()))
+                    }))
+                    .collect();
+                Box::leak(names.into_boxed_slice())
+            }
+        }
     }
 
     /// The rings these extras track.
