@@ -6,7 +6,7 @@
 
 use super::build::Node;
 use super::share::Whole;
-use super::walk::{copy, Group, Lists, Solver, Target, Walk, LANES};
+use super::walk::{Group, Lists, Solver, Target, Walk, LANES};
 use super::TreeParams;
 use crate::longrange::biot_savart3::{assemble, assert_lengths, terms, BlobKernel3, RADIAL, SUMS};
 use crate::simd::F64x4;
@@ -82,10 +82,11 @@ const TRIPLE: [[[usize; 3]; 3]; 3] = [
 #[derive(Debug)]
 pub struct VortexTree3 {
     kernel: BlobKernel3,
-    /// `0, 1, ..., N-1`: the walk's per-particle weights, so that the sorted
-    /// weights and the lists' weights are input indices, which pick the
-    /// particles' strengths.
-    index: Vec<f64>,
+    /// `|alpha|` per particle (input order): the walk's weights, which place
+    /// the nodes' centres.
+    size: Vec<f64>,
+    /// The strengths in tree order, so that a group's lists copy runs of them.
+    sorted_alpha: Vec<[f64; 3]>,
     solver: Solver<Moments, VortexLists3, SUMS>,
 }
 
@@ -107,7 +108,8 @@ impl VortexTree3 {
         let solver = Solver::new(params)?;
         Ok(VortexTree3 {
             kernel,
-            index: Vec::new(),
+            size: Vec::new(),
+            sorted_alpha: Vec::new(),
             solver,
         })
     }
@@ -129,21 +131,20 @@ impl VortexTree3 {
         threads: &Threads,
     ) {
         assert_lengths(positions, alpha, velocity, gradient);
-        let n = positions.len();
-        if self.index.len() != n {
-            self.index = (0..n).map(|i| i as f64).collect();
-        }
-        let kernel = &self.kernel;
-        self.solver.evaluate(
-            positions,
-            positions,
-            &self.index,
+        self.size.clear();
+        self.size.extend(alpha.iter().map(|a| norm(*a)));
+        self.solver.arrange(positions, positions, &self.size, threads);
+        self.sorted_alpha.clear();
+        let order = self.solver.order();
+        self.sorted_alpha.extend(order.iter().map(|&i| alpha[i as usize]));
+        let (kernel, sorted) = (&self.kernel, &self.sorted_alpha[..]);
+        self.solver.evaluate_arranged(
             CLEARANCE * kernel.sigma(),
             threads,
             &mut Whole,
-            |node, walk| of_node(node, walk, alpha),
+            |node, walk| of_node(node, walk, sorted),
             |lists: &mut VortexLists3, group, target| {
-                lists.gather(&group, alpha);
+                lists.gather(&group, sorted);
                 lists.evaluate(kernel, &group, target);
                 lists.walk.counts(target.len())
             },
@@ -154,26 +155,26 @@ impl VortexTree3 {
     }
 }
 
+/// `|a|`.
+fn norm(a: [f64; 3]) -> f64 {
+    (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt()
+}
+
 /// A node's centre of `|alpha|` (its cube's centre if all its strengths are
 /// zero) and its [`Moments`] about it; `walk.w` holds the sorted particles'
-/// input indices into `alpha`.
+/// `|alpha|`, `alpha` their strengths (tree order).
 fn of_node(node: &Node, walk: &Walk, alpha: &[[f64; 3]]) -> ([f64; 3], Moments) {
     let x = &walk.x;
     let range = node.start as usize..node.end as usize;
-    let strength = |s: usize| alpha[walk.w[s] as usize];
-    let size = |s: usize| {
-        let a = strength(s);
-        (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt()
-    };
-    let weight: f64 = range.clone().map(size).sum();
+    let weight: f64 = walk.w[range.clone()].iter().sum();
     let centre: [f64; 3] = std::array::from_fn(|a| {
         if weight > 0.0 {
-            range.clone().map(|s| size(s) * x[a][s]).sum::<f64>() / weight
+            range.clone().map(|s| walk.w[s] * x[a][s]).sum::<f64>() / weight
         } else {
             node.corner[a] + 0.5 * node.side
         }
     });
-    let particles = range.map(|s| ([x[0][s], x[1][s], x[2][s]], strength(s)));
+    let particles = range.map(|s| ([x[0][s], x[1][s], x[2][s]], alpha[s]));
     (centre, moments(centre, particles))
 }
 
@@ -213,33 +214,41 @@ struct VortexLists3 {
     walk: Lists,
     /// The opened leaves' particles' strengths per axis, padded with zeros.
     part_alpha: [Vec<f64>; 3],
-    /// The accepted nodes' [`Moments`], one column each, padded with zeros.
-    node_moments: Vec<Vec<f64>>,
+    /// The accepted nodes' [`Moments`], four nodes per block (entry `j` of
+    /// node `4 b + l` at `[b][j][l]`), padded with zeros.
+    node_moments: Vec<[[f64; LANES]; MOMENTS]>,
     /// Per group particle: its position and its [`SUMS`] running sums.
     targets: Vec<Target<3, SUMS>>,
 }
 
 impl VortexLists3 {
-    /// The shared lists of `group`, then the listed particles' strengths (the
-    /// lists' weights are input indices) and the accepted nodes' moments.
+    /// The shared lists of `group`, then the listed particles' strengths
+    /// (`alpha` in tree order, picked by the lists' sorted indices) and the
+    /// accepted nodes' moments.
     fn gather(&mut self, group: &Group<Moments>, alpha: &[[f64; 3]]) {
         self.walk.gather(group);
-        let (listed, ids) = (&self.walk.part_w, &self.walk.part_id);
-        for (c, dst) in self.part_alpha.iter_mut().enumerate() {
+        for dst in self.part_alpha.iter_mut() {
             dst.clear();
-            // padding entries (sorted index -1) have strength 0
-            dst.extend(listed.iter().zip(ids).map(|(&i, &id)| {
-                if id < 0.0 {
-                    0.0
-                } else {
-                    alpha[i as usize][c]
-                }
-            }));
         }
-        self.node_moments.resize(MOMENTS, Vec::new());
+        for &id in &self.walk.part_id {
+            // padding entries (sorted index -1) have strength 0
+            let a = if id < 0.0 { [0.0; 3] } else { alpha[id as usize] };
+            for (dst, value) in self.part_alpha.iter_mut().zip(a) {
+                dst.push(value);
+            }
+        }
+        // a node's moments are read whole, one block of four nodes written
+        // at a time
         let (ids, moments) = (&self.walk.accepted, group.moments);
-        for (j, dst) in self.node_moments.iter_mut().enumerate() {
-            copy(dst, ids, 0.0, |k| moments[k][j]);
+        self.node_moments.clear();
+        for four in ids.chunks(LANES) {
+            let mut block = [[0.0; LANES]; MOMENTS];
+            for (l, &k) in four.iter().enumerate() {
+                for (entry, &value) in block.iter_mut().zip(&moments[k as usize]) {
+                    entry[l] = value;
+                }
+            }
+            self.node_moments.push(block);
         }
     }
 
@@ -284,10 +293,9 @@ impl VortexLists3 {
     #[inline(always)]
     fn node_sums(&mut self, kernel: &BlobKernel3) {
         let node_x = &self.walk.node_x;
-        for c in (0..node_x[0].len()).step_by(LANES) {
+        for (c, block) in (0..node_x[0].len()).step_by(LANES).zip(&self.node_moments) {
             let centre: [F64x4; 3] = std::array::from_fn(|a| F64x4::load(&node_x[a][c..]));
-            let m: [F64x4; MOMENTS] =
-                std::array::from_fn(|j| F64x4::load(&self.node_moments[j][c..]));
+            let m: [F64x4; MOMENTS] = std::array::from_fn(|j| F64x4::load(&block[j]));
             for t in self.targets.iter_mut() {
                 let d: [F64x4; 3] = std::array::from_fn(|a| F64x4::splat(t.x[a]) - centre[a]);
                 let r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];

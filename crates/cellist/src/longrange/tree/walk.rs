@@ -326,14 +326,8 @@ impl<M: Send + Sync, L: Default + Send, const W: usize> Solver<M, L, W> {
         })
     }
 
-    /// One evaluation, divided by `share`: the octree of `lifted` (the
-    /// positions in 3D), the sorted `positions` (`D` axes) and `weights`, every
-    /// node's centre and moments by `of_node` (see [`Walk::nodes`] for
-    /// `clearance`), then `per_group` for every group of this process's part
-    /// ([`Split`]) in parallel, each writing the results of its own particles and
-    /// returning its interactions; then the other parts' results (and costs)
-    /// are gathered, so that every particle's result is that of the undivided
-    /// evaluation.
+    /// One evaluation, divided by `share`: [`Solver::arrange`], then
+    /// [`Solver::evaluate_arranged`].
     #[allow(clippy::too_many_arguments)]
     pub fn evaluate<const D: usize>(
         &mut self,
@@ -346,6 +340,20 @@ impl<M: Send + Sync, L: Default + Send, const W: usize> Solver<M, L, W> {
         of_node: impl Fn(&Node, &Walk) -> ([f64; 3], M) + Sync,
         per_group: impl Fn(&mut L, Group<M>, &mut [[f64; W]]) -> (u64, u64) + Sync,
     ) {
+        self.arrange(lifted, positions, weights, threads);
+        self.evaluate_arranged(clearance, threads, share, of_node, per_group);
+    }
+
+    /// The octree of `lifted` (the positions in 3D), and the sorted
+    /// `positions` (`D` axes) and `weights`; [`Solver::order`] then gives the
+    /// tree order.
+    pub fn arrange<const D: usize>(
+        &mut self,
+        lifted: &[[f64; 3]],
+        positions: &[[f64; D]],
+        weights: &[f64],
+        threads: &Threads,
+    ) {
         assert!(lifted.len() == positions.len() && positions.len() == weights.len());
         let sizes = Sizes {
             leaf: self.params.leaf_size,
@@ -353,6 +361,28 @@ impl<M: Send + Sync, L: Default + Send, const W: usize> Solver<M, L, W> {
         };
         self.tree.build(lifted, sizes, threads);
         self.walk.sort(&self.tree, positions, weights, threads);
+    }
+
+    /// The input index of each sorted particle of the last [`Solver::arrange`].
+    pub fn order(&self) -> &[u32] {
+        &self.tree.order
+    }
+
+    /// The evaluation of the particles of the last [`Solver::arrange`],
+    /// divided by `share`: every node's centre and moments by `of_node` (see
+    /// [`Walk::nodes`] for `clearance`), then `per_group` for every group of
+    /// this process's part ([`Split`]) in parallel, each writing the results
+    /// of its own particles and returning its interactions; then the other
+    /// parts' results (and costs) are gathered, so that every particle's
+    /// result is that of the undivided evaluation.
+    pub fn evaluate_arranged(
+        &mut self,
+        clearance: f64,
+        threads: &Threads,
+        share: &mut dyn Share,
+        of_node: impl Fn(&Node, &Walk) -> ([f64; 3], M) + Sync,
+        per_group: impl Fn(&mut L, Group<M>, &mut [[f64; W]]) -> (u64, u64) + Sync,
+    ) {
         let theta = self.params.theta;
         self.walk.nodes(
             &self.tree,
@@ -362,7 +392,7 @@ impl<M: Send + Sync, L: Default + Send, const W: usize> Solver<M, L, W> {
             threads,
             of_node,
         );
-        self.sorted.resize(positions.len(), [0.0; W]);
+        self.sorted.resize(self.tree.order.len(), [0.0; W]);
         while self.scratch.len() < threads.count() {
             self.scratch.push(Mutex::new(L::default()));
         }
