@@ -39,12 +39,14 @@
 //! particle the bits of one process.
 
 mod build;
+mod fmm2d;
 mod gravity;
 mod share;
 mod vortex;
 mod vortex3;
 mod walk;
 
+pub use fmm2d::{FmmAccuracy, PointVortex, VortexFmm, VortexLaw, ORDER_RANGE, TOLERANCE_RANGE};
 pub use gravity::BarnesHut;
 pub use share::Share;
 pub use vortex::VortexTree;

@@ -133,10 +133,12 @@ impl VortexTree3 {
         assert_lengths(positions, alpha, velocity, gradient);
         self.size.clear();
         self.size.extend(alpha.iter().map(|a| norm(*a)));
-        self.solver.arrange(positions, positions, &self.size, threads);
+        self.solver
+            .arrange(positions, positions, &self.size, threads);
         self.sorted_alpha.clear();
         let order = self.solver.order();
-        self.sorted_alpha.extend(order.iter().map(|&i| alpha[i as usize]));
+        self.sorted_alpha
+            .extend(order.iter().map(|&i| alpha[i as usize]));
         let (kernel, sorted) = (&self.kernel, &self.sorted_alpha[..]);
         self.solver.evaluate_arranged(
             CLEARANCE * kernel.sigma(),
@@ -232,7 +234,11 @@ impl VortexLists3 {
         }
         for &id in &self.walk.part_id {
             // padding entries (sorted index -1) have strength 0
-            let a = if id < 0.0 { [0.0; 3] } else { alpha[id as usize] };
+            let a = if id < 0.0 {
+                [0.0; 3]
+            } else {
+                alpha[id as usize]
+            };
             for (dst, value) in self.part_alpha.iter_mut().zip(a) {
                 dst.push(value);
             }

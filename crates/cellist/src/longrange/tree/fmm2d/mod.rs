@@ -1,0 +1,525 @@
+//! The fast multipole method in 2D for vortex velocities: complex-variable
+//! expansions ([`expansions`]) on the quadtree the Barnes-Hut solvers build
+//! (the octree of the particles lifted to `z = 0`), a dual-tree traversal
+//! per target group, and the blob law in the near field.
+
+mod expansions;
+
+use super::build::{Octree, Sizes};
+use crate::longrange::biot_savart::{assert_lengths, BlobKernel};
+use crate::simd::{F64x4, Real};
+use crate::threads::{DisjointSlice, Threads};
+use expansions::{l2l, l2p, m2l, m2m, p2m, Binomials, MAX_TERMS};
+use rayon::prelude::*;
+use rustfft::num_complex::Complex64;
+use std::f64::consts::PI;
+use std::fmt::Debug;
+use std::sync::Mutex;
+
+/// Boxes `T` and `S` (radii `s_T`, `s_S`: half their squares' diagonals,
+/// centres `|d|` apart) interact through their expansions when
+/// `2 max(s_T, s_S) <= THETA |d|`: both `s_S / (|d| - s_T)` and
+/// `s_T / (|d| - s_S)` are then at most `(THETA / 2) / (1 - THETA / 2) = 3/7`,
+/// so that each expansion's remainder after order `p` is below
+/// `(3/7)^(p + 1)` of the box's field (times `1 / (1 - 3/7)`).
+const THETA: f64 = 0.6;
+
+/// The fall of the measured error per order: the largest error (over the
+/// largest speed) of uniform and clustered points and blobs falls at least
+/// 3.2-fold per order from `p = 9` to `p = 17` (the worst case of
+/// [`THETA`], `3/7` per order, assumes every box at the limit).
+const DECAY: f64 = 1.0 / 3.2;
+
+/// The error at order 0 that [`DECAY`] starts from, a margin of 3 or more
+/// above the measured ones: `0.1 DECAY^p` bounds the measured largest
+/// error at order `p`.
+const ERROR_AT_ORDER_ZERO: f64 = 0.1;
+
+/// Most particles in a leaf: a leaf's particles meet the leaves beside it
+/// pair by pair.
+const LEAF: usize = 24;
+
+/// Most particles in a target group: each group traverses the tree with its
+/// own boxes as targets, in parallel with the others (a function of the
+/// particles only, so the result does not depend on the thread count).
+const GROUP: usize = 4096;
+
+/// The tolerances an FMM takes, exclusive bounds.
+pub const TOLERANCE_RANGE: (f64, f64) = (1e-15, 1e-1);
+
+/// The expansion orders an FMM takes.
+pub const ORDER_RANGE: (usize, usize) = (1, MAX_TERMS - 1);
+
+/// How accurate an FMM evaluation is asked to be.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum FmmAccuracy {
+    /// A relative tolerance `epsilon` in `(1e-15, 1e-1)`: the expansions'
+    /// order is the least `p` with `0.1 (1/3.2)^p <= epsilon` (see [`DECAY`]).
+    Tolerance(f64),
+    /// The expansions' order `p` itself.
+    Order(usize),
+}
+
+impl FmmAccuracy {
+    /// Checks the range of the tolerance or order (the message names the key).
+    pub fn check(&self) -> Result<(), String> {
+        match *self {
+            FmmAccuracy::Tolerance(t) => {
+                let (lo, hi) = TOLERANCE_RANGE;
+                if !(t > lo && t < hi) {
+                    return Err(format!("tolerance must be in ({lo:e}, {hi:e}), got {t}"));
+                }
+            }
+            FmmAccuracy::Order(p) => {
+                let (lo, hi) = ORDER_RANGE;
+                if !(lo..=hi).contains(&p) {
+                    return Err(format!("order must be in {lo}..={hi}, got {p}"));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The expansions' order `p`.
+    pub fn order(&self) -> usize {
+        match *self {
+            FmmAccuracy::Tolerance(t) => {
+                let p = ((t / ERROR_AT_ORDER_ZERO).ln() / DECAY.ln()).ceil() as usize;
+                p.clamp(ORDER_RANGE.0, ORDER_RANGE.1)
+            }
+            FmmAccuracy::Order(p) => p,
+        }
+    }
+
+    /// The tolerance the order stands for: the given one, or `0.1 (1/3.2)^p`.
+    pub fn tolerance(&self) -> f64 {
+        match *self {
+            FmmAccuracy::Tolerance(t) => t,
+            FmmAccuracy::Order(p) => ERROR_AT_ORDER_ZERO * DECAY.powi(p as i32),
+        }
+    }
+}
+
+/// The pair law of a 2D vortex solver, `u = Gamma q(|d|^2) (-d_y, d_x)` for
+/// `d = x - x_j`, which far out is the point vortex's `q = 1 / (2 pi |d|^2)`.
+pub trait VortexLaw: Copy + Debug + Send + Sync {
+    /// `q(r^2)`, lane by lane.
+    fn factor<T: Real>(&self, r2: T) -> T;
+
+    /// The distance from which `q` is the point vortex's to within
+    /// `tolerance / 100` relative: boxes nearer than that meet pair by pair.
+    fn reach(&self, tolerance: f64) -> f64;
+}
+
+impl VortexLaw for BlobKernel {
+    #[inline(always)]
+    fn factor<T: Real>(&self, r2: T) -> T {
+        BlobKernel::factor(self, r2)
+    }
+
+    /// `q` differs from the point vortex's by `exp(-r^2 / (2 sigma^2))`
+    /// relative: `sigma sqrt(2 ln(100 / tolerance))`.
+    fn reach(&self, tolerance: f64) -> f64 {
+        self.sigma() * (2.0 * (100.0 / tolerance).ln()).sqrt()
+    }
+}
+
+/// Point vortices: `q = 1 / (2 pi r^2)`, and nothing from a source at the
+/// target's position (the Cauchy kernel `sum Gamma_j / (2 pi i (z - z_j))`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub struct PointVortex;
+
+impl VortexLaw for PointVortex {
+    #[inline(always)]
+    fn factor<T: Real>(&self, r2: T) -> T {
+        let c = T::splat;
+        let q = c(0.5 / PI) / r2.max(c(f64::MIN_POSITIVE));
+        T::select_less(c(0.0), r2, q, c(0.0))
+    }
+
+    fn reach(&self, _tolerance: f64) -> f64 {
+        0.0
+    }
+}
+
+/// A box as the expansions see it: its square's centre and radius (half the
+/// diagonal), which scales its expansions.
+#[derive(Clone, Copy, Debug, Default)]
+struct Square {
+    centre: Complex64,
+    radius: f64,
+}
+
+/// The fast multipole method for 2D vortex velocities,
+///
+/// `u(x_i) = sum_j Gamma_j q(|x_i - x_j|^2) (-(y_i - y_j), x_i - x_j)`
+///
+/// with the pair law `q` of `K` ([`BlobKernel`] or [`PointVortex`]). Far
+/// apart, the law is the point vortex's, `u - i v = sum_j Gamma_j / (2 pi i
+/// (z - z_j))`, a Cauchy sum whose complex multipole and local expansions
+/// (order `p`) the boxes of the quadtree carry. Each target group (a subtree
+/// of at most 4096 particles) traverses the tree with its boxes as targets:
+/// a target box `T` and a source box `S` whose radii and centre distance
+/// satisfy `2 max(s_T, s_S) <= 0.6 d` and whose gap `d - s_T - s_S` is at
+/// least the law's reach ([`VortexLaw::reach`]) interact through M2L; otherwise the
+/// larger of the two is split, and two leaves meet pair by pair with the
+/// law itself. Then the group's locals move down (L2L) and are evaluated at
+/// its particles (L2P).
+///
+/// The error of one M2L is below `(7/4) (3/7)^(p + 1)` relative to the
+/// source box's field; the measured errors fall faster, and the order is
+/// chosen from the tolerance by their fall ([`FmmAccuracy::order`]). Each
+/// particle's sum runs in an order fixed by the
+/// tree, so 1 and N threads give the same bits.
+#[derive(Debug)]
+pub struct VortexFmm<K: VortexLaw> {
+    law: K,
+    accuracy: FmmAccuracy,
+    binomials: Binomials,
+    tree: Octree,
+    lifted: Vec<[f64; 3]>,
+    /// Positions and circulations in tree order.
+    x: Vec<f64>,
+    y: Vec<f64>,
+    gamma: Vec<f64>,
+    squares: Vec<Square>,
+    /// `p + 1` terms per node, node after node.
+    multipoles: Vec<Complex64>,
+    /// The velocities in tree order.
+    sorted: Vec<[f64; 2]>,
+    scratch: Vec<Mutex<Vec<Complex64>>>,
+    counts: Vec<(u64, u64)>,
+    interactions: (u64, u64),
+}
+
+impl<K: VortexLaw> VortexFmm<K> {
+    /// A solver for the pair law `law` at `accuracy` (checked).
+    pub fn new(law: K, accuracy: FmmAccuracy) -> Result<Self, String> {
+        accuracy.check()?;
+        Ok(VortexFmm {
+            law,
+            accuracy,
+            binomials: Binomials::new(accuracy.order()),
+            tree: Octree::default(),
+            lifted: Vec::new(),
+            x: Vec::new(),
+            y: Vec::new(),
+            gamma: Vec::new(),
+            squares: Vec::new(),
+            multipoles: Vec::new(),
+            sorted: Vec::new(),
+            scratch: Vec::new(),
+            counts: Vec::new(),
+            interactions: (0, 0),
+        })
+    }
+
+    /// The expansions' order `p`.
+    pub fn order(&self) -> usize {
+        self.binomials.order()
+    }
+
+    /// `(M2L, particle pair)` interactions of the last evaluation.
+    pub fn interactions(&self) -> (u64, u64) {
+        self.interactions
+    }
+
+    /// `velocity[i] = u(x_i)` for every particle (see [`VortexFmm`]), in
+    /// input order.
+    pub fn compute(
+        &mut self,
+        positions: &[[f64; 2]],
+        gamma: &[f64],
+        velocity: &mut [[f64; 2]],
+        threads: &Threads,
+    ) {
+        assert_lengths(positions, gamma, velocity);
+        self.lifted.clear();
+        self.lifted
+            .extend(positions.iter().map(|p| [p[0], p[1], 0.0]));
+        let sizes = Sizes {
+            leaf: LEAF,
+            group: GROUP,
+        };
+        self.tree.build(&self.lifted, sizes, threads);
+        let order = &self.tree.order;
+        self.x.clear();
+        self.y.clear();
+        self.gamma.clear();
+        for &i in order {
+            let i = i as usize;
+            self.x.push(positions[i][0]);
+            self.y.push(positions[i][1]);
+            self.gamma.push(gamma[i]);
+        }
+        self.squares.clear();
+        self.squares
+            .extend(self.tree.nodes.iter().map(|node| Square {
+                centre: Complex64::new(
+                    node.corner[0] + 0.5 * node.side,
+                    node.corner[1] + 0.5 * node.side,
+                ),
+                radius: node.side * std::f64::consts::FRAC_1_SQRT_2,
+            }));
+        self.upward(threads);
+        self.downward(threads);
+        for (&i, u) in self.tree.order.iter().zip(&self.sorted) {
+            velocity[i as usize] = *u;
+        }
+    }
+
+    /// P2M at the leaves (in parallel), then M2M from the children up, last
+    /// node first (children follow their parent).
+    fn upward(&mut self, threads: &Threads) {
+        let terms = self.order() + 1;
+        let charge = Complex64::new(0.0, -0.5 / PI);
+        let nodes = &self.tree.nodes;
+        self.multipoles.clear();
+        self.multipoles
+            .resize(nodes.len() * terms, Complex64::new(0.0, 0.0));
+        let (x, y, gamma, squares) = (&self.x, &self.y, &self.gamma, &self.squares);
+        threads.install(|| {
+            self.multipoles
+                .par_chunks_mut(terms)
+                .zip(nodes.par_iter())
+                .zip(squares.par_iter())
+                .filter(|((_, node), _)| node.leaf)
+                .for_each(|((a, node), square)| {
+                    let sources = (node.start as usize..node.end as usize)
+                        .map(|s| (Complex64::new(x[s], y[s]), gamma[s]));
+                    p2m(a, square.centre, square.radius, sources, charge);
+                })
+        });
+        for k in (0..nodes.len()).rev() {
+            if nodes[k].leaf {
+                continue;
+            }
+            let (parent, below) = self.multipoles.split_at_mut((k + 1) * terms);
+            let parent = &mut parent[k * terms..];
+            let mut child = k + 1;
+            while child < nodes[k].next as usize {
+                let offset = (child - k - 1) * terms;
+                m2m(
+                    &self.binomials,
+                    &below[offset..offset + terms],
+                    squares[child].centre,
+                    squares[child].radius,
+                    parent,
+                    squares[k].centre,
+                    squares[k].radius,
+                );
+                child = nodes[child].next as usize;
+            }
+        }
+    }
+
+    /// Every target group in parallel: its traversal, then L2L and L2P within
+    /// it, writing its particles' velocities.
+    fn downward(&mut self, threads: &Threads) {
+        let n = self.x.len();
+        self.sorted.resize(n, [0.0; 2]);
+        while self.scratch.len() < threads.count() {
+            self.scratch.push(Mutex::new(Vec::new()));
+        }
+        let (mut sorted, mut counts) = (
+            std::mem::take(&mut self.sorted),
+            std::mem::take(&mut self.counts),
+        );
+        let shared = DisjointSlice::new(&mut sorted);
+        let this = &*self;
+        let reach = this.law.reach(this.accuracy.tolerance());
+        threads.install(|| {
+            this.tree
+                .groups
+                .par_iter()
+                .map(|&g| {
+                    let thread = rayon::current_thread_index().unwrap_or(0);
+                    let mut locals = this.scratch[thread]
+                        .lock()
+                        .expect("scratch of a panicked traversal");
+                    let node = &this.tree.nodes[g as usize];
+                    // SAFETY: groups hold disjoint ranges of the sorted particles.
+                    let out = unsafe { shared.range(node.start as usize..node.end as usize) };
+                    this.group(g as usize, reach, &mut locals, out)
+                })
+                .collect_into_vec(&mut counts)
+        });
+        (self.sorted, self.counts) = (sorted, counts);
+        self.interactions = self
+            .counts
+            .iter()
+            .fold((0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
+    }
+
+    /// The velocities of group `g`'s particles into `out`: the traversal of
+    /// `(g, root)`, then the locals down the group's subtree and out at its
+    /// leaves. Returns its `(M2L, pair)` counts.
+    fn group(
+        &self,
+        g: usize,
+        reach: f64,
+        locals: &mut Vec<Complex64>,
+        out: &mut [[f64; 2]],
+    ) -> (u64, u64) {
+        let terms = self.order() + 1;
+        let nodes = &self.tree.nodes;
+        let end = nodes[g].next as usize;
+        locals.clear();
+        locals.resize((end - g) * terms, Complex64::new(0.0, 0.0));
+        out.fill([0.0; 2]);
+        let mut walk = Traversal {
+            fmm: self,
+            group: g,
+            reach,
+            locals: &mut locals[..],
+            out,
+            counts: (0, 0),
+        };
+        walk.interact(g, 0);
+        let counts = walk.counts;
+        let first = nodes[g].start as usize;
+        for k in g..end {
+            let node = &nodes[k];
+            let (mine, below) = locals.split_at_mut((k - g + 1) * terms);
+            let b = &mine[(k - g) * terms..];
+            if node.leaf {
+                let square = self.squares[k];
+                for s in node.start as usize..node.end as usize {
+                    let f = l2p(
+                        b,
+                        square.centre,
+                        square.radius,
+                        Complex64::new(self.x[s], self.y[s]),
+                    );
+                    let u = &mut out[s - first];
+                    u[0] += f.re;
+                    u[1] -= f.im;
+                }
+                continue;
+            }
+            let mut child = k + 1;
+            while child < node.next as usize {
+                let offset = (child - k - 1) * terms;
+                l2l(
+                    &self.binomials,
+                    b,
+                    self.squares[k].centre,
+                    self.squares[k].radius,
+                    &mut below[offset..offset + terms],
+                    self.squares[child].centre,
+                    self.squares[child].radius,
+                );
+                child = nodes[child].next as usize;
+            }
+        }
+        counts
+    }
+}
+
+/// One group's traversal: its locals (the group's subtree's nodes, `p + 1`
+/// terms each) and its particles' pair sums.
+struct Traversal<'a, K: VortexLaw> {
+    fmm: &'a VortexFmm<K>,
+    group: usize,
+    reach: f64,
+    locals: &'a mut [Complex64],
+    out: &'a mut [[f64; 2]],
+    counts: (u64, u64),
+}
+
+impl<K: VortexLaw> Traversal<'_, K> {
+    /// Target box `t` (in the group) against source box `s`: M2L when they
+    /// are apart, pairs when both are leaves, else the larger one split.
+    fn interact(&mut self, t: usize, s: usize) {
+        let fmm = self.fmm;
+        let nodes = &fmm.tree.nodes;
+        let (target, source) = (&nodes[t], &nodes[s]);
+        let overlap = target.start < source.end && source.start < target.end;
+        if !overlap && self.apart(t, s) {
+            let terms = fmm.order() + 1;
+            let local = &mut self.locals[(t - self.group) * terms..(t - self.group + 1) * terms];
+            let (st, ss) = (fmm.squares[t], fmm.squares[s]);
+            m2l(
+                &fmm.binomials,
+                &fmm.multipoles[s * terms..(s + 1) * terms],
+                ss.centre,
+                ss.radius,
+                local,
+                st.centre,
+                st.radius,
+            );
+            self.counts.0 += 1;
+            return;
+        }
+        match (target.leaf, source.leaf) {
+            (true, true) => self.pairs(t, s),
+            (true, false) => self.each_child(s, |walk, c| walk.interact(t, c)),
+            (false, true) => self.each_child(t, |walk, c| walk.interact(c, s)),
+            (false, false) => {
+                if source.side >= target.side {
+                    self.each_child(s, |walk, c| walk.interact(t, c))
+                } else {
+                    self.each_child(t, |walk, c| walk.interact(c, s))
+                }
+            }
+        }
+    }
+
+    /// `visit(self, child)` for every child of node `k`, in order.
+    fn each_child(&mut self, k: usize, mut visit: impl FnMut(&mut Self, usize)) {
+        let nodes = &self.fmm.tree.nodes;
+        let end = nodes[k].next as usize;
+        let mut child = k + 1;
+        while child < end {
+            let next = nodes[child].next as usize;
+            visit(self, child);
+            child = next;
+        }
+    }
+
+    /// Whether boxes `t` and `s` are well apart: `2 max(s_T, s_S) <= THETA d`
+    /// and a gap of at least the law's reach.
+    fn apart(&self, t: usize, s: usize) -> bool {
+        let (a, b) = (self.fmm.squares[t], self.fmm.squares[s]);
+        let d = (a.centre - b.centre).norm();
+        2.0 * a.radius.max(b.radius) <= THETA * d && d - a.radius - b.radius >= self.reach
+    }
+
+    /// Adds the pair sums of leaf `s`'s particles at leaf `t`'s: four sources
+    /// at a time in SIMD lanes, the rest one by one.
+    fn pairs(&mut self, t: usize, s: usize) {
+        let fmm = self.fmm;
+        let nodes = &fmm.tree.nodes;
+        let (target, source) = (&nodes[t], &nodes[s]);
+        let sources = source.start as usize..source.end as usize;
+        let whole = sources.start + (sources.len() / 4) * 4;
+        let first = nodes[self.group].start as usize;
+        let law = fmm.law;
+        for i in target.start as usize..target.end as usize {
+            let (xi, yi) = (fmm.x[i], fmm.y[i]);
+            let (sx, sy) = (F64x4::splat(xi), F64x4::splat(yi));
+            let (mut u, mut v) = (F64x4::splat(0.0), F64x4::splat(0.0));
+            for j in (sources.start..whole).step_by(4) {
+                let dx = sx - F64x4::load(&fmm.x[j..]);
+                let dy = sy - F64x4::load(&fmm.y[j..]);
+                let q = F64x4::load(&fmm.gamma[j..]) * law.factor(dx * dx + dy * dy);
+                u = dy.neg_mul_add(q, u);
+                v = dx.mul_add(q, v);
+            }
+            let (mut su, mut sv) = (u.sum(), v.sum());
+            for j in whole..sources.end {
+                let (dx, dy) = (xi - fmm.x[j], yi - fmm.y[j]);
+                let q = fmm.gamma[j] * law.factor(dx * dx + dy * dy);
+                su -= q * dy;
+                sv += q * dx;
+            }
+            let o = &mut self.out[i - first];
+            o[0] += su;
+            o[1] += sv;
+        }
+        self.counts.1 += (target.end - target.start) as u64 * sources.len() as u64;
+    }
+}
+
+#[cfg(test)]
+mod tests;
