@@ -5,8 +5,10 @@ use crate::cli::{
     BenchBilliardsArgs, BenchGravityArgs, BenchLjArgs, BenchNeighborsArgs, BenchPseArgs,
     BenchVortexArgs, GravitySolverArg, PseMethodArg, VortexSolverArg,
 };
-use crate::error::{threads, CliResult};
-use cellist_sim::bench::{self, GravitySolver, PseMethod, VortexBenchSolver};
+use crate::error::{threads, CliError, CliResult};
+use cellist_sim::bench::{
+    self, FmmAccuracy, GravitySolver, PseMethod, VortexBenchSolver, VortexPoints,
+};
 use cellist_sim::bench::{late_note, RebuildRule};
 use cellist_sim::neighbors::Order;
 use cellist_sim::Threads;
@@ -237,28 +239,54 @@ pub fn vortex(args: &BenchVortexArgs) -> CliResult {
         VortexSolverArg::Direct => VortexBenchSolver::Direct,
         VortexSolverArg::BarnesHut => VortexBenchSolver::BarnesHut { theta: args.theta },
         VortexSolverArg::Mesh => VortexBenchSolver::Mesh { grid: args.grid },
+        VortexSolverArg::Fmm => VortexBenchSolver::Fmm {
+            accuracy: match args.order {
+                Some(p) => FmmAccuracy::Order(p),
+                None => FmmAccuracy::Tolerance(args.tolerance),
+            },
+        },
     };
-    if args.dim == 3 {
-        return vortex3(args, solver, &pool);
+    if let VortexBenchSolver::Fmm { accuracy } = solver {
+        accuracy
+            .check()
+            .map_err(|m| CliError::Input(format!("--{m}")))?;
     }
-    let b = bench::vortex(solver, args.n, args.repeat, args.sample, &pool)?;
+    let points = match (&args.input, args.n) {
+        (Some(path), _) if args.dim == 2 => VortexPoints::File {
+            path: path.clone(),
+            sigma: args.sigma,
+        },
+        (Some(_), _) => {
+            return Err(CliError::Input(
+                "--input reads 2D particles; with --dim 3 give --n".into(),
+            ))
+        }
+        (None, Some(n)) if args.dim == 3 => return vortex3(args, n, solver, &pool),
+        (None, n) => VortexPoints::Lattice { n: n.unwrap_or(0) },
+    };
+    let b = bench::vortex(solver, &points, args.repeat, args.sample, &pool)?;
+    let what = match (b.spacing, b.sigma) {
+        (Some(h), _) => format!("two Gaussian vortices, h {h:.3e}, sigma 1.5 h"),
+        (None, Some(sigma)) => format!("blobs of sigma {sigma:e}"),
+        (None, None) => "point vortices".to_string(),
+    };
     if args.json {
         let obj = serde_json::json!({
             "solver": b.solver, "n": b.n, "threads": args.threads, "spacing": b.spacing,
-            "sigma": 1.5 * b.spacing, "seconds_per_velocity": b.seconds, "repeat": args.repeat,
+            "sigma": b.sigma, "seconds_per_velocity": b.seconds, "repeat": args.repeat,
             "error_targets": b.targets,
             "rms_relative_velocity_error": b.rms_relative_error,
             "max_error_over_peak_speed": b.max_error_over_peak_speed,
+            "max_relative_error": b.max_error_over_peak_speed,
         });
         println!("{obj}");
     } else {
         println!(
-            "vortex {}: {} particles (two Gaussian vortices, h {:.3e}, sigma 1.5 h), {} thread(s): \
+            "vortex {}: {} particles ({what}), {} thread(s): \
              {:.4e} s per velocity evaluation (median of {}); against direct on {} particles: \
              RMS relative error {:.3e}, largest error / peak speed {:.3e}",
             b.solver,
             b.n,
-            b.spacing,
             args.threads,
             b.seconds,
             args.repeat,
@@ -271,13 +299,18 @@ pub fn vortex(args: &BenchVortexArgs) -> CliResult {
 }
 
 /// `cellist bench vortex --dim 3`.
-fn vortex3(args: &BenchVortexArgs, solver: VortexBenchSolver, pool: &Threads) -> CliResult {
-    let b = bench::vortex3(solver, args.n, args.repeat, args.sample, pool)?;
+fn vortex3(
+    args: &BenchVortexArgs,
+    n: usize,
+    solver: VortexBenchSolver,
+    pool: &Threads,
+) -> CliResult {
+    let b = bench::vortex3(solver, n, args.repeat, args.sample, pool)?;
     let gradient_error = b.rms_relative_gradient_error.unwrap_or(0.0);
     if args.json {
         let obj = serde_json::json!({
             "dimension": 3, "solver": b.solver, "n": b.n, "threads": args.threads,
-            "spacing": b.spacing, "sigma": 1.5 * b.spacing,
+            "spacing": b.spacing, "sigma": b.sigma,
             "seconds_per_velocity_and_gradient": b.seconds, "repeat": args.repeat,
             "error_targets": b.targets,
             "rms_relative_velocity_error": b.rms_relative_error,
@@ -293,7 +326,7 @@ fn vortex3(args: &BenchVortexArgs, solver: VortexBenchSolver, pool: &Threads) ->
              largest velocity error / peak speed {:.3e}",
             b.solver,
             b.n,
-            b.spacing,
+            b.spacing.unwrap_or(f64::NAN),
             args.threads,
             b.seconds,
             args.repeat,

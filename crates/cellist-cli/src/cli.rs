@@ -302,6 +302,9 @@ pub enum VortexSolverArg {
     BarnesHut,
     /// Vortex-in-cell: M4' onto a mesh, FFT Poisson solve, M4' back.
     Mesh,
+    /// The fast multipole method (2D): complex expansions on the quadtree,
+    /// accuracy set by --tolerance or --order.
+    Fmm,
 }
 
 /// Flags of `cellist bench vortex`.
@@ -312,8 +315,22 @@ pub struct BenchVortexArgs {
     pub solver: VortexSolverArg,
     /// Particles (2D: rounded to a square lattice; 3D: a vortex ring of radius
     /// 1 and core 0.2 on a lattice of about N particles).
+    #[arg(long, required_unless_present = "input", conflicts_with = "input")]
+    pub n: Option<usize>,
+    /// Particles from a file instead (2D): lines `x y gamma`, separated by
+    /// blanks or commas; blobs of core --sigma, or point vortices without it
+    /// (the Cauchy kernel, which only --solver fmm computes).
+    #[arg(long, value_name = "FILE")]
+    pub input: Option<std::path::PathBuf>,
+    /// The blobs' core for the particles of --input.
+    #[arg(long, requires = "input")]
+    pub sigma: Option<f64>,
+    /// Requested relative error (fmm), in (1e-15, 1e-1).
+    #[arg(long, default_value_t = 1e-6)]
+    pub tolerance: f64,
+    /// The expansions' order (fmm), instead of --tolerance.
     #[arg(long)]
-    pub n: usize,
+    pub order: Option<usize>,
     /// The dimension: 2 (two Gaussian vortices, velocity) or 3 (a vortex ring,
     /// velocity and its gradient, the stretching's input).
     #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u8).range(2..=3))]

@@ -11,11 +11,12 @@ mod vortex;
 mod vortex3;
 
 pub use billiards::{billiards, BilliardsBench, BilliardsRequest};
+pub use cellist::longrange::FmmAccuracy;
 pub use gravity::{gravity, GravityBench, GravityRequest, GravitySolver};
 pub use lj::{lj, LjBench, LjRequest};
 pub use neighbors::{neighbors, NeighborsBench, NeighborsRequest};
 pub use pse::{pse, PseBench, PseMethod, PseRequest};
-pub use vortex::{vortex, VortexBench, VortexBenchSolver};
+pub use vortex::{vortex, VortexBench, VortexBenchSolver, VortexPoints};
 pub use vortex3::vortex3;
 
 // the engine's names a benchmark's flags and figures need

@@ -2,12 +2,17 @@
 //! solver, timed, with its error against the direct sum.
 
 use crate::error::{SimError, SimResult};
+use crate::models::vortex::fmm_name;
 use crate::study::median;
 use cellist::longrange::biot_savart::velocity_at;
 use cellist::longrange::mesh::MAX_VIC_GRID;
-use cellist::longrange::{BlobKernel, TreeParams, VicBoundary, VicParams};
+use cellist::longrange::{
+    BlobKernel, FmmAccuracy, PointVortex, TreeParams, VicBoundary, VicParams, VortexFmm,
+};
 use cellist::models::vortex::{seed, InitialVorticity, VelocityEngine, VelocitySolver};
 use cellist::Threads;
+use cellist_io::read_field_of;
+use std::path::PathBuf;
 use std::time::Instant;
 
 /// The most particles the vortex benchmark seeds.
@@ -29,6 +34,30 @@ pub enum VortexBenchSolver {
         /// Nodes per axis.
         grid: Option<usize>,
     },
+    /// The fast multipole method at this accuracy (2D).
+    Fmm {
+        /// The tolerance or the order.
+        accuracy: FmmAccuracy,
+    },
+}
+
+/// The particles of the 2D vortex benchmark.
+#[derive(Clone, Debug, PartialEq)]
+pub enum VortexPoints {
+    /// Two Gaussian vortices on a lattice of about `n` particles over
+    /// `[-1, 1]^2`, blobs of `sigma = 1.5 h`.
+    Lattice {
+        /// Particles (rounded to a square lattice).
+        n: usize,
+    },
+    /// The lines `x y gamma` of a file: blobs of core `sigma`, or point
+    /// vortices (the Cauchy kernel) without it.
+    File {
+        /// The file.
+        path: PathBuf,
+        /// The blobs' core, if any.
+        sigma: Option<f64>,
+    },
 }
 
 /// What the vortex benchmark measured.
@@ -36,10 +65,13 @@ pub enum VortexBenchSolver {
 pub struct VortexBench {
     /// The solver, with its settings, for messages.
     pub solver: String,
-    /// Particles (a square lattice).
+    /// Particles.
     pub n: usize,
-    /// Lattice spacing `h` (the blobs' core is `1.5 h`).
-    pub spacing: f64,
+    /// Lattice spacing `h` of the generated particles (their blobs' core is
+    /// `1.5 h`); `None` for particles from a file.
+    pub spacing: Option<f64>,
+    /// The blobs' core; `None` for point vortices.
+    pub sigma: Option<f64>,
     /// Median seconds per velocity evaluation.
     pub seconds: f64,
     /// Target particles the error was measured on.
@@ -85,28 +117,77 @@ pub(super) fn spread_targets(n: usize, sample: usize) -> Vec<usize> {
     (0..n).step_by(n.div_ceil(sample.min(n))).collect()
 }
 
-/// Two Gaussian vortices on a lattice of about `n` particles over `[-1, 1]^2`
-/// (`sigma = 1.5 h`): the median time of `repeat` velocity evaluations by
-/// `solver` (after an untimed one that builds its tables) and the error against
-/// the one-sided direct sum on `sample` evenly spread targets.
+/// The median time of `repeat` velocity evaluations of the particles of
+/// `points` by `solver` (after an untimed one that builds its tables) and the
+/// error against the one-sided direct sum on `sample` evenly spread targets.
 pub fn vortex(
     solver: VortexBenchSolver,
-    n: usize,
+    points: &VortexPoints,
     repeat: usize,
     sample: usize,
     threads: &Threads,
 ) -> SimResult<VortexBench> {
-    if !(4..=MAX_VORTEX_PARTICLES).contains(&n) {
-        return Err(SimError::Input(format!(
-            "--n must be in 4..={MAX_VORTEX_PARTICLES}, got {n}"
-        )));
-    }
     if repeat == 0 || sample == 0 {
         return Err(SimError::Input(
             "--repeat and --sample must be at least 1".into(),
         ));
     }
-    // a lattice of (2 m + 1)^2 nodes over [-1, 1]^2 with two Gaussian vortices
+    let (positions, gamma, spacing, sigma) = match points {
+        VortexPoints::Lattice { n } => {
+            let (positions, gamma, h) = lattice(*n)?;
+            (positions, gamma, Some(h), Some(1.5 * h))
+        }
+        VortexPoints::File { path, sigma } => {
+            if let Some(s) = sigma {
+                if !(s.is_finite() && *s > 0.0) {
+                    return Err(SimError::Input(format!("--sigma must be > 0, got {s}")));
+                }
+            }
+            let (positions, gamma) = read_field_of::<2>(path, "gamma")?;
+            if positions.is_empty() {
+                return Err(SimError::Input(format!(
+                    "{}: no particles (expected lines `x y gamma`)",
+                    path.display()
+                )));
+            }
+            (positions, gamma, None, *sigma)
+        }
+    };
+    let n = positions.len();
+    let side = spacing.map_or(0, |h| (1.0 / h).round() as usize);
+    let (name, mut evaluate) = evaluator(solver, sigma, side, n, threads)?;
+    let mut velocity = vec![[0.0; 2]; n];
+    let seconds = median_seconds(repeat, || evaluate(&positions, &gamma, &mut velocity));
+    // the error on evenly spread targets against the one-sided direct sum
+    let targets = spread_targets(n, sample);
+    let points: Vec<[f64; 2]> = targets.iter().map(|&i| positions[i]).collect();
+    let exact = match sigma {
+        Some(s) => velocity_at(&BlobKernel::new(s), &points, &positions, &gamma, threads),
+        None => velocity_at(&PointVortex, &points, &positions, &gamma, threads),
+    };
+    let computed: Vec<[f64; 2]> = targets.iter().map(|&i| velocity[i]).collect();
+    let (rms_relative_error, max_error_over_peak_speed) = errors(&computed, &exact);
+    Ok(VortexBench {
+        solver: name,
+        n,
+        spacing,
+        sigma,
+        seconds,
+        targets: targets.len(),
+        rms_relative_error,
+        max_error_over_peak_speed,
+        rms_relative_gradient_error: None,
+    })
+}
+
+/// Two Gaussian vortices on a lattice of `(2 m + 1)^2` nodes, about `n`, over
+/// `[-1, 1]^2`: positions, circulations and the spacing `h = 1 / m`.
+fn lattice(n: usize) -> SimResult<(Vec<[f64; 2]>, Vec<f64>, f64)> {
+    if !(4..=MAX_VORTEX_PARTICLES).contains(&n) {
+        return Err(SimError::Input(format!(
+            "--n must be in 4..={MAX_VORTEX_PARTICLES}, got {n}"
+        )));
+    }
     let m = (((n as f64).sqrt() - 1.0) / 2.0).round().max(1.0) as usize;
     let h = 1.0 / m as f64;
     let field = InitialVorticity::Pair {
@@ -115,8 +196,22 @@ pub fn vortex(
         core: 0.15,
     };
     let (positions, gamma) = seed(&field, [0.0, 0.0], h, 1.0);
-    let n = positions.len();
-    let kernel = BlobKernel::new(1.5 * h);
+    Ok((positions, gamma, h))
+}
+
+/// One velocity evaluation of `n` particles.
+type Evaluate<'a> = Box<dyn FnMut(&[[f64; 2]], &[f64], &mut [[f64; 2]]) + 'a>;
+
+/// The solver's name and its evaluation, for blobs of `sigma` or point
+/// vortices; `m` is the lattice's nodes per unit length (0 for a file), which
+/// picks the mesh's default grid.
+fn evaluator<'a>(
+    solver: VortexBenchSolver,
+    sigma: Option<f64>,
+    m: usize,
+    n: usize,
+    threads: &'a Threads,
+) -> SimResult<(String, Evaluate<'a>)> {
     let (kind, name) = match solver {
         VortexBenchSolver::Direct => (VelocitySolver::Direct, "direct".to_string()),
         VortexBenchSolver::BarnesHut { theta } => (
@@ -127,8 +222,12 @@ pub fn vortex(
             format!("barnes-hut (theta {theta})"),
         ),
         VortexBenchSolver::Mesh { grid } => {
-            // the particle lattice has 2 m + 1 nodes a side; the mesh adds a margin
-            let grid = grid.unwrap_or_else(|| (2 * m + 8).next_power_of_two().min(MAX_VIC_GRID));
+            // the particle lattice has 2 m + 1 nodes a side; the mesh adds a
+            // margin (particles from a file: 256)
+            let grid = grid.unwrap_or_else(|| match m {
+                0 => 256,
+                m => (2 * m + 8).next_power_of_two().min(MAX_VIC_GRID),
+            });
             let params = VicParams {
                 grid,
                 boundary: VicBoundary::Unbounded,
@@ -138,26 +237,24 @@ pub fn vortex(
                 format!("mesh (grid {grid}^2)"),
             )
         }
+        VortexBenchSolver::Fmm { accuracy } => (VelocitySolver::Fmm(accuracy), fmm_name(accuracy)),
     };
-    let mut engine = VelocityEngine::new(kind, kernel, n).map_err(SimError::Input)?;
-    let mut velocity = vec![[0.0; 2]; n];
-    let seconds = median_seconds(repeat, || {
-        engine.compute(&positions, &gamma, &mut velocity, threads)
-    });
-    // the error on evenly spread targets against the one-sided direct sum
-    let targets = spread_targets(n, sample);
-    let points: Vec<[f64; 2]> = targets.iter().map(|&i| positions[i]).collect();
-    let exact = velocity_at(&kernel, &points, &positions, &gamma, threads);
-    let computed: Vec<[f64; 2]> = targets.iter().map(|&i| velocity[i]).collect();
-    let (rms_relative_error, max_error_over_peak_speed) = errors(&computed, &exact);
-    Ok(VortexBench {
-        solver: name,
-        n,
-        spacing: h,
-        seconds,
-        targets: targets.len(),
-        rms_relative_error,
-        max_error_over_peak_speed,
-        rms_relative_gradient_error: None,
-    })
+    match (sigma, kind) {
+        (Some(sigma), _) => {
+            let mut engine =
+                VelocityEngine::new(kind, BlobKernel::new(sigma), n).map_err(SimError::Input)?;
+            let evaluate: Evaluate = Box::new(move |x, g, u| engine.compute(x, g, u, threads));
+            Ok((name, evaluate))
+        }
+        (None, VelocitySolver::Fmm(accuracy)) => {
+            let mut fmm = VortexFmm::new(PointVortex, accuracy).map_err(SimError::Input)?;
+            let evaluate: Evaluate = Box::new(move |x, g, u| fmm.compute(x, g, u, threads));
+            Ok((format!("{name}, point vortices"), evaluate))
+        }
+        (None, _) => Err(SimError::Input(
+            "--input without --sigma gives point vortices, which only --solver fmm computes; \
+             give --sigma S for blobs of core S"
+                .into(),
+        )),
+    }
 }

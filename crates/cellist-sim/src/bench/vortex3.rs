@@ -72,6 +72,12 @@ pub fn vortex3(
                 format!("mesh (grid {grid}^3)"),
             )
         }
+        VortexBenchSolver::Fmm { .. } => {
+            return Err(SimError::Input(
+                "--solver fmm computes the 2D vortex velocity; with --dim 3 use direct, barnes-hut or mesh"
+                    .into(),
+            ))
+        }
     };
     let mut engine = Velocity3Engine::new(kind, sigma, n).map_err(SimError::Input)?;
     let mut velocity = vec![[0.0; 3]; n];
@@ -92,7 +98,8 @@ pub fn vortex3(
     Ok(VortexBench {
         solver: name,
         n,
-        spacing: h,
+        spacing: Some(h),
+        sigma: Some(sigma),
         seconds,
         targets: targets.len(),
         rms_relative_error,

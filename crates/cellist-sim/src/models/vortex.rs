@@ -16,7 +16,7 @@ use crate::observers::{ChartLabels, FieldPlan, OutputPlan, PlotSpec, TableStyle}
 use crate::ranks::Ranks;
 use crate::scenario::keys::choice;
 use crate::scenario::Scenario;
-use cellist::longrange::{BlobKernel, VicBoundary, VicParams};
+use cellist::longrange::{BlobKernel, FmmAccuracy, VicBoundary, VicParams};
 use cellist::models::vortex::{
     seed, Extras, InitialVorticity, VelocityEngine, VelocitySolver, VortexModel, VortexParams,
     VortexSystem,
@@ -290,6 +290,7 @@ fn solver(scenario: &Scenario, v: &VelocityKeys, center: [f64; 2]) -> SimResult<
     Ok(match solver_choice(scenario, v, 0.4)? {
         SolverChoice::Direct => VelocitySolver::Direct,
         SolverChoice::BarnesHut(params) => VelocitySolver::BarnesHut(params),
+        SolverChoice::Fmm(accuracy) => VelocitySolver::Fmm(accuracy),
         SolverChoice::Mesh { grid, periodic } => {
             let boundary = match periodic {
                 None => VicBoundary::Unbounded,
@@ -308,6 +309,15 @@ fn solver(scenario: &Scenario, v: &VelocityKeys, center: [f64; 2]) -> SimResult<
             VelocitySolver::Mesh(params)
         }
     })
+}
+
+/// How a run names the fmm at `accuracy`: its order and tolerance.
+pub(crate) fn fmm_name(accuracy: FmmAccuracy) -> String {
+    format!(
+        "fmm (order {}, tolerance {:e})",
+        accuracy.order(),
+        accuracy.tolerance()
+    )
 }
 
 /// Runs a vortex scenario, from the checkpoint `restart` if given.
@@ -404,6 +414,13 @@ pub fn run<L: Launch>(
                     );
                     (engine, ranks, line)
                 }),
+            VelocitySolver::Fmm(_) => match crate::distributed::world_of_many() {
+                Some(_) => return Err(err(
+                    "system.velocity: the fmm runs on one process (not yet distributed); on several ranks use direct, barnes-hut or mesh"
+                        .into(),
+                )),
+                None => None,
+            },
             VelocitySolver::Direct => vortex_ring(kernel).map(|(engine, ranks)| {
                 let line = format!(
                     "mpi: {p} ranks; the direct velocity by the ring pass, each rank summing                      for a block of about {} particles (the particles held by every rank)",
@@ -428,6 +445,7 @@ pub fn run<L: Launch>(
     let solver_name = match velocity {
         VelocitySolver::Direct => "direct (all pairs)".to_string(),
         VelocitySolver::BarnesHut(p) => format!("barnes-hut (theta {})", p.theta),
+        VelocitySolver::Fmm(a) => fmm_name(a),
         VelocitySolver::Mesh(p) => match p.boundary {
             VicBoundary::Unbounded => {
                 format!("mesh (vortex-in-cell, grid {}^2, unbounded)", p.grid)

@@ -409,6 +409,12 @@ fn solver3(
             {
                 return Err(err(abc_needs.into()))
             }
+            SolverChoice::Fmm(_) => {
+                return Err(err(
+                    "system.velocity: the fmm computes the 2D vortex velocity; in 3D use direct, barnes-hut or mesh"
+                        .into(),
+                ))
+            }
             SolverChoice::Direct => Velocity3Solver::Direct,
             SolverChoice::BarnesHut(p) => Velocity3Solver::BarnesHut(p),
             SolverChoice::Mesh { grid, periodic } => {

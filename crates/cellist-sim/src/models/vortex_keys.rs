@@ -7,7 +7,7 @@ use crate::launch::RunContext;
 use crate::models::field_output::RunKeys;
 use crate::scenario::keys::choice;
 use crate::scenario::Scenario;
-use cellist::longrange::TreeParams;
+use cellist::longrange::{FmmAccuracy, TreeParams};
 use cellist::models::pse::Integrator;
 use serde::Deserialize;
 
@@ -43,6 +43,8 @@ pub(super) struct VelocityKeys {
     boundary: Option<String>,
     #[serde(rename = "box")]
     side: Option<f64>,
+    tolerance: Option<f64>,
+    order: Option<usize>,
 }
 
 impl Default for VelocityKeys {
@@ -55,6 +57,8 @@ impl Default for VelocityKeys {
             grid: None,
             boundary: None,
             side: None,
+            tolerance: None,
+            order: None,
         }
     }
 }
@@ -76,7 +80,12 @@ pub(super) enum SolverChoice {
         grid: Option<usize>,
         periodic: Option<f64>,
     },
+    /// The fast multipole method at this accuracy.
+    Fmm(FmmAccuracy),
 }
+
+/// The tolerance of `kind = "fmm"` without `tolerance` or `order`.
+const FMM_TOLERANCE: f64 = 1e-6;
 
 /// The solver of `system.velocity` (the tree's theta `theta` unless given),
 /// its keys checked against the solver's.
@@ -94,6 +103,8 @@ pub(super) fn solver_choice(
             ("grid", v.grid.is_some()),
             ("boundary", v.boundary.is_some()),
             ("box", v.side.is_some()),
+            ("tolerance", v.tolerance.is_some()),
+            ("order", v.order.is_some()),
         ];
         match given.iter().find(|(n, g)| *g && !ok.contains(n)) {
             Some((name, _)) => Err(err(format!(
@@ -109,11 +120,13 @@ pub(super) fn solver_choice(
         Direct,
         BarnesHut,
         Mesh,
+        Fmm,
     }
     let kinds = [
         ("direct", Kind::Direct),
         ("barnes-hut", Kind::BarnesHut),
         ("mesh", Kind::Mesh),
+        ("fmm", Kind::Fmm),
     ];
     match choice("system.velocity.kind", &v.kind, &kinds).map_err(err)? {
         Kind::Direct => {
@@ -164,6 +177,22 @@ pub(super) fn solver_choice(
                 grid: v.grid,
                 periodic,
             })
+        }
+        Kind::Fmm => {
+            only(&["tolerance", "order"])?;
+            let accuracy = match (v.tolerance, v.order) {
+                (Some(_), Some(_)) => {
+                    return Err(err(
+                        "system.velocity: give the fmm's tolerance or its order, not both".into(),
+                    ))
+                }
+                (_, Some(p)) => FmmAccuracy::Order(p),
+                (t, None) => FmmAccuracy::Tolerance(t.unwrap_or(FMM_TOLERANCE)),
+            };
+            accuracy
+                .check()
+                .map_err(|m| err(format!("system.velocity: {m}")))?;
+            Ok(SolverChoice::Fmm(accuracy))
         }
     }
 }

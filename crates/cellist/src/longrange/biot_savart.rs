@@ -17,6 +17,7 @@ use crate::simd::{F64x4, Real};
 use crate::threads::{tournament, DisjointSlice, Threads};
 use rayon::prelude::*;
 use std::f64::consts::PI;
+use std::fmt::Debug;
 
 /// Below this `x = r^2 / (2 sigma^2)`, `(1 - exp(-x)) / x` is taken from its
 /// series (the difference `1 - exp(-x)` would lose `log10(1/x)` digits).
@@ -67,12 +68,55 @@ impl BlobKernel {
     }
 }
 
+/// The pair law of a 2D vortex solver, `u = Gamma q(|d|^2) (-d_y, d_x)` for
+/// `d = x - x_j`, which far out is the point vortex's `q = 1 / (2 pi |d|^2)`.
+pub trait VortexLaw: Copy + Debug + Send + Sync {
+    /// `q(r^2)`, lane by lane.
+    fn factor<T: Real>(&self, r2: T) -> T;
+
+    /// The distance from which `q` is the point vortex's to within
+    /// `tolerance / 100` relative: boxes nearer than that meet pair by pair.
+    fn reach(&self, tolerance: f64) -> f64;
+}
+
+impl VortexLaw for BlobKernel {
+    #[inline(always)]
+    fn factor<T: Real>(&self, r2: T) -> T {
+        BlobKernel::factor(self, r2)
+    }
+
+    /// `q` differs from the point vortex's by `exp(-r^2 / (2 sigma^2))`
+    /// relative: `sigma sqrt(2 ln(100 / tolerance))`.
+    fn reach(&self, tolerance: f64) -> f64 {
+        self.sigma() * (2.0 * (100.0 / tolerance).ln()).sqrt()
+    }
+}
+
+/// Point vortices: `q = 1 / (2 pi r^2)`, and nothing from a source at the
+/// target's position (the Cauchy kernel `sum Gamma_j / (2 pi i (z - z_j))`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub struct PointVortex;
+
+impl VortexLaw for PointVortex {
+    #[inline(always)]
+    fn factor<T: Real>(&self, r2: T) -> T {
+        let c = T::splat;
+        let q = c(0.5 / PI) / r2.max(c(f64::MIN_POSITIVE));
+        T::select_less(c(0.0), r2, q, c(0.0))
+    }
+
+    fn reach(&self, _tolerance: f64) -> f64 {
+        0.0
+    }
+}
+
 /// `u(x)` at every `target` induced by all `sources` (positions and
-/// circulations), one target at a time in source order: the brute-force
-/// reference that the fast solvers are tested against. A source at the target's
-/// exact position contributes nothing (`K_sigma(0) = 0`).
+/// circulations) under the pair law `law` (`u = Gamma q(|d|^2) (-d_y, d_x)`),
+/// one target at a time in source order: the brute-force reference that the
+/// fast solvers are tested against. A source at the target's exact position
+/// contributes nothing (`K_sigma(0) = 0`).
 pub fn velocity_at(
-    kernel: &BlobKernel,
+    law: &impl VortexLaw,
     targets: &[[f64; 2]],
     positions: &[[f64; 2]],
     gamma: &[f64],
@@ -84,9 +128,10 @@ pub fn velocity_at(
             .map(|x| {
                 let mut u = [0.0; 2];
                 for (p, &g) in positions.iter().zip(gamma) {
-                    let v = kernel.velocity([x[0] - p[0], x[1] - p[1]], g);
-                    u[0] += v[0];
-                    u[1] += v[1];
+                    let d = [x[0] - p[0], x[1] - p[1]];
+                    let q = g * law.factor(d[0] * d[0] + d[1] * d[1]);
+                    u[0] += -q * d[1];
+                    u[1] += q * d[0];
                 }
                 u
             })

@@ -13,7 +13,7 @@ pub mod mesh;
 pub mod p3m;
 pub mod tree;
 
-pub use biot_savart::{add_velocity_at, BlobKernel, DirectBiotSavart};
+pub use biot_savart::{add_velocity_at, BlobKernel, DirectBiotSavart, PointVortex, VortexLaw};
 pub use biot_savart3::{velocity_and_gradient_at, BlobKernel3, DirectBiotSavart3};
 pub use direct::{DirectSum, PartialField};
 pub use mesh::{
@@ -21,10 +21,7 @@ pub use mesh::{
     VicBoundary, VicParams, VortexInCell, VortexInCell3,
 };
 pub use p3m::P3m;
-pub use tree::{
-    BarnesHut, FmmAccuracy, PointVortex, Share, TreeParams, VortexFmm, VortexLaw, VortexTree,
-    VortexTree3,
-};
+pub use tree::{BarnesHut, FmmAccuracy, Share, TreeParams, VortexFmm, VortexTree, VortexTree3};
 
 use crate::interactions::GravityLaw;
 use crate::threads::Threads;

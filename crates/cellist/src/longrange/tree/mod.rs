@@ -46,7 +46,7 @@ mod vortex;
 mod vortex3;
 mod walk;
 
-pub use fmm2d::{FmmAccuracy, PointVortex, VortexFmm, VortexLaw, ORDER_RANGE, TOLERANCE_RANGE};
+pub use fmm2d::{FmmAccuracy, VortexFmm, ORDER_RANGE, TOLERANCE_RANGE};
 pub use gravity::BarnesHut;
 pub use share::Share;
 pub use vortex::VortexTree;

@@ -34,7 +34,7 @@ use crate::geometry::Domain;
 use crate::geometry::{wrap_coordinate, Boundary};
 use crate::interpolation::{remesh, Lattice};
 use crate::longrange::mesh::{VicBoundary, VicParams, VortexInCell};
-use crate::longrange::tree::{TreeParams, VortexTree};
+use crate::longrange::tree::{FmmAccuracy, TreeParams, VortexFmm, VortexTree};
 use crate::longrange::{BlobKernel, DirectBiotSavart};
 use crate::memory::{as_arrays, as_arrays_mut};
 use crate::threads::Threads;
@@ -50,6 +50,9 @@ pub enum VelocitySolver {
     BarnesHut(TreeParams),
     /// Vortex-in-cell on a mesh: `O(N + M^2 log M)`.
     Mesh(VicParams),
+    /// The fast multipole method at this accuracy: `O(N)` per level of the
+    /// quadtree's upper part, near `O(N)`.
+    Fmm(FmmAccuracy),
 }
 
 /// The physical and numerical parameters.
@@ -224,6 +227,8 @@ pub enum VelocityEngine {
     Tree(Box<VortexTree>),
     /// Vortex-in-cell.
     Mesh(Box<VortexInCell>),
+    /// The fast multipole method.
+    Fmm(Box<VortexFmm<BlobKernel>>),
     /// A solver from outside the engine (the ring pass of a distributed run).
     External(Box<dyn VelocityField>),
 }
@@ -252,6 +257,9 @@ impl VelocityEngine {
             VelocitySolver::Mesh(p) => {
                 VelocityEngine::Mesh(Box::new(VortexInCell::new(p, kernel)?))
             }
+            VelocitySolver::Fmm(accuracy) => {
+                VelocityEngine::Fmm(Box::new(VortexFmm::new(kernel, accuracy)?))
+            }
         })
     }
 
@@ -267,6 +275,7 @@ impl VelocityEngine {
             VelocityEngine::Direct(s) => s.compute(positions, gamma, velocity, threads),
             VelocityEngine::Tree(s) => s.compute(positions, gamma, velocity, threads),
             VelocityEngine::Mesh(s) => s.compute(positions, gamma, velocity, threads),
+            VelocityEngine::Fmm(s) => s.compute(positions, gamma, velocity, threads),
             VelocityEngine::External(s) => s.compute(positions, gamma, velocity, threads),
         }
     }

@@ -10,13 +10,18 @@
 //! The shifts follow from the binomial series of `1 / (w + d)^(k + 1)` and of
 //! `(w + d)^l`; each function states its own formula.
 
+use crate::simd::F64x4;
 use rustfft::num_complex::Complex64;
 
-/// The binomial coefficients `C(n, k)` for `n <= 2 p`, row by row.
+/// The binomial coefficients `C(n, k)` for `n <= 2 p`, row by row, and
+/// M2L's `C(k + l, k)` by `k`, four `l` at a time.
 #[derive(Clone, Debug)]
 pub(super) struct Binomials {
     order: usize,
     rows: Vec<Vec<f64>>,
+    /// `C(k + l, k)` at `[k][l / 4]` lane `l % 4`, for `l` up to `p`
+    /// rounded up to whole lanes (0 beyond `p`).
+    m2l: Vec<Vec<F64x4>>,
 }
 
 impl Binomials {
@@ -34,7 +39,25 @@ impl Binomials {
                 .collect();
             rows.push(row);
         }
-        Binomials { order, rows }
+        let blocks = (order + 1).div_ceil(4);
+        let m2l = (0..=order)
+            .map(|k| {
+                (0..blocks)
+                    .map(|b| {
+                        let lanes: [f64; 4] = std::array::from_fn(|i| {
+                            let l = 4 * b + i;
+                            if l <= order {
+                                rows[k + l][k]
+                            } else {
+                                0.0
+                            }
+                        });
+                        F64x4::load(&lanes)
+                    })
+                    .collect()
+            })
+            .collect();
+        Binomials { order, rows, m2l }
     }
 
     /// The expansions' order `p`.
@@ -107,7 +130,8 @@ pub(super) fn m2m(
 /// M2L: adds the local expansion about `t` (scale `s_t`) of the multipole `a`
 /// about `c` (scale `s_c`) to `b`. With `d = t - c`, `rho = s_c / d` and
 /// `tau = -s_t / d`:
-/// `b_l += (tau^l / d) sum_k C(k + l, k) a_k rho^k`.
+/// `b_l += (tau^l / d) sum_k C(k + l, k) a_k rho^k`,
+/// the sums over `k` for four `l` at a time in SIMD lanes.
 pub(super) fn m2l(
     binomials: &Binomials,
     a: &[Complex64],
@@ -122,22 +146,24 @@ pub(super) fn m2l(
     let inv_d = d.inv();
     let rho = inv_d * source_scale;
     let tau = -inv_d * target_scale;
-    let mut u = [Complex64::new(0.0, 0.0); MAX_TERMS];
+    let blocks = (p + 1).div_ceil(4);
+    let mut re = [F64x4::splat(0.0); MAX_TERMS / 4];
+    let mut im = [F64x4::splat(0.0); MAX_TERMS / 4];
     let mut power = Complex64::new(1.0, 0.0);
-    for k in 0..=p {
-        u[k] = a[k] * power;
+    for (ak, column) in a.iter().zip(&binomials.m2l).take(p + 1) {
+        let u = *ak * power;
         power *= rho;
+        let (ur, ui) = (F64x4::splat(u.re), F64x4::splat(u.im));
+        for (j, c) in column.iter().enumerate().take(blocks) {
+            re[j] = c.mul_add(ur, re[j]);
+            im[j] = c.mul_add(ui, im[j]);
+        }
     }
     let mut factor = inv_d;
     for (l, term) in b.iter_mut().enumerate().take(p + 1) {
-        let row = &binomials.rows;
-        let (mut re, mut im) = (0.0, 0.0);
-        for (k, uk) in u.iter().enumerate().take(p + 1) {
-            let c = row[k + l][k];
-            re = c.mul_add(uk.re, re);
-            im = c.mul_add(uk.im, im);
-        }
-        *term += factor * Complex64::new(re, im);
+        let (j, lane) = (l / 4, l % 4);
+        let sum = Complex64::new(re[j].to_array()[lane], im[j].to_array()[lane]);
+        *term += factor * sum;
         factor *= tau;
     }
 }

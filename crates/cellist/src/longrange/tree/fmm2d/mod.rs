@@ -6,38 +6,40 @@
 mod expansions;
 
 use super::build::{Octree, Sizes};
-use crate::longrange::biot_savart::{assert_lengths, BlobKernel};
-use crate::simd::{F64x4, Real};
+use crate::longrange::biot_savart::{assert_lengths, VortexLaw};
+use crate::simd::F64x4;
 use crate::threads::{DisjointSlice, Threads};
 use expansions::{l2l, l2p, m2l, m2m, p2m, Binomials, MAX_TERMS};
 use rayon::prelude::*;
 use rustfft::num_complex::Complex64;
 use std::f64::consts::PI;
-use std::fmt::Debug;
 use std::sync::Mutex;
 
 /// Boxes `T` and `S` (radii `s_T`, `s_S`: half their squares' diagonals,
 /// centres `|d|` apart) interact through their expansions when
 /// `2 max(s_T, s_S) <= THETA |d|`: both `s_S / (|d| - s_T)` and
-/// `s_T / (|d| - s_S)` are then at most `(THETA / 2) / (1 - THETA / 2) = 3/7`,
-/// so that each expansion's remainder after order `p` is below
-/// `(3/7)^(p + 1)` of the box's field (times `1 / (1 - 3/7)`).
-const THETA: f64 = 0.6;
+/// `s_T / (|d| - s_S)` are then at most `(THETA / 2) / (1 - THETA / 2)`
+/// (0.74), so that each expansion's remainder after order `p` is below that
+/// to the power `p + 1` of the box's field (times `1 / (1 - 0.74)`). Two
+/// equal squares interact from two sides apart (side by side with one
+/// square between, or farther); 0.85 was the fastest at 1e-6 for 10^6
+/// uniform points (against 0.5, 0.6, 0.7 and 0.75).
+const THETA: f64 = 0.85;
 
 /// The fall of the measured error per order: the largest error (over the
-/// largest speed) of uniform and clustered points and blobs falls at least
-/// 3.2-fold per order from `p = 9` to `p = 17` (the worst case of
-/// [`THETA`], `3/7` per order, assumes every box at the limit).
-const DECAY: f64 = 1.0 / 3.2;
+/// largest speed) of 10^6 uniform points falls 2.2-fold per order from
+/// `p = 12` to `p = 18` (the worst case of [`THETA`], 0.74 per order,
+/// assumes every box at the limit).
+const DECAY: f64 = 0.45;
 
-/// The error at order 0 that [`DECAY`] starts from, a margin of 3 or more
-/// above the measured ones: `0.1 DECAY^p` bounds the measured largest
-/// error at order `p`.
-const ERROR_AT_ORDER_ZERO: f64 = 0.1;
+/// The error at order 0 that [`DECAY`] starts from, with a margin of 3 or
+/// more above the measured ones (uniform and clustered points, points and
+/// blobs): `0.05 DECAY^p` bounds the largest error measured at order `p`.
+const ERROR_AT_ORDER_ZERO: f64 = 0.05;
 
 /// Most particles in a leaf: a leaf's particles meet the leaves beside it
 /// pair by pair.
-const LEAF: usize = 24;
+const LEAF: usize = 32;
 
 /// Most particles in a target group: each group traverses the tree with its
 /// own boxes as targets, in parallel with the others (a function of the
@@ -54,7 +56,7 @@ pub const ORDER_RANGE: (usize, usize) = (1, MAX_TERMS - 1);
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum FmmAccuracy {
     /// A relative tolerance `epsilon` in `(1e-15, 1e-1)`: the expansions'
-    /// order is the least `p` with `0.1 (1/3.2)^p <= epsilon` (see [`DECAY`]).
+    /// order is the least `p` with `0.05 0.45^p <= epsilon` (see [`DECAY`]).
     Tolerance(f64),
     /// The expansions' order `p` itself.
     Order(usize),
@@ -91,54 +93,12 @@ impl FmmAccuracy {
         }
     }
 
-    /// The tolerance the order stands for: the given one, or `0.1 (1/3.2)^p`.
+    /// The tolerance the order stands for: the given one, or `0.05 0.45^p`.
     pub fn tolerance(&self) -> f64 {
         match *self {
             FmmAccuracy::Tolerance(t) => t,
             FmmAccuracy::Order(p) => ERROR_AT_ORDER_ZERO * DECAY.powi(p as i32),
         }
-    }
-}
-
-/// The pair law of a 2D vortex solver, `u = Gamma q(|d|^2) (-d_y, d_x)` for
-/// `d = x - x_j`, which far out is the point vortex's `q = 1 / (2 pi |d|^2)`.
-pub trait VortexLaw: Copy + Debug + Send + Sync {
-    /// `q(r^2)`, lane by lane.
-    fn factor<T: Real>(&self, r2: T) -> T;
-
-    /// The distance from which `q` is the point vortex's to within
-    /// `tolerance / 100` relative: boxes nearer than that meet pair by pair.
-    fn reach(&self, tolerance: f64) -> f64;
-}
-
-impl VortexLaw for BlobKernel {
-    #[inline(always)]
-    fn factor<T: Real>(&self, r2: T) -> T {
-        BlobKernel::factor(self, r2)
-    }
-
-    /// `q` differs from the point vortex's by `exp(-r^2 / (2 sigma^2))`
-    /// relative: `sigma sqrt(2 ln(100 / tolerance))`.
-    fn reach(&self, tolerance: f64) -> f64 {
-        self.sigma() * (2.0 * (100.0 / tolerance).ln()).sqrt()
-    }
-}
-
-/// Point vortices: `q = 1 / (2 pi r^2)`, and nothing from a source at the
-/// target's position (the Cauchy kernel `sum Gamma_j / (2 pi i (z - z_j))`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
-pub struct PointVortex;
-
-impl VortexLaw for PointVortex {
-    #[inline(always)]
-    fn factor<T: Real>(&self, r2: T) -> T {
-        let c = T::splat;
-        let q = c(0.5 / PI) / r2.max(c(f64::MIN_POSITIVE));
-        T::select_less(c(0.0), r2, q, c(0.0))
-    }
-
-    fn reach(&self, _tolerance: f64) -> f64 {
-        0.0
     }
 }
 
@@ -160,15 +120,15 @@ struct Square {
 /// (order `p`) the boxes of the quadtree carry. Each target group (a subtree
 /// of at most 4096 particles) traverses the tree with its boxes as targets:
 /// a target box `T` and a source box `S` whose radii and centre distance
-/// satisfy `2 max(s_T, s_S) <= 0.6 d` and whose gap `d - s_T - s_S` is at
+/// satisfy `2 max(s_T, s_S) <= 0.85 d` and whose gap `d - s_T - s_S` is at
 /// least the law's reach ([`VortexLaw::reach`]) interact through M2L; otherwise the
 /// larger of the two is split, and two leaves meet pair by pair with the
 /// law itself. Then the group's locals move down (L2L) and are evaluated at
 /// its particles (L2P).
 ///
-/// The error of one M2L is below `(7/4) (3/7)^(p + 1)` relative to the
-/// source box's field; the measured errors fall faster, and the order is
-/// chosen from the tolerance by their fall ([`FmmAccuracy::order`]). Each
+/// The error of one M2L is below `4 0.74^(p + 1)` relative to the source
+/// box's field; the measured errors fall faster, and the order is chosen
+/// from the tolerance by their fall ([`FmmAccuracy::order`]). Each
 /// particle's sum runs in an order fixed by the
 /// tree, so 1 and N threads give the same bits.
 #[derive(Debug)]
@@ -481,8 +441,9 @@ impl<K: VortexLaw> Traversal<'_, K> {
     /// and a gap of at least the law's reach.
     fn apart(&self, t: usize, s: usize) -> bool {
         let (a, b) = (self.fmm.squares[t], self.fmm.squares[s]);
-        let d = (a.centre - b.centre).norm();
-        2.0 * a.radius.max(b.radius) <= THETA * d && d - a.radius - b.radius >= self.reach
+        let d2 = (a.centre - b.centre).norm_sqr();
+        let larger = 2.0 * a.radius.max(b.radius);
+        larger * larger <= THETA * THETA * d2 && d2.sqrt() - a.radius - b.radius >= self.reach
     }
 
     /// Adds the pair sums of leaf `s`'s particles at leaf `t`'s: four sources

@@ -1,5 +1,5 @@
 use super::*;
-use crate::longrange::biot_savart::velocity_at;
+use crate::longrange::biot_savart::{velocity_at, BlobKernel, PointVortex};
 use crate::random::Rng;
 
 /// `n` points uniformly in the unit square, or (`clustered`) half of them in
