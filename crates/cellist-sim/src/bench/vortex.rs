@@ -144,12 +144,6 @@ pub fn vortex(
                 }
             }
             let (positions, gamma) = read_field_of::<2>(path, "gamma")?;
-            if positions.is_empty() {
-                return Err(SimError::Input(format!(
-                    "{}: no particles (expected lines `x y gamma`)",
-                    path.display()
-                )));
-            }
             (positions, gamma, None, *sigma)
         }
     };

@@ -30,6 +30,8 @@ pub struct BlobKernel {
     sigma: f64,
     inv_two_sigma2: f64,
     at_zero: f64,
+    /// `2 FAR sigma^2`: from this `r^2` on `q` is the point vortex's.
+    far_r2: f64,
 }
 
 impl BlobKernel {
@@ -39,6 +41,7 @@ impl BlobKernel {
             sigma,
             inv_two_sigma2: 0.5 / (sigma * sigma),
             at_zero: 1.0 / (4.0 * PI * sigma * sigma),
+            far_r2: FAR / (0.5 / (sigma * sigma)),
         }
     }
 
@@ -60,6 +63,18 @@ impl BlobKernel {
         T::select_less(x, c(SERIES_BELOW), series, full)
     }
 
+    /// [`BlobKernel::factor`] of four lanes, skipping the exponential when every
+    /// lane lies in the point-vortex range (`r^2 >= 2 FAR sigma^2`, where
+    /// `1 - exp(-x)` rounds to 1): the same bits.
+    #[inline(always)]
+    pub fn factor_lanes(&self, r2: F64x4) -> F64x4 {
+        if F64x4::any_less(r2, F64x4::splat(self.far_r2)) {
+            self.factor(r2)
+        } else {
+            F64x4::splat(1.0) / (F64x4::splat(2.0 * PI) * r2)
+        }
+    }
+
     /// `Gamma K_sigma(d)` with `d = x - x_j`.
     #[inline(always)]
     pub fn velocity(&self, d: [f64; 2], gamma: f64) -> [f64; 2] {
@@ -74,8 +89,15 @@ pub trait VortexLaw: Copy + Debug + Send + Sync {
     /// `q(r^2)`, lane by lane.
     fn factor<T: Real>(&self, r2: T) -> T;
 
+    /// `q(r^2)` of four lanes, the bits of [`VortexLaw::factor`] (a law may
+    /// skip work the lanes do not need).
+    #[inline(always)]
+    fn factor_lanes(&self, r2: F64x4) -> F64x4 {
+        self.factor(r2)
+    }
+
     /// The distance from which `q` is the point vortex's to within
-    /// `tolerance / 100` relative: boxes nearer than that meet pair by pair.
+    /// `tolerance / 10` relative: boxes nearer than that meet pair by pair.
     fn reach(&self, tolerance: f64) -> f64;
 }
 
@@ -85,10 +107,15 @@ impl VortexLaw for BlobKernel {
         BlobKernel::factor(self, r2)
     }
 
+    #[inline(always)]
+    fn factor_lanes(&self, r2: F64x4) -> F64x4 {
+        BlobKernel::factor_lanes(self, r2)
+    }
+
     /// `q` differs from the point vortex's by `exp(-r^2 / (2 sigma^2))`
-    /// relative: `sigma sqrt(2 ln(100 / tolerance))`.
+    /// relative: `sigma sqrt(2 ln(10 / tolerance))`.
     fn reach(&self, tolerance: f64) -> f64 {
-        self.sigma() * (2.0 * (100.0 / tolerance).ln()).sqrt()
+        self.sigma() * (2.0 * (10.0 / tolerance).ln()).sqrt()
     }
 }
 
@@ -338,9 +365,6 @@ fn row<const SYMMETRIC: bool>(
     let [px, py] = partners;
     let [pu, pv] = partner_sums;
     let (sx, sy, sg) = (F64x4::splat(xi[0]), F64x4::splat(xi[1]), F64x4::splat(gi));
-    let far = F64x4::splat(FAR / kernel.inv_two_sigma2);
-    let two_pi = F64x4::splat(2.0 * PI);
-    let one = F64x4::splat(1.0);
     let mut acc = [F64x4::splat(0.0); 2];
     let len = gamma.len();
     let whole = len / LANES * LANES;
@@ -349,11 +373,7 @@ fn row<const SYMMETRIC: bool>(
         let dy = sy - F64x4::load(&py[j..]);
         let gj = F64x4::load(&gamma[j..]);
         let r2 = dx * dx + dy * dy;
-        let q = if F64x4::any_less(r2, far) {
-            kernel.factor(r2)
-        } else {
-            one / (two_pi * r2)
-        };
+        let q = kernel.factor_lanes(r2);
         acc[0] = acc[0] - q * gj * dy;
         acc[1] = acc[1] + q * gj * dx;
         if SYMMETRIC {

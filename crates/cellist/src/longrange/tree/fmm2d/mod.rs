@@ -463,7 +463,7 @@ impl<K: VortexLaw> Traversal<'_, K> {
             for j in (sources.start..whole).step_by(4) {
                 let dx = sx - F64x4::load(&fmm.x[j..]);
                 let dy = sy - F64x4::load(&fmm.y[j..]);
-                let q = F64x4::load(&fmm.gamma[j..]) * law.factor(dx * dx + dy * dy);
+                let q = F64x4::load(&fmm.gamma[j..]) * law.factor_lanes(dx * dx + dy * dy);
                 u = dy.neg_mul_add(q, u);
                 v = dx.mul_add(q, v);
             }
