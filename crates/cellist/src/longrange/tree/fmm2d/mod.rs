@@ -147,7 +147,7 @@ pub struct VortexFmm<K: VortexLaw> {
     multipoles: Vec<Complex64>,
     /// The velocities in tree order.
     sorted: Vec<[f64; 2]>,
-    scratch: Vec<Mutex<Vec<Complex64>>>,
+    scratch: Vec<Mutex<Scratch>>,
     counts: Vec<(u64, u64)>,
     interactions: (u64, u64),
 }
@@ -279,7 +279,7 @@ impl<K: VortexLaw> VortexFmm<K> {
         let n = self.x.len();
         self.sorted.resize(n, [0.0; 2]);
         while self.scratch.len() < threads.count() {
-            self.scratch.push(Mutex::new(Vec::new()));
+            self.scratch.push(Mutex::new(Scratch::default()));
         }
         let (mut sorted, mut counts) = (
             std::mem::take(&mut self.sorted),
@@ -294,13 +294,13 @@ impl<K: VortexLaw> VortexFmm<K> {
                 .par_iter()
                 .map(|&g| {
                     let thread = rayon::current_thread_index().unwrap_or(0);
-                    let mut locals = this.scratch[thread]
+                    let mut scratch = this.scratch[thread]
                         .lock()
                         .expect("scratch of a panicked traversal");
                     let node = &this.tree.nodes[g as usize];
                     // SAFETY: groups hold disjoint ranges of the sorted particles.
                     let out = unsafe { shared.range(node.start as usize..node.end as usize) };
-                    this.group(g as usize, reach, &mut locals, out)
+                    this.group(g as usize, reach, &mut scratch, out)
                 })
                 .collect_into_vec(&mut counts)
         });
@@ -318,20 +318,23 @@ impl<K: VortexLaw> VortexFmm<K> {
         &self,
         g: usize,
         reach: f64,
-        locals: &mut Vec<Complex64>,
+        scratch: &mut Scratch,
         out: &mut [[f64; 2]],
     ) -> (u64, u64) {
         let terms = self.order() + 1;
         let nodes = &self.tree.nodes;
         let end = nodes[g].next as usize;
+        let Scratch { locals, reactions } = scratch;
         locals.clear();
         locals.resize((end - g) * terms, Complex64::new(0.0, 0.0));
         out.fill([0.0; 2]);
         let mut walk = Traversal {
             fmm: self,
             group: g,
+            end,
             reach,
             locals: &mut locals[..],
+            reactions,
             out,
             counts: (0, 0),
         };
@@ -376,20 +379,36 @@ impl<K: VortexLaw> VortexFmm<K> {
     }
 }
 
+/// What a thread keeps between its groups: the locals of a group's subtree
+/// and the reactions of a leaf's pairs.
+#[derive(Debug, Default)]
+struct Scratch {
+    locals: Vec<Complex64>,
+    reactions: [Vec<f64>; 2],
+}
+
 /// One group's traversal: its locals (the group's subtree's nodes, `p + 1`
 /// terms each) and its particles' pair sums.
 struct Traversal<'a, K: VortexLaw> {
     fmm: &'a VortexFmm<K>,
+    /// The group's node and the first node after its subtree.
     group: usize,
+    end: usize,
     reach: f64,
     locals: &'a mut [Complex64],
+    /// A source leaf's reactions per axis, when both leaves of a pair are the
+    /// group's.
+    reactions: &'a mut [Vec<f64>; 2],
     out: &'a mut [[f64; 2]],
     counts: (u64, u64),
 }
 
 impl<K: VortexLaw> Traversal<'_, K> {
     /// Target box `t` (in the group) against source box `s`: M2L when they
-    /// are apart, pairs when both are leaves, else the larger one split.
+    /// are apart, pairs when both are leaves, else the larger one split (a
+    /// leaf is never split; two boxes of one size are split both). The rule
+    /// is the same with the roles swapped, so that of two leaves of the group
+    /// `(t, s)` meet when `(s, t)` do: the first of them takes both sides.
     fn interact(&mut self, t: usize, s: usize) {
         let fmm = self.fmm;
         let nodes = &fmm.tree.nodes;
@@ -412,14 +431,26 @@ impl<K: VortexLaw> Traversal<'_, K> {
             return;
         }
         match (target.leaf, source.leaf) {
-            (true, true) => self.pairs(t, s),
+            (true, true) => {
+                let inside = (self.group..self.end).contains(&s);
+                match t.cmp(&s) {
+                    std::cmp::Ordering::Less if inside => self.both_sides(t, s),
+                    // the pair `(s, t)` took both sides
+                    std::cmp::Ordering::Greater if inside => {}
+                    _ => self.pairs(t, s),
+                }
+            }
             (true, false) => self.each_child(s, |walk, c| walk.interact(t, c)),
             (false, true) => self.each_child(t, |walk, c| walk.interact(c, s)),
             (false, false) => {
-                if source.side >= target.side {
+                if source.side > target.side {
                     self.each_child(s, |walk, c| walk.interact(t, c))
-                } else {
+                } else if target.side > source.side {
                     self.each_child(t, |walk, c| walk.interact(c, s))
+                } else {
+                    self.each_child(t, |walk, ct| {
+                        walk.each_child(s, |walk, cs| walk.interact(ct, cs))
+                    })
                 }
             }
         }
@@ -444,6 +475,65 @@ impl<K: VortexLaw> Traversal<'_, K> {
         let d2 = (a.centre - b.centre).norm_sqr();
         let larger = 2.0 * a.radius.max(b.radius);
         larger * larger <= THETA * THETA * d2 && d2.sqrt() - a.radius - b.radius >= self.reach
+    }
+
+    /// Adds the pair sums of two leaves of the group, each pair once: leaf
+    /// `s`'s particles at leaf `t`'s as [`Traversal::pairs`] does, and the
+    /// reactions (`K_sigma` is odd) at `s`'s, summed in lanes per source and
+    /// added after the target loop.
+    fn both_sides(&mut self, t: usize, s: usize) {
+        let fmm = self.fmm;
+        let nodes = &fmm.tree.nodes;
+        let (target, source) = (&nodes[t], &nodes[s]);
+        let sources = source.start as usize..source.end as usize;
+        let whole = (sources.len() / 4) * 4;
+        let first = nodes[self.group].start as usize;
+        let law = fmm.law;
+        let [ru, rv] = &mut *self.reactions;
+        for r in [&mut *ru, &mut *rv] {
+            r.clear();
+            r.resize(sources.len(), 0.0);
+        }
+        let (x, y, gamma) = (
+            &fmm.x[sources.clone()],
+            &fmm.y[sources.clone()],
+            &fmm.gamma[sources.clone()],
+        );
+        for i in target.start as usize..target.end as usize {
+            let (xi, yi, gi) = (fmm.x[i], fmm.y[i], fmm.gamma[i]);
+            let (sx, sy, sg) = (F64x4::splat(xi), F64x4::splat(yi), F64x4::splat(gi));
+            let (mut u, mut v) = (F64x4::splat(0.0), F64x4::splat(0.0));
+            for j in (0..whole).step_by(4) {
+                let dx = sx - F64x4::load(&x[j..]);
+                let dy = sy - F64x4::load(&y[j..]);
+                let q = law.factor_lanes(dx * dx + dy * dy);
+                let qj = F64x4::load(&gamma[j..]) * q;
+                u = dy.neg_mul_add(qj, u);
+                v = dx.mul_add(qj, v);
+                let qi = sg * q;
+                dy.mul_add(qi, F64x4::load(&ru[j..])).store(&mut ru[j..]);
+                dx.neg_mul_add(qi, F64x4::load(&rv[j..]))
+                    .store(&mut rv[j..]);
+            }
+            let (mut su, mut sv) = (u.sum(), v.sum());
+            for j in whole..sources.len() {
+                let (dx, dy) = (xi - x[j], yi - y[j]);
+                let q = law.factor(dx * dx + dy * dy);
+                su -= q * gamma[j] * dy;
+                sv += q * gamma[j] * dx;
+                ru[j] += q * gi * dy;
+                rv[j] -= q * gi * dx;
+            }
+            let o = &mut self.out[i - first];
+            o[0] += su;
+            o[1] += sv;
+        }
+        for (k, j) in sources.clone().enumerate() {
+            let o = &mut self.out[j - first];
+            o[0] += ru[k];
+            o[1] += rv[k];
+        }
+        self.counts.1 += 2 * (target.end - target.start) as u64 * sources.len() as u64;
     }
 
     /// Adds the pair sums of leaf `s`'s particles at leaf `t`'s: four sources
