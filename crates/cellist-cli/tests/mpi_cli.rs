@@ -707,6 +707,14 @@ fn main() {
             ),
         ),
         (
+            "-np 2: the vortex fmm, not distributed, one message",
+            refused_once(
+                2,
+                &["run", &vortex, "--set", "system.velocity={ kind = \"fmm\" }"],
+                "the fmm runs on one process (not yet distributed)",
+            ),
+        ),
+        (
             "-np 4: a missing scenario, one message",
             refused_once(
                 4,

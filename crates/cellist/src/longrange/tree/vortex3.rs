@@ -217,8 +217,8 @@ struct VortexLists3 {
     /// The opened leaves' particles' strengths per axis, padded with zeros.
     part_alpha: [Vec<f64>; 3],
     /// The accepted nodes' [`Moments`], four nodes per block (entry `j` of
-    /// node `4 b + l` at `[b][j][l]`), padded with zeros.
-    node_moments: Vec<[[f64; LANES]; MOMENTS]>,
+    /// node `4 b + l` at `[b][j]`, lane `l`), padded with zeros.
+    node_moments: Vec<[F64x4; MOMENTS]>,
     /// Per group particle: its position and its [`SUMS`] running sums.
     targets: Vec<Target<3, SUMS>>,
 }
@@ -254,7 +254,8 @@ impl VortexLists3 {
                     entry[l] = value;
                 }
             }
-            self.node_moments.push(block);
+            self.node_moments
+                .push(block.map(|lanes| F64x4::load(&lanes)));
         }
     }
 
@@ -299,14 +300,14 @@ impl VortexLists3 {
     #[inline(always)]
     fn node_sums(&mut self, kernel: &BlobKernel3) {
         let node_x = &self.walk.node_x;
-        for (c, block) in (0..node_x[0].len()).step_by(LANES).zip(&self.node_moments) {
+        for (c, m) in (0..node_x[0].len()).step_by(LANES).zip(&self.node_moments) {
             let centre: [F64x4; 3] = std::array::from_fn(|a| F64x4::load(&node_x[a][c..]));
-            let m: [F64x4; MOMENTS] = std::array::from_fn(|j| F64x4::load(&block[j]));
             for t in self.targets.iter_mut() {
                 let d: [F64x4; 3] = std::array::from_fn(|a| F64x4::splat(t.x[a]) - centre[a]);
                 let r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-                let f = kernel.radial_or_far(r2).map(|g| -g);
-                let (u, grad) = expansion(&m, d, &f);
+                let g = kernel.radial_or_far(r2);
+                let f: [F64x4; RADIAL] = std::array::from_fn(|k| -g[k]);
+                let (u, grad) = expansion(m, d, &f);
                 for a in 0..3 {
                     t.sums[a] = t.sums[a] + u[a];
                 }
@@ -363,13 +364,18 @@ fn component(
     let q = &m[12 + 6 * k..18 + 6 * k];
     let o = &m[30 + 10 * k..40 + 10 * k];
     let tk = [m[63 + 3 * k], m[64 + 3 * k], m[65 + 3 * k]];
-    let qd: [F64x4; 3] = std::array::from_fn(|b| dot([0, 1, 2].map(|j| q[PAIR[b][j]]), d));
+    // (explicit triples: `[0, 1, 2].map` is not always inlined, and this is
+    // the tree's hottest loop)
+    let qd: [F64x4; 3] =
+        std::array::from_fn(|b| dot([q[PAIR[b][0]], q[PAIR[b][1]], q[PAIR[b][2]]], d));
     // P_be = O_bej d_j, [xx, xy, xz, yy, yz, zz]
     let p: [F64x4; 6] = std::array::from_fn(|i| {
         let (b, e) = ENTRIES[i];
-        dot([0, 1, 2].map(|j| o[TRIPLE[b][e][j]]), d)
+        let t = &TRIPLE[b][e];
+        dot([o[t[0]], o[t[1]], o[t[2]]], d)
     });
-    let w: [F64x4; 3] = std::array::from_fn(|b| dot([0, 1, 2].map(|e| p[PAIR[b][e]]), d));
+    let w: [F64x4; 3] =
+        std::array::from_fn(|b| dot([p[PAIR[b][0]], p[PAIR[b][1]], p[PAIR[b][2]]], d));
     let level = m[60 + k] - dot(dk, d);
     let half_dqd = splat(0.5) * dot(qd, d);
     let pp = half_dqd - dot(tk, d);
