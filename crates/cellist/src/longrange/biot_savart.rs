@@ -362,6 +362,9 @@ fn row<const SYMMETRIC: bool>(
     gamma: &[f64],
     partner_sums: [&mut [f64]; 2],
 ) -> [f64; 2] {
+    // a copy: the partners' stores cannot alias its fields, so that their
+    // splats stay out of the loop
+    let kernel = *kernel;
     let [px, py] = partners;
     let [pu, pv] = partner_sums;
     let (sx, sy, sg) = (F64x4::splat(xi[0]), F64x4::splat(xi[1]), F64x4::splat(gi));
