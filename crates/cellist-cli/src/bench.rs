@@ -277,7 +277,7 @@ pub fn vortex(args: &BenchVortexArgs) -> CliResult {
             "error_targets": b.targets,
             "rms_relative_velocity_error": b.rms_relative_error,
             "max_error_over_peak_speed": b.max_error_over_peak_speed,
-            "max_relative_error": b.max_error_over_peak_speed,
+            "max_relative_error": b.max_relative_error,
         });
         println!("{obj}");
     } else {

@@ -329,7 +329,7 @@ pub struct BenchVortexArgs {
     #[arg(long, default_value_t = 1e-6)]
     pub tolerance: f64,
     /// The expansions' order (fmm), instead of --tolerance.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "tolerance")]
     pub order: Option<usize>,
     /// The dimension: 2 (two Gaussian vortices, velocity) or 3 (a vortex ring,
     /// velocity and its gradient, the stretching's input).

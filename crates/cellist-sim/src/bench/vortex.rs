@@ -80,6 +80,9 @@ pub struct VortexBench {
     pub rms_relative_error: f64,
     /// The largest `|u - u_direct|` over the largest `|u_direct|`.
     pub max_error_over_peak_speed: f64,
+    /// The largest `|u - u_direct| / |u_direct|` of a target (targets with
+    /// `u_direct = 0` left out).
+    pub max_relative_error: f64,
     /// In 3D, `sqrt(sum |G - G_direct|^2 / sum |G_direct|^2)` of the velocity
     /// gradients `G` (Frobenius norms) over the targets.
     pub rms_relative_gradient_error: Option<f64>,
@@ -98,6 +101,20 @@ pub(super) fn errors<const W: usize>(computed: &[[f64; W]], exact: &[[f64; W]]) 
         max_size = max_size.max(e2.sqrt());
     }
     ((err2 / norm2).sqrt(), max_err / max_size)
+}
+
+/// The largest `|a - e| / |e|` of computed vectors `a` against exact ones
+/// `e` (those with `e = 0` left out).
+pub(super) fn largest_relative<const W: usize>(computed: &[[f64; W]], exact: &[[f64; W]]) -> f64 {
+    let norm = |v: &mut dyn Iterator<Item = f64>| v.map(|c| c * c).sum::<f64>().sqrt();
+    computed
+        .iter()
+        .zip(exact)
+        .filter_map(|(a, e)| {
+            let size = norm(&mut e.iter().copied());
+            (size > 0.0).then(|| norm(&mut (0..W).map(|c| a[c] - e[c])) / size)
+        })
+        .fold(0.0, f64::max)
 }
 
 /// The median seconds of `repeat` calls of `evaluate` after an untimed one
@@ -170,6 +187,7 @@ pub fn vortex(
         targets: targets.len(),
         rms_relative_error,
         max_error_over_peak_speed,
+        max_relative_error: largest_relative(&computed, &exact),
         rms_relative_gradient_error: None,
     })
 }

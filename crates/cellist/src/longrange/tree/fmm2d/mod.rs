@@ -124,8 +124,8 @@ struct Square {
 /// a target box `T` and a source box `S` whose radii and centre distance
 /// satisfy `2 max(s_T, s_S) <= 0.85 d` and whose gap `d - s_T - s_S` is at
 /// least the law's reach ([`VortexLaw::reach`]) interact through M2L; otherwise the
-/// larger of the two is split, and two leaves meet pair by pair with the
-/// law itself. Then the group's locals move down (L2L) and are evaluated at
+/// larger of the two is split (a leaf never is: then the other one), and two
+/// leaves meet pair by pair with the law itself. Then the group's locals move down (L2L) and are evaluated at
 /// its particles (L2P).
 ///
 /// The error of one M2L is below `4 0.74^(p + 1)` relative to the source
@@ -476,7 +476,8 @@ impl<K: VortexLaw> Traversal<'_, K> {
         let (a, b) = (self.fmm.squares[t], self.fmm.squares[s]);
         let d2 = (a.centre - b.centre).norm_sqr();
         let larger = 2.0 * a.radius.max(b.radius);
-        larger * larger <= THETA * THETA * d2 && d2.sqrt() - a.radius - b.radius >= self.reach
+        // (the radii added first: the same bits with the roles swapped)
+        larger * larger <= THETA * THETA * d2 && d2.sqrt() - (a.radius + b.radius) >= self.reach
     }
 
     /// Adds the pair sums of two leaves of the group, each pair once: leaf

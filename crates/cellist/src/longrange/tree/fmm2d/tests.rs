@@ -100,6 +100,35 @@ fn errors_stay_below_the_tolerance() {
     }
 }
 
+/// Several target groups (12000 points, groups of at most 4096): uniform
+/// and clustered point vortices and blobs within the tolerance, on every
+/// tenth particle against brute force.
+#[test]
+fn several_groups_stay_within_the_tolerance() {
+    let one = Threads::single();
+    let kernel = BlobKernel::new(0.002);
+    for clustered in [false, true] {
+        let (x, gamma) = cloud(17, 12000, clustered);
+        let sample: Vec<usize> = (0..x.len()).step_by(10).collect();
+        let targets: Vec<[f64; 2]> = sample.iter().map(|&i| x[i]).collect();
+        let points = velocity_at(&PointVortex, &targets, &x, &gamma, &one);
+        let blobs = velocity_at(&kernel, &targets, &x, &gamma, &one);
+        for tolerance in [1e-4, 1e-8] {
+            let accuracy = FmmAccuracy::Tolerance(tolerance);
+            let at = |u: Vec<[f64; 2]>| sample.iter().map(|&i| u[i]).collect::<Vec<_>>();
+            let p = errors(&at(fmm(PointVortex, accuracy, &x, &gamma, &one)), &points);
+            let b = errors(&at(fmm(kernel, accuracy, &x, &gamma, &one)), &blobs);
+            eprintln!("clustered {clustered}, {tolerance:e}: points {p:?}, blobs {b:?}");
+            for (rms, max) in [p, b] {
+                assert!(
+                    rms < tolerance && max < tolerance,
+                    "{tolerance}: {rms:e} {max:e}"
+                );
+            }
+        }
+    }
+}
+
 /// The expansions do work: with many particles most of the far field goes
 /// through M2L, and the pair count is far below `N^2`.
 #[test]
