@@ -191,7 +191,7 @@ pub fn add_velocity_at(
             .with_min_len(16)
             .for_each(|(u, x)| {
                 let none: [&mut [f64]; 2] = [&mut [], &mut []];
-                let sums = row::<false>(kernel, *x, 0.0, [&xs, &ys], gamma, none);
+                let sums = row::<_, false>(kernel, *x, 0.0, [&xs, &ys], gamma, none);
                 u[0] += sums[0];
                 u[1] += sums[1];
             })
@@ -298,7 +298,7 @@ impl DirectBiotSavart {
                             let (u_own, u_later) = u.split_at_mut(local + 1);
                             let (v_own, v_later) = v.split_at_mut(local + 1);
                             let partners = i + 1..ra.end;
-                            let got = row::<true>(
+                            let got = row::<_, true>(
                                 kernel,
                                 [x[0][i], x[1][i]],
                                 g[i],
@@ -320,7 +320,7 @@ impl DirectBiotSavart {
                             )
                         };
                         for (local, i) in ra.clone().enumerate() {
-                            let got = row::<true>(
+                            let got = row::<_, true>(
                                 kernel,
                                 [x[0][i], x[1][i]],
                                 g[i],
@@ -347,15 +347,16 @@ impl DirectBiotSavart {
 const FAR: f64 = 40.0;
 
 /// The particle at `xi` with circulation `gi` against the `partners` (their
-/// positions per axis and circulations): returns `sum_j Gamma_j K_sigma(x_i -
-/// x_j)` and, when `SYMMETRIC`, adds `Gamma_i K_sigma(x_j - x_i)` to each
-/// partner's `partner_sums` (same length; untouched otherwise). Four partners
-/// per AVX2 register; a group of four with no pair inside `FAR` skips the
-/// exponential; lane sums are added in lane order at the end, the last partial
-/// group after them.
+/// positions per axis and circulations) under the pair law `law`: returns
+/// `sum_j Gamma_j K(x_i - x_j)` and, when `SYMMETRIC`, adds
+/// `Gamma_i K(x_j - x_i)` to each partner's `partner_sums` (same length;
+/// untouched otherwise). Four partners per AVX2 register (with the blob law, a
+/// group of four with no pair inside `FAR` skips the exponential); lane sums
+/// are added in lane order at the end, the last partial group after them.
+/// The direct sums and the FMM's leaf pairs share it.
 #[inline(always)]
-fn row<const SYMMETRIC: bool>(
-    kernel: &BlobKernel,
+pub(crate) fn row<K: VortexLaw, const SYMMETRIC: bool>(
+    law: &K,
     xi: [f64; 2],
     gi: f64,
     partners: [&[f64]; 2],
@@ -364,7 +365,7 @@ fn row<const SYMMETRIC: bool>(
 ) -> [f64; 2] {
     // a copy: the partners' stores cannot alias its fields, so that their
     // splats stay out of the loop
-    let kernel = *kernel;
+    let law = *law;
     let [px, py] = partners;
     let [pu, pv] = partner_sums;
     let (sx, sy, sg) = (F64x4::splat(xi[0]), F64x4::splat(xi[1]), F64x4::splat(gi));
@@ -376,7 +377,7 @@ fn row<const SYMMETRIC: bool>(
         let dy = sy - F64x4::load(&py[j..]);
         let gj = F64x4::load(&gamma[j..]);
         let r2 = dx * dx + dy * dy;
-        let q = kernel.factor_lanes(r2);
+        let q = law.factor_lanes(r2);
         acc[0] = acc[0] - q * gj * dy;
         acc[1] = acc[1] + q * gj * dx;
         if SYMMETRIC {
@@ -388,7 +389,7 @@ fn row<const SYMMETRIC: bool>(
     let mut sums = [acc[0].sum(), acc[1].sum()];
     for j in whole..len {
         let (dx, dy) = (xi[0] - px[j], xi[1] - py[j]);
-        let q = kernel.factor(dx * dx + dy * dy);
+        let q = law.factor(dx * dx + dy * dy);
         sums[0] -= q * gamma[j] * dy;
         sums[1] += q * gamma[j] * dx;
         if SYMMETRIC {

@@ -6,8 +6,7 @@
 mod expansions;
 
 use super::build::{Octree, Sizes};
-use crate::longrange::biot_savart::{assert_lengths, VortexLaw};
-use crate::simd::F64x4;
+use crate::longrange::biot_savart::{assert_lengths, row, VortexLaw};
 use crate::threads::{DisjointSlice, Threads};
 use expansions::{l2l, l2p, m2l, m2m, p2m, Binomials, MAX_TERMS};
 use rayon::prelude::*;
@@ -436,10 +435,10 @@ impl<K: VortexLaw> Traversal<'_, K> {
             (true, true) => {
                 let inside = (self.group..self.end).contains(&s);
                 match t.cmp(&s) {
-                    std::cmp::Ordering::Less if inside => self.both_sides(t, s),
+                    std::cmp::Ordering::Less if inside => self.pairs::<true>(t, s),
                     // the pair `(s, t)` took both sides
                     std::cmp::Ordering::Greater if inside => {}
-                    _ => self.pairs(t, s),
+                    _ => self.pairs::<false>(t, s),
                 }
             }
             (true, false) => self.each_child(s, |walk, c| walk.interact(t, c)),
@@ -480,98 +479,39 @@ impl<K: VortexLaw> Traversal<'_, K> {
         larger * larger <= THETA * THETA * d2 && d2.sqrt() - (a.radius + b.radius) >= self.reach
     }
 
-    /// Adds the pair sums of two leaves of the group, each pair once: leaf
-    /// `s`'s particles at leaf `t`'s as [`Traversal::pairs`] does, and the
-    /// reactions (`K_sigma` is odd) at `s`'s, summed in lanes per source and
-    /// added after the target loop.
-    fn both_sides(&mut self, t: usize, s: usize) {
+    /// Adds the pair sums of leaf `s`'s particles at leaf `t`'s, a target at a
+    /// time against the source leaf ([`row`]); with `BOTH` (two leaves of the
+    /// group) also the reactions at `s`'s (`K` is odd), summed per source and
+    /// added after the target loop, so that each pair is computed once.
+    fn pairs<const BOTH: bool>(&mut self, t: usize, s: usize) {
         let fmm = self.fmm;
         let nodes = &fmm.tree.nodes;
         let (target, source) = (&nodes[t], &nodes[s]);
         let sources = source.start as usize..source.end as usize;
-        let whole = (sources.len() / 4) * 4;
         let first = nodes[self.group].start as usize;
-        let law = fmm.law;
+        let partners = [&fmm.x[sources.clone()], &fmm.y[sources.clone()]];
+        let gamma = &fmm.gamma[sources.clone()];
         let [ru, rv] = &mut *self.reactions;
+        let len = if BOTH { sources.len() } else { 0 };
         for r in [&mut *ru, &mut *rv] {
             r.clear();
-            r.resize(sources.len(), 0.0);
+            r.resize(len, 0.0);
         }
-        let (x, y, gamma) = (
-            &fmm.x[sources.clone()],
-            &fmm.y[sources.clone()],
-            &fmm.gamma[sources.clone()],
-        );
         for i in target.start as usize..target.end as usize {
-            let (xi, yi, gi) = (fmm.x[i], fmm.y[i], fmm.gamma[i]);
-            let (sx, sy, sg) = (F64x4::splat(xi), F64x4::splat(yi), F64x4::splat(gi));
-            let (mut u, mut v) = (F64x4::splat(0.0), F64x4::splat(0.0));
-            for j in (0..whole).step_by(4) {
-                let dx = sx - F64x4::load(&x[j..]);
-                let dy = sy - F64x4::load(&y[j..]);
-                let q = law.factor_lanes(dx * dx + dy * dy);
-                let qj = F64x4::load(&gamma[j..]) * q;
-                u = dy.neg_mul_add(qj, u);
-                v = dx.mul_add(qj, v);
-                let qi = sg * q;
-                dy.mul_add(qi, F64x4::load(&ru[j..])).store(&mut ru[j..]);
-                dx.neg_mul_add(qi, F64x4::load(&rv[j..]))
-                    .store(&mut rv[j..]);
-            }
-            let (mut su, mut sv) = (u.sum(), v.sum());
-            for j in whole..sources.len() {
-                let (dx, dy) = (xi - x[j], yi - y[j]);
-                let q = law.factor(dx * dx + dy * dy);
-                su -= q * gamma[j] * dy;
-                sv += q * gamma[j] * dx;
-                ru[j] += q * gi * dy;
-                rv[j] -= q * gi * dx;
-            }
+            let xi = [fmm.x[i], fmm.y[i]];
+            let reactions = [&mut ru[..], &mut rv[..]];
+            let u = row::<K, BOTH>(&fmm.law, xi, fmm.gamma[i], partners, gamma, reactions);
             let o = &mut self.out[i - first];
-            o[0] += su;
-            o[1] += sv;
+            o[0] += u[0];
+            o[1] += u[1];
         }
-        for (k, j) in sources.clone().enumerate() {
+        for (j, (a, b)) in sources.clone().zip(ru.iter().zip(rv.iter())) {
             let o = &mut self.out[j - first];
-            o[0] += ru[k];
-            o[1] += rv[k];
+            o[0] += a;
+            o[1] += b;
         }
-        self.counts.1 += 2 * (target.end - target.start) as u64 * sources.len() as u64;
-    }
-
-    /// Adds the pair sums of leaf `s`'s particles at leaf `t`'s: four sources
-    /// at a time in SIMD lanes, the rest one by one.
-    fn pairs(&mut self, t: usize, s: usize) {
-        let fmm = self.fmm;
-        let nodes = &fmm.tree.nodes;
-        let (target, source) = (&nodes[t], &nodes[s]);
-        let sources = source.start as usize..source.end as usize;
-        let whole = sources.start + (sources.len() / 4) * 4;
-        let first = nodes[self.group].start as usize;
-        let law = fmm.law;
-        for i in target.start as usize..target.end as usize {
-            let (xi, yi) = (fmm.x[i], fmm.y[i]);
-            let (sx, sy) = (F64x4::splat(xi), F64x4::splat(yi));
-            let (mut u, mut v) = (F64x4::splat(0.0), F64x4::splat(0.0));
-            for j in (sources.start..whole).step_by(4) {
-                let dx = sx - F64x4::load(&fmm.x[j..]);
-                let dy = sy - F64x4::load(&fmm.y[j..]);
-                let q = F64x4::load(&fmm.gamma[j..]) * law.factor_lanes(dx * dx + dy * dy);
-                u = dy.neg_mul_add(q, u);
-                v = dx.mul_add(q, v);
-            }
-            let (mut su, mut sv) = (u.sum(), v.sum());
-            for j in whole..sources.end {
-                let (dx, dy) = (xi - fmm.x[j], yi - fmm.y[j]);
-                let q = fmm.gamma[j] * law.factor(dx * dx + dy * dy);
-                su -= q * dy;
-                sv += q * dx;
-            }
-            let o = &mut self.out[i - first];
-            o[0] += su;
-            o[1] += sv;
-        }
-        self.counts.1 += (target.end - target.start) as u64 * sources.len() as u64;
+        let sides = if BOTH { 2 } else { 1 };
+        self.counts.1 += sides * (target.end - target.start) as u64 * sources.len() as u64;
     }
 }
 
