@@ -66,6 +66,20 @@ pub(super) struct Octree {
 }
 
 impl Octree {
+    /// The children of node `k`, in order: the first follows `k`, each next
+    /// one follows the subtree of the one before.
+    pub fn children(&self, k: usize) -> impl Iterator<Item = usize> + '_ {
+        let end = self.nodes[k].next as usize;
+        let mut child = k + 1;
+        std::iter::from_fn(move || {
+            (child < end).then(|| {
+                let this = child;
+                child = self.nodes[this].next as usize;
+                this
+            })
+        })
+    }
+
     /// Sorts `positions` along the Morton curve of their bounding cube and cuts
     /// the nodes, leaves holding at most `leaf_size` particles (or sitting at the
     /// keys' last level), and marks the groups of at most `group_size`.
@@ -209,12 +223,10 @@ mod tests {
                 leaf_particles += node.end - node.start;
             } else {
                 // the children tile the parent's range in order
-                let mut c = k + 1;
                 let mut at = node.start;
-                while c < node.next as usize {
+                for c in tree.children(k) {
                     assert_eq!(tree.nodes[c].start, at);
                     at = tree.nodes[c].end;
-                    c = tree.nodes[c].next as usize;
                 }
                 assert_eq!(at, node.end);
             }

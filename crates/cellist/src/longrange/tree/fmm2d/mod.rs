@@ -257,8 +257,7 @@ impl<K: VortexLaw> VortexFmm<K> {
             }
             let (parent, below) = self.multipoles.split_at_mut((k + 1) * terms);
             let parent = &mut parent[k * terms..];
-            let mut child = k + 1;
-            while child < nodes[k].next as usize {
+            for child in self.tree.children(k) {
                 let offset = (child - k - 1) * terms;
                 m2m(
                     &self.binomials,
@@ -269,7 +268,6 @@ impl<K: VortexLaw> VortexFmm<K> {
                     squares[k].centre,
                     squares[k].radius,
                 );
-                child = nodes[child].next as usize;
             }
         }
     }
@@ -361,8 +359,7 @@ impl<K: VortexLaw> VortexFmm<K> {
                 }
                 continue;
             }
-            let mut child = k + 1;
-            while child < node.next as usize {
+            for child in self.tree.children(k) {
                 let offset = (child - k - 1) * terms;
                 l2l(
                     &self.binomials,
@@ -373,7 +370,6 @@ impl<K: VortexLaw> VortexFmm<K> {
                     self.squares[child].centre,
                     self.squares[child].radius,
                 );
-                child = nodes[child].next as usize;
             }
         }
         counts
@@ -459,13 +455,9 @@ impl<K: VortexLaw> Traversal<'_, K> {
 
     /// `visit(self, child)` for every child of node `k`, in order.
     fn each_child(&mut self, k: usize, mut visit: impl FnMut(&mut Self, usize)) {
-        let nodes = &self.fmm.tree.nodes;
-        let end = nodes[k].next as usize;
-        let mut child = k + 1;
-        while child < end {
-            let next = nodes[child].next as usize;
+        let fmm = self.fmm;
+        for child in fmm.tree.children(k) {
             visit(self, child);
-            child = next;
         }
     }
 
