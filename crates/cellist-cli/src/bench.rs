@@ -3,11 +3,11 @@
 
 use crate::cli::{
     BenchBilliardsArgs, BenchGravityArgs, BenchLjArgs, BenchNeighborsArgs, BenchPseArgs,
-    BenchVortexArgs, GravitySolverArg, PseMethodArg, VortexSolverArg,
+    BenchVortexArgs, GravityDistributionArg, GravitySolverArg, PseMethodArg, VortexSolverArg,
 };
 use crate::error::{threads, CliError, CliResult};
 use cellist_sim::bench::{
-    self, FmmAccuracy, GravitySolver, PseMethod, VortexBenchSolver, VortexPoints,
+    self, FmmAccuracy, GravityBodies, GravitySolver, PseMethod, VortexBenchSolver, VortexPoints,
 };
 use cellist_sim::bench::{late_note, RebuildRule};
 use cellist_sim::neighbors::Order;
@@ -169,19 +169,32 @@ pub fn gravity(args: &BenchGravityArgs) -> CliResult {
             grid: args.grid,
             split: args.split,
         },
+        GravitySolverArg::Fmm => GravitySolver::Fmm {
+            accuracy: match args.order {
+                Some(p) => FmmAccuracy::Order(p),
+                None => FmmAccuracy::Tolerance(args.tolerance),
+            },
+        },
+    };
+    let bodies = match (&args.input, args.n, args.distribution) {
+        (Some(path), _, _) => GravityBodies::File(path.clone()),
+        (None, Some(n), GravityDistributionArg::Plummer) => GravityBodies::Plummer { n },
+        (None, Some(n), GravityDistributionArg::Uniform) => GravityBodies::Uniform { n },
+        (None, None, _) => unreachable!("clap requires --n or --input"),
     };
     let request = bench::GravityRequest {
         solver,
-        n: args.n,
+        bodies: bodies.clone(),
         softening: args.softening,
         seed: args.seed,
         repeat: args.repeat,
+        sample: args.sample,
     };
     let b = bench::gravity(&request, &pool)?;
     let (name, seconds) = (solver.name(), b.seconds);
     if args.json {
         let mut obj = serde_json::json!({
-            "solver": name, "n": args.n, "threads": args.threads, "softening": args.softening,
+            "solver": name, "n": b.n, "threads": args.threads, "softening": args.softening,
             "seconds_per_force": seconds, "repeat": args.repeat, "seed": args.seed,
         });
         match solver {
@@ -204,9 +217,30 @@ pub fn gravity(args: &BenchGravityArgs) -> CliResult {
                 obj["grid"] = serde_json::json!(grid);
                 obj["split_cells"] = serde_json::json!(split);
             }
+            GravitySolver::Fmm { accuracy } => {
+                obj["description"] = serde_json::json!(b.solver);
+                match accuracy {
+                    FmmAccuracy::Tolerance(t) => obj["tolerance"] = serde_json::json!(t),
+                    FmmAccuracy::Order(p) => obj["order"] = serde_json::json!(p),
+                }
+            }
+        }
+        match &bodies {
+            GravityBodies::Plummer { .. } => {}
+            GravityBodies::Uniform { .. } => obj["distribution"] = serde_json::json!("uniform"),
+            GravityBodies::File(path) => {
+                obj["input"] = serde_json::json!(path.display().to_string())
+            }
         }
         if let Some(r) = b.rms_relative_error {
             obj["rms_relative_force_error"] = serde_json::json!(r);
+        }
+        if let (Some(rms), Some(max)) = (b.rms_field_error, b.max_relative_error) {
+            obj["rms_field_error"] = serde_json::json!(rms);
+            obj["max_relative_error"] = serde_json::json!(max);
+            if args.sample.is_some() {
+                obj["error_targets"] = serde_json::json!(b.targets);
+            }
         }
         if let Some((nodes, particles)) = b.interactions {
             obj["node_interactions"] = serde_json::json!(nodes);
@@ -214,15 +248,26 @@ pub fn gravity(args: &BenchGravityArgs) -> CliResult {
         }
         println!("{obj}");
     } else {
+        let what = match &bodies {
+            GravityBodies::Plummer { .. } => format!("Plummer, seed {}", args.seed),
+            GravityBodies::Uniform { .. } => format!("uniform cube, seed {}", args.seed),
+            GravityBodies::File(path) => path.display().to_string(),
+        };
         let mut line = format!(
-            "gravity {name}: {} bodies (Plummer, seed {}, softening {}), {} thread(s): {seconds:.4e} s per force evaluation (median of {})",
-            args.n, args.seed, args.softening, args.threads, args.repeat
+            "gravity {}: {} bodies ({what}, softening {}), {} thread(s): {seconds:.4e} s per force evaluation (median of {})",
+            b.solver, b.n, args.softening, args.threads, args.repeat
         );
         if solver == GravitySolver::Direct {
             line += &format!(", {:.3} ns per pair", seconds / b.pairs * 1e9);
         }
         if let Some(r) = b.rms_relative_error {
             line += &format!(", RMS relative force error against direct {r:.3e}");
+        }
+        if let (Some(rms), Some(max)) = (b.rms_field_error, b.max_relative_error) {
+            line += &format!(
+                " (RMS error over RMS force {rms:.3e}, largest relative {max:.3e}, at {} bodies)",
+                b.targets
+            );
         }
         if let Some((nodes, particles)) = b.interactions {
             line += &format!(", {nodes} node and {particles} body interactions");

@@ -369,6 +369,18 @@ pub enum GravitySolverArg {
     Pm,
     /// Particle-mesh plus the short-range pairs on a cell list.
     P3m,
+    /// The fast multipole method (3D): solid harmonics on the octree,
+    /// accuracy set by --tolerance or --order.
+    Fmm,
+}
+
+/// The bodies of `cellist bench gravity --n N`.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GravityDistributionArg {
+    /// A Plummer sphere of equal masses (scale radius 1, total mass 1).
+    Plummer,
+    /// Uniform in the unit cube, masses uniform in [0, 2/N).
+    Uniform,
 }
 
 /// Flags of `cellist bench gravity`.
@@ -377,9 +389,22 @@ pub struct BenchGravityArgs {
     /// The solver.
     #[arg(long, value_enum)]
     pub solver: GravitySolverArg,
-    /// Bodies in the Plummer sphere.
-    #[arg(long)]
-    pub n: usize,
+    /// Bodies (see --distribution).
+    #[arg(long, required_unless_present = "input", conflicts_with = "input")]
+    pub n: Option<usize>,
+    /// How the N bodies are placed.
+    #[arg(long, value_enum, default_value_t = GravityDistributionArg::Plummer)]
+    pub distribution: GravityDistributionArg,
+    /// Bodies from a file instead: lines `x y z m`, separated by blanks or
+    /// commas.
+    #[arg(long, value_name = "FILE", conflicts_with = "distribution")]
+    pub input: Option<std::path::PathBuf>,
+    /// Requested relative error (fmm), in (1e-15, 1e-1).
+    #[arg(long, default_value_t = 1e-6)]
+    pub tolerance: f64,
+    /// The expansions' order (fmm), instead of --tolerance.
+    #[arg(long, conflicts_with = "tolerance")]
+    pub order: Option<usize>,
     /// Opening angle (barnes-hut), in (0, 1.2].
     #[arg(long, default_value_t = 0.5)]
     pub theta: f64,
@@ -398,10 +423,10 @@ pub struct BenchGravityArgs {
     /// Splitting radius in mesh cells (p3m).
     #[arg(long, default_value_t = 1.25)]
     pub split: f64,
-    /// Plummer softening length.
+    /// Plummer softening length (0: the plain 1/r law).
     #[arg(long, default_value_t = 0.01)]
     pub softening: f64,
-    /// Seed of the Plummer sphere.
+    /// Seed of the Plummer sphere or the uniform cube.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
     /// Worker threads.
@@ -410,6 +435,10 @@ pub struct BenchGravityArgs {
     /// Timed force evaluations; the median is reported.
     #[arg(long, default_value_t = 5)]
     pub repeat: usize,
+    /// Bodies the error is measured at, evenly spread (default: all; the
+    /// direct sum at each costs N pairs).
+    #[arg(long)]
+    pub sample: Option<usize>,
     /// Print one JSON object instead of text.
     #[arg(long)]
     pub json: bool,

@@ -89,6 +89,7 @@ fn a_run_writes_thermo_dumps_and_plot_and_ignores_the_thread_count() {
             "periodic",
             r#"{ kind = "p3m", grid = 16, boundary = "periodic", box = 100.0 }"#,
         ),
+        ("fmm", r#"{ kind = "fmm", tolerance = 1e-8 }"#),
     ] {
         let scenario = plummer_scenario(solver, "");
         let (one, run1) = run_scenario(
@@ -123,6 +124,7 @@ fn a_run_writes_thermo_dumps_and_plot_and_ignores_the_thread_count() {
             // all pairs conserve momentum to round-off; the others only approximately
             let (energy, momentum) = match name {
                 "direct" => (1e-4, 1e-12),
+                "fmm" => (1e-4, 1e-8),
                 "tree" => (1e-4, 1e-5),
                 _ => (1e-2, 1e-3),
             };
@@ -404,6 +406,90 @@ fn a_state_that_overflows_stops_the_run_naming_the_step_and_body() {
     assert!(err.contains("step 1: the state of body "), "{err}");
     assert!(out.join("last.dump").is_file());
     assert!(out.join("thermo.csv").is_file());
+}
+
+/// A Plummer sphere without softening (the law the expansions hold
+/// everywhere) run by the fmm at 1e-8 and by the direct sum: every thermo
+/// column agrees within 1e-7 of its scale after 20 steps.
+#[test]
+fn the_fmm_run_follows_the_direct_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let scenario = |solver: &str| {
+        plummer_scenario(solver, "")
+            .replace("n = 600", "n = 4000")
+            .replace("softening = 0.01", "softening = 0.0")
+    };
+    let (direct, run) = run_scenario(dir.path(), "direct", &scenario(r#""direct""#), &[]);
+    assert!(run.status.success(), "{}", text(&run.stderr));
+    let fmm_solver = r#"{ kind = "fmm", tolerance = 1e-8 }"#;
+    let (fmm, run) = run_scenario(dir.path(), "fmm", &scenario(fmm_solver), &[]);
+    assert!(run.status.success(), "{}", text(&run.stderr));
+    assert!(text(&run.stdout).contains("fmm (order 22, tolerance 1e-8)"));
+    let (want, got) = (thermo(&direct), thermo(&fmm));
+    assert_eq!(want.len(), got.len());
+    for (w, g) in want.iter().zip(&got) {
+        // energies against the total energy's size, momenta against 1
+        let scale = w[2].abs() + w[3].abs();
+        for column in 2..5 {
+            assert!(
+                (w[column] - g[column]).abs() < 1e-7 * scale,
+                "{w:?} vs {g:?}"
+            );
+        }
+        for column in 6..12 {
+            assert!((w[column] - g[column]).abs() < 1e-7, "{w:?} vs {g:?}");
+        }
+    }
+}
+
+/// `bench gravity --solver fmm` on a file of bodies and on a uniform cube:
+/// the RMS field error against the direct sum stays below the tolerance.
+#[test]
+fn bench_gravity_fmm_reads_bodies_and_meets_its_tolerance() {
+    let dir = tempfile::tempdir().unwrap();
+    let bodies = dir.path().join("bodies.txt");
+    let mut lines = String::new();
+    let mut state = 12345u64;
+    let mut next = || {
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (state >> 11) as f64 / (1u64 << 53) as f64
+    };
+    for _ in 0..3000 {
+        lines += &format!("{} {} {} {}\n", next(), next(), next(), next());
+    }
+    std::fs::write(&bodies, lines).unwrap();
+    let path = bodies.to_str().unwrap();
+    for (source, tolerance) in [(["--input", path], "1e-6"), (["--n", "3000"], "1e-9")] {
+        let mut args = vec!["bench", "gravity", "--solver", "fmm", "--softening", "0"];
+        args.extend(source);
+        if source[0] == "--n" {
+            args.extend(["--distribution", "uniform"]);
+        }
+        args.extend([
+            "--tolerance",
+            tolerance,
+            "--repeat",
+            "1",
+            "--sample",
+            "500",
+            "--json",
+        ]);
+        let run = cellist(&args);
+        assert!(run.status.success(), "{}", text(&run.stderr));
+        let v: serde_json::Value = serde_json::from_str(text(&run.stdout).trim()).unwrap();
+        assert_eq!(v["n"], 3000);
+        assert_eq!(v["error_targets"], 500);
+        let rms = v["rms_field_error"].as_f64().unwrap();
+        let t: f64 = tolerance.parse().unwrap();
+        assert!(rms > 0.0 && rms < t, "{source:?}: {rms} at {t}");
+        assert!(v["max_relative_error"].as_f64().unwrap() >= rms / 10.0);
+        assert!(v["description"]
+            .as_str()
+            .unwrap()
+            .starts_with("fmm (order "));
+    }
 }
 
 #[test]

@@ -715,6 +715,14 @@ fn main() {
             ),
         ),
         (
+            "-np 2: the gravity fmm, not distributed, one message",
+            refused_once(
+                2,
+                &["run", &gravity, "--set", "system.solver={ kind = \"fmm\" }"],
+                "the fmm runs on one process (not yet distributed)",
+            ),
+        ),
+        (
             "-np 4: a missing scenario, one message",
             refused_once(
                 4,

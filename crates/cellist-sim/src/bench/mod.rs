@@ -12,7 +12,7 @@ mod vortex3;
 
 pub use billiards::{billiards, BilliardsBench, BilliardsRequest};
 pub use cellist::longrange::FmmAccuracy;
-pub use gravity::{gravity, GravityBench, GravityRequest, GravitySolver};
+pub use gravity::{gravity, GravityBench, GravityBodies, GravityRequest, GravitySolver};
 pub use lj::{lj, LjBench, LjRequest};
 pub use neighbors::{neighbors, NeighborsBench, NeighborsRequest};
 pub use pse::{pse, PseBench, PseMethod, PseRequest};

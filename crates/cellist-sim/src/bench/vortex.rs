@@ -2,12 +2,12 @@
 //! solver, timed, with its error against the direct sum.
 
 use crate::error::{SimError, SimResult};
-use crate::models::vortex::fmm_name;
+use crate::models::fmm_name;
 use crate::study::median;
 use cellist::longrange::biot_savart::velocity_at;
 use cellist::longrange::mesh::MAX_VIC_GRID;
 use cellist::longrange::{
-    BlobKernel, FmmAccuracy, PointVortex, TreeParams, VicBoundary, VicParams, VortexFmm,
+    BlobKernel, ErrorFit, FmmAccuracy, PointVortex, TreeParams, VicBoundary, VicParams, VortexFmm,
 };
 use cellist::models::vortex::{seed, InitialVorticity, VelocityEngine, VelocitySolver};
 use cellist::Threads;
@@ -249,7 +249,10 @@ fn evaluator<'a>(
                 format!("mesh (grid {grid}^2)"),
             )
         }
-        VortexBenchSolver::Fmm { accuracy } => (VelocitySolver::Fmm(accuracy), fmm_name(accuracy)),
+        VortexBenchSolver::Fmm { accuracy } => (
+            VelocitySolver::Fmm(accuracy),
+            fmm_name(accuracy, ErrorFit::VORTEX_2D),
+        ),
     };
     match (sigma, kind) {
         (Some(sigma), _) => {

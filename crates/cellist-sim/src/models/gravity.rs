@@ -3,6 +3,7 @@
 //! the outputs (thermo with energies and momenta, LAMMPS dumps with accelerations
 //! and potentials, the energy-error plot).
 
+use super::fmm_keys::{fmm_accuracy, fmm_name};
 use crate::driver::{JobSpec, LastFrame};
 use crate::error::{SimError, SimResult};
 use crate::hosted::Hosted;
@@ -15,7 +16,7 @@ use crate::scenario::keys::{SeriesKeys, TrajectoryKeys};
 use crate::scenario::Scenario;
 use cellist::interactions::GravityLaw;
 use cellist::longrange::p3m::SPLIT_CELLS;
-use cellist::longrange::{MeshBoundary, MeshParams, TreeParams};
+use cellist::longrange::{ErrorFit, MeshBoundary, MeshParams, TreeParams};
 use cellist::models::gravity::{
     plummer, two_body_seed004, Bodies, GravityError, GravityModel, GravitySystem, Integrator,
     Solver, SolverChoice,
@@ -122,6 +123,8 @@ struct SolverTable {
     boundary: Option<String>,
     #[serde(rename = "box")]
     side: Option<f64>,
+    tolerance: Option<f64>,
+    order: Option<usize>,
 }
 
 #[derive(Deserialize)]
@@ -262,6 +265,8 @@ fn solver_choice(keys: &SolverKeys) -> Result<(SolverChoice, String), String> {
         ("boundary", table.boundary.is_some(), MESH),
         ("box", table.side.is_some(), MESH),
         ("split", table.split.is_some(), &["p3m"]),
+        ("tolerance", table.tolerance.is_some(), &["fmm"]),
+        ("order", table.order.is_some(), &["fmm"]),
     ] {
         if set && !kinds.contains(&table.kind.as_str()) {
             return Err(format!(
@@ -305,8 +310,12 @@ fn solver_choice(keys: &SolverKeys) -> Result<(SolverChoice, String), String> {
                 Ok((SolverChoice::P3m { mesh, split_cells }, mesh_name("p3m", &mesh, Some(split_cells))))
             }
         }
+        "fmm" => {
+            let accuracy = fmm_accuracy("system.solver", table.tolerance, table.order)?;
+            Ok((SolverChoice::Fmm(accuracy), fmm_name(accuracy, ErrorFit::LAPLACE_3D)))
+        }
         other => Err(format!(
-            "system.solver kind '{other}' is unknown; expected \"direct\", \"barnes-hut\", \"pm\" or \"p3m\""
+            "system.solver kind '{other}' is unknown; expected \"direct\", \"barnes-hut\", \"pm\", \"p3m\" or \"fmm\""
         )),
     }
 }
@@ -558,6 +567,12 @@ fn run_setup<L: Launch>(
                     );
                     (solver, ranks, line)
                 }),
+            SolverChoice::Fmm(_) => match crate::distributed::world_of_many() {
+                Some(_) => return Err(scenario.error(
+                    "system.solver: the fmm runs on one process (not yet distributed); on several ranks use direct, barnes-hut, pm or p3m",
+                )),
+                None => None,
+            },
             SolverChoice::Direct => gravity_ring(setup.law).map(|(solver, ranks)| {
                 let line = format!(
                     "mpi: {p} ranks; the direct sum by the ring pass, each rank summing for a                      block of about {} bodies (the bodies held by every rank)",

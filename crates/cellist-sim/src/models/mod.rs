@@ -5,12 +5,15 @@
 
 pub mod billiards;
 pub mod field_output;
+mod fmm_keys;
 pub mod gravity;
 pub mod md;
 pub mod pse;
 pub mod vortex;
 pub mod vortex3;
 mod vortex_keys;
+
+pub(crate) use fmm_keys::fmm_name;
 
 use crate::error::SimResult;
 use crate::launch::{Execute, Launch, RunContext, RunSummary};

@@ -16,7 +16,7 @@ use crate::observers::{ChartLabels, FieldPlan, OutputPlan, PlotSpec, TableStyle}
 use crate::ranks::Ranks;
 use crate::scenario::keys::choice;
 use crate::scenario::Scenario;
-use cellist::longrange::{BlobKernel, FmmAccuracy, VicBoundary, VicParams};
+use cellist::longrange::{BlobKernel, ErrorFit, VicBoundary, VicParams};
 use cellist::models::vortex::{
     seed, Extras, InitialVorticity, VelocityEngine, VelocitySolver, VortexModel, VortexParams,
     VortexSystem,
@@ -311,15 +311,6 @@ fn solver(scenario: &Scenario, v: &VelocityKeys, center: [f64; 2]) -> SimResult<
     })
 }
 
-/// How a run names the fmm at `accuracy`: its order and tolerance.
-pub(crate) fn fmm_name(accuracy: FmmAccuracy) -> String {
-    format!(
-        "fmm (order {}, tolerance {:e})",
-        accuracy.order(),
-        accuracy.tolerance()
-    )
-}
-
 /// Runs a vortex scenario, from the checkpoint `restart` if given.
 pub fn run<L: Launch>(
     scenario: &Scenario,
@@ -445,7 +436,7 @@ pub fn run<L: Launch>(
     let solver_name = match velocity {
         VelocitySolver::Direct => "direct (all pairs)".to_string(),
         VelocitySolver::BarnesHut(p) => format!("barnes-hut (theta {})", p.theta),
-        VelocitySolver::Fmm(a) => fmm_name(a),
+        VelocitySolver::Fmm(a) => super::fmm_keys::fmm_name(a, ErrorFit::VORTEX_2D),
         VelocitySolver::Mesh(p) => match p.boundary {
             VicBoundary::Unbounded => {
                 format!("mesh (vortex-in-cell, grid {}^2, unbounded)", p.grid)

@@ -2,6 +2,7 @@
 //! checks, `system.velocity` and the solver it names, the diffusion's step
 //! limit.
 
+use super::fmm_keys::fmm_accuracy;
 use crate::error::SimResult;
 use crate::launch::RunContext;
 use crate::models::field_output::RunKeys;
@@ -83,9 +84,6 @@ pub(super) enum SolverChoice {
     /// The fast multipole method at this accuracy.
     Fmm(FmmAccuracy),
 }
-
-/// The tolerance of `kind = "fmm"` without `tolerance` or `order`.
-const FMM_TOLERANCE: f64 = 1e-6;
 
 /// The solver of `system.velocity` (the tree's theta `theta` unless given),
 /// its keys checked against the solver's.
@@ -180,18 +178,7 @@ pub(super) fn solver_choice(
         }
         Kind::Fmm => {
             only(&["tolerance", "order"])?;
-            let accuracy = match (v.tolerance, v.order) {
-                (Some(_), Some(_)) => {
-                    return Err(err(
-                        "system.velocity: give the fmm's tolerance or its order, not both".into(),
-                    ))
-                }
-                (_, Some(p)) => FmmAccuracy::Order(p),
-                (t, None) => FmmAccuracy::Tolerance(t.unwrap_or(FMM_TOLERANCE)),
-            };
-            accuracy
-                .check()
-                .map_err(|m| err(format!("system.velocity: {m}")))?;
+            let accuracy = fmm_accuracy("system.velocity", v.tolerance, v.order).map_err(err)?;
             Ok(SolverChoice::Fmm(accuracy))
         }
     }

@@ -176,11 +176,30 @@ impl PartialField {
     /// `same`, the sources are the targets themselves and `j = i` is left out.
     pub fn add(&mut self, targets: &[[f64; 3]], sources: &Sources, same: bool, threads: &Threads) {
         assert_eq!(targets.len(), self.acc.len(), "one sum per target");
+        self.add_where(sources, threads, |i| (targets[i], same.then_some(i)));
+    }
+
+    /// Adds the field of `sources` at the sources `bodies` themselves (one sum
+    /// per entry of `bodies`, each leaving its own body out).
+    pub fn add_at_bodies(&mut self, bodies: &[usize], sources: &Sources, threads: &Threads) {
+        assert_eq!(bodies.len(), self.acc.len(), "one sum per body");
+        self.add_where(sources, threads, |i| {
+            (sources.position[bodies[i]], Some(bodies[i]))
+        });
+    }
+
+    /// Adds at target `i` the field of every source but `skip`, where
+    /// `target(i) = (x_i, skip)`.
+    fn add_where(
+        &mut self,
+        sources: &Sources,
+        threads: &Threads,
+        target: impl Fn(usize) -> ([f64; 3], Option<usize>) + Sync,
+    ) {
         let kernel = Kernel::new(&self.law);
         let x: [Vec<f64>; 3] =
             std::array::from_fn(|a| sources.position.iter().map(|p| p[a]).collect());
         let m = sources.mass;
-        let all = 0..m.len();
         let repulsion = self.law.has_repulsion();
         threads.install(|| {
             self.acc
@@ -189,12 +208,11 @@ impl PartialField {
                 .enumerate()
                 .with_min_len(16)
                 .for_each(|(i, (acc, pot))| {
-                    let xi = targets[i];
-                    // the sources before and after i itself when they are the targets
-                    let (first, second) = if same {
-                        (0..i, i + 1..m.len())
-                    } else {
-                        (all.clone(), 0..0)
+                    let (xi, skip) = target(i);
+                    // the sources before and after the one left out
+                    let (first, second) = match skip {
+                        Some(j) => (0..j, j + 1..m.len()),
+                        None => (0..m.len(), 0..0),
                     };
                     let mut sum = [0.0; 4];
                     for part in [first, second] {
@@ -227,16 +245,21 @@ impl PartialField {
 }
 
 /// The running sums of a run of particles: x, y, z and potential.
-struct Block<'s> {
+pub(crate) struct Block<'s> {
     sums: [&'s mut [f64]; 4],
 }
 
 impl<'s> Block<'s> {
     /// No sums: the partners of a one-sided row.
-    fn none() -> Self {
+    pub(crate) fn none() -> Self {
         Block {
             sums: [&mut [], &mut [], &mut [], &mut []],
         }
+    }
+
+    /// The sums held in `sums` (x, y, z, potential).
+    pub(crate) fn new(sums: [&'s mut [f64]; 4]) -> Self {
+        Block { sums }
     }
 
     /// The sums of the particles `range`.
@@ -355,7 +378,7 @@ impl Kernel {
     /// `SYMMETRIC`, also adds `-k m_i d` and `m_i p` to each partner's sums in
     /// `theirs` (same length; untouched otherwise).
     #[inline(always)]
-    fn row<const REPULSION: bool, const SYMMETRIC: bool>(
+    pub(crate) fn row<const REPULSION: bool, const SYMMETRIC: bool>(
         &self,
         xi: [f64; 3],
         mi: f64,

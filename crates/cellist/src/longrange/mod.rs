@@ -21,7 +21,10 @@ pub use mesh::{
     VicBoundary, VicParams, VortexInCell, VortexInCell3,
 };
 pub use p3m::P3m;
-pub use tree::{BarnesHut, FmmAccuracy, Share, TreeParams, VortexFmm, VortexTree, VortexTree3};
+pub use tree::{
+    BarnesHut, ErrorFit, FmmAccuracy, GravityFmm, Share, TreeParams, VortexFmm, VortexTree,
+    VortexTree3,
+};
 
 use crate::interactions::GravityLaw;
 use crate::threads::Threads;

@@ -39,14 +39,14 @@
 //! particle the bits of one process.
 
 mod build;
-mod fmm2d;
+mod fmm;
 mod gravity;
 mod share;
 mod vortex;
 mod vortex3;
 mod walk;
 
-pub use fmm2d::{FmmAccuracy, VortexFmm, ORDER_RANGE, TOLERANCE_RANGE};
+pub use fmm::{ErrorFit, FmmAccuracy, GravityFmm, VortexFmm, ORDER_RANGE, TOLERANCE_RANGE};
 pub use gravity::BarnesHut;
 pub use share::Share;
 pub use vortex::VortexTree;

@@ -12,8 +12,8 @@ pub use model::{GravityModel, INFO};
 
 use crate::interactions::GravityLaw;
 use crate::longrange::{
-    check_sources, BarnesHut, DirectSum, FieldOut, FieldSolver, MeshParams, P3m, ParticleMesh,
-    Sources, TreeParams,
+    check_sources, BarnesHut, DirectSum, FieldOut, FieldSolver, FmmAccuracy, GravityFmm,
+    MeshParams, P3m, ParticleMesh, Sources, TreeParams,
 };
 use crate::threads::Threads;
 use std::fmt;
@@ -34,6 +34,8 @@ pub enum SolverChoice {
         /// The splitting radius in mesh cells.
         split_cells: f64,
     },
+    /// The fast multipole method at this accuracy.
+    Fmm(FmmAccuracy),
 }
 
 /// A solver, built for one run.
@@ -49,6 +51,8 @@ pub enum Solver {
     Pm(ParticleMesh),
     /// P3M.
     P3m(P3m),
+    /// The fast multipole method.
+    Fmm(GravityFmm),
     /// A solver from outside the engine (the ring pass of a distributed run).
     External(Box<dyn FieldSolver>),
 }
@@ -63,6 +67,7 @@ impl Solver {
             SolverChoice::P3m { mesh, split_cells } => {
                 Solver::P3m(P3m::new(law, *mesh, *split_cells)?)
             }
+            SolverChoice::Fmm(accuracy) => Solver::Fmm(GravityFmm::new(law, *accuracy)?),
         })
     }
 
@@ -73,6 +78,7 @@ impl Solver {
             Solver::BarnesHut(s) => s.compute(sources, out, threads),
             Solver::Pm(s) => s.compute(sources, out, threads),
             Solver::P3m(s) => s.compute(sources, out, threads),
+            Solver::Fmm(s) => s.compute(sources, out, threads),
             Solver::External(s) => s.compute(sources, out, threads),
         }
     }

@@ -84,7 +84,7 @@ fn errors_stay_below_the_tolerance() {
             let b = errors(&fmm(kernel, accuracy, &x, &gamma, &one), &blobs);
             eprintln!(
                 "clustered {clustered}, tolerance {tolerance:e} (order {}): points {:.2e} {:.2e}, blobs {:.2e} {:.2e}",
-                accuracy.order(),
+                accuracy.order(ErrorFit::VORTEX_2D),
                 p.0,
                 p.1,
                 b.0,
@@ -186,7 +186,7 @@ fn accuracy_ranges_and_orders() {
     assert!(FmmAccuracy::Tolerance(1e-6).check().is_ok());
     // tighter tolerances ask for higher orders
     let orders: Vec<usize> = [1e-3, 1e-6, 1e-10]
-        .map(|t| FmmAccuracy::Tolerance(t).order())
+        .map(|t| FmmAccuracy::Tolerance(t).order(ErrorFit::VORTEX_2D))
         .to_vec();
     assert!(orders[0] < orders[1] && orders[1] < orders[2], "{orders:?}");
     assert!(VortexFmm::new(PointVortex, FmmAccuracy::Order(70)).is_err());

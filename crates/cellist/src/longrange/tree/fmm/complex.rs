@@ -208,7 +208,7 @@ pub(super) fn l2p(b: &[Complex64], centre: Complex64, scale: f64, z: Complex64) 
 }
 
 /// The most terms an expansion has (`p <= MAX_TERMS - 1`).
-pub(super) const MAX_TERMS: usize = 64;
+pub(super) const MAX_TERMS: usize = super::ORDER_RANGE.1 + 1;
 
 #[cfg(test)]
 mod tests {

@@ -1,0 +1,461 @@
+//! The kernel-independent part of the fast multipole method: the tree, the
+//! upward pass (P2M at the leaves, M2M to the root), and per target group a
+//! dual-tree traversal that hands each pair of boxes to M2L or to the pair
+//! sums, then L2L and L2P down the group's subtree. The expansions and the
+//! pair law come from an [`Expansions`] implementation.
+
+use super::super::build::{Node, Octree, Sizes};
+use crate::threads::{DisjointSlice, Threads};
+use rayon::prelude::*;
+use rustfft::num_complex::Complex64;
+use std::ops::Range;
+use std::sync::Mutex;
+
+/// A box as the expansions see it: its centre and radius (half the
+/// diagonal of its square or cube), which scales its expansions.
+#[derive(Clone, Copy, Debug, Default)]
+pub(super) struct Cube {
+    pub centre: [f64; 3],
+    pub radius: f64,
+}
+
+/// How two leaves meet pair by pair.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Pairs {
+    /// The source leaf's particles at the target leaf's only.
+    OneSided,
+    /// Two different leaves of the target group: each pair once, its sum
+    /// added to both particles.
+    Both,
+    /// A leaf with itself.
+    Within,
+}
+
+/// The expansions and pair law of one kernel, on particles that it holds in
+/// the tree's order.
+pub(super) trait Expansions: Sync {
+    /// What a target particle's sum holds.
+    type Sum: Copy + Default + Send + Sync;
+    /// What a thread keeps for the expansions and the pair sums.
+    type Scratch: Default + Send;
+    /// Two boxes interact through their expansions when
+    /// `2 max(s_T, s_S) <= THETA d` (and their gap is at least
+    /// [`reach`](Self::reach)).
+    const THETA: f64;
+    /// The tree's sizes: most particles in a leaf and in a target group.
+    const SIZES: Sizes;
+
+    /// Complex coefficients per expansion.
+    fn terms(&self) -> usize;
+    /// The gap below which two boxes meet pair by pair whatever their
+    /// sizes: where the pair law is not yet the expansions' law within the
+    /// tolerance.
+    fn reach(&self) -> f64;
+    /// The box of `node`.
+    fn cube(&self, node: &Node) -> Cube;
+    /// P2M: adds the multipole of the sorted particles `particles` about
+    /// `cube` to `multipole`.
+    fn p2m(
+        &self,
+        particles: Range<usize>,
+        cube: Cube,
+        multipole: &mut [Complex64],
+        scratch: &mut Self::Scratch,
+    );
+    /// M2M: adds the child's multipole (about `from`) shifted to `to`.
+    fn m2m(
+        &self,
+        child: &[Complex64],
+        from: Cube,
+        parent: &mut [Complex64],
+        to: Cube,
+        scratch: &mut Self::Scratch,
+    );
+    /// M2L: adds the local expansion about `to` of the multipoles of boxes
+    /// `sources` (`multipoles` holds every box's, `cubes` their boxes), in
+    /// that order.
+    fn m2l(
+        &self,
+        multipoles: &[Complex64],
+        cubes: &[Cube],
+        sources: &[u32],
+        local: &mut [Complex64],
+        to: Cube,
+        scratch: &mut Self::Scratch,
+    );
+    /// L2L: adds the parent's local (about `from`) shifted to `to`.
+    fn l2l(
+        &self,
+        parent: &[Complex64],
+        from: Cube,
+        child: &mut [Complex64],
+        to: Cube,
+        scratch: &mut Self::Scratch,
+    );
+    /// L2P: adds the local about `cube` at the sorted particles
+    /// `particles` to their sums `out` (the particles' own, in order).
+    #[allow(clippy::too_many_arguments)]
+    fn l2p(
+        &self,
+        local: &[Complex64],
+        cube: Cube,
+        particles: Range<usize>,
+        out: &mut [Self::Sum],
+        scratch: &mut Self::Scratch,
+    );
+    /// The pair sums of the source particles at the target particles (sorted
+    /// ranges), added to `out`, which holds the sums of the group's
+    /// particles from sorted particle `first` on. Returns the pair terms
+    /// computed (a pair summed at both its particles counts twice).
+    fn pairs(
+        &self,
+        how: Pairs,
+        targets: Range<usize>,
+        sources: Range<usize>,
+        first: usize,
+        out: &mut [Self::Sum],
+        scratch: &mut Self::Scratch,
+    ) -> u64;
+}
+
+/// The tree, the multipoles and the per-thread scratch of an FMM, kept
+/// between evaluations.
+#[derive(Debug)]
+pub(super) struct Engine<E: Expansions> {
+    pub tree: Octree,
+    cubes: Vec<Cube>,
+    /// [`Expansions::terms`] per node, node after node.
+    multipoles: Vec<Complex64>,
+    /// The sums in tree order.
+    pub sorted: Vec<E::Sum>,
+    scratch: Vec<Mutex<Scratch<E>>>,
+    counts: Vec<(u64, u64)>,
+    /// `(M2L, particle pair)` interactions of the last evaluation.
+    pub interactions: (u64, u64),
+}
+
+impl<E: Expansions> Default for Engine<E> {
+    fn default() -> Self {
+        Engine {
+            tree: Octree::default(),
+            cubes: Vec::new(),
+            multipoles: Vec::new(),
+            sorted: Vec::new(),
+            scratch: Vec::new(),
+            counts: Vec::new(),
+            interactions: (0, 0),
+        }
+    }
+}
+
+impl<E: Expansions> Engine<E> {
+    /// Sorts `positions` into the tree (whose `order` the kernel then
+    /// arranges its particles by).
+    pub fn build(&mut self, positions: &[[f64; 3]], threads: &Threads) {
+        self.tree.build(positions, E::SIZES, threads);
+    }
+
+    /// The sums of every particle, in tree order, into `sorted`: the upward
+    /// pass, then every target group in parallel.
+    pub fn evaluate(&mut self, kernel: &E, threads: &Threads) {
+        self.cubes.clear();
+        self.cubes
+            .extend(self.tree.nodes.iter().map(|node| kernel.cube(node)));
+        self.upward(kernel, threads);
+        self.downward(kernel, threads);
+    }
+
+    /// P2M at the leaves (in parallel), then M2M from the children up, last
+    /// node first (children follow their parent).
+    fn upward(&mut self, kernel: &E, threads: &Threads) {
+        let terms = kernel.terms();
+        let nodes = &self.tree.nodes;
+        self.multipoles.clear();
+        self.multipoles
+            .resize(nodes.len() * terms, Complex64::new(0.0, 0.0));
+        while self.scratch.len() < threads.count() {
+            self.scratch.push(Mutex::new(Scratch::default()));
+        }
+        let (cubes, scratch) = (&self.cubes, &self.scratch);
+        threads.install(|| {
+            self.multipoles
+                .par_chunks_mut(terms)
+                .zip(nodes.par_iter())
+                .zip(cubes.par_iter())
+                .filter(|((_, node), _)| node.leaf)
+                .for_each(|((a, node), cube)| {
+                    let mut scratch = lock(scratch);
+                    let particles = node.start as usize..node.end as usize;
+                    kernel.p2m(particles, *cube, a, &mut scratch.kernel)
+                })
+        });
+        let mut scratch = lock(scratch);
+        for k in (0..nodes.len()).rev() {
+            if nodes[k].leaf {
+                continue;
+            }
+            let (parent, below) = self.multipoles.split_at_mut((k + 1) * terms);
+            let parent = &mut parent[k * terms..];
+            for child in self.tree.children(k) {
+                let offset = (child - k - 1) * terms;
+                let child_terms = &below[offset..offset + terms];
+                kernel.m2m(
+                    child_terms,
+                    cubes[child],
+                    parent,
+                    cubes[k],
+                    &mut scratch.kernel,
+                );
+            }
+        }
+    }
+
+    /// Every target group in parallel: its traversal, then L2L and L2P within
+    /// it, writing its particles' sums.
+    fn downward(&mut self, kernel: &E, threads: &Threads) {
+        let n = self.tree.order.len();
+        self.sorted.clear();
+        self.sorted.resize(n, E::Sum::default());
+        let (mut sorted, mut counts) = (
+            std::mem::take(&mut self.sorted),
+            std::mem::take(&mut self.counts),
+        );
+        let shared = DisjointSlice::new(&mut sorted);
+        let this = &*self;
+        threads.install(|| {
+            this.tree
+                .groups
+                .par_iter()
+                .map(|&g| {
+                    let mut scratch = lock(&this.scratch);
+                    let node = &this.tree.nodes[g as usize];
+                    // SAFETY: groups hold disjoint ranges of the sorted particles.
+                    let out = unsafe { shared.range(node.start as usize..node.end as usize) };
+                    this.group(kernel, g as usize, &mut scratch, out)
+                })
+                .collect_into_vec(&mut counts)
+        });
+        (self.sorted, self.counts) = (sorted, counts);
+        self.interactions = self
+            .counts
+            .iter()
+            .fold((0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
+    }
+
+    /// The sums of group `g`'s particles into `out`: the traversal of
+    /// `(g, root)`, the M2L of each of the group's boxes (its sources in the
+    /// order the traversal met them), then the locals down the group's
+    /// subtree and out at its leaves. Returns its `(M2L, pair)` counts.
+    fn group(
+        &self,
+        kernel: &E,
+        g: usize,
+        scratch: &mut Scratch<E>,
+        out: &mut [E::Sum],
+    ) -> (u64, u64) {
+        let terms = kernel.terms();
+        let nodes = &self.tree.nodes;
+        let end = nodes[g].next as usize;
+        let Scratch {
+            locals,
+            far,
+            sources,
+            starts,
+            kernel: own,
+        } = scratch;
+        far.clear();
+        let mut walk = Traversal {
+            engine: self,
+            kernel,
+            group: g,
+            end,
+            reach: kernel.reach(),
+            far: &mut *far,
+            scratch: &mut *own,
+            out: &mut *out,
+            pairs: 0,
+        };
+        walk.interact(g, 0);
+        let pair_count = walk.pairs;
+        // the far pairs bucketed by target box, in the order they were met
+        starts.clear();
+        starts.resize(end - g + 1, 0);
+        for &(t, _) in far.iter() {
+            starts[t as usize - g + 1] += 1;
+        }
+        for k in 1..starts.len() {
+            starts[k] += starts[k - 1];
+        }
+        sources.clear();
+        sources.resize(far.len(), 0);
+        {
+            let mut next = starts.clone();
+            for &(t, s) in far.iter() {
+                let slot = &mut next[t as usize - g];
+                sources[*slot] = s;
+                *slot += 1;
+            }
+        }
+        locals.clear();
+        locals.resize((end - g) * terms, Complex64::new(0.0, 0.0));
+        for (k, local) in (g..end).zip(locals.chunks_exact_mut(terms)) {
+            let list = &sources[starts[k - g]..starts[k - g + 1]];
+            if !list.is_empty() {
+                let (m, c) = (&self.multipoles, &self.cubes);
+                kernel.m2l(m, c, list, local, self.cubes[k], own);
+            }
+        }
+        let first = nodes[g].start as usize;
+        for k in g..end {
+            let (mine, below) = locals.split_at_mut((k - g + 1) * terms);
+            let local = &mine[(k - g) * terms..];
+            let node = &nodes[k];
+            if node.leaf {
+                let range = node.start as usize..node.end as usize;
+                let mine = &mut out[range.start - first..range.end - first];
+                kernel.l2p(local, self.cubes[k], range, mine, own);
+                continue;
+            }
+            for child in self.tree.children(k) {
+                let offset = (child - k - 1) * terms;
+                let child_terms = &mut below[offset..offset + terms];
+                kernel.l2l(local, self.cubes[k], child_terms, self.cubes[child], own);
+            }
+        }
+        (far.len() as u64, pair_count)
+    }
+}
+
+/// The scratch of the running thread.
+fn lock<E: Expansions>(scratch: &[Mutex<Scratch<E>>]) -> std::sync::MutexGuard<'_, Scratch<E>> {
+    let thread = rayon::current_thread_index().unwrap_or(0);
+    scratch[thread]
+        .lock()
+        .expect("scratch of a panicked traversal")
+}
+
+/// What a thread keeps between its groups: the locals of a group's subtree,
+/// its far pairs (as met, then bucketed by target) and the kernel's pair
+/// scratch.
+struct Scratch<E: Expansions> {
+    locals: Vec<Complex64>,
+    far: Vec<(u32, u32)>,
+    sources: Vec<u32>,
+    starts: Vec<usize>,
+    kernel: E::Scratch,
+}
+
+impl<E: Expansions> Default for Scratch<E> {
+    fn default() -> Self {
+        Scratch {
+            locals: Vec::new(),
+            far: Vec::new(),
+            sources: Vec::new(),
+            starts: Vec::new(),
+            kernel: E::Scratch::default(),
+        }
+    }
+}
+
+impl<E: Expansions> std::fmt::Debug for Scratch<E> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Scratch")
+            .field("locals", &self.locals.len())
+            .field("far", &self.far.len())
+            .finish()
+    }
+}
+
+/// One group's traversal: the far pairs it finds and its particles' pair
+/// sums.
+struct Traversal<'a, E: Expansions> {
+    engine: &'a Engine<E>,
+    kernel: &'a E,
+    /// The group's node and the first node after its subtree.
+    group: usize,
+    end: usize,
+    reach: f64,
+    far: &'a mut Vec<(u32, u32)>,
+    scratch: &'a mut E::Scratch,
+    out: &'a mut [E::Sum],
+    pairs: u64,
+}
+
+impl<E: Expansions> Traversal<'_, E> {
+    /// Target box `t` (in the group) against source box `s`: a far pair when
+    /// they are apart, pair sums when both are leaves, else the larger one
+    /// split (a leaf is never split; two boxes of one size are split both).
+    /// The rule is the same with the roles swapped, so that of two leaves of
+    /// the group `(t, s)` meet when `(s, t)` do: the first of them takes both
+    /// sides.
+    fn interact(&mut self, t: usize, s: usize) {
+        let nodes = &self.engine.tree.nodes;
+        let (target, source) = (&nodes[t], &nodes[s]);
+        let overlap = target.start < source.end && source.start < target.end;
+        if !overlap && self.apart(t, s) {
+            self.far.push((t as u32, s as u32));
+            return;
+        }
+        match (target.leaf, source.leaf) {
+            (true, true) => {
+                let inside = (self.group..self.end).contains(&s);
+                match t.cmp(&s) {
+                    std::cmp::Ordering::Equal => self.leaf_pairs(Pairs::Within, t, s),
+                    std::cmp::Ordering::Less if inside => self.leaf_pairs(Pairs::Both, t, s),
+                    // the pair `(s, t)` took both sides
+                    std::cmp::Ordering::Greater if inside => {}
+                    _ => self.leaf_pairs(Pairs::OneSided, t, s),
+                }
+            }
+            (true, false) => self.each_child(s, |walk, c| walk.interact(t, c)),
+            (false, true) => self.each_child(t, |walk, c| walk.interact(c, s)),
+            (false, false) => {
+                if source.side > target.side {
+                    self.each_child(s, |walk, c| walk.interact(t, c))
+                } else if target.side > source.side {
+                    self.each_child(t, |walk, c| walk.interact(c, s))
+                } else {
+                    self.each_child(t, |walk, ct| {
+                        walk.each_child(s, |walk, cs| walk.interact(ct, cs))
+                    })
+                }
+            }
+        }
+    }
+
+    /// `visit(self, child)` for every child of node `k`, in order.
+    fn each_child(&mut self, k: usize, mut visit: impl FnMut(&mut Self, usize)) {
+        let engine = self.engine;
+        for child in engine.tree.children(k) {
+            visit(self, child);
+        }
+    }
+
+    /// Whether boxes `t` and `s` are well apart: `2 max(s_T, s_S) <= THETA d`
+    /// and a gap of at least the law's reach.
+    fn apart(&self, t: usize, s: usize) -> bool {
+        let (a, b) = (self.engine.cubes[t], self.engine.cubes[s]);
+        let d = [
+            a.centre[0] - b.centre[0],
+            a.centre[1] - b.centre[1],
+            a.centre[2] - b.centre[2],
+        ];
+        let d2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+        let larger = 2.0 * a.radius.max(b.radius);
+        // (the radii added first: the same bits with the roles swapped)
+        larger * larger <= E::THETA * E::THETA * d2
+            && d2.sqrt() - (a.radius + b.radius) >= self.reach
+    }
+
+    /// Leaf `t`'s particles against leaf `s`'s.
+    fn leaf_pairs(&mut self, how: Pairs, t: usize, s: usize) {
+        let nodes = &self.engine.tree.nodes;
+        let (target, source) = (&nodes[t], &nodes[s]);
+        let targets = target.start as usize..target.end as usize;
+        let sources = source.start as usize..source.end as usize;
+        let first = nodes[self.group].start as usize;
+        self.pairs += self
+            .kernel
+            .pairs(how, targets, sources, first, self.out, self.scratch);
+    }
+}

@@ -1,0 +1,311 @@
+//! The solid-harmonic expansions of the 3D fast multipole method for the
+//! Laplace sum `Phi(x) = sum_j q_j / |x - x_j|`.
+//!
+//! With the regular and irregular solid harmonics (Condon-Shortley phase,
+//! `R_n^{-m} = (-1)^m conj(R_n^m)`, the same for `I`)
+//!
+//! `R_n^m(x) = r^n P_n^m(cos theta) e^{i m phi} / (n + m)!`,
+//! `I_n^m(x) = (n - m)! P_n^m(cos theta) e^{i m phi} / r^(n + 1)`,
+//!
+//! `1 / |x - y| = sum_{n, m} conj(R_n^m(y)) I_n^m(x)` for `|y| < |x|`, and
+//! `R_n^m(a + b) = sum_{k, l} R_k^l(a) R_{n-k}^{m-l}(b)`. Each expansion is
+//! scaled by its box's radius `s`, so that no power over- or underflows:
+//!
+//! - multipole about `c`: `Phi(x) = sum M_n^m s^n I_n^m(x - c)`,
+//!   `M_n^m = sum_j q_j conj(R_n^m((x_j - c) / s))` (P2M);
+//! - local about `t`: `Phi(x) = sum L_k^l conj(R_k^l((x - t) / s))` (L2P).
+//!
+//! Only `m >= 0` is stored (`(p + 1)(p + 2) / 2` terms, `n <= p`); M2L (by
+//! rotation, [`super::rotation`]) keeps every `n, k <= p`. Each function
+//! states its own formula.
+
+use rustfft::num_complex::Complex64;
+
+/// Where term `(n, m)`, `0 <= m <= n`, sits in an expansion.
+#[inline(always)]
+pub(super) fn at(n: usize, m: usize) -> usize {
+    n * (n + 1) / 2 + m
+}
+
+/// Terms of an expansion of order `p`.
+pub(super) fn terms(p: usize) -> usize {
+    at(p + 1, 0)
+}
+
+/// Term `(n, m)` of `a` for any `m` (`(-1)^m conj` of `(n, -m)` below 0; 0
+/// for `|m| > n`).
+#[inline(always)]
+pub(super) fn signed(a: &[Complex64], n: usize, m: isize) -> Complex64 {
+    let k = m.unsigned_abs();
+    if k > n {
+        Complex64::new(0.0, 0.0)
+    } else if m >= 0 {
+        a[at(n, k)]
+    } else if k % 2 == 0 {
+        a[at(n, k)].conj()
+    } else {
+        -a[at(n, k)].conj()
+    }
+}
+
+/// `R_n^m(v)` for `n <= p`, `m >= 0`, into `out`, by the recurrences
+/// `R_m^m = -(x + i y) R_{m-1}^{m-1} / (2m)`, `R_{m+1}^m = z R_m^m`,
+/// `R_n^m = ((2n - 1) z R_{n-1}^m - r^2 R_{n-2}^m) / ((n + m)(n - m))`.
+pub(super) fn regular(v: [f64; 3], p: usize, out: &mut [Complex64]) {
+    let [x, y, z] = v;
+    let r2 = x * x + y * y + z * z;
+    let w = Complex64::new(x, y);
+    let mut diagonal = Complex64::new(1.0, 0.0);
+    for m in 0..=p {
+        if m > 0 {
+            diagonal = -w * diagonal / (2 * m) as f64;
+        }
+        out[at(m, m)] = diagonal;
+        if m < p {
+            out[at(m + 1, m)] = z * diagonal;
+        }
+        for n in m + 2..=p {
+            let a = (2 * n - 1) as f64 * z;
+            let b = ((n + m) * (n - m)) as f64;
+            out[at(n, m)] = (a * out[at(n - 1, m)] - r2 * out[at(n - 2, m)]) / b;
+        }
+    }
+}
+
+/// P2M: adds `M_n^m += q conj(R_n^m((x - c) / s))` for each source `(x, q)`.
+pub(super) fn p2m(
+    p: usize,
+    sources: impl Iterator<Item = ([f64; 3], f64)>,
+    centre: [f64; 3],
+    scale: f64,
+    harmonics: &mut [Complex64],
+    multipole: &mut [Complex64],
+) {
+    let inv = 1.0 / scale;
+    for (x, q) in sources {
+        let v = std::array::from_fn(|a| (x[a] - centre[a]) * inv);
+        regular(v, p, harmonics);
+        for (m, r) in multipole.iter_mut().zip(harmonics.iter()) {
+            *m += q * r.conj();
+        }
+    }
+}
+
+/// M2M: adds the child's multipole (about `c`, scale `s`) shifted to the
+/// parent's centre `c'` and scale `s'`:
+/// `M'_n^m += sum_{k <= n, l} M_k^l (s / s')^k conj(R_{n-k}^{m-l}((c - c') / s'))`.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn m2m(
+    p: usize,
+    child: &[Complex64],
+    child_centre: [f64; 3],
+    child_scale: f64,
+    parent: &mut [Complex64],
+    parent_centre: [f64; 3],
+    parent_scale: f64,
+    harmonics: &mut [Complex64],
+) {
+    let inv = 1.0 / parent_scale;
+    let shift = std::array::from_fn(|a| (child_centre[a] - parent_centre[a]) * inv);
+    regular(shift, p, harmonics);
+    let ratio = child_scale / parent_scale;
+    for n in 0..=p {
+        for m in 0..=n {
+            let mut sum = Complex64::new(0.0, 0.0);
+            let mut power = 1.0;
+            for k in 0..=n {
+                let j = n - k;
+                let (lo, hi) = ((m as isize - j as isize).max(-(k as isize)), (m + j).min(k));
+                for l in lo..=hi as isize {
+                    let r = signed(harmonics, j, m as isize - l).conj();
+                    sum += signed(child, k, l) * r * power;
+                }
+                power *= ratio;
+            }
+            parent[at(n, m)] += sum;
+        }
+    }
+}
+
+/// L2L: adds the parent's local (about `t`, scale `s`) shifted to the
+/// child's centre `t'` and scale `s'`:
+/// `L'_j^i += (s' / s)^j sum_{k >= j, l} L_k^l conj(R_{k-j}^{l-i}((t' - t) / s))`.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn l2l(
+    p: usize,
+    parent: &[Complex64],
+    parent_centre: [f64; 3],
+    parent_scale: f64,
+    child: &mut [Complex64],
+    child_centre: [f64; 3],
+    child_scale: f64,
+    harmonics: &mut [Complex64],
+) {
+    let inv = 1.0 / parent_scale;
+    let shift = std::array::from_fn(|a| (child_centre[a] - parent_centre[a]) * inv);
+    regular(shift, p, harmonics);
+    let ratio = child_scale / parent_scale;
+    let mut power = 1.0;
+    for j in 0..=p {
+        for i in 0..=j {
+            let mut sum = Complex64::new(0.0, 0.0);
+            for k in j..=p {
+                let d = k - j;
+                let (lo, hi) = ((i as isize - d as isize).max(-(k as isize)), (i + d).min(k));
+                for l in lo..=hi as isize {
+                    let r = signed(harmonics, d, l - i as isize).conj();
+                    sum += signed(parent, k, l) * r;
+                }
+            }
+            child[at(j, i)] += sum * power;
+        }
+        power *= ratio;
+    }
+}
+
+/// L2P: `[dPhi/dx, dPhi/dy, dPhi/dz, Phi]` of the local about `t` (scale
+/// `s`) at `x`: with `w = (x - t) / s`, `Phi = sum L_k^l conj(R_k^l(w))`,
+/// `dPhi/dz = sum L_k^l conj(R_{k-1}^l(w)) / s` and
+/// `dPhi/dx - i dPhi/dy = sum L_k^l conj(R_{k-1}^{l+1}(w)) / s`
+/// (`d/dz R_n^m = R_{n-1}^m`, `(d/dx + i d/dy) R_n^m = R_{n-1}^{m+1}`). The
+/// sum over `l < 0` is the conjugate of the one over `l > 0`.
+pub(super) fn l2p(
+    p: usize,
+    local: &[Complex64],
+    centre: [f64; 3],
+    scale: f64,
+    x: [f64; 3],
+    harmonics: &mut [Complex64],
+) -> [f64; 4] {
+    let inv = 1.0 / scale;
+    let w = std::array::from_fn(|a| (x[a] - centre[a]) * inv);
+    regular(w, p, harmonics);
+    let (mut phi, mut dz, mut minus) = (0.0, 0.0, Complex64::new(0.0, 0.0));
+    for k in 0..=p {
+        // l = 0 once, l > 0 twice (with its conjugate)
+        phi += (local[at(k, 0)] * harmonics[at(k, 0)].conj()).re;
+        for l in 1..=k {
+            phi += 2.0 * (local[at(k, l)] * harmonics[at(k, l)].conj()).re;
+        }
+        if k == 0 {
+            continue;
+        }
+        for l in -(k as isize)..=k as isize {
+            let lk = signed(local, k, l);
+            minus += lk * signed(harmonics, k - 1, l + 1).conj();
+            if l == 0 {
+                dz += (lk * harmonics[at(k - 1, 0)].conj()).re;
+            } else if l > 0 && (l as usize) < k {
+                dz += 2.0 * (lk * harmonics[at(k - 1, l as usize)].conj()).re;
+            }
+        }
+    }
+    [minus.re * inv, -minus.im * inv, dz * inv, phi]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::rotation::{m2l_turned, TurnedM2l};
+    use super::*;
+    use crate::random::Rng;
+
+    fn cloud(rng: &mut Rng, centre: [f64; 3], half: f64, n: usize) -> Vec<([f64; 3], f64)> {
+        (0..n)
+            .map(|_| {
+                let x = std::array::from_fn(|a| centre[a] + half * (2.0 * rng.uniform() - 1.0));
+                (x, rng.uniform() - 0.3)
+            })
+            .collect()
+    }
+
+    /// `[grad Phi, Phi]` by brute force, written out here.
+    fn direct(sources: &[([f64; 3], f64)], x: [f64; 3]) -> [f64; 4] {
+        let mut f = [0.0; 4];
+        for &(y, q) in sources {
+            let d = [y[0] - x[0], y[1] - x[1], y[2] - x[2]];
+            let r = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+            for a in 0..3 {
+                f[a] += q * d[a] / (r * r * r);
+            }
+            f[3] += q / r;
+        }
+        f
+    }
+
+    fn relative(got: [f64; 4], want: [f64; 4]) -> (f64, f64) {
+        let norm = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
+        let e: Vec<f64> = (0..4).map(|a| got[a] - want[a]).collect();
+        (norm(&e[..3]) / norm(&want[..3]), e[3].abs() / want[3].abs())
+    }
+
+    /// Every step of the chain P2M, M2M, M2L (by rotation, the same source
+    /// twice, halved), L2L, L2P against the direct sum, at orders 8 and 16: potential and
+    /// field errors fall with the order, near the ratio of radius to
+    /// distance to the power `p + 1`.
+    #[test]
+    fn the_chain_converges_with_the_order() {
+        let mut rng = Rng::new(3);
+        let (parent_c, child_c) = ([0.0, 0.0, 0.0], [0.25, -0.25, 0.25]);
+        let (target_c, leaf_c) = ([4.0, 1.0, -0.5], [3.75, 1.25, -0.25]);
+        let sources = cloud(&mut rng, child_c, 0.25, 40);
+        let targets: Vec<[f64; 3]> = cloud(&mut rng, leaf_c, 0.25, 20)
+            .into_iter()
+            .map(|t| t.0)
+            .collect();
+        let (s_parent, s_child) = (0.5 * 3f64.sqrt(), 0.25 * 3f64.sqrt());
+        let mut last = (f64::INFINITY, f64::INFINITY);
+        for p in [8, 16] {
+            let zero = vec![Complex64::new(0.0, 0.0); terms(p)];
+            let mut h = zero.clone();
+            let mut child = zero.clone();
+            p2m(
+                p,
+                sources.iter().copied(),
+                child_c,
+                s_child,
+                &mut h,
+                &mut child,
+            );
+            let mut parent = zero.clone();
+            m2m(
+                p,
+                &child,
+                child_c,
+                s_child,
+                &mut parent,
+                parent_c,
+                s_parent,
+                &mut h,
+            );
+            // the same source twice, halved: their sum is the whole
+            let half: Vec<Complex64> = parent.iter().map(|c| c * 0.5).collect();
+            let mut local = zero.clone();
+            let mut scratch = TurnedM2l::default();
+            for _ in 0..2 {
+                let source = (parent_c, s_parent, 1.0);
+                let target = (target_c, s_parent, 1.0);
+                m2l_turned(p, &half, source, &mut local, target, &mut scratch);
+            }
+            let mut leaf = zero.clone();
+            l2l(
+                p, &local, target_c, s_parent, &mut leaf, leaf_c, s_child, &mut h,
+            );
+            let worst = targets.iter().fold((0.0f64, 0.0f64), |w, &x| {
+                let e = relative(
+                    l2p(p, &leaf, leaf_c, s_child, x, &mut h),
+                    direct(&sources, x),
+                );
+                (w.0.max(e.0), w.1.max(e.1))
+            });
+            // the ratio of the radii to the distance, 0.87 / (4.1 - 0.87)
+            let bound = 10.0 * 0.27f64.powi(p as i32 + 1);
+            eprintln!(
+                "p {p}: worst field {:e}, potential {:e} (bound {bound:e})",
+                worst.0, worst.1
+            );
+            assert!(worst.0 < bound && worst.1 < bound, "p {p}: {worst:?}");
+            assert!(worst.0 < last.0 && worst.1 < last.1);
+            last = worst;
+        }
+    }
+}
