@@ -71,16 +71,21 @@ pub(super) trait Expansions: Sync {
         to: Cube,
         scratch: &mut Self::Scratch,
     );
-    /// M2L: adds the local expansion about `to` of the multipoles of boxes
-    /// `sources` (`multipoles` holds every box's, `cubes` their boxes), in
-    /// that order.
+    /// M2L of a target group: adds to the local of each of the group's boxes
+    /// `t` (`locals`, [`terms`](Self::terms) per box, box `group` first) the
+    /// local expansions of the multipoles of its sources,
+    /// `sources[starts[t - group]..starts[t - group + 1]]` (in the order the
+    /// traversal met them; `multipoles` holds every box's, `cubes` their
+    /// boxes), in an order fixed by the boxes.
+    #[allow(clippy::too_many_arguments)]
     fn m2l(
         &self,
         multipoles: &[Complex64],
         cubes: &[Cube],
+        group: usize,
+        starts: &[usize],
         sources: &[u32],
-        local: &mut [Complex64],
-        to: Cube,
+        locals: &mut [Complex64],
         scratch: &mut Self::Scratch,
     );
     /// L2L: adds the parent's local (about `from`) shifted to `to`.
@@ -298,13 +303,8 @@ impl<E: Expansions> Engine<E> {
         }
         locals.clear();
         locals.resize((end - g) * terms, Complex64::new(0.0, 0.0));
-        for (k, local) in (g..end).zip(locals.chunks_exact_mut(terms)) {
-            let list = &sources[starts[k - g]..starts[k - g + 1]];
-            if !list.is_empty() {
-                let (m, c) = (&self.multipoles, &self.cubes);
-                kernel.m2l(m, c, list, local, self.cubes[k], own);
-            }
-        }
+        let (m, c) = (&self.multipoles, &self.cubes);
+        kernel.m2l(m, c, g, starts, sources, locals, own);
         let first = nodes[g].start as usize;
         for k in g..end {
             let (mine, below) = locals.split_at_mut((k - g + 1) * terms);

@@ -5,7 +5,7 @@
 
 use super::super::build::{Node, Sizes};
 use super::engine::{Cube, Engine, Expansions, Pairs};
-use super::rotation::{m2l_turned, TurnedM2l};
+use super::rotation::{direction, m2l_turned, TurnedM2l};
 use super::solid;
 use super::{ErrorFit, FmmAccuracy};
 use crate::interactions::GravityLaw;
@@ -43,8 +43,10 @@ impl ErrorFit {
 const LEAF: usize = 256;
 
 /// Most particles in a target group (each traverses the tree on its own, in
-/// parallel with the others).
-const GROUP: usize = 32768;
+/// parallel with the others). Leaf pairs inside a group are computed once
+/// for both sides, across groups once per side: 262,144 (8 groups at 10^6
+/// uniform bodies) took 12.7 s at order 15 where 32,768 took 13.7 s.
+const GROUP: usize = 262144;
 
 /// The fast multipole method for gravity,
 ///
@@ -151,6 +153,8 @@ struct Laplace {
 struct Scratch {
     harmonics: Vec<Complex64>,
     turned: TurnedM2l,
+    /// A group's far pairs `(direction, target, source)`.
+    far: Vec<([i64; 3], u32, u32)>,
     reactions: [Vec<f64>; 4],
 }
 
@@ -215,24 +219,48 @@ impl Expansions for Laplace {
         );
     }
 
+    /// Grouped by direction (then target and source), so that each turn's
+    /// matrices stay in the cache while they serve; the order is a function
+    /// of the boxes.
     fn m2l(
         &self,
         multipoles: &[Complex64],
         cubes: &[Cube],
+        group: usize,
+        starts: &[usize],
         sources: &[u32],
-        local: &mut [Complex64],
-        to: Cube,
+        locals: &mut [Complex64],
         scratch: &mut Scratch,
     ) {
         let terms = self.terms();
         let side = |c: Cube| c.radius * 2.0 / 3f64.sqrt();
-        for &s in sources {
-            let s = s as usize;
-            let from = cubes[s];
+        let pairs = &mut scratch.far;
+        pairs.clear();
+        for k in 0..starts.len() - 1 {
+            let t = group + k;
+            for &s in &sources[starts[k]..starts[k + 1]] {
+                let (to, from) = (cubes[t], cubes[s as usize]);
+                let d = std::array::from_fn(|a| to.centre[a] - from.centre[a]);
+                pairs.push((direction(d, side(to).min(side(from))), t as u32, s));
+            }
+        }
+        pairs.sort_unstable();
+        for &(key, t, s) in pairs.iter() {
+            let (t, s) = (t as usize, s as usize);
+            let (to, from) = (cubes[t], cubes[s]);
             let a = &multipoles[s * terms..(s + 1) * terms];
-            let source = (from.centre, from.radius, side(from));
-            let target = (to.centre, to.radius, side(to));
-            m2l_turned(self.order, a, source, local, target, &mut scratch.turned);
+            let local = &mut locals[(t - group) * terms..(t - group + 1) * terms];
+            let source = (from.centre, from.radius);
+            let target = (to.centre, to.radius);
+            m2l_turned(
+                self.order,
+                a,
+                source,
+                local,
+                target,
+                key,
+                &mut scratch.turned,
+            );
         }
     }
 

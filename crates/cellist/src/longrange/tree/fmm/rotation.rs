@@ -327,14 +327,8 @@ pub(super) struct Turns {
 }
 
 impl Turns {
-    /// The turn of the separation `d` between boxes whose smaller side is
-    /// `side`.
-    pub fn of(&mut self, d: [f64; 3], side: f64, p: usize, log_factorials: &[f64]) -> &Turn {
-        let mut key = d.map(|x| (2.0 * x / side).round() as i64);
-        let g = gcd(gcd(key[0].abs(), key[1].abs()), key[2].abs()).max(1);
-        for k in &mut key {
-            *k /= g;
-        }
+    /// The turn of the direction `key` (see [`direction`]).
+    pub fn of(&mut self, key: [i64; 3], p: usize, log_factorials: &[f64]) -> &Turn {
         let next = self.turns.len();
         let slot = *self.index.entry(key).or_insert(next);
         if slot == next {
@@ -343,6 +337,19 @@ impl Turns {
         }
         &self.turns[slot]
     }
+}
+
+/// The direction of the separation `d` between two boxes of the octree
+/// whose smaller side is `side`, exactly: `d` in units of half that side is
+/// a vector of integers (the boxes sit on one grid), reduced by their
+/// greatest common divisor.
+pub(super) fn direction(d: [f64; 3], side: f64) -> [i64; 3] {
+    let mut key = d.map(|x| (2.0 * x / side).round() as i64);
+    let g = gcd(gcd(key[0].abs(), key[1].abs()), key[2].abs()).max(1);
+    for k in &mut key {
+        *k /= g;
+    }
+    key
 }
 
 fn gcd(a: i64, b: i64) -> i64 {
@@ -475,9 +482,10 @@ impl TurnedM2l {
     }
 }
 
-/// M2L of the multipole `a` about `c` (scale `s_c`, side `side_c`) into the
-/// local about `t` (scale `s_t`, side `side_t`): turned so that `D = t - c`
-/// points along `+z` (`d = |D|`), translated there,
+/// M2L of the multipole `a` about `c` (scale `s_c`) into the local about `t`
+/// (scale `s_t`), whose separation `D = t - c` has the direction `key`
+/// ([`direction`]): turned so that `D` points along `+z` (`d = |D|`),
+/// translated there,
 ///
 /// `b'_k^l = (-1)^k (s_t / d)^k / d sum_{n = |l|}^{p} a'_n^{-l} (s_c / d)^n (n + k)!`
 ///
@@ -487,9 +495,10 @@ impl TurnedM2l {
 pub(super) fn m2l_turned(
     p: usize,
     a: &[Complex64],
-    (source_centre, source_scale, source_side): ([f64; 3], f64, f64),
+    (source_centre, source_scale): ([f64; 3], f64),
     local: &mut [Complex64],
-    (target_centre, target_scale, target_side): ([f64; 3], f64, f64),
+    (target_centre, target_scale): ([f64; 3], f64),
+    key: [i64; 3],
     scratch: &mut TurnedM2l,
 ) {
     scratch.prepare(p);
@@ -505,7 +514,7 @@ pub(super) fn m2l_turned(
         full,
         ..
     } = scratch;
-    let turn = turns.of(d, source_side.min(target_side), p, log_factorials);
+    let turn = turns.of(key, p, log_factorials);
     turn.forward(p, a, turned, full);
     let (rho_s, rho_t) = (source_scale / distance, target_scale / distance);
     // b'_k^l for each l: the sums over n of a'_n^l (s_c / d)^n (n + k)!, four

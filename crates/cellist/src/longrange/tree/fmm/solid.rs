@@ -48,6 +48,24 @@ pub(super) fn signed(a: &[Complex64], n: usize, m: isize) -> Complex64 {
     }
 }
 
+/// `1 / ((n + m)(n - m))` at [`at`]`(n, m)` for `n <= 63` (1 where
+/// `n - m < 2`): the recurrence's divisors, so that it multiplies.
+fn reciprocals() -> &'static [f64] {
+    static TABLE: std::sync::OnceLock<Vec<f64>> = std::sync::OnceLock::new();
+    TABLE.get_or_init(|| {
+        let last = super::ORDER_RANGE.1;
+        let mut table = vec![1.0; at(last + 1, 0)];
+        for n in 0..=last {
+            for m in 0..=n {
+                if n >= m + 2 {
+                    table[at(n, m)] = 1.0 / ((n + m) * (n - m)) as f64;
+                }
+            }
+        }
+        table
+    })
+}
+
 /// `R_n^m(v)` for `n <= p`, `m >= 0`, into `out`, by the recurrences
 /// `R_m^m = -(x + i y) R_{m-1}^{m-1} / (2m)`, `R_{m+1}^m = z R_m^m`,
 /// `R_n^m = ((2n - 1) z R_{n-1}^m - r^2 R_{n-2}^m) / ((n + m)(n - m))`.
@@ -55,10 +73,11 @@ pub(super) fn regular(v: [f64; 3], p: usize, out: &mut [Complex64]) {
     let [x, y, z] = v;
     let r2 = x * x + y * y + z * z;
     let w = Complex64::new(x, y);
+    let inverse = reciprocals();
     let mut diagonal = Complex64::new(1.0, 0.0);
     for m in 0..=p {
         if m > 0 {
-            diagonal = -w * diagonal / (2 * m) as f64;
+            diagonal = -w * diagonal * (0.5 / m as f64);
         }
         out[at(m, m)] = diagonal;
         if m < p {
@@ -66,8 +85,7 @@ pub(super) fn regular(v: [f64; 3], p: usize, out: &mut [Complex64]) {
         }
         for n in m + 2..=p {
             let a = (2 * n - 1) as f64 * z;
-            let b = ((n + m) * (n - m)) as f64;
-            out[at(n, m)] = (a * out[at(n - 1, m)] - r2 * out[at(n - 2, m)]) / b;
+            out[at(n, m)] = (a * out[at(n - 1, m)] - r2 * out[at(n - 2, m)]) * inverse[at(n, m)];
         }
     }
 }
@@ -167,8 +185,10 @@ pub(super) fn l2l(
 /// `s`) at `x`: with `w = (x - t) / s`, `Phi = sum L_k^l conj(R_k^l(w))`,
 /// `dPhi/dz = sum L_k^l conj(R_{k-1}^l(w)) / s` and
 /// `dPhi/dx - i dPhi/dy = sum L_k^l conj(R_{k-1}^{l+1}(w)) / s`
-/// (`d/dz R_n^m = R_{n-1}^m`, `(d/dx + i d/dy) R_n^m = R_{n-1}^{m+1}`). The
-/// sum over `l < 0` is the conjugate of the one over `l > 0`.
+/// (`d/dz R_n^m = R_{n-1}^m`, `(d/dx + i d/dy) R_n^m = R_{n-1}^{m+1}`), the
+/// sums over `l < 0` folded onto `l > 0` by the symmetry of both: the terms
+/// `l` and `-l` of the first two are conjugates, and the third's `l = -j` is
+/// `-conj(L_k^j) R_{k-1}^{j-1}`.
 pub(super) fn l2p(
     p: usize,
     local: &[Complex64],
@@ -181,23 +201,31 @@ pub(super) fn l2p(
     let w = std::array::from_fn(|a| (x[a] - centre[a]) * inv);
     regular(w, p, harmonics);
     let (mut phi, mut dz, mut minus) = (0.0, 0.0, Complex64::new(0.0, 0.0));
+    // the real part of a conj(b)
+    let dot = |a: Complex64, b: Complex64| a.re * b.re + a.im * b.im;
     for k in 0..=p {
-        // l = 0 once, l > 0 twice (with its conjugate)
-        phi += (local[at(k, 0)] * harmonics[at(k, 0)].conj()).re;
-        for l in 1..=k {
-            phi += 2.0 * (local[at(k, l)] * harmonics[at(k, l)].conj()).re;
+        let l_k = &local[at(k, 0)..=at(k, k)];
+        let r_k = &harmonics[at(k, 0)..=at(k, k)];
+        let mut twice = 0.0;
+        for (a, b) in l_k[1..].iter().zip(&r_k[1..]) {
+            twice += dot(*a, *b);
         }
+        phi += dot(l_k[0], r_k[0]) + 2.0 * twice;
         if k == 0 {
             continue;
         }
-        for l in -(k as isize)..=k as isize {
-            let lk = signed(local, k, l);
-            minus += lk * signed(harmonics, k - 1, l + 1).conj();
-            if l == 0 {
-                dz += (lk * harmonics[at(k - 1, 0)].conj()).re;
-            } else if l > 0 && (l as usize) < k {
-                dz += 2.0 * (lk * harmonics[at(k - 1, l as usize)].conj()).re;
-            }
+        let r_below = &harmonics[at(k - 1, 0)..=at(k - 1, k - 1)];
+        let mut twice = 0.0;
+        for (a, b) in l_k[1..k].iter().zip(&r_below[1..]) {
+            twice += dot(*a, *b);
+        }
+        dz += dot(l_k[0], r_below[0]) + 2.0 * twice;
+        // l >= 0 against R_{k-1}^{l+1}, and l = -j against R_{k-1}^{j-1}
+        for (a, b) in l_k.iter().zip(&r_below[1..]) {
+            minus += a * b.conj();
+        }
+        for (a, b) in l_k[1..].iter().zip(r_below) {
+            minus -= a.conj() * b;
         }
     }
     [minus.re * inv, -minus.im * inv, dz * inv, phi]
@@ -205,7 +233,7 @@ pub(super) fn l2p(
 
 #[cfg(test)]
 mod tests {
-    use super::super::rotation::{m2l_turned, TurnedM2l};
+    use super::super::rotation::{direction, m2l_turned, TurnedM2l};
     use super::*;
     use crate::random::Rng;
 
@@ -281,10 +309,11 @@ mod tests {
             let half: Vec<Complex64> = parent.iter().map(|c| c * 0.5).collect();
             let mut local = zero.clone();
             let mut scratch = TurnedM2l::default();
+            let d = std::array::from_fn(|a| target_c[a] - parent_c[a]);
             for _ in 0..2 {
-                let source = (parent_c, s_parent, 1.0);
-                let target = (target_c, s_parent, 1.0);
-                m2l_turned(p, &half, source, &mut local, target, &mut scratch);
+                let (source, target) = ((parent_c, s_parent), (target_c, s_parent));
+                let key = direction(d, 1.0);
+                m2l_turned(p, &half, source, &mut local, target, key, &mut scratch);
             }
             let mut leaf = zero.clone();
             l2l(

@@ -216,22 +216,27 @@ impl<K: VortexLaw> Expansions for Cauchy<K> {
         m2m(b, child, f, from.radius, parent, t, to.radius);
     }
 
+    /// Target by target, each source in the order met.
     fn m2l(
         &self,
         multipoles: &[Complex64],
         cubes: &[Cube],
+        group: usize,
+        starts: &[usize],
         sources: &[u32],
-        local: &mut [Complex64],
-        to: Cube,
+        locals: &mut [Complex64],
         _: &mut Self::Scratch,
     ) {
         let terms = self.terms();
-        for &s in sources {
-            let s = s as usize;
-            let a = &multipoles[s * terms..(s + 1) * terms];
-            let from = cubes[s];
-            let (b, f, t) = (&self.binomials, complex(from), complex(to));
-            m2l(b, a, f, from.radius, local, t, to.radius);
+        for (k, local) in locals.chunks_exact_mut(terms).enumerate() {
+            let to = cubes[group + k];
+            for &s in &sources[starts[k]..starts[k + 1]] {
+                let s = s as usize;
+                let a = &multipoles[s * terms..(s + 1) * terms];
+                let from = cubes[s];
+                let (b, f, t) = (&self.binomials, complex(from), complex(to));
+                m2l(b, a, f, from.radius, local, t, to.radius);
+            }
         }
     }
 
