@@ -12,7 +12,7 @@
 //! (`d^n` Wigner's small d-matrix). Each turn is then `O(p^3)`.
 
 use super::solid::{at, signed};
-use crate::simd::{F64x4, Real};
+use crate::simd::F64x4;
 use rustfft::num_complex::Complex64;
 use std::collections::HashMap;
 
@@ -469,9 +469,9 @@ impl TurnedM2l {
             *self = TurnedM2l {
                 order: p,
                 log_factorials: log_factorials(4 * p + 2),
-                factorials: (0..=2 * p + 1)
+                factorials: (0..=2 * p + 4)
                     .scan(1.0, |f, k| {
-                        let v = *f;
+                        let v = if k <= 2 * p + 1 { *f } else { 0.0 };
                         *f *= (k + 1) as f64;
                         Some(v)
                     })
@@ -530,24 +530,22 @@ pub(super) fn m2l_turned(
             (full.re[i], full.im[i]) = (turned.re[t] * power, turned.im[t] * power);
             power *= rho_s;
         }
-        for k in l..=p {
-            // sum_{n >= l} a'_n^l f[n + k]
-            let f = &factorials[l + k..l + k + len];
-            let (mut re, mut im) = (0.0, 0.0);
-            let (mut re2, mut im2) = (0.0, 0.0);
-            let half = len / 2;
-            for i in 0..half {
-                re = Real::mul_add(full.re[2 * i], f[2 * i], re);
-                im = Real::mul_add(full.im[2 * i], f[2 * i], im);
-                re2 = Real::mul_add(full.re[2 * i + 1], f[2 * i + 1], re2);
-                im2 = Real::mul_add(full.im[2 * i + 1], f[2 * i + 1], im2);
+        // sum_{n >= l} a'_n^l f[n + k] for k, k + 1, k + 2, k + 3 in lanes
+        // (the factorials are padded with zeros past 2p + 1)
+        let mut k = l;
+        while k <= p {
+            let (mut re, mut im) = (F64x4::splat(0.0), F64x4::splat(0.0));
+            for i in 0..len {
+                let f = F64x4::load(&factorials[l + k + i..]);
+                re = f.mul_add(F64x4::splat(full.re[i]), re);
+                im = f.mul_add(F64x4::splat(full.im[i]), im);
             }
-            if len % 2 == 1 {
-                re = Real::mul_add(full.re[len - 1], f[len - 1], re);
-                im = Real::mul_add(full.im[len - 1], f[len - 1], im);
+            let (re, im) = (re.to_array(), im.to_array());
+            for lane in 0..4.min(p + 1 - k) {
+                let t = at(k + lane, l);
+                (shifted.re[t], shifted.im[t]) = (re[lane], im[lane]);
             }
-            let t = at(k, l);
-            (shifted.re[t], shifted.im[t]) = (re + re2, im + im2);
+            k += 4;
         }
     }
     // a'_n^{-l} = (-1)^l conj(a'_n^l), times (-1)^k (s_t / d)^k / d
