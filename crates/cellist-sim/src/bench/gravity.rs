@@ -231,7 +231,8 @@ pub fn gravity(request: &GravityRequest, threads: &Threads) -> SimResult<Gravity
     })
 }
 
-/// The bodies' positions and masses (checked: `2..=MAX_BODIES` of them).
+/// The bodies' positions and masses (checked: `2..=MAX_BODIES` generated
+/// ones, at least 2 from a file, masses finite and `>= 0`).
 fn bodies(
     bodies: &GravityBodies,
     seed: u64,
@@ -309,7 +310,7 @@ fn exact_at(
 }
 
 /// `[sqrt(mean_i (|a_i - e_i| / |e_i|)^2), sqrt(sum |a_i - e_i|^2 / sum |e_i|^2),
-/// max_i |a_i - e_i| / |e_i|]`.
+/// max_i |a_i - e_i| / |e_i|]` (the largest over bodies with a field).
 fn errors(got: &[[f64; 3]], exact: &[[f64; 3]]) -> [f64; 3] {
     let norm = |v: [f64; 3]| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
     let (mut err2, mut exact2, mut largest) = (0.0, 0.0, 0.0f64);
@@ -317,7 +318,9 @@ fn errors(got: &[[f64; 3]], exact: &[[f64; 3]]) -> [f64; 3] {
         let d = norm([g[0] - e[0], g[1] - e[1], g[2] - e[2]]);
         err2 += d * d;
         exact2 += norm(*e) * norm(*e);
-        largest = largest.max(d / norm(*e));
+        if norm(*e) > 0.0 {
+            largest = largest.max(d / norm(*e));
+        }
     }
     [
         rms_relative_error(got, exact),

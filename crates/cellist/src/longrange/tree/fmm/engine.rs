@@ -194,7 +194,8 @@ impl<E: Expansions> Engine<E> {
                     kernel.p2m(particles, *cube, a, &mut scratch.kernel)
                 })
         });
-        let mut scratch = lock(scratch);
+        // (sequential, outside the pool: the first thread's scratch)
+        let mut scratch = scratch[0].lock().expect("scratch of a panicked pass");
         for k in (0..nodes.len()).rev() {
             if nodes[k].leaf {
                 continue;

@@ -56,7 +56,7 @@ const GROUP: usize = 262144;
 /// repulsion). Far apart the law is `1/r`, whose multipole and local
 /// expansions (solid harmonics of order `p`) the octree's boxes carry; a
 /// target box and a source box interact through them (M2L) when
-/// `2 max(s_T, s_S) <= 0.85 d` and their gap is at least the distance at
+/// `2 max(s_T, s_S) <= 0.95 d` and their gap is at least the distance at
 /// which the softened or repulsive law is `1/r` within the tolerance
 /// (`eps sqrt(1.5 / tol)`, `a tol^(-1/4)`); otherwise the larger one is
 /// split, and two leaves meet pair by pair with the law itself, each pair of
@@ -68,6 +68,8 @@ pub struct GravityFmm {
     law: GravityLaw,
     laplace: Laplace,
     engine: Engine<Laplace>,
+    /// The bodies relative to the middle of their bounding box.
+    shifted: Vec<[f64; 3]>,
 }
 
 impl GravityFmm {
@@ -89,6 +91,7 @@ impl GravityFmm {
                 m: Vec::new(),
             },
             engine: Engine::default(),
+            shifted: Vec::new(),
         })
     }
 
@@ -109,10 +112,32 @@ impl GravityFmm {
 
     /// Fills `out` with the accelerations and potentials of `sources` (see
     /// [`GravityFmm`]).
+    ///
+    /// The bodies are taken relative to the middle of their bounding box, so
+    /// that the boxes' centres are rounded at the scale of the system, not of
+    /// its distance from the origin (the turns of M2L follow the boxes' exact
+    /// grid directions); the field does not change under the shift.
     pub fn compute(&mut self, sources: &Sources, out: FieldOut, threads: &Threads) {
         let position = sources.position;
         assert_eq!(position.len(), sources.mass.len());
-        self.engine.build(position, threads);
+        let (low, high) = position.iter().fold(
+            ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]),
+            |(lo, hi), x| {
+                (
+                    std::array::from_fn(|a| lo[a].min(x[a])),
+                    std::array::from_fn(|a| hi[a].max(x[a])),
+                )
+            },
+        );
+        let middle: [f64; 3] = std::array::from_fn(|a| 0.5 * (low[a] + high[a]));
+        let middle = middle.map(|m| if m.is_finite() { m } else { 0.0 });
+        self.shifted.clear();
+        self.shifted.extend(
+            position
+                .iter()
+                .map(|x| std::array::from_fn(|a| x[a] - middle[a])),
+        );
+        self.engine.build(&self.shifted, threads);
         let l = &mut self.laplace;
         for c in l.x.iter_mut() {
             c.clear();
@@ -121,7 +146,7 @@ impl GravityFmm {
         for &i in &self.engine.tree.order {
             let i = i as usize;
             for a in 0..3 {
-                l.x[a].push(position[i][a]);
+                l.x[a].push(self.shifted[i][a]);
             }
             l.m.push(sources.mass[i]);
         }
@@ -494,6 +519,23 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// Bodies 1e10 from the origin (spread 1): the boxes' directions stay
+    /// those of the grid, and the error stays below the tolerance.
+    #[test]
+    fn far_from_the_origin_the_error_holds() {
+        let one = Threads::single();
+        let (x, m) = bodies(7, 4000, true);
+        let x: Vec<[f64; 3]> = x.iter().map(|p| p.map(|v| v + 1e10)).collect();
+        let law = GravityLaw::new(1.0, 0.0, 0.0).unwrap();
+        let mut direct = DirectSum::new(law, x.len());
+        let (want, _) = field(&mut |s, o| direct.compute(s, o, &one), &x, &m);
+        let mut fmm = GravityFmm::new(law, FmmAccuracy::Tolerance(1e-8)).unwrap();
+        let (got, _) = field(&mut |s, o| fmm.compute(s, o, &one), &x, &m);
+        let (rms, max) = errors(&got, &want);
+        assert!(rms < 1e-8 && max < 1e-8, "{rms:e} {max:e}");
+        assert!(fmm.interactions().0 > 0);
     }
 
     #[test]

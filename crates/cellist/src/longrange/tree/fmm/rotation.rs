@@ -326,9 +326,19 @@ pub(super) struct Turns {
     turns: Vec<Turn>,
 }
 
+/// The most bytes of turns a thread keeps: past them the cache starts
+/// afresh (a turn depends only on its key, so results do not change). A turn
+/// takes about 51 KB at order 15; a Plummer sphere of 3 x 10^5 bodies meets
+/// about 1400 directions.
+const TURN_BYTES: usize = 256 << 20;
+
 impl Turns {
     /// The turn of the direction `key` (see [`direction`]).
     pub fn of(&mut self, key: [i64; 3], p: usize, log_factorials: &[f64]) -> &Turn {
+        if !self.index.contains_key(&key) && (self.turns.len() + 1) * turn_bytes(p) > TURN_BYTES {
+            self.index.clear();
+            self.turns.clear();
+        }
         let next = self.turns.len();
         let slot = *self.index.entry(key).or_insert(next);
         if slot == next {
@@ -337,6 +347,11 @@ impl Turns {
         }
         &self.turns[slot]
     }
+}
+
+/// The bytes of one turn of order `p` (its two blocks of SIMD words).
+fn turn_bytes(p: usize) -> usize {
+    2 * block_start(p + 1) * std::mem::size_of::<F64x4>()
 }
 
 /// The direction of the separation `d` between two boxes of the octree
