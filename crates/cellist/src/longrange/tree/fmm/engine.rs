@@ -267,6 +267,7 @@ impl<E: Expansions> Engine<E> {
             far,
             sources,
             starts,
+            next,
             kernel: own,
         } = scratch;
         far.clear();
@@ -294,13 +295,12 @@ impl<E: Expansions> Engine<E> {
         }
         sources.clear();
         sources.resize(far.len(), 0);
-        {
-            let mut next = starts.clone();
-            for &(t, s) in far.iter() {
-                let slot = &mut next[t as usize - g];
-                sources[*slot] = s;
-                *slot += 1;
-            }
+        next.clear();
+        next.extend_from_slice(starts);
+        for &(t, s) in far.iter() {
+            let slot = &mut next[t as usize - g];
+            sources[*slot] = s;
+            *slot += 1;
         }
         locals.clear();
         locals.resize((end - g) * terms, Complex64::new(0.0, 0.0));
@@ -343,6 +343,8 @@ struct Scratch<E: Expansions> {
     far: Vec<(u32, u32)>,
     sources: Vec<u32>,
     starts: Vec<usize>,
+    /// The next free slot of each target box while bucketing.
+    next: Vec<usize>,
     kernel: E::Scratch,
 }
 
@@ -353,6 +355,7 @@ impl<E: Expansions> Default for Scratch<E> {
             far: Vec::new(),
             sources: Vec::new(),
             starts: Vec::new(),
+            next: Vec::new(),
             kernel: E::Scratch::default(),
         }
     }
