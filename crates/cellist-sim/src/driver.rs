@@ -12,6 +12,7 @@
 //!          model.step_observed(s) if observe, else model.step(s)
 //!                                         # the model's own stages, timed by it
 //!          check(model)                   # finite values, walls, particle count
+//!                                         # (unless the model's step checks itself)
 //!          observers whose trigger fires  # thermo, dumps, fields, pictures
 //!          if an observer or a checkpoint fired: keep the state as the last good one
 //!          if s is a checkpoint step: write the checkpoint (atomically)
@@ -328,7 +329,10 @@ impl<M: Hosted> Live<M> {
             } else {
                 job.model.step(step, threads)
             };
-            let stepped = stepped.and_then(|()| check(&job.model, step, self.count));
+            let stepped = stepped.and_then(|()| match job.model.checks_its_steps() {
+                true => Ok(()),
+                false => check(&job.model, step, self.count),
+            });
             if let Err(blowup) = stepped {
                 self.bar.abandon();
                 self.step = self.good.step;

@@ -46,6 +46,15 @@ pub trait Hosted: Model {
     /// process or whole on every rank.
     fn serve_outputs(&self) {}
 
+    /// True when the model's own step ends with [`check`] of its values,
+    /// agreed over the ranks (a model spread over MPI ranks, whose ranks
+    /// must stop together): the driver then does not check again.
+    ///
+    /// [`check`]: cellist::models::check
+    fn checks_its_steps(&self) -> bool {
+        false
+    }
+
     /// On a model spread over MPI ranks: true after a step that any rank
     /// observed (and after a restore). Every rank then keeps its own part of
     /// the state as the last good one ([`Model::save`]), at the same steps,

@@ -41,11 +41,12 @@ use cellist::interactions::{LennardJones, PairPotential};
 use cellist::models::md::{
     blowup_of, check_positions, checked_atoms, dump_particles, lap, late_note, load_atoms,
     ordered_forces, save_atoms, AtomForce, Atoms, HaloForces, Integrator, ListCounts, MdError,
-    PermuteScratch, SavedAtoms, StageTimes, ThermoSums, REMEDY,
+    SavedAtoms, StageTimes, ThermoSums, REMEDY,
 };
 use cellist::models::{check, md, Blowup, Checked, Model, ModelInfo, ParticleBlock, Particles};
 use cellist::neighbors::{CellGrid, OrderedRows, Rebuild, RebuildRule};
 use cellist::state::{State, StateError};
+use cellist::threads::counting_sort;
 use cellist::Threads;
 use mpi::collective::SystemOperation;
 use mpi::topology::SimpleCommunicator;
@@ -79,8 +80,6 @@ pub struct DistributedMd<const D: usize> {
     /// The ghosts' reactions on their way back (the half list).
     reactions: Vec<f64>,
     computed: Vec<AtomForce<D>>,
-    /// The buffers the own atoms are put in cell order through.
-    scratch: PermuteScratch<D>,
     /// Any rank observed the last step: rank 0 pulls its outputs.
     observed: bool,
     /// The own atoms' slots in ascending id (observed steps).
@@ -331,7 +330,6 @@ impl<const D: usize> DistributedMd<D> {
             points: Vec::new(),
             reactions: Vec::new(),
             computed: Vec::new(),
-            scratch: PermuteScratch::default(),
             observed: false,
             by_id: Vec::new(),
             span: IdSpan {
@@ -407,12 +405,11 @@ impl<const D: usize> DistributedMd<D> {
         let t = Instant::now();
         self.rebalance();
         // what the new list makes stale goes before it is built: the
-        // forces, the last output's id order, the sort's buffers
+        // forces, the last output's id order
         self.computed = Vec::new();
         self.by_id = Vec::new();
         migrate(&self.world, &self.decomposition, &mut self.atoms);
-        self.sort_by_cell();
-        self.scratch = PermuteScratch::default();
+        self.sort_by_cell(threads);
         let reach = self.reach();
         self.plan = GhostPlan::new(
             &self.world,
@@ -494,16 +491,32 @@ impl<const D: usize> DistributedMd<D> {
 
     /// Puts the own atoms in the order of the cells (of side cutoff + skin)
     /// they are in, so that neighbours lie close in memory (and the ghosts,
-    /// sent in this order, too); the sums do not depend on this order.
-    fn sort_by_cell(&mut self) {
+    /// sent in this order, too); the sums do not depend on this order. A
+    /// stable counting sort by cell, the atoms moved in place along the
+    /// permutation's cycles (no copy of the arrays).
+    fn sort_by_cell(&mut self, threads: &Threads) {
         let Ok(grid) = CellGrid::new(&self.decomposition.domain, self.reach(), self.atoms.len())
         else {
             return;
         };
-        let positions = &self.atoms.positions;
-        let mut order: Vec<u32> = (0..positions.len() as u32).collect();
-        order.sort_by_cached_key(|&k| grid.cell_of(&positions[k as usize]));
-        self.atoms.permute(&order, &mut self.scratch);
+        let keys: Vec<u32> = self
+            .atoms
+            .positions
+            .iter()
+            .map(|x| grid.cell_of(x) as u32)
+            .collect();
+        let (mut start, mut order, mut counts) = (Vec::new(), Vec::new(), Vec::new());
+        let buckets = grid.num_cells();
+        counting_sort(
+            &keys,
+            buckets,
+            Some(threads),
+            &mut start,
+            &mut order,
+            &mut counts,
+        );
+        drop(keys);
+        self.atoms.permute_by_cycles(&order);
     }
 
     /// The forces on the own atoms; with `energy`, their half energies and
@@ -886,6 +899,11 @@ impl<const D: usize> Hosted for DistributedMd<D> {
             self.atoms.len(),
             ghosts * (D * 8) as f64,
         )
+    }
+
+    /// The step ends with [`check`] of the own atoms, agreed over the ranks.
+    fn checks_its_steps(&self) -> bool {
+        true
     }
 
     /// After an observed step (or a restore): on rank 0, tells the other
