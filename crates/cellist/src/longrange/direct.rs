@@ -123,7 +123,7 @@ impl DirectSum {
                             let (mut mine, later) = own.split(local);
                             let (px, pm) = partners(x, m, partners_of_i);
                             let xi = [x[0][i], x[1][i], x[2][i]];
-                            let got = kernel.row::<REPULSION, true>(xi, m[i], px, pm, later);
+                            let got = kernel.row::<REPULSION, true, false>(xi, m[i], px, pm, later);
                             mine.add(0, got);
                         }
                     } else {
@@ -134,8 +134,13 @@ impl DirectSum {
                         for i in block(a) {
                             let (px, pm) = partners(x, m, block(b));
                             let xi = [x[0][i], x[1][i], x[2][i]];
-                            let got =
-                                kernel.row::<REPULSION, true>(xi, m[i], px, pm, other.reborrow());
+                            let got = kernel.row::<REPULSION, true, false>(
+                                xi,
+                                m[i],
+                                px,
+                                pm,
+                                other.reborrow(),
+                            );
                             own.add(i - block(a).start, got);
                         }
                     }
@@ -218,9 +223,9 @@ impl PartialField {
                     for part in [first, second] {
                         let (px, pm) = partners(&x, m, part);
                         let got = if repulsion {
-                            kernel.row::<true, false>(xi, 0.0, px, pm, Block::none())
+                            kernel.row::<true, false, false>(xi, 0.0, px, pm, Block::none())
                         } else {
-                            kernel.row::<false, false>(xi, 0.0, px, pm, Block::none())
+                            kernel.row::<false, false, false>(xi, 0.0, px, pm, Block::none())
                         };
                         for (s, g) in sum.iter_mut().zip(got) {
                             *s += g;
@@ -376,9 +381,12 @@ impl Kernel {
     /// per axis, masses `pm`): returns `(sum k m_j d, sum m_j p)`, summed lane
     /// by lane and then across lanes, the last partial group after them; when
     /// `SYMMETRIC`, also adds `-k m_i d` and `m_i p` to each partner's sums in
-    /// `theirs` (same length; untouched otherwise).
+    /// `theirs` (same length; untouched otherwise). With `ESTIMATE` the lanes'
+    /// `1 / sqrt(r^2 + eps^2)` is [`F64x4::inverse_sqrt`] (a refined estimate
+    /// where AVX-512 has one, within a few ulp: the FMM's near field), without
+    /// it the exactly rounded division (the direct sum).
     #[inline(always)]
-    pub(crate) fn row<const REPULSION: bool, const SYMMETRIC: bool>(
+    pub(crate) fn row<const REPULSION: bool, const SYMMETRIC: bool, const ESTIMATE: bool>(
         &self,
         xi: [f64; 3],
         mi: f64,
@@ -399,7 +407,13 @@ impl Kernel {
                 F64x4::load(&py[j..]) - xi4[1],
                 F64x4::load(&pz[j..]) - xi4[2],
             ];
-            let (k, p) = self.factors4::<REPULSION>(one / self.s2(d).sqrt());
+            let s2 = self.s2(d);
+            let inverse = if ESTIMATE {
+                s2.inverse_sqrt()
+            } else {
+                one / s2.sqrt()
+            };
+            let (k, p) = self.factors4::<REPULSION>(inverse);
             let mj = F64x4::load(&pm[j..]);
             let kj = k * mj;
             for a in 0..3 {

@@ -369,7 +369,7 @@ impl Laplace {
         for i in targets.clone() {
             let xi = [self.x[0][i], self.x[1][i], self.x[2][i]];
             let got = match how {
-                Pairs::OneSided => self.kernel.row::<REPULSION, false>(
+                Pairs::OneSided => self.kernel.row::<REPULSION, false, true>(
                     xi,
                     self.m[i],
                     partners(sources.clone()),
@@ -378,7 +378,7 @@ impl Laplace {
                 ),
                 Pairs::Both => {
                     let [rx, ry, rz, rp] = reactions;
-                    self.kernel.row::<REPULSION, true>(
+                    self.kernel.row::<REPULSION, true, true>(
                         xi,
                         self.m[i],
                         partners(sources.clone()),
@@ -390,7 +390,7 @@ impl Laplace {
                     let later = i + 1..sources.end;
                     let from = i + 1 - sources.start;
                     let [rx, ry, rz, rp] = reactions;
-                    self.kernel.row::<REPULSION, true>(
+                    self.kernel.row::<REPULSION, true, true>(
                         xi,
                         self.m[i],
                         partners(later.clone()),
