@@ -1,7 +1,9 @@
 //! Four `f64` lanes: AVX2 and FMA registers when the build targets them (the
 //! project builds with `-C target-cpu=native`), plain arrays otherwise. The hot
 //! loops of the long-range solvers and of the collision benchmark are written on
-//! this type so that they run as SIMD without hoping for the auto-vectoriser.
+//! this type so that they run as SIMD without hoping for the auto-vectoriser;
+//! [`F64x8`] (`simd/wide.rs`) holds eight, one AVX-512 register, for the
+//! loops written on [`Lanes`] that gain from the wider registers.
 //!
 //! `+ - * /`, negation, `sqrt`, the comparisons, selects, rounding, the scaling
 //! by `2^(k/4)` and the pair shuffles are exact IEEE binary64 operations lane
@@ -393,6 +395,76 @@ pub use lanes::F64x4;
     target_feature = "fma"
 )))]
 pub use portable::F64x4;
+
+mod wide;
+pub use wide::F64x8;
+
+/// A SIMD register of `WIDTH` `f64` lanes ([`F64x4`], [`F64x8`]): what a pair
+/// loop written once for either width needs. The operations are the lanes'
+/// own (see [`F64x4`]); `sum` adds the lanes across in a fixed order.
+pub trait Lanes:
+    Copy
+    + std::ops::Add<Output = Self>
+    + std::ops::Sub<Output = Self>
+    + std::ops::Mul<Output = Self>
+    + std::ops::Div<Output = Self>
+{
+    /// The number of lanes.
+    const WIDTH: usize;
+    /// `v` in every lane.
+    fn splat(v: f64) -> Self;
+    /// `s[0..WIDTH]`.
+    fn load(s: &[f64]) -> Self;
+    /// Writes the lanes to `s[0..WIDTH]`.
+    fn store(self, s: &mut [f64]);
+    /// `self * b + c` (rounded once with FMA).
+    fn mul_add(self, b: Self, c: Self) -> Self;
+    /// `c - self * b` (rounded once with FMA).
+    fn neg_mul_add(self, b: Self, c: Self) -> Self;
+    /// Lane-wise square root.
+    fn sqrt(self) -> Self;
+    /// `1 / sqrt(x)`, within a few ulp ([`F64x4::inverse_sqrt`]).
+    fn inverse_sqrt(self) -> Self;
+    /// The lanes added across, pairwise in a fixed order.
+    fn sum(self) -> f64;
+}
+
+impl Lanes for F64x4 {
+    const WIDTH: usize = 4;
+    #[inline(always)]
+    fn splat(v: f64) -> Self {
+        F64x4::splat(v)
+    }
+    #[inline(always)]
+    fn load(s: &[f64]) -> Self {
+        F64x4::load(s)
+    }
+    #[inline(always)]
+    fn store(self, s: &mut [f64]) {
+        F64x4::store(self, s)
+    }
+    #[inline(always)]
+    fn mul_add(self, b: Self, c: Self) -> Self {
+        F64x4::mul_add(self, b, c)
+    }
+    #[inline(always)]
+    fn neg_mul_add(self, b: Self, c: Self) -> Self {
+        F64x4::neg_mul_add(self, b, c)
+    }
+    #[inline(always)]
+    fn sqrt(self) -> Self {
+        F64x4::sqrt(self)
+    }
+    #[inline(always)]
+    fn inverse_sqrt(self) -> Self {
+        F64x4::inverse_sqrt(self)
+    }
+    /// `(l0 + l1) + (l2 + l3)`.
+    #[inline(always)]
+    fn sum(self) -> f64 {
+        F64x4::sum(self)
+    }
+}
 
 /// The number types a kernel is written once for: `f64` and [`F64x4`], whose
 /// lanes do the same IEEE operations, so that four lanes give the bits of four

@@ -11,7 +11,7 @@
 
 use super::{FieldOut, Sources};
 use crate::interactions::GravityLaw;
-use crate::simd::F64x4;
+use crate::simd::{F64x4, Lanes};
 use crate::threads::{tournament, DisjointSlice, Threads};
 use rayon::prelude::*;
 use std::ops::Range;
@@ -123,7 +123,8 @@ impl DirectSum {
                             let (mut mine, later) = own.split(local);
                             let (px, pm) = partners(x, m, partners_of_i);
                             let xi = [x[0][i], x[1][i], x[2][i]];
-                            let got = kernel.row::<REPULSION, true, false>(xi, m[i], px, pm, later);
+                            let got = kernel
+                                .row::<F64x4, REPULSION, true, false>(xi, m[i], px, pm, later);
                             mine.add(0, got);
                         }
                     } else {
@@ -134,7 +135,7 @@ impl DirectSum {
                         for i in block(a) {
                             let (px, pm) = partners(x, m, block(b));
                             let xi = [x[0][i], x[1][i], x[2][i]];
-                            let got = kernel.row::<REPULSION, true, false>(
+                            let got = kernel.row::<F64x4, REPULSION, true, false>(
                                 xi,
                                 m[i],
                                 px,
@@ -223,9 +224,9 @@ impl PartialField {
                     for part in [first, second] {
                         let (px, pm) = partners(&x, m, part);
                         let got = if repulsion {
-                            kernel.row::<true, false, false>(xi, 0.0, px, pm, Block::none())
+                            kernel.row::<F64x4, true, false, false>(xi, 0.0, px, pm, Block::none())
                         } else {
-                            kernel.row::<false, false, false>(xi, 0.0, px, pm, Block::none())
+                            kernel.row::<F64x4, false, false, false>(xi, 0.0, px, pm, Block::none())
                         };
                         for (s, g) in sum.iter_mut().zip(got) {
                             *s += g;
@@ -354,26 +355,23 @@ impl Kernel {
 
     /// [`Kernel::factors`] on four lanes, from `1/s`.
     #[inline(always)]
-    pub(crate) fn factors4<const REPULSION: bool>(&self, inv: F64x4) -> (F64x4, F64x4) {
+    pub(crate) fn factors4<L: Lanes, const REPULSION: bool>(&self, inv: L) -> (L, L) {
         let inv2 = inv * inv;
         if REPULSION {
-            let q = F64x4::splat(self.a4) * inv2 * inv2;
-            let one = F64x4::splat(1.0);
-            (
-                inv * inv2 * (one - q),
-                inv * F64x4::splat(-0.2).mul_add(q, one),
-            )
+            let q = L::splat(self.a4) * inv2 * inv2;
+            let one = L::splat(1.0);
+            (inv * inv2 * (one - q), inv * L::splat(-0.2).mul_add(q, one))
         } else {
             (inv * inv2, inv)
         }
     }
 
-    /// `eps^2` on four lanes plus the squared length of `d`.
+    /// `eps^2` on the lanes plus the squared length of `d`.
     #[inline(always)]
-    pub(crate) fn s2(&self, d: [F64x4; 3]) -> F64x4 {
+    pub(crate) fn s2<L: Lanes>(&self, d: [L; 3]) -> L {
         d[0].mul_add(
             d[0],
-            d[1].mul_add(d[1], d[2].mul_add(d[2], F64x4::splat(self.eps2))),
+            d[1].mul_add(d[1], d[2].mul_add(d[2], L::splat(self.eps2))),
         )
     }
 
@@ -386,7 +384,12 @@ impl Kernel {
     /// where AVX-512 has one, within a few ulp: the FMM's near field), without
     /// it the exactly rounded division (the direct sum).
     #[inline(always)]
-    pub(crate) fn row<const REPULSION: bool, const SYMMETRIC: bool, const ESTIMATE: bool>(
+    pub(crate) fn row<
+        L: Lanes,
+        const REPULSION: bool,
+        const SYMMETRIC: bool,
+        const ESTIMATE: bool,
+    >(
         &self,
         xi: [f64; 3],
         mi: f64,
@@ -397,15 +400,15 @@ impl Kernel {
         let len = pm.len();
         let [px, py, pz] = partners;
         let [sx, sy, sz, sp] = &mut theirs.sums;
-        let whole = len - len % LANES;
-        let (xi4, mi4) = (xi.map(F64x4::splat), F64x4::splat(mi));
-        let one = F64x4::splat(1.0);
-        let mut lanes = [F64x4::splat(0.0); 4];
-        for j in (0..whole).step_by(LANES) {
+        let whole = len - len % L::WIDTH;
+        let (xi4, mi4) = (xi.map(L::splat), L::splat(mi));
+        let one = L::splat(1.0);
+        let mut lanes = [L::splat(0.0); 4];
+        for j in (0..whole).step_by(L::WIDTH) {
             let d = [
-                F64x4::load(&px[j..]) - xi4[0],
-                F64x4::load(&py[j..]) - xi4[1],
-                F64x4::load(&pz[j..]) - xi4[2],
+                L::load(&px[j..]) - xi4[0],
+                L::load(&py[j..]) - xi4[1],
+                L::load(&pz[j..]) - xi4[2],
             ];
             let s2 = self.s2(d);
             let inverse = if ESTIMATE {
@@ -413,8 +416,8 @@ impl Kernel {
             } else {
                 one / s2.sqrt()
             };
-            let (k, p) = self.factors4::<REPULSION>(inverse);
-            let mj = F64x4::load(&pm[j..]);
+            let (k, p) = self.factors4::<L, REPULSION>(inverse);
+            let mj = L::load(&pm[j..]);
             let kj = k * mj;
             for a in 0..3 {
                 lanes[a] = kj.mul_add(d[a], lanes[a]);
@@ -423,13 +426,12 @@ impl Kernel {
             if SYMMETRIC {
                 let ki = k * mi4;
                 for (a, s) in [&mut *sx, &mut *sy, &mut *sz].into_iter().enumerate() {
-                    ki.neg_mul_add(d[a], F64x4::load(&s[j..]))
-                        .store(&mut s[j..]);
+                    ki.neg_mul_add(d[a], L::load(&s[j..])).store(&mut s[j..]);
                 }
-                p.mul_add(mi4, F64x4::load(&sp[j..])).store(&mut sp[j..]);
+                p.mul_add(mi4, L::load(&sp[j..])).store(&mut sp[j..]);
             }
         }
-        let mut total = lanes.map(F64x4::sum);
+        let mut total = lanes.map(L::sum);
         for j in whole..len {
             let d = [px[j] - xi[0], py[j] - xi[1], pz[j] - xi[2]];
             let (k, p) = self.at::<REPULSION>(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);

@@ -11,6 +11,7 @@ use super::{ErrorFit, FmmAccuracy};
 use crate::interactions::GravityLaw;
 use crate::longrange::direct::{Block, Kernel};
 use crate::longrange::{FieldOut, Sources};
+use crate::simd::F64x8;
 use crate::threads::Threads;
 use rustfft::num_complex::Complex64;
 use std::ops::Range;
@@ -369,7 +370,7 @@ impl Laplace {
         for i in targets.clone() {
             let xi = [self.x[0][i], self.x[1][i], self.x[2][i]];
             let got = match how {
-                Pairs::OneSided => self.kernel.row::<REPULSION, false, true>(
+                Pairs::OneSided => self.kernel.row::<F64x8, REPULSION, false, true>(
                     xi,
                     self.m[i],
                     partners(sources.clone()),
@@ -378,7 +379,7 @@ impl Laplace {
                 ),
                 Pairs::Both => {
                     let [rx, ry, rz, rp] = reactions;
-                    self.kernel.row::<REPULSION, true, true>(
+                    self.kernel.row::<F64x8, REPULSION, true, true>(
                         xi,
                         self.m[i],
                         partners(sources.clone()),
@@ -390,7 +391,7 @@ impl Laplace {
                     let later = i + 1..sources.end;
                     let from = i + 1 - sources.start;
                     let [rx, ry, rz, rp] = reactions;
-                    self.kernel.row::<REPULSION, true, true>(
+                    self.kernel.row::<F64x8, REPULSION, true, true>(
                         xi,
                         self.m[i],
                         partners(later.clone()),
