@@ -94,7 +94,7 @@ fn advise_huge_pages(_start: usize, _bytes: usize) {}
 /// without a copy. Panics unless the length is a multiple of `W`.
 pub fn as_arrays<const W: usize>(values: &[f64]) -> &[[f64; W]] {
     assert!(
-        W > 0 && values.len() % W == 0,
+        W > 0 && values.len().is_multiple_of(W),
         "{} numbers are not arrays of {W}",
         values.len()
     );
@@ -106,7 +106,7 @@ pub fn as_arrays<const W: usize>(values: &[f64]) -> &[[f64; W]] {
 /// [`as_arrays`], mutable.
 pub fn as_arrays_mut<const W: usize>(values: &mut [f64]) -> &mut [[f64; W]] {
     assert!(
-        W > 0 && values.len() % W == 0,
+        W > 0 && values.len().is_multiple_of(W),
         "{} numbers are not arrays of {W}",
         values.len()
     );

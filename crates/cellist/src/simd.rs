@@ -711,7 +711,7 @@ mod tests {
         ];
         let mut rng = Rng::new(3);
         let mut draw = |k: usize| {
-            if k % 3 == 0 {
+            if k.is_multiple_of(3) {
                 special[(rng.uniform() * special.len() as f64) as usize % special.len()]
             } else {
                 (rng.uniform() - 0.5) * 10f64.powi((rng.uniform() * 20.0) as i32 - 10)

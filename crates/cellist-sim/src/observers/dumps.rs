@@ -141,7 +141,7 @@ fn frame(p: &Particles, step: u64) -> Frame<'_> {
 
 impl<M: Model> Observer<M> for Dump {
     fn due(&self, step: u64, _last: u64) -> bool {
-        step % self.every == 0
+        step.is_multiple_of(self.every)
     }
 
     fn needs_observables(&self, step: u64, last: u64) -> bool {

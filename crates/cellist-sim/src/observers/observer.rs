@@ -84,7 +84,7 @@ pub struct Every {
 impl Every {
     /// True at step 0, at the last step and every `every` steps.
     pub fn due(&self, step: u64, last: u64) -> bool {
-        step == 0 || step == last || step % self.every == 0
+        step == 0 || step == last || step.is_multiple_of(self.every)
     }
 }
 

@@ -158,7 +158,7 @@ fn read_rows(path: &Path, columns: usize) -> SimResult<Vec<(u64, Vec<f64>)>> {
 
 impl<M: Model> Observer<M> for Thermo {
     fn due(&self, step: u64, last: u64) -> bool {
-        step == 0 || step == last || (self.every > 0 && step % self.every == 0)
+        step == 0 || step == last || (self.every > 0 && step.is_multiple_of(self.every))
     }
 
     fn needs_observables(&self, step: u64, last: u64) -> bool {

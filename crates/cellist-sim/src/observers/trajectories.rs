@@ -223,7 +223,7 @@ impl GsdTrajectory {
 
 impl<M: Model> Observer<M> for GsdTrajectory {
     fn due(&self, step: u64, _last: u64) -> bool {
-        step % self.every == 0
+        step.is_multiple_of(self.every)
     }
 
     fn observe(&mut self, model: &M, step: u64, _last: u64, _bar: &ProgressBar) -> SimResult {
@@ -295,7 +295,7 @@ impl VtkSeries {
 
 impl<M: Model> Observer<M> for VtkSeries {
     fn due(&self, step: u64, _last: u64) -> bool {
-        step % self.every == 0
+        step.is_multiple_of(self.every)
     }
 
     fn observe(&mut self, model: &M, step: u64, _last: u64, _bar: &ProgressBar) -> SimResult {

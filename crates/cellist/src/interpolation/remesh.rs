@@ -210,7 +210,7 @@ fn dilate(
     out.fill(false);
     let span = if periodic { 2 * width } else { width };
     // the first entry of every line: its index along the axis is 0
-    for start in (0..mask.len()).filter(|i| (i / stride) % width == 0) {
+    for start in (0..mask.len()).filter(|i| (i / stride).is_multiple_of(width)) {
         let at = |step: usize| start + (step % width) * stride;
         // distance to the nearest true entry, scanning both ways
         let mut last: Option<usize> = None;

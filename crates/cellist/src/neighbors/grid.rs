@@ -161,7 +161,14 @@ impl<const D: usize> CellGrid<D> {
             shifted >>= 1;
         }
         let along = x[D - 1];
-        (column, if column % 2 == 0 { along } else { -along })
+        (
+            column,
+            if column.is_multiple_of(2) {
+                along
+            } else {
+                -along
+            },
+        )
     }
 
     /// Grid coordinates of a cell index.

@@ -43,7 +43,7 @@ impl RebuildRule {
     /// test (`max_i |x_i - x_i^build| > skin / 2`), only on the steps the list
     /// is looked at.
     pub fn decide(&self, since: u64, moved: impl FnOnce() -> bool) -> Rebuild {
-        if since % self.every.max(1) != 0 {
+        if !since.is_multiple_of(self.every.max(1)) {
             return Rebuild::No;
         }
         let moved = moved();

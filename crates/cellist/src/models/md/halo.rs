@@ -277,7 +277,7 @@ mod tests {
         while points.len() < n {
             let mut x: [f64; D] = std::array::from_fn(|d| rng.uniform() * length[d]);
             x[0] = crowd(x[0] / length[0]) * length[0];
-            if points.len() % 50 == 0 && balance == Balance::Uniform {
+            if points.len().is_multiple_of(50) && balance == Balance::Uniform {
                 x[0] = equal.bounds(0).1[0];
             }
             // no two atoms closer than 0.8: finite forces

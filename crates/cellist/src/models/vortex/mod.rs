@@ -571,7 +571,7 @@ impl VortexSystem {
                 *x = [0, 1].map(|a| wrap_coordinate(x[a], lo[a], length));
             }
         }
-        if self.params.remesh_every > 0 && step % self.params.remesh_every == 0 {
+        if self.params.remesh_every > 0 && step.is_multiple_of(self.params.remesh_every) {
             let t = Instant::now();
             let r = remesh(
                 &self.positions,

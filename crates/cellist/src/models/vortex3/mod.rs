@@ -500,7 +500,7 @@ impl Vortex3System {
                 *x = [0, 1, 2].map(|a| wrap_coordinate(x[a], lo[a], length));
             }
         }
-        if params.remesh_every > 0 && step % params.remesh_every == 0 {
+        if params.remesh_every > 0 && step.is_multiple_of(params.remesh_every) {
             let t = Instant::now();
             let r = remesh(
                 self.positions(),
@@ -521,7 +521,7 @@ impl Vortex3System {
             self.refresh(threads)?;
         }
         match params.relaxation {
-            Some(r) if step % r.every == 0 => {
+            Some(r) if step.is_multiple_of(r.every) => {
                 let t = Instant::now();
                 self.relax(r.factor);
                 self.rater.times.remesh += t.elapsed();

@@ -41,7 +41,7 @@ pub(super) fn signed(a: &[Complex64], n: usize, m: isize) -> Complex64 {
         Complex64::new(0.0, 0.0)
     } else if m >= 0 {
         a[at(n, k)]
-    } else if k % 2 == 0 {
+    } else if k.is_multiple_of(2) {
         a[at(n, k)].conj()
     } else {
         -a[at(n, k)].conj()
