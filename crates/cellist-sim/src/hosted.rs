@@ -48,7 +48,10 @@ pub trait Hosted: Model {
 
     /// True when the model's own step ends with [`check`] of its values,
     /// agreed over the ranks (a model spread over MPI ranks, whose ranks
-    /// must stop together): the driver then does not check again.
+    /// must stop together): the driver then does not check again, its
+    /// particle count included, so a model that says true checks its count
+    /// itself (the distributed md's count may change on a rank; its total
+    /// is checked at every migration).
     ///
     /// [`check`]: cellist::models::check
     fn checks_its_steps(&self) -> bool {

@@ -3,7 +3,7 @@
 //! loops of the long-range solvers and of the collision benchmark are written on
 //! this type so that they run as SIMD without hoping for the auto-vectoriser;
 //! [`F64x8`] (`simd/wide.rs`) holds eight, one AVX-512 register, for the
-//! loops written on [`Lanes`] that gain from the wider registers.
+//! loops written on [`Register`] that gain from the wider registers.
 //!
 //! `+ - * /`, negation, `sqrt`, the comparisons, selects, rounding, the scaling
 //! by `2^(k/4)` and the pair shuffles are exact IEEE binary64 operations lane
@@ -12,8 +12,8 @@
 //! and compare them. [`Real`] lets a kernel be written once for `f64` and for
 //! the lanes, with the bits of four scalar calls. What differs: `mul_add`
 //! and `neg_mul_add` (a build with FMA rounds `a * b + c` once, one without it
-//! twice), `min` and `max` with a NaN lane, and `inverse_sqrt` (a refined
-//! estimate, within a few ulp, where AVX-512 has one; exact elsewhere).
+//! twice) and `min` and `max` with a NaN lane ([`F64x8::inverse_sqrt`] is
+//! an estimate in a build for AVX-512).
 
 #[cfg(all(
     target_arch = "x86_64",
@@ -62,27 +62,11 @@ mod lanes {
         pub fn sqrt(self) -> Self {
             unsafe { F64x4(_mm256_sqrt_pd(self.0)) }
         }
-        /// `1 / sqrt(x)` lane by lane, for `x > 0`: with AVX-512 (VL) the
-        /// 14-bit estimate `y_0` refined by two Newton steps
-        /// `y_{k+1} = y_k + y_k (1 - x y_k^2) / 2` (relative error about
-        /// `1.5 e_k^2`: within a few ulp, not correctly rounded; `x = 0` gives
-        /// NaN), without it `1 / sqrt(x)` exactly rounded.
+        /// `1 / sqrt(x)` lane by lane, exactly rounded (the estimate of
+        /// eight lanes is [`F64x8`]'s).
         #[inline(always)]
         pub fn inverse_sqrt(self) -> Self {
-            #[cfg(target_feature = "avx512vl")]
-            unsafe {
-                let (half, one) = (_mm256_set1_pd(0.5), _mm256_set1_pd(1.0));
-                let mut y = _mm256_rsqrt14_pd(self.0);
-                for _ in 0..2 {
-                    let e = _mm256_fnmadd_pd(_mm256_mul_pd(self.0, y), y, one);
-                    y = _mm256_fmadd_pd(_mm256_mul_pd(y, half), e, y);
-                }
-                F64x4(y)
-            }
-            #[cfg(not(target_feature = "avx512vl"))]
-            unsafe {
-                F64x4(_mm256_div_pd(_mm256_set1_pd(1.0), _mm256_sqrt_pd(self.0)))
-            }
+            unsafe { F64x4(_mm256_div_pd(_mm256_set1_pd(1.0), _mm256_sqrt_pd(self.0))) }
         }
         /// `if a == b { zero } else { self }` lane by lane.
         #[inline(always)]
@@ -402,7 +386,7 @@ pub use wide::F64x8;
 /// A SIMD register of `WIDTH` `f64` lanes ([`F64x4`], [`F64x8`]): what a pair
 /// loop written once for either width needs. The operations are the lanes'
 /// own (see [`F64x4`]); `sum` adds the lanes across in a fixed order.
-pub trait Lanes:
+pub trait Register:
     Copy
     + std::ops::Add<Output = Self>
     + std::ops::Sub<Output = Self>
@@ -423,13 +407,14 @@ pub trait Lanes:
     fn neg_mul_add(self, b: Self, c: Self) -> Self;
     /// Lane-wise square root.
     fn sqrt(self) -> Self;
-    /// `1 / sqrt(x)`, within a few ulp ([`F64x4::inverse_sqrt`]).
+    /// `1 / sqrt(x)`: exactly rounded, or within a few ulp for
+    /// [`F64x8`] in a build for AVX-512.
     fn inverse_sqrt(self) -> Self;
     /// The lanes added across, pairwise in a fixed order.
     fn sum(self) -> f64;
 }
 
-impl Lanes for F64x4 {
+impl Register for F64x4 {
     const WIDTH: usize = 4;
     #[inline(always)]
     fn splat(v: f64) -> Self {
@@ -649,22 +634,16 @@ mod tests {
         );
     }
 
-    /// The inverse square root within 4 ulp of `1 / sqrt(x)` (exactly it
-    /// without AVX-512) from `1e-200` to `1e200`.
+    /// Four lanes' inverse square root is `1 / sqrt(x)`, bit for bit.
     #[test]
-    fn inverse_square_roots_are_within_a_few_ulp() {
-        let mut worst = 0.0f64;
-        for k in 0..4000 {
-            let x = 10f64.powf(-200.0 + 0.1 * f64::from(k)) * (1.0 + 0.37 * f64::from(k % 7));
-            let exact = 1.0 / x.sqrt();
-            for got in F64x4::splat(x).inverse_sqrt().to_array() {
-                let error = ((got - exact) / exact).abs() / f64::EPSILON;
-                assert!(error <= 4.0, "x {x}: {got} against {exact}");
-                worst = worst.max(error);
-            }
-        }
-        if cfg!(not(target_feature = "avx512vl")) {
-            assert_eq!(worst, 0.0);
+    fn inverse_square_roots_of_four_lanes_are_exact() {
+        for k in 0..400 {
+            let x = 10f64.powf(-200.0 + f64::from(k)) * (1.0 + 0.37 * f64::from(k % 7));
+            let exact = (1.0 / x.sqrt()).to_bits();
+            assert_eq!(
+                F64x4::splat(x).inverse_sqrt().to_array().map(f64::to_bits),
+                [exact; 4]
+            );
         }
     }
 

@@ -5,13 +5,13 @@
 //! The particles are copied to structure-of-arrays buffers and cut into blocks of
 //! [`BLOCK`]; blocks meet in the rounds of a round-robin [`tournament`], the pairs
 //! of a round running in parallel on disjoint blocks. A row (one particle against
-//! a run of partners) is computed [`LANES`] partners at a time in straight-line
-//! code that the compiler turns into SIMD. Every sum runs in an order fixed by the
+//! a run of partners) is computed a SIMD register of partners at a time
+//! ([`Register`]: four lanes here, eight in the FMM's near field). Every sum runs in an order fixed by the
 //! data, so the result does not depend on the thread count.
 
 use super::{FieldOut, Sources};
 use crate::interactions::GravityLaw;
-use crate::simd::{F64x4, Lanes};
+use crate::simd::{F64x4, Register};
 use crate::threads::{tournament, DisjointSlice, Threads};
 use rayon::prelude::*;
 use std::ops::Range;
@@ -19,9 +19,6 @@ use std::ops::Range;
 /// Particles per block: a block's positions, masses and sums (8 arrays of 8 bytes)
 /// take 16 KiB, so two blocks stay in the level-1 cache.
 pub const BLOCK: usize = 256;
-
-/// Partners per step of a row: one AVX2 vector.
-pub const LANES: usize = 4;
 
 /// Per-axis positions and masses, and the running sums, as structure of arrays.
 #[derive(Clone, Debug, Default)]
@@ -353,9 +350,9 @@ impl Kernel {
         }
     }
 
-    /// [`Kernel::factors`] on four lanes, from `1/s`.
+    /// [`Kernel::factors`] on the lanes of a register, from `1/s`.
     #[inline(always)]
-    pub(crate) fn factors4<L: Lanes, const REPULSION: bool>(&self, inv: L) -> (L, L) {
+    pub(crate) fn factors_in_lanes<L: Register, const REPULSION: bool>(&self, inv: L) -> (L, L) {
         let inv2 = inv * inv;
         if REPULSION {
             let q = L::splat(self.a4) * inv2 * inv2;
@@ -368,7 +365,7 @@ impl Kernel {
 
     /// `eps^2` on the lanes plus the squared length of `d`.
     #[inline(always)]
-    pub(crate) fn s2<L: Lanes>(&self, d: [L; 3]) -> L {
+    pub(crate) fn s2<L: Register>(&self, d: [L; 3]) -> L {
         d[0].mul_add(
             d[0],
             d[1].mul_add(d[1], d[2].mul_add(d[2], L::splat(self.eps2))),
@@ -380,12 +377,12 @@ impl Kernel {
     /// by lane and then across lanes, the last partial group after them; when
     /// `SYMMETRIC`, also adds `-k m_i d` and `m_i p` to each partner's sums in
     /// `theirs` (same length; untouched otherwise). With `ESTIMATE` the lanes'
-    /// `1 / sqrt(r^2 + eps^2)` is [`F64x4::inverse_sqrt`] (a refined estimate
-    /// where AVX-512 has one, within a few ulp: the FMM's near field), without
-    /// it the exactly rounded division (the direct sum).
+    /// `1 / sqrt(r^2 + eps^2)` is [`Register::inverse_sqrt`] (on eight lanes
+    /// built for AVX-512, a refined estimate within a few ulp: the FMM's near
+    /// field), without it the exactly rounded division (the direct sum).
     #[inline(always)]
     pub(crate) fn row<
-        L: Lanes,
+        L: Register,
         const REPULSION: bool,
         const SYMMETRIC: bool,
         const ESTIMATE: bool,
@@ -416,7 +413,7 @@ impl Kernel {
             } else {
                 one / s2.sqrt()
             };
-            let (k, p) = self.factors4::<L, REPULSION>(inverse);
+            let (k, p) = self.factors_in_lanes::<L, REPULSION>(inverse);
             let mj = L::load(&pm[j..]);
             let kj = k * mj;
             for a in 0..3 {
@@ -471,6 +468,56 @@ fn partners<'a>(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::simd::F64x8;
+
+    /// The row on eight lanes with the estimated inverse square root (the
+    /// FMM's near field) against four lanes with the exact one (the direct
+    /// sum), for every remainder of the partners: the sums and the partners'
+    /// reactions agree to 1e-14 relative, with softening and repulsion.
+    #[test]
+    fn eight_lanes_with_the_estimate_agree_with_four_exact() {
+        let mut rng = crate::random::Rng::new(11);
+        let mut next = || rng.uniform();
+        for law in [
+            GravityLaw::new(1.0, 0.0, 0.0),
+            GravityLaw::new(1.0, 0.05, 0.02),
+        ] {
+            let kernel = Kernel::new(&law.unwrap());
+            for len in 0..21 {
+                let px: [Vec<f64>; 3] =
+                    std::array::from_fn(|_| (0..len).map(|_| 1.0 + next()).collect());
+                let pm: Vec<f64> = (0..len).map(|_| 0.5 + next()).collect();
+                let xi = [next(), next(), next()];
+                let partners = [&px[0][..], &px[1][..], &px[2][..]];
+                let mut four: [Vec<f64>; 4] = std::array::from_fn(|_| vec![0.0; len]);
+                let mut eight = four.clone();
+                let [a, b, c, d] = &mut four;
+                let exact = kernel.row::<F64x4, true, true, false>(
+                    xi,
+                    0.7,
+                    partners,
+                    &pm,
+                    Block::new([a, b, c, d]),
+                );
+                let [a, b, c, d] = &mut eight;
+                let estimated = kernel.row::<F64x8, true, true, true>(
+                    xi,
+                    0.7,
+                    partners,
+                    &pm,
+                    Block::new([a, b, c, d]),
+                );
+                let close =
+                    |p: f64, q: f64| (p - q).abs() <= 1e-14 * p.abs().max(q.abs()).max(1e-300);
+                for (p, q) in exact.iter().zip(&estimated) {
+                    assert!(close(*p, *q), "len {len}: {p} against {q}");
+                }
+                for (p, q) in four.iter().flatten().zip(eight.iter().flatten()) {
+                    assert!(close(*p, *q), "len {len}: reaction {p} against {q}");
+                }
+            }
+        }
+    }
 
     #[test]
     fn partial_sums_over_split_sources_match_the_direct_sum() {

@@ -493,7 +493,8 @@ impl<const D: usize> DistributedMd<D> {
     /// they are in, so that neighbours lie close in memory (and the ghosts,
     /// sent in this order, too); the sums do not depend on this order. A
     /// stable counting sort by cell, the atoms moved in place along the
-    /// permutation's cycles (no copy of the arrays).
+    /// permutation's cycles (8 bytes per atom for the keys and the order,
+    /// no copy of the atoms' arrays).
     fn sort_by_cell(&mut self, threads: &Threads) {
         let Ok(grid) = CellGrid::new(&self.decomposition.domain, self.reach(), self.atoms.len())
         else {

@@ -189,7 +189,7 @@ impl GravityLists {
                     x[2] - F64x4::splat(t.x[2]),
                 ];
                 let inv = (one / kernel.s2(d).sqrt()).zero_where_equal(id, F64x4::splat(t.id));
-                let (k, p) = kernel.factors4::<F64x4, REPULSION>(inv);
+                let (k, p) = kernel.factors_in_lanes::<F64x4, REPULSION>(inv);
                 let mk = m * k;
                 for a in 0..3 {
                     t.sums[a] = mk.mul_add(d[a], t.sums[a]);
@@ -225,7 +225,7 @@ impl GravityLists {
                     F64x4::splat(t.x[2]) - com[2],
                 ];
                 let inv = one / kernel.s2(d).sqrt();
-                let (k, p) = kernel.factors4::<F64x4, REPULSION>(inv);
+                let (k, p) = kernel.factors_in_lanes::<F64x4, REPULSION>(inv);
                 let mk = m * k;
                 for a in 0..3 {
                     t.sums[a] = mk.neg_mul_add(d[a], t.sums[a]);

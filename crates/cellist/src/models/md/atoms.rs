@@ -87,18 +87,11 @@ impl<const D: usize> Atoms<D> {
         reorder(&mut self.forces, order, &mut scratch.vectors, same, same);
     }
 
-    /// Reorders every array: `self[k] = old[order[k]]` (the atoms of
-    /// [`Atoms::select`] of `order`, in place through `scratch`).
-    pub fn permute(&mut self, order: &[u32], scratch: &mut PermuteScratch<D>) {
-        self.permute_except_positions(order, scratch);
-        let same = |x| x;
-        reorder(&mut self.positions, order, &mut scratch.vectors, same, same);
-    }
-
-    /// Reorders every array, `self[k] = old[order[k]]`, by following the
-    /// cycles of the permutation: each atom is moved once, through one bit
-    /// per atom, with no second copy of any array (nothing allocated but the
-    /// bits, so a rebuild that sorts the atoms touches no fresh pages).
+    /// Reorders every array, `self[k] = old[order[k]]` (the atoms of
+    /// [`Atoms::select`] of `order`), by following the cycles of the
+    /// permutation: each atom is moved once, with one bit per atom and no
+    /// copy of any array. Panics when `order` is not a permutation of
+    /// `0..len`.
     pub fn permute_by_cycles(&mut self, order: &[u32]) {
         let n = self.len();
         assert_eq!(order.len(), n, "one slot per atom");
@@ -116,6 +109,10 @@ impl<const D: usize> Atoms<D> {
                     self.set_row(k, first);
                     break;
                 }
+                assert!(
+                    placed[from / 64] >> (from % 64) & 1 == 0,
+                    "the order is not a permutation: slot {from} twice"
+                );
                 self.set_row(k, self.row(from));
                 k = from;
             }
@@ -209,7 +206,8 @@ mod tests {
     use super::*;
     use proptest::prelude::*;
 
-    /// Permuting in place is selecting in that order.
+    /// Permuting in place (all but the positions through the buffers, all
+    /// along the cycles) is selecting in that order.
     #[test]
     fn permute_is_select() {
         let n = 40;
@@ -226,10 +224,19 @@ mod tests {
         let selected = atoms.select(&slots);
         let mut by_cycles = atoms.clone();
         let mut scratch = PermuteScratch::default();
-        atoms.permute(&order, &mut scratch);
+        atoms.permute_except_positions(&order, &mut scratch);
+        atoms.positions = selected.positions.clone();
         assert_eq!(atoms, selected);
         by_cycles.permute_by_cycles(&order);
         assert_eq!(by_cycles, selected);
+    }
+
+    /// An order with a slot twice is refused, not followed forever.
+    #[test]
+    #[should_panic(expected = "not a permutation")]
+    fn a_repeated_slot_is_refused() {
+        let mut atoms = Atoms::<2>::at_rest(vec![[0.0, 0.0], [1.0, 0.0], [2.0, 0.0]], 1.0);
+        atoms.permute_by_cycles(&[1, 2, 1]);
     }
 
     proptest! {
