@@ -192,7 +192,7 @@ fn reorder<T: Copy, W: Copy>(
     }
 }
 
-/// The buffers [`Atoms::permute`] reorders through: one array of vectors and
+/// The buffers [`Atoms::permute_except_positions`] reorders through: one array of vectors and
 /// one of 64-bit words (ids, types and the bits of masses), 8 (D + 1) bytes
 /// per atom instead of a second copy of every array.
 #[derive(Clone, Debug, Default)]
