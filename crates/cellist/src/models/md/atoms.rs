@@ -196,7 +196,7 @@ fn reorder<T: Copy, W: Copy>(
 /// one of 64-bit words (ids, types and the bits of masses), 8 (D + 1) bytes
 /// per atom instead of a second copy of every array.
 #[derive(Clone, Debug, Default)]
-pub struct PermuteScratch<const D: usize> {
+pub(crate) struct PermuteScratch<const D: usize> {
     pub(crate) vectors: Vec<[f64; D]>,
     pub(crate) words: Vec<u64>,
 }

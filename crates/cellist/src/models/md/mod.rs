@@ -21,7 +21,8 @@ mod model;
 mod subdomain;
 mod velocity;
 
-pub use atoms::{Atoms, PermuteScratch};
+pub use atoms::Atoms;
+use atoms::PermuteScratch;
 pub use frame::dump_particles;
 pub use halo::HaloForces;
 pub use integrate::{Integrator, Langevin};
