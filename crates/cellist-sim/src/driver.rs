@@ -329,9 +329,12 @@ impl<M: Hosted> Live<M> {
             } else {
                 job.model.step(step, threads)
             };
-            let stepped = stepped.and_then(|()| match job.model.checks_its_steps() {
-                true => Ok(()),
-                false => check(&job.model, step, self.count),
+            let stepped = stepped.and_then(|()| {
+                if job.model.checks_its_steps() {
+                    Ok(())
+                } else {
+                    check(&job.model, step, self.count)
+                }
             });
             if let Err(blowup) = stepped {
                 self.bar.abandon();
