@@ -12,9 +12,15 @@
 //! (`d^n` Wigner's small d-matrix). Each turn is then `O(p^3)`.
 
 use super::solid::{at, signed};
-use crate::simd::F64x4;
+use crate::simd::{F64x8, Register};
 use rustfft::num_complex::Complex64;
 use std::collections::HashMap;
+
+/// The SIMD word of the turns' matrices: eight rows at a time.
+type Word = F64x8;
+
+/// Rows per [`Word`].
+const LANES: usize = Word::WIDTH;
 
 /// `out[r] = sum_c block[c][r] v[c]` for the complex `v` (parts apart): the
 /// block holds, for each input `c`, the outputs `r` in `words` SIMD words;
@@ -22,33 +28,36 @@ use std::collections::HashMap;
 /// that the multiply-adds do not wait on each other.
 #[inline(always)]
 fn products(
-    block: &[F64x4],
+    block: &[Word],
     words: usize,
     (vr, vi): (&[f64], &[f64]),
     out_re: &mut [f64],
     out_im: &mut [f64],
 ) {
     let inputs = vr.len();
-    let zero = F64x4::splat(0.0);
+    let zero = Word::splat(0.0);
     for j in 0..words {
         let (mut re, mut im, mut re2, mut im2) = (zero, zero, zero, zero);
         let mut c = 0;
         while c + 2 <= inputs {
             let (a, b) = (block[c * words + j], block[(c + 1) * words + j]);
-            re = a.mul_add(F64x4::splat(vr[c]), re);
-            im = a.mul_add(F64x4::splat(vi[c]), im);
-            re2 = b.mul_add(F64x4::splat(vr[c + 1]), re2);
-            im2 = b.mul_add(F64x4::splat(vi[c + 1]), im2);
+            re = a.mul_add(Word::splat(vr[c]), re);
+            im = a.mul_add(Word::splat(vi[c]), im);
+            re2 = b.mul_add(Word::splat(vr[c + 1]), re2);
+            im2 = b.mul_add(Word::splat(vi[c + 1]), im2);
             c += 2;
         }
         if c < inputs {
             let a = block[c * words + j];
-            re = a.mul_add(F64x4::splat(vr[c]), re);
-            im = a.mul_add(F64x4::splat(vi[c]), im);
+            re = a.mul_add(Word::splat(vr[c]), re);
+            im = a.mul_add(Word::splat(vi[c]), im);
         }
-        let (re, im) = ((re + re2).to_array(), (im + im2).to_array());
-        for i in 0..4 {
-            let r = 4 * j + i;
+        let (mut sum_re, mut sum_im) = ([0.0; LANES], [0.0; LANES]);
+        (re + re2).store(&mut sum_re);
+        (im + im2).store(&mut sum_im);
+        let (re, im) = (sum_re, sum_im);
+        for i in 0..LANES {
+            let r = LANES * j + i;
             if r < out_re.len() {
                 (out_re[r], out_im[r]) = (re[i], im[i]);
             }
@@ -92,15 +101,15 @@ impl Parts {
 pub(super) struct Turn {
     phases: Vec<Complex64>,
     /// Per degree `n`, for each column `m'` (`-n..=n`) the rows `m = 0..=n`
-    /// of `D^n`, four to a SIMD word (padded with zeros).
-    forward: Vec<F64x4>,
+    /// of `D^n`, [`LANES`] to a SIMD word (padded with zeros).
+    forward: Vec<Word>,
     /// Per degree `n`, for each row `l` (`-n..=n`) the columns `l' = 0..=n`.
-    back: Vec<F64x4>,
+    back: Vec<Word>,
 }
 
-/// Words per column of degree `n`'s blocks: `ceil((n + 1) / 4)`.
+/// Words per column of degree `n`'s blocks: `ceil((n + 1) / LANES)`.
 fn words(n: usize) -> usize {
-    (n + 1).div_ceil(4)
+    (n + 1).div_ceil(LANES)
 }
 
 /// Where degree `n`'s block starts: `sum_{j < n} (2j + 1) words(j)`.
@@ -151,14 +160,14 @@ impl Turn {
             let d = |i: usize, k: usize| matrices[start(n) + i * w + k];
             // rows and columns m >= 0 sit from index n on
             let word = |f: &dyn Fn(usize) -> f64, j: usize| {
-                let lanes: [f64; 4] = std::array::from_fn(|i| {
-                    if 4 * j + i <= n {
-                        f(n + 4 * j + i)
+                let lanes: [f64; LANES] = std::array::from_fn(|i| {
+                    if LANES * j + i <= n {
+                        f(n + LANES * j + i)
                     } else {
                         0.0
                     }
                 });
-                F64x4::load(&lanes)
+                Word::load(&lanes)
             };
             for c in 0..w {
                 for j in 0..words(n) {
@@ -182,8 +191,10 @@ impl Turn {
     #[cfg(test)]
     fn get(&self, n: usize, m: isize, mp: isize) -> f64 {
         let c = (mp + n as isize) as usize;
-        let word = self.forward[block_start(n) + c * words(n) + m as usize / 4];
-        word.to_array()[m as usize % 4]
+        let word = self.forward[block_start(n) + c * words(n) + m as usize / LANES];
+        let mut lanes = [0.0; LANES];
+        word.store(&mut lanes);
+        lanes[m as usize % LANES]
     }
 
     /// The multipole `a` (terms `m >= 0`) turned:
@@ -328,7 +339,7 @@ pub(super) struct Turns {
 
 /// The most bytes of turns a thread keeps: past them the cache starts
 /// afresh (a turn depends only on its key, so results do not change). A turn
-/// takes about 51 KB at order 15; a Plummer sphere of 3 x 10^5 bodies meets
+/// takes about 57 KB at order 15; a Plummer sphere of 3 x 10^5 bodies meets
 /// about 1400 directions.
 const TURN_BYTES: usize = 256 << 20;
 
@@ -351,7 +362,7 @@ impl Turns {
 
 /// The bytes of one turn of order `p` (its two blocks of SIMD words).
 fn turn_bytes(p: usize) -> usize {
-    2 * block_start(p + 1) * std::mem::size_of::<F64x4>()
+    2 * block_start(p + 1) * std::mem::size_of::<Word>()
 }
 
 /// The direction of the separation `d` between two boxes of the octree
@@ -484,7 +495,7 @@ impl TurnedM2l {
             *self = TurnedM2l {
                 order: p,
                 log_factorials: log_factorials(4 * p + 2),
-                factorials: (0..=2 * p + 4)
+                factorials: (0..=2 * p + LANES)
                     .scan(1.0, |f, k| {
                         let v = if k <= 2 * p + 1 { *f } else { 0.0 };
                         *f *= (k + 1) as f64;
@@ -545,22 +556,24 @@ pub(super) fn m2l_turned(
             (full.re[i], full.im[i]) = (turned.re[t] * power, turned.im[t] * power);
             power *= rho_s;
         }
-        // sum_{n >= l} a'_n^l f[n + k] for k, k + 1, k + 2, k + 3 in lanes
-        // (the factorials are padded with zeros past 2p + 1)
+        // sum_{n >= l} a'_n^l f[n + k] for LANES consecutive k in lanes (the
+        // factorials are padded with zeros past 2p + 1)
         let mut k = l;
         while k <= p {
-            let (mut re, mut im) = (F64x4::splat(0.0), F64x4::splat(0.0));
+            let (mut re, mut im) = (Word::splat(0.0), Word::splat(0.0));
             for i in 0..len {
-                let f = F64x4::load(&factorials[l + k + i..]);
-                re = f.mul_add(F64x4::splat(full.re[i]), re);
-                im = f.mul_add(F64x4::splat(full.im[i]), im);
+                let f = Word::load(&factorials[l + k + i..]);
+                re = f.mul_add(Word::splat(full.re[i]), re);
+                im = f.mul_add(Word::splat(full.im[i]), im);
             }
-            let (re, im) = (re.to_array(), im.to_array());
-            for lane in 0..4.min(p + 1 - k) {
+            let (mut sum_re, mut sum_im) = ([0.0; LANES], [0.0; LANES]);
+            re.store(&mut sum_re);
+            im.store(&mut sum_im);
+            for lane in 0..LANES.min(p + 1 - k) {
                 let t = at(k + lane, l);
-                (shifted.re[t], shifted.im[t]) = (re[lane], im[lane]);
+                (shifted.re[t], shifted.im[t]) = (sum_re[lane], sum_im[lane]);
             }
-            k += 4;
+            k += LANES;
         }
     }
     // a'_n^{-l} = (-1)^l conj(a'_n^l), times (-1)^k (s_t / d)^k / d
