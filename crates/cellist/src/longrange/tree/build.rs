@@ -84,8 +84,28 @@ impl Octree {
     /// the nodes, leaves holding at most `leaf_size` particles (or sitting at the
     /// keys' last level), and marks the groups of at most `group_size`.
     pub fn build(&mut self, positions: &[[f64; 3]], sizes: Sizes, threads: &Threads) {
+        self.build_stretched(positions, sizes, 1.0, threads)
+    }
+
+    /// [`build`](Self::build) with the root the bounding cube grown
+    /// `stretch` times (at least 1) about its centre: the cells of each
+    /// level are then `stretch` times wider, so that a caller can choose how
+    /// many particles a level's cells hold.
+    pub fn build_stretched(
+        &mut self,
+        positions: &[[f64; 3]],
+        sizes: Sizes,
+        stretch: f64,
+        threads: &Threads,
+    ) {
+        assert!(
+            stretch >= 1.0,
+            "a root smaller than the bounding cube: {stretch}"
+        );
         let n = positions.len();
-        let (corner, side) = bounding_cube(positions);
+        let (lower, fitted) = bounding_cube(positions);
+        let side = fitted * stretch;
+        let corner: [f64; 3] = std::array::from_fn(|a| lower[a] - 0.5 * (side - fitted));
         let scale = (1u64 << KEY_BITS) as f64 / side;
         let top = (1u64 << KEY_BITS) - 1;
         threads.install(|| {
@@ -232,5 +252,37 @@ mod tests {
             }
         }
         assert_eq!(leaf_particles as usize, x.len());
+    }
+
+    /// A stretched root is centred on the bounding cube and holds every
+    /// particle; its leaves' cubes are `stretch` times those of the fitted
+    /// root at the same level.
+    #[test]
+    fn a_stretched_root_is_centred_and_holds_every_particle() {
+        let mut rng = Rng::new(5);
+        let x: Vec<[f64; 3]> = (0..2000)
+            .map(|_| [rng.uniform(), 2.0 * rng.uniform(), rng.uniform()])
+            .collect();
+        let sizes = Sizes {
+            leaf: 16,
+            group: 64,
+        };
+        let (mut fitted, mut stretched) = (Octree::default(), Octree::default());
+        fitted.build(&x, sizes, &Threads::single());
+        stretched.build_stretched(&x, sizes, 1.5, &Threads::single());
+        let (f, s) = (fitted.nodes[0], stretched.nodes[0]);
+        assert!((s.side - 1.5 * f.side).abs() < 1e-12 * f.side);
+        for a in 0..3 {
+            let centre = |n: Node| n.corner[a] + 0.5 * n.side;
+            assert!((centre(s) - centre(f)).abs() < 1e-12, "axis {a}");
+        }
+        for node in stretched.nodes.iter().filter(|n| n.leaf) {
+            assert!(node.end - node.start <= 16);
+            for k in node.start..node.end {
+                let p = x[stretched.order[k as usize] as usize];
+                assert!((0..3).all(|a| p[a] >= node.corner[a] - 1e-12
+                    && p[a] <= node.corner[a] + node.side * (1.0 + 1e-9)));
+            }
+        }
     }
 }

@@ -44,6 +44,10 @@ pub(super) trait Expansions: Sync {
     const THETA: f64;
     /// The tree's sizes: most particles in a leaf and in a target group.
     const SIZES: Sizes;
+    /// How many particles the leaves of a uniform cloud should hold, if the
+    /// root is to be grown for it (see [`stretch`]); `None` keeps the
+    /// bounding cube.
+    const FILL: Option<usize>;
 
     /// Complex coefficients per expansion.
     fn terms(&self) -> usize;
@@ -157,7 +161,9 @@ impl<E: Expansions> Engine<E> {
     /// Sorts `positions` into the tree (whose `order` the kernel then
     /// arranges its particles by).
     pub fn build(&mut self, positions: &[[f64; 3]], threads: &Threads) {
-        self.tree.build(positions, E::SIZES, threads);
+        let stretch = E::FILL.map_or(1.0, |fill| stretch(positions.len(), fill));
+        self.tree
+            .build_stretched(positions, E::SIZES, stretch, threads);
     }
 
     /// The sums of every particle, in tree order, into `sorted`: the upward
@@ -328,6 +334,23 @@ impl<E: Expansions> Engine<E> {
 }
 
 /// The scratch of the running thread.
+/// The factor `(8^L fill / n)^(1/3)` in `[1, 2)`, `L` the least level with
+/// `8^L fill >= n` (1 for `n <= fill`): grown by it, the root's cubes of level
+/// `L` hold about `fill` of `n` uniformly spread particles. The bounding cube
+/// alone gives its leaves anything from an eighth of the leaf size to all of
+/// it, depending on `n`, and the cost per particle changes with it: the near
+/// field grows with the particles a leaf holds, M2L with the leaves.
+fn stretch(n: usize, fill: usize) -> f64 {
+    if n <= fill {
+        return 1.0;
+    }
+    let mut cells = 1.0;
+    while cells * (fill as f64) < n as f64 {
+        cells *= 8.0;
+    }
+    (cells * fill as f64 / n as f64).cbrt()
+}
+
 fn lock<E: Expansions>(scratch: &[Mutex<Scratch<E>>]) -> std::sync::MutexGuard<'_, Scratch<E>> {
     let thread = rayon::current_thread_index().unwrap_or(0);
     scratch[thread]
@@ -461,5 +484,29 @@ impl<E: Expansions> Traversal<'_, E> {
         self.pairs += self
             .kernel
             .pairs(how, targets, sources, first, self.out, self.scratch);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::stretch;
+
+    /// The grown root's cubes of the level that holds about `fill` particles
+    /// per cube hold `n / 8^L stretch^3 = fill` of them.
+    #[test]
+    fn the_stretch_fills_a_level() {
+        assert_eq!(stretch(100, 200), 1.0);
+        assert_eq!(stretch(200, 200), 1.0);
+        for (n, cells) in [
+            (100_000, 512.0),
+            (300_000, 4096.0),
+            (1_000_000, 32768.0),
+            (4_000_000, 32768.0),
+        ] {
+            let s = stretch(n, 200);
+            assert!((1.0..2.0).contains(&s), "{n}: {s}");
+            let per_cell = n as f64 / cells * s.powi(3);
+            assert!((per_cell - 200.0).abs() < 1e-9, "{n}: {per_cell}");
+        }
     }
 }

@@ -43,6 +43,13 @@ impl ErrorFit {
 /// Most particles in a leaf.
 const LEAF: usize = 256;
 
+/// The particles a uniform cloud's leaves hold (the root grown for it,
+/// [`super::engine`]'s `stretch`). Uniform cubes of 10^5, 3x10^5, 10^6 and
+/// 4x10^6 bodies at order 15 took 6.5, 7.8, 8.7 and 9.0 us per body with 200,
+/// against 6.4, 12.3, 9.4 and 10.3 with the bounding cube (leaves of 195, 73,
+/// 244 and 122); 150 and 170 were slower at 3x10^5 and 10^6.
+const FILL: usize = 200;
+
 /// Most particles in a target group (each traverses the tree on its own, in
 /// parallel with the others). Leaf pairs inside a group are computed once
 /// for both sides, across groups once per side: 262,144 (8 groups at 10^6
@@ -194,6 +201,7 @@ impl Expansions for Laplace {
         leaf: LEAF,
         group: GROUP,
     };
+    const FILL: Option<usize> = Some(FILL);
 
     fn terms(&self) -> usize {
         solid::terms(self.order)

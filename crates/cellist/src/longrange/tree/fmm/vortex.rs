@@ -169,6 +169,9 @@ impl<K: VortexLaw> Expansions for Cauchy<K> {
         leaf: LEAF,
         group: GROUP,
     };
+    /// The particles lie in one plane: the octree is a quadtree there, and
+    /// its leaves are left as the bounding cube cuts them.
+    const FILL: Option<usize> = None;
 
     fn terms(&self) -> usize {
         self.binomials.order() + 1
