@@ -10,7 +10,7 @@
 #   N=100000 ROUNDS=5 EPS=1e-8 bash scripts/fmm-vs-peers.sh
 #
 # Each round runs the peer at eps = EPS, then cellist at --tolerance EPS and at
-# --tolerance EPS/100 (3D: EPS/2; about the peer's measured error, which its
+# --tolerance EPS/100 (3D: EPS/4; about the peer's measured error, which its
 # conservative eps puts far below EPS), alternating; the medians and ratios are printed at
 # the end. The points are uniform in the unit square (cube) with circulations
 # uniform in [-0.5, 0.5] (masses uniform in [0, 1)), lines `x y gamma`
@@ -58,8 +58,8 @@ case "$DIM" in
     *) echo "DIM must be 2 or 3, got $DIM" >&2; exit 2 ;;
 esac
 # the tighter tolerance: about the peer's measured error (2D: EPS/100; 3D,
-# whose fit is more conservative: EPS/2, order 15 at 1e-6)
-tight=$(python3 -c "print(f'{$EPS / (100 if $DIM == 2 else 2):g}')")
+# whose fit is more conservative: EPS/4, order 16 at 1e-6)
+tight=$(python3 -c "print(f'{$EPS / (100 if $DIM == 2 else 4):g}')")
 : > "$work/lines"
 for round in $(seq "$ROUNDS"); do
     # the Fortran library prints progress lines beside the JSON
