@@ -7,11 +7,12 @@ use super::super::build::{Node, Sizes};
 use super::engine::{Cube, Engine, Expansions, Pairs};
 use super::rotation::{direction, m2l_turned, TurnedM2l};
 use super::solid;
+use super::solid::LANES;
 use super::{ErrorFit, FmmAccuracy};
 use crate::interactions::GravityLaw;
 use crate::longrange::direct::{Block, Kernel};
 use crate::longrange::{FieldOut, Sources};
-use crate::simd::F64x8;
+use crate::simd::{F64x8, Register};
 use crate::threads::Threads;
 use rustfft::num_complex::Complex64;
 use std::ops::Range;
@@ -180,11 +181,15 @@ struct Laplace {
     m: Vec<f64>,
 }
 
-/// A thread's buffers: the harmonics of one point, M2L's lanes, and a leaf's
-/// reactions (x, y, z, potential).
+/// A thread's buffers: the harmonics of one point and of
+/// [`solid::LANES`] points, M2L's lanes, and a leaf's reactions (x, y, z,
+/// potential).
 #[derive(Debug, Default)]
 struct Scratch {
     harmonics: Vec<Complex64>,
+    lanes: (Vec<F64x8>, Vec<F64x8>),
+    /// The lanes' harmonics, term by term, lane after lane within a term.
+    spread: Vec<f64>,
     turned: TurnedM2l,
     /// A group's far pairs `(direction, target, source)`.
     far: Vec<([i64; 3], u32, u32)>,
@@ -226,11 +231,35 @@ impl Expansions for Laplace {
         multipole: &mut [Complex64],
         scratch: &mut Scratch,
     ) {
-        let harmonics = harmonics(&mut scratch.harmonics, self.terms());
-        let bodies = particles.map(|s| ([self.x[0][s], self.x[1][s], self.x[2][s]], self.m[s]));
+        let terms = self.terms();
+        let inv = 1.0 / cube.radius;
+        let (re, im) = lanes(&mut scratch.lanes, terms);
+        let spread = &mut scratch.spread;
+        spread.resize(2 * terms * LANES, 0.0);
+        let whole = particles.start + particles.len() / LANES * LANES;
+        for first in (particles.start..whole).step_by(LANES) {
+            let w = self.scaled(first, cube.centre, inv);
+            solid::regular_lanes(w, self.order, re, im);
+            let (spread_re, spread_im) = spread.split_at_mut(terms * LANES);
+            for t in 0..terms {
+                re[t].store(&mut spread_re[t * LANES..]);
+                im[t].store(&mut spread_im[t * LANES..]);
+            }
+            // each body in turn, its terms in order: the bits of `solid::p2m`
+            for (lane, q) in self.m[first..first + LANES].iter().enumerate() {
+                for (t, m) in multipole.iter_mut().enumerate() {
+                    let r =
+                        Complex64::new(spread_re[t * LANES + lane], spread_im[t * LANES + lane]);
+                    *m += q * r.conj();
+                }
+            }
+        }
+        let harmonics = harmonics(&mut scratch.harmonics, terms);
+        let rest =
+            (whole..particles.end).map(|s| ([self.x[0][s], self.x[1][s], self.x[2][s]], self.m[s]));
         solid::p2m(
             self.order,
-            bodies,
+            rest,
             cube.centre,
             cube.radius,
             harmonics,
@@ -321,8 +350,30 @@ impl Expansions for Laplace {
         out: &mut [[f64; 4]],
         scratch: &mut Scratch,
     ) {
-        let h = harmonics(&mut scratch.harmonics, self.terms());
-        for (s, f) in particles.zip(out) {
+        let terms = self.terms();
+        let inv = 1.0 / cube.radius;
+        let (re, im) = lanes(&mut scratch.lanes, terms);
+        let whole = particles.len() / LANES * LANES;
+        let (lanes_out, rest_out) = out.split_at_mut(whole);
+        for (first, f) in (particles.start..)
+            .step_by(LANES)
+            .zip(lanes_out.chunks_exact_mut(LANES))
+        {
+            let w = self.scaled(first, cube.centre, inv);
+            solid::regular_lanes(w, self.order, re, im);
+            let got = solid::l2p_lanes(self.order, local, inv, (re, im));
+            let mut values = [[0.0; LANES]; 4];
+            for (v, g) in values.iter_mut().zip(got) {
+                g.store(v);
+            }
+            for (lane, f) in f.iter_mut().enumerate() {
+                for a in 0..4 {
+                    f[a] += values[a][lane];
+                }
+            }
+        }
+        let h = harmonics(&mut scratch.harmonics, terms);
+        for (s, f) in (particles.start + whole..particles.end).zip(rest_out) {
             let x = [self.x[0][s], self.x[1][s], self.x[2][s]];
             let got = solid::l2p(self.order, local, cube.centre, cube.radius, x, h);
             for a in 0..4 {
@@ -348,6 +399,14 @@ impl Expansions for Laplace {
     }
 }
 
+/// The buffers `lanes` with room for `terms` harmonics of [`LANES`] points.
+fn lanes(lanes: &mut (Vec<F64x8>, Vec<F64x8>), terms: usize) -> (&mut [F64x8], &mut [F64x8]) {
+    for v in [&mut lanes.0, &mut lanes.1] {
+        v.resize(terms, F64x8::splat(0.0));
+    }
+    (&mut lanes.0[..terms], &mut lanes.1[..terms])
+}
+
 /// `buffer` with `terms` zeros' room.
 fn harmonics(buffer: &mut Vec<Complex64>, terms: usize) -> &mut [Complex64] {
     buffer.resize(terms, Complex64::new(0.0, 0.0));
@@ -355,6 +414,15 @@ fn harmonics(buffer: &mut Vec<Complex64>, terms: usize) -> &mut [Complex64] {
 }
 
 impl Laplace {
+    /// `(x - c) / s` (`inv = 1 / s`) of the [`LANES`] sorted bodies from
+    /// `first` on, as `solid`'s scalar functions compute it.
+    #[inline(always)]
+    fn scaled(&self, first: usize, centre: [f64; 3], inv: f64) -> [F64x8; 3] {
+        std::array::from_fn(|a| {
+            (F64x8::load(&self.x[a][first..]) - F64x8::splat(centre[a])) * F64x8::splat(inv)
+        })
+    }
+
     /// [`Expansions::pairs`]: a target at a time against the source leaf
     /// (the direct sum's row); for [`Pairs::Both`] and [`Pairs::Within`]
     /// (against the later particles of the leaf only) each pair once, its
@@ -545,6 +613,51 @@ mod tests {
         let (rms, max) = errors(&got, &want);
         assert!(rms < 1e-8 && max < 1e-8, "{rms:e} {max:e}");
         assert!(fmm.interactions().0 > 0);
+    }
+
+    /// P2M and L2P over a leaf, eight bodies at a time and the rest one by
+    /// one, give the bits of `solid`'s one-body-at-a-time functions.
+    #[test]
+    fn leaf_expansions_give_the_bits_of_one_body_at_a_time() {
+        let (x, m) = bodies(13, 21, false);
+        let law = GravityLaw::new(1.0, 0.0, 0.0).unwrap();
+        let mut fmm = GravityFmm::new(law, FmmAccuracy::Order(9)).unwrap();
+        let l = &mut fmm.laplace;
+        for a in 0..3 {
+            l.x[a] = x.iter().map(|p| p[a]).collect();
+        }
+        l.m = m.clone();
+        let cube = Cube {
+            centre: [0.5, 0.4, 0.6],
+            radius: 0.9,
+        };
+        let terms = l.terms();
+        let zero = Complex64::new(0.0, 0.0);
+        let mut scratch = Scratch::default();
+        let bits = |v: &[Complex64]| {
+            v.iter()
+                .map(|c| (c.re.to_bits(), c.im.to_bits()))
+                .collect::<Vec<_>>()
+        };
+        for range in [0..21, 3..19, 5..13, 2..4] {
+            let mut got = vec![zero; terms];
+            l.p2m(range.clone(), cube, &mut got, &mut scratch);
+            let mut want = vec![zero; terms];
+            let mut h = vec![zero; terms];
+            let each = range.clone().map(|s| (x[s], m[s]));
+            solid::p2m(l.order, each, cube.centre, cube.radius, &mut h, &mut want);
+            assert_eq!(bits(&got), bits(&want), "p2m {range:?}");
+            let mut sums = vec![[0.0; 4]; range.len()];
+            l.l2p(&want, cube, range.clone(), &mut sums, &mut scratch);
+            for (s, f) in range.clone().zip(&sums) {
+                let one = solid::l2p(l.order, &want, cube.centre, cube.radius, x[s], &mut h);
+                assert_eq!(
+                    f.map(f64::to_bits),
+                    one.map(f64::to_bits),
+                    "l2p {range:?} body {s}"
+                );
+            }
+        }
     }
 
     #[test]

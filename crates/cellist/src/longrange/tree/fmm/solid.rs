@@ -19,6 +19,7 @@
 //! rotation, [`super::rotation`]) keeps every `n, k <= p`. Each function
 //! states its own formula.
 
+use crate::simd::{F64x8, Register};
 use rustfft::num_complex::Complex64;
 
 /// Where term `(n, m)`, `0 <= m <= n`, sits in an expansion.
@@ -86,6 +87,40 @@ pub(super) fn regular(v: [f64; 3], p: usize, out: &mut [Complex64]) {
         for n in m + 2..=p {
             let a = (2 * n - 1) as f64 * z;
             out[at(n, m)] = (a * out[at(n - 1, m)] - r2 * out[at(n - 2, m)]) * inverse[at(n, m)];
+        }
+    }
+}
+
+/// Points computed together by the lane versions of [`regular`] and [`l2p`].
+pub(super) const LANES: usize = F64x8::WIDTH;
+
+/// `R_n^m` of [`LANES`] points at once (lane `i` of `v`), their real and
+/// imaginary parts into `re` and `im`: the recurrences of [`regular`], each
+/// lane the bits of its call (the same operations, in the same order).
+pub(super) fn regular_lanes(v: [F64x8; 3], p: usize, re: &mut [F64x8], im: &mut [F64x8]) {
+    let [x, y, z] = v;
+    let r2 = x * x + y * y + z * z;
+    let minus_one = F64x8::splat(-1.0);
+    // -w = -(x + i y), negated exactly as the complex negation does
+    let (nx, ny) = (x * minus_one, y * minus_one);
+    let inverse = reciprocals();
+    let (mut dr, mut di) = (F64x8::splat(1.0), F64x8::splat(0.0));
+    for m in 0..=p {
+        if m > 0 {
+            let half = F64x8::splat(0.5 / m as f64);
+            // (-w) * diagonal, then times 0.5 / m
+            (dr, di) = ((nx * dr - ny * di) * half, (nx * di + ny * dr) * half);
+        }
+        (re[at(m, m)], im[at(m, m)]) = (dr, di);
+        if m < p {
+            (re[at(m + 1, m)], im[at(m + 1, m)]) = (z * dr, z * di);
+        }
+        for n in m + 2..=p {
+            let a = F64x8::splat((2 * n - 1) as f64) * z;
+            let c = F64x8::splat(inverse[at(n, m)]);
+            let (t1, t2) = (at(n - 1, m), at(n - 2, m));
+            re[at(n, m)] = (a * re[t1] - r2 * re[t2]) * c;
+            im[at(n, m)] = (a * im[t1] - r2 * im[t2]) * c;
         }
     }
 }
@@ -231,6 +266,59 @@ pub(super) fn l2p(
     [minus.re * inv, -minus.im * inv, dz * inv, phi]
 }
 
+/// [`l2p`] at [`LANES`] points at once (lane `i` of `x`), from their
+/// harmonics `(re, im)` of [`regular_lanes`] at `w = (x - t) / s`: each lane
+/// the bits of its call.
+pub(super) fn l2p_lanes(
+    p: usize,
+    local: &[Complex64],
+    inv_scale: f64,
+    (re, im): (&[F64x8], &[F64x8]),
+) -> [F64x8; 4] {
+    let zero = F64x8::splat(0.0);
+    let (mut phi, mut dz, mut minus_re, mut minus_im) = (zero, zero, zero, zero);
+    // the real part of a conj(b), a the local's term and b a harmonic's
+    let dot = |a: Complex64, t: usize| F64x8::splat(a.re) * re[t] + F64x8::splat(a.im) * im[t];
+    let two = F64x8::splat(2.0);
+    for k in 0..=p {
+        let l_k = &local[at(k, 0)..=at(k, k)];
+        let mut twice = zero;
+        for (j, a) in l_k.iter().enumerate().skip(1) {
+            twice = twice + dot(*a, at(k, j));
+        }
+        phi = phi + (dot(l_k[0], at(k, 0)) + two * twice);
+        if k == 0 {
+            continue;
+        }
+        let mut twice = zero;
+        for (j, a) in l_k[..k].iter().enumerate().skip(1) {
+            twice = twice + dot(*a, at(k - 1, j));
+        }
+        dz = dz + (dot(l_k[0], at(k - 1, 0)) + two * twice);
+        // l >= 0 against R_{k-1}^{l+1}: a conj(b)
+        for (j, a) in l_k[..k - 1].iter().enumerate() {
+            let (ar, ai) = (F64x8::splat(a.re), F64x8::splat(a.im));
+            let t = at(k - 1, j + 1);
+            minus_re = minus_re + (ar * re[t] + ai * im[t]);
+            minus_im = minus_im + (ai * re[t] - ar * im[t]);
+        }
+        // l = -j against R_{k-1}^{j-1}: minus conj(a) b
+        for (j, a) in l_k.iter().enumerate().skip(1) {
+            let (ar, ai) = (F64x8::splat(a.re), F64x8::splat(a.im));
+            let t = at(k - 1, j - 1);
+            minus_re = minus_re - (ar * re[t] + ai * im[t]);
+            minus_im = minus_im - (ar * im[t] - ai * re[t]);
+        }
+    }
+    let inv = F64x8::splat(inv_scale);
+    [
+        minus_re * inv,
+        minus_im * F64x8::splat(-1.0) * inv,
+        dz * inv,
+        phi,
+    ]
+}
+
 #[cfg(test)]
 mod tests {
     use super::super::rotation::{direction, m2l_turned, TurnedM2l};
@@ -264,6 +352,59 @@ mod tests {
         let norm = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
         let e: Vec<f64> = (0..4).map(|a| got[a] - want[a]).collect();
         (norm(&e[..3]) / norm(&want[..3]), e[3].abs() / want[3].abs())
+    }
+
+    /// Eight points at once give each point's bits of `regular` and `l2p`,
+    /// at orders 0 to 20, points near and far from the centre (the origin
+    /// and the scale's corners among them).
+    #[test]
+    fn lanes_give_the_bits_of_single_points() {
+        let mut rng = Rng::new(11);
+        let bits = |c: Complex64| (c.re.to_bits(), c.im.to_bits());
+        for p in [0, 1, 2, 7, 15, 20] {
+            let mut points: [[f64; 3]; LANES] =
+                std::array::from_fn(|_| std::array::from_fn(|_| 2.0 * rng.uniform() - 1.0));
+            points[0] = [0.0; 3];
+            points[1] = [1.0, -1.0, 1.0];
+            let local: Vec<Complex64> = (0..terms(p))
+                .map(|_| Complex64::new(rng.uniform() - 0.5, rng.uniform() - 0.5))
+                .collect();
+            let (centre, scale) = ([0.1, -0.2, 0.3], 0.7);
+            let inv = 1.0 / scale;
+            let w: [F64x8; 3] = std::array::from_fn(|a| {
+                let lane: [f64; LANES] = std::array::from_fn(|i| (points[i][a] - centre[a]) * inv);
+                F64x8::load(&lane)
+            });
+            let zero = F64x8::splat(0.0);
+            let (mut re, mut im) = (vec![zero; terms(p)], vec![zero; terms(p)]);
+            regular_lanes(w, p, &mut re, &mut im);
+            let got = l2p_lanes(p, &local, inv, (&re, &im));
+            let mut h = vec![Complex64::new(0.0, 0.0); terms(p)];
+            for (i, x) in points.iter().enumerate() {
+                let lane = |v: F64x8| {
+                    let mut l = [0.0; LANES];
+                    v.store(&mut l);
+                    l[i]
+                };
+                let v = std::array::from_fn(|a| (x[a] - centre[a]) * inv);
+                regular(v, p, &mut h);
+                for t in 0..terms(p) {
+                    assert_eq!(
+                        bits(Complex64::new(lane(re[t]), lane(im[t]))),
+                        bits(h[t]),
+                        "p {p} point {i} term {t}"
+                    );
+                }
+                let want = l2p(p, &local, centre, scale, *x, &mut h);
+                for a in 0..4 {
+                    assert_eq!(
+                        lane(got[a]).to_bits(),
+                        want[a].to_bits(),
+                        "p {p} point {i} part {a}"
+                    );
+                }
+            }
+        }
     }
 
     /// Every step of the chain P2M, M2M, M2L (by rotation, the same source
