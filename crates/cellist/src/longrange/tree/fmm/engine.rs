@@ -333,7 +333,6 @@ impl<E: Expansions> Engine<E> {
     }
 }
 
-/// The scratch of the running thread.
 /// The factor `(8^L fill / n)^(1/3)` in `[1, 2)`, `L` the least level with
 /// `8^L fill >= n` (1 for `n <= fill`): grown by it, the root's cubes of level
 /// `L` hold about `fill` of `n` uniformly spread particles. The bounding cube
@@ -351,6 +350,7 @@ fn stretch(n: usize, fill: usize) -> f64 {
     (cells * fill as f64 / n as f64).cbrt()
 }
 
+/// The scratch of the running thread.
 fn lock<E: Expansions>(scratch: &[Mutex<Scratch<E>>]) -> std::sync::MutexGuard<'_, Scratch<E>> {
     let thread = rayon::current_thread_index().unwrap_or(0);
     scratch[thread]

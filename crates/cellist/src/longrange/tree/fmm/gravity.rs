@@ -30,10 +30,10 @@ impl ErrorFit {
     /// The 3D Laplace FMM's fit: the RMS field error (over the RMS field) of
     /// 20,000 uniform bodies and of a Plummer sphere falls about 0.53-fold
     /// per order from `p = 8` to `p = 20`, and `3e-3 0.55^p` bounds it with a
-    /// margin of 2.3 at `p = 8` and 4 or more from `p = 10` on; below order
-    /// 8 the fall is slower, so a tolerance picks at least 8. At 10^6
-    /// uniform bodies the RMS error at `p = 15` is 2.4e-8, under the fit's
-    /// 3.8e-7.
+    /// margin of 2.4 at `p = 8` and 4 or more from `p = 10` on (measured
+    /// again with the root grown for leaves of [`FILL`]); below order 8 the
+    /// fall is slower, so a tolerance picks at least 8. At 10^6 uniform
+    /// bodies the RMS error at `p = 15` is 5.4e-8, under the fit's 3.8e-7.
     pub const LAPLACE_3D: ErrorFit = ErrorFit {
         decay: 0.55,
         at_zero: 3e-3,
@@ -46,9 +46,9 @@ const LEAF: usize = 256;
 
 /// The particles a uniform cloud's leaves hold (the root grown for it,
 /// [`super::engine`]'s `stretch`). Uniform cubes of 10^5, 3x10^5, 10^6 and
-/// 4x10^6 bodies at order 15 took 6.5, 7.8, 8.7 and 9.0 us per body with 200,
-/// against 6.4, 12.3, 9.4 and 10.3 with the bounding cube (leaves of 195, 73,
-/// 244 and 122); 150 and 170 were slower at 3x10^5 and 10^6.
+/// 4x10^6 bodies at 1e-6 (order 14) took 6.2, 7.8, 8.3 and 8.5 us per body
+/// with 200, against 6.4, 12.3, 9.4 and 10.3 with the bounding cube (leaves
+/// of 195, 73, 244 and 122); 150 and 170 were slower at 3x10^5 and 10^6.
 const FILL: usize = 200;
 
 /// Most particles in a target group (each traverses the tree on its own, in

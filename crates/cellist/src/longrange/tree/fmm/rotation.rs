@@ -543,7 +543,7 @@ pub(super) fn m2l_turned(
     let turn = turns.of(key, p, log_factorials);
     turn.forward(p, a, turned, full);
     let (rho_s, rho_t) = (source_scale / distance, target_scale / distance);
-    // b'_k^l for each l: the sums over n of a'_n^l (s_c / d)^n (n + k)!, four
+    // b'_k^l for each l: the sums over n of a'_n^l (s_c / d)^n (n + k)!, LANES
     // k at a time
     shifted.clear(p);
     for l in 0..=p {
