@@ -31,7 +31,7 @@ impl ErrorFit {
     /// 20,000 uniform bodies and of a Plummer sphere falls about 0.53-fold
     /// per order from `p = 8` to `p = 20`, and `3e-3 0.55^p` bounds it with a
     /// margin of 2.4 at `p = 8` and 4 or more from `p = 10` on (measured
-    /// again with the root grown for leaves of [`FILL`]); below order 8 the
+    /// again with the root grown for leaves of about 200 bodies); below order 8 the
     /// fall is slower, so a tolerance picks at least 8. At 10^6 uniform
     /// bodies the RMS error at `p = 15` is 5.4e-8, under the fit's 3.8e-7.
     pub const LAPLACE_3D: ErrorFit = ErrorFit {
