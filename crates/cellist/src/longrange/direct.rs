@@ -392,60 +392,98 @@ impl Kernel {
         mi: f64,
         partners: [&[f64]; 3],
         pm: &[f64],
-        mut theirs: Block,
+        theirs: Block,
     ) -> [f64; 4] {
+        let [total] =
+            self.rows::<L, REPULSION, SYMMETRIC, ESTIMATE, 1>([xi], [mi], partners, pm, theirs);
+        total
+    }
+
+    /// [`row`](Self::row) of `T` particles against the same partners, with
+    /// the bits of `T` calls in turn: each partner's sums take the
+    /// particles' terms in their order, loaded and stored once per group of
+    /// lanes for all `T`.
+    #[inline(always)]
+    pub(crate) fn rows<
+        L: Register,
+        const REPULSION: bool,
+        const SYMMETRIC: bool,
+        const ESTIMATE: bool,
+        const T: usize,
+    >(
+        &self,
+        xi: [[f64; 3]; T],
+        mi: [f64; T],
+        partners: [&[f64]; 3],
+        pm: &[f64],
+        mut theirs: Block,
+    ) -> [[f64; 4]; T] {
         let len = pm.len();
         let [px, py, pz] = partners;
         let [sx, sy, sz, sp] = &mut theirs.sums;
         let whole = len - len % L::WIDTH;
-        let (xi4, mi4) = (xi.map(L::splat), L::splat(mi));
-        let one = L::splat(1.0);
-        let mut lanes = [L::splat(0.0); 4];
+        let (zero, one) = (L::splat(0.0), L::splat(1.0));
+        let mut lanes = [[zero; 4]; T];
         for j in (0..whole).step_by(L::WIDTH) {
-            let d = [
-                L::load(&px[j..]) - xi4[0],
-                L::load(&py[j..]) - xi4[1],
-                L::load(&pz[j..]) - xi4[2],
-            ];
-            let s2 = self.s2(d);
-            let inverse = if ESTIMATE {
-                s2.inverse_sqrt()
-            } else {
-                one / s2.sqrt()
-            };
-            let (k, p) = self.factors_in_lanes::<L, REPULSION>(inverse);
             let mj = L::load(&pm[j..]);
-            let kj = k * mj;
-            for a in 0..3 {
-                lanes[a] = kj.mul_add(d[a], lanes[a]);
-            }
-            lanes[3] = p.mul_add(mj, lanes[3]);
-            if SYMMETRIC {
-                let ki = k * mi4;
-                for (a, s) in [&mut *sx, &mut *sy, &mut *sz].into_iter().enumerate() {
-                    ki.neg_mul_add(d[a], L::load(&s[j..])).store(&mut s[j..]);
+            let mut d = [[zero; 3]; T];
+            let mut ki = [zero; T];
+            let mut pi = [zero; T];
+            for t in 0..T {
+                d[t] = [
+                    L::load(&px[j..]) - L::splat(xi[t][0]),
+                    L::load(&py[j..]) - L::splat(xi[t][1]),
+                    L::load(&pz[j..]) - L::splat(xi[t][2]),
+                ];
+                let s2 = self.s2(d[t]);
+                let inverse = if ESTIMATE {
+                    s2.inverse_sqrt()
+                } else {
+                    one / s2.sqrt()
+                };
+                let (k, p) = self.factors_in_lanes::<L, REPULSION>(inverse);
+                let kj = k * mj;
+                for a in 0..3 {
+                    lanes[t][a] = kj.mul_add(d[t][a], lanes[t][a]);
                 }
-                p.mul_add(mi4, L::load(&sp[j..])).store(&mut sp[j..]);
+                lanes[t][3] = p.mul_add(mj, lanes[t][3]);
+                (ki[t], pi[t]) = (k * L::splat(mi[t]), p);
             }
-        }
-        let mut total = lanes.map(L::sum);
-        for j in whole..len {
-            let d = [px[j] - xi[0], py[j] - xi[1], pz[j] - xi[2]];
-            let (k, p) = self.at::<REPULSION>(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-            let kj = k * pm[j];
-            total[0] += kj * d[0];
-            total[1] += kj * d[1];
-            total[2] += kj * d[2];
-            total[3] += p * pm[j];
             if SYMMETRIC {
-                let ki = k * mi;
-                sx[j] -= ki * d[0];
-                sy[j] -= ki * d[1];
-                sz[j] -= ki * d[2];
-                sp[j] += p * mi;
+                for (a, s) in [&mut *sx, &mut *sy, &mut *sz].into_iter().enumerate() {
+                    let mut r = L::load(&s[j..]);
+                    for t in 0..T {
+                        r = ki[t].neg_mul_add(d[t][a], r);
+                    }
+                    r.store(&mut s[j..]);
+                }
+                let mut r = L::load(&sp[j..]);
+                for t in 0..T {
+                    r = pi[t].mul_add(L::splat(mi[t]), r);
+                }
+                r.store(&mut sp[j..]);
             }
         }
-        total
+        let mut totals = lanes.map(|l| l.map(L::sum));
+        for j in whole..len {
+            for (t, total) in totals.iter_mut().enumerate() {
+                let d = [px[j] - xi[t][0], py[j] - xi[t][1], pz[j] - xi[t][2]];
+                let (k, p) = self.at::<REPULSION>(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+                let kj = k * pm[j];
+                total[0] += kj * d[0];
+                total[1] += kj * d[1];
+                total[2] += kj * d[2];
+                total[3] += p * pm[j];
+                if SYMMETRIC {
+                    let ki = k * mi[t];
+                    sx[j] -= ki * d[0];
+                    sy[j] -= ki * d[1];
+                    sz[j] -= ki * d[2];
+                    sp[j] += p * mi[t];
+                }
+            }
+        }
+        totals
     }
 }
 
@@ -469,6 +507,77 @@ fn partners<'a>(
 mod tests {
     use super::*;
     use crate::simd::F64x8;
+
+    /// Two particles' rows at once give the bits of two rows in turn: their
+    /// sums and the partners' reactions, on eight lanes with the estimate
+    /// and on four exact, for every remainder of the partners.
+    #[test]
+    fn two_rows_at_once_give_the_bits_of_two_in_turn() {
+        fn check<L: Register, const ESTIMATE: bool>(
+            kernel: &Kernel,
+            len: usize,
+            next: &mut impl FnMut() -> f64,
+        ) {
+            let px: [Vec<f64>; 3] =
+                std::array::from_fn(|_| (0..len).map(|_| 1.0 + next()).collect());
+            let pm: Vec<f64> = (0..len).map(|_| 0.5 + next()).collect();
+            let partners = [&px[0][..], &px[1][..], &px[2][..]];
+            let xi = [[next(), next(), next()], [next(), next(), next()]];
+            let mi = [0.5 + next(), 0.5 + next()];
+            let mut apart: [Vec<f64>; 4] = std::array::from_fn(|_| vec![0.1; len]);
+            let mut together = apart.clone();
+            let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            let one_by_one: Vec<[f64; 4]> = (0..2)
+                .map(|t| {
+                    let [a, b, c, d] = &mut apart;
+                    kernel.row::<L, true, true, ESTIMATE>(
+                        xi[t],
+                        mi[t],
+                        partners,
+                        &pm,
+                        Block::new([a, b, c, d]),
+                    )
+                })
+                .collect();
+            let [a, b, c, d] = &mut together;
+            let both = kernel.rows::<L, true, true, ESTIMATE, 2>(
+                xi,
+                mi,
+                partners,
+                &pm,
+                Block::new([a, b, c, d]),
+            );
+            for t in 0..2 {
+                assert_eq!(bits(&both[t]), bits(&one_by_one[t]), "len {len} target {t}");
+            }
+            for k in 0..4 {
+                assert_eq!(
+                    bits(&together[k]),
+                    bits(&apart[k]),
+                    "len {len} reactions {k}"
+                );
+            }
+            let one_sided =
+                kernel.rows::<L, true, false, ESTIMATE, 2>(xi, mi, partners, &pm, Block::none());
+            for t in 0..2 {
+                let alone = kernel.row::<L, true, false, ESTIMATE>(
+                    xi[t],
+                    mi[t],
+                    partners,
+                    &pm,
+                    Block::none(),
+                );
+                assert_eq!(bits(&one_sided[t]), bits(&alone), "len {len} one-sided {t}");
+            }
+        }
+        let mut rng = crate::random::Rng::new(17);
+        let mut next = || rng.uniform();
+        let kernel = Kernel::new(&GravityLaw::new(1.0, 0.05, 0.02).unwrap());
+        for len in 0..21 {
+            check::<F64x8, true>(&kernel, len, &mut next);
+            check::<crate::simd::F64x4, false>(&kernel, len, &mut next);
+        }
+    }
 
     /// The row on eight lanes with the estimated inverse square root (the
     /// FMM's near field) against four lanes with the exact one (the direct

@@ -399,6 +399,14 @@ impl Expansions for Laplace {
     }
 }
 
+/// `sums += got`, part by part.
+#[inline(always)]
+fn add(sums: &mut [f64; 4], got: [f64; 4]) {
+    for (s, g) in sums.iter_mut().zip(got) {
+        *s += g;
+    }
+}
+
 /// The buffers `lanes` with room for `terms` harmonics of [`LANES`] points.
 fn lanes(lanes: &mut (Vec<F64x8>, Vec<F64x8>), terms: usize) -> (&mut [F64x8], &mut [F64x8]) {
     for v in [&mut lanes.0, &mut lanes.1] {
@@ -423,10 +431,45 @@ impl Laplace {
         })
     }
 
-    /// [`Expansions::pairs`]: a target at a time against the source leaf
-    /// (the direct sum's row); for [`Pairs::Both`] and [`Pairs::Within`]
-    /// (against the later particles of the leaf only) each pair once, its
-    /// reaction summed per source and added after the target loop.
+    /// The rows of the targets `ids` against the source leaf `sources` (for
+    /// [`Pairs::Within`], one target against the leaf's later particles),
+    /// the reactions added to `reactions` unless [`Pairs::OneSided`].
+    fn target_rows<const REPULSION: bool, const T: usize>(
+        &self,
+        how: Pairs,
+        ids: [usize; T],
+        sources: &Range<usize>,
+        reactions: &mut [Vec<f64>; 4],
+    ) -> [[f64; 4]; T] {
+        debug_assert!(how != Pairs::Within || T == 1);
+        let xi = ids.map(|i| [self.x[0][i], self.x[1][i], self.x[2][i]]);
+        let mi = ids.map(|i| self.m[i]);
+        let partners = match how {
+            Pairs::Within => ids[0] + 1..sources.end,
+            _ => sources.clone(),
+        };
+        let from = partners.start - sources.start;
+        let px = self.x.each_ref().map(|c| &c[partners.clone()]);
+        let pm = &self.m[partners];
+        if how == Pairs::OneSided {
+            return self.kernel.rows::<F64x8, REPULSION, false, true, T>(
+                xi,
+                mi,
+                px,
+                pm,
+                Block::none(),
+            );
+        }
+        let theirs = Block::new(reactions.each_mut().map(|r| &mut r[from..]));
+        self.kernel
+            .rows::<F64x8, REPULSION, true, true, T>(xi, mi, px, pm, theirs)
+    }
+
+    /// [`Expansions::pairs`]: two targets at a time against the source leaf
+    /// (the direct sum's rows; a leaf with itself one at a time, against
+    /// its later particles only); for [`Pairs::Both`] and [`Pairs::Within`]
+    /// each pair once, its reaction summed per source and added after the
+    /// target loop.
     fn leaf_pairs<const REPULSION: bool>(
         &self,
         how: Pairs,
@@ -441,57 +484,26 @@ impl Laplace {
             r.clear();
             r.resize(if how == Pairs::OneSided { 0 } else { len }, 0.0);
         }
-        let partners =
-            |r: Range<usize>| [&self.x[0][r.clone()], &self.x[1][r.clone()], &self.x[2][r]];
-        for i in targets.clone() {
-            let xi = [self.x[0][i], self.x[1][i], self.x[2][i]];
-            let got = match how {
-                Pairs::OneSided => self.kernel.row::<F64x8, REPULSION, false, true>(
-                    xi,
-                    self.m[i],
-                    partners(sources.clone()),
-                    &self.m[sources.clone()],
-                    Block::none(),
-                ),
-                Pairs::Both => {
-                    let [rx, ry, rz, rp] = reactions;
-                    self.kernel.row::<F64x8, REPULSION, true, true>(
-                        xi,
-                        self.m[i],
-                        partners(sources.clone()),
-                        &self.m[sources.clone()],
-                        Block::new([rx, ry, rz, rp]),
-                    )
+        // two targets at a time against the same partners (a leaf with itself:
+        // one, as each has its own later partners)
+        let mut i = targets.start;
+        while i < targets.end {
+            let next = if how != Pairs::Within && i + 1 < targets.end {
+                let got = self.target_rows::<REPULSION, 2>(how, [i, i + 1], &sources, reactions);
+                for (t, g) in [i, i + 1].into_iter().zip(got) {
+                    add(&mut out[t - first], g);
                 }
-                Pairs::Within => {
-                    let later = i + 1..sources.end;
-                    let from = i + 1 - sources.start;
-                    let [rx, ry, rz, rp] = reactions;
-                    self.kernel.row::<F64x8, REPULSION, true, true>(
-                        xi,
-                        self.m[i],
-                        partners(later.clone()),
-                        &self.m[later],
-                        Block::new([
-                            &mut rx[from..],
-                            &mut ry[from..],
-                            &mut rz[from..],
-                            &mut rp[from..],
-                        ]),
-                    )
-                }
+                i + 2
+            } else {
+                let [got] = self.target_rows::<REPULSION, 1>(how, [i], &sources, reactions);
+                add(&mut out[i - first], got);
+                i + 1
             };
-            let o = &mut out[i - first];
-            for a in 0..4 {
-                o[a] += got[a];
-            }
+            i = next;
         }
         if how != Pairs::OneSided {
             for (k, j) in sources.clone().enumerate() {
-                let o = &mut out[j - first];
-                for a in 0..4 {
-                    o[a] += reactions[a][k];
-                }
+                add(&mut out[j - first], reactions.each_ref().map(|r| r[k]));
             }
         }
         let n = (targets.len() * len) as u64;
