@@ -510,10 +510,11 @@ mod tests {
 
     /// Two particles' rows at once give the bits of two rows in turn: their
     /// sums and the partners' reactions, on eight lanes with the estimate
-    /// and on four exact, for every remainder of the partners.
+    /// and on four exact, with and without repulsion, for every remainder
+    /// of the partners.
     #[test]
     fn two_rows_at_once_give_the_bits_of_two_in_turn() {
-        fn check<L: Register, const ESTIMATE: bool>(
+        fn check<L: Register, const ESTIMATE: bool, const REPULSION: bool>(
             kernel: &Kernel,
             len: usize,
             next: &mut impl FnMut() -> f64,
@@ -530,7 +531,7 @@ mod tests {
             let one_by_one: Vec<[f64; 4]> = (0..2)
                 .map(|t| {
                     let [a, b, c, d] = &mut apart;
-                    kernel.row::<L, true, true, ESTIMATE>(
+                    kernel.row::<L, REPULSION, true, ESTIMATE>(
                         xi[t],
                         mi[t],
                         partners,
@@ -540,7 +541,7 @@ mod tests {
                 })
                 .collect();
             let [a, b, c, d] = &mut together;
-            let both = kernel.rows::<L, true, true, ESTIMATE, 2>(
+            let both = kernel.rows::<L, REPULSION, true, ESTIMATE, 2>(
                 xi,
                 mi,
                 partners,
@@ -557,10 +558,15 @@ mod tests {
                     "len {len} reactions {k}"
                 );
             }
-            let one_sided =
-                kernel.rows::<L, true, false, ESTIMATE, 2>(xi, mi, partners, &pm, Block::none());
+            let one_sided = kernel.rows::<L, REPULSION, false, ESTIMATE, 2>(
+                xi,
+                mi,
+                partners,
+                &pm,
+                Block::none(),
+            );
             for t in 0..2 {
-                let alone = kernel.row::<L, true, false, ESTIMATE>(
+                let alone = kernel.row::<L, REPULSION, false, ESTIMATE>(
                     xi[t],
                     mi[t],
                     partners,
@@ -572,10 +578,13 @@ mod tests {
         }
         let mut rng = crate::random::Rng::new(17);
         let mut next = || rng.uniform();
-        let kernel = Kernel::new(&GravityLaw::new(1.0, 0.05, 0.02).unwrap());
+        let repelled = Kernel::new(&GravityLaw::new(1.0, 0.05, 0.02).unwrap());
+        let plain = Kernel::new(&GravityLaw::new(1.0, 0.0, 0.0).unwrap());
         for len in 0..21 {
-            check::<F64x8, true>(&kernel, len, &mut next);
-            check::<crate::simd::F64x4, false>(&kernel, len, &mut next);
+            check::<F64x8, true, true>(&repelled, len, &mut next);
+            check::<crate::simd::F64x4, false, true>(&repelled, len, &mut next);
+            check::<F64x8, true, false>(&plain, len, &mut next);
+            check::<crate::simd::F64x4, false, false>(&plain, len, &mut next);
         }
     }
 
