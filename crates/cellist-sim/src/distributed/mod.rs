@@ -425,6 +425,19 @@ impl<const D: usize> GhostPlan<D> {
         self.sends.iter().map(Vec::len).sum()
     }
 
+    /// Renumbers the particles the plan sends after the caller stored them
+    /// anew, `new[i] = old[former[i]]`: the same particles go out, in the
+    /// same order, with the same shifts.
+    pub fn renumber(&mut self, former: &[u32]) {
+        let mut new_of = vec![0u32; former.len()];
+        for (i, &k) in former.iter().enumerate() {
+            new_of[k as usize] = i as u32;
+        }
+        for (k, _) in self.sends.iter_mut().flatten() {
+            *k = new_of[*k] as usize;
+        }
+    }
+
     /// The ghosts' ids, in ghost order.
     pub fn ids<C: Communicator>(&self, world: &C, ids: &[u64]) -> Vec<u64> {
         let outgoing: Vec<Vec<u64>> = self

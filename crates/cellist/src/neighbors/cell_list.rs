@@ -297,6 +297,24 @@ impl<const D: usize> CellList<D> {
         out.clear();
         out.extend(self.order.iter().map(|&i| values[i as usize]));
     }
+
+    /// Renumbers the particles of input index below `count` in the order of
+    /// their slots, `i' = #{slots before i's holding an index below count}`,
+    /// and returns each new index's former one (`former[i'] = i`), so that the
+    /// caller may store those particles in slot order (its arrays permuted
+    /// by `former`, `new[i'] = old[former[i']]`); the others keep their
+    /// indices. Nothing else changes: the slots, their positions and the
+    /// cells stay.
+    pub fn renumber_first(&mut self, count: usize) -> Vec<u32> {
+        let mut former = Vec::with_capacity(count);
+        for o in &mut self.order {
+            if (*o as usize) < count {
+                former.push(*o);
+                *o = (former.len() - 1) as u32;
+            }
+        }
+        former
+    }
 }
 
 #[cfg(test)]
@@ -323,5 +341,20 @@ mod tests {
         let mut ids = Vec::new();
         cl.permute(&[10, 11, 12, 13, 14], &mut ids);
         assert_eq!(ids[..3], [11, 12, 14]);
+    }
+
+    /// The first inputs renumbered in slot order, the others kept: slots in
+    /// order [1, 2, 4, 3, 0] with the first 3 renumbered give [0, 1, 4, 3, 2],
+    /// former numbers [1, 2, 0].
+    #[test]
+    fn renumber_first_numbers_in_slot_order() {
+        let dom = Domain::periodic([4.0, 4.0]).unwrap();
+        let pts = [[3.5, 3.5], [0.5, 0.5], [0.2, 0.1], [-0.5, 0.5], [1.5, 0.5]];
+        let mut cl = CellList::build(&dom, 1.0, &pts).unwrap();
+        assert_eq!(cl.order(), &[1, 2, 4, 3, 0]);
+        let positions = cl.positions().to_vec();
+        assert_eq!(cl.renumber_first(3), vec![1, 2, 0]);
+        assert_eq!(cl.order(), &[0, 1, 4, 3, 2]);
+        assert_eq!(cl.positions(), &positions[..]);
     }
 }

@@ -75,11 +75,20 @@ pub struct DistributedMd<const D: usize> {
     atoms: Atoms<D>,
     plan: GhostPlan<D>,
     ghost_ids: Vec<u64>,
+    /// The ghosts' positions now, in the plan's order.
+    ghosts: Vec<[f64; D]>,
+    /// The own atoms' then the ghosts' positions: at the last build for the
+    /// half list (its input; after it, the buffer the atoms are reordered
+    /// through), now for the reproducible rows.
     points: Vec<[f64; D]>,
+    /// The buffer of the atoms' ids, types and masses as they are reordered.
+    words: Vec<u64>,
     sums: PairSums<D>,
-    /// The ghosts' reactions on their way back (the half list).
+    /// The ghosts' reactions on their way back (the half list): `D` numbers
+    /// per ghost, `D + 2` with the half energy and virial.
     reactions: Vec<f64>,
-    computed: Vec<AtomForce<D>>,
+    /// Each own atom's half energy and half virial at the last observed step.
+    energies: Vec<[f64; 2]>,
     /// Any rank observed the last step: rank 0 pulls its outputs.
     observed: bool,
     /// The own atoms' slots in ascending id (observed steps).
@@ -94,6 +103,10 @@ pub struct DistributedMd<const D: usize> {
     energies_valid: bool,
     /// Set by a restore: the next step rebuilds whatever the skin test says.
     stale: bool,
+    /// The own atoms are stored in the half list's slot order of the last
+    /// build (then moved only by the migration), which keeps neighbours
+    /// close in memory without sorting them by cell at the next build.
+    in_slot_order: bool,
     counts: ListCounts,
     times: StageTimes,
     communication: Duration,
@@ -135,8 +148,8 @@ enum PairSums<const D: usize> {
     /// Over a half cluster list of own atoms and ghosts (`None` before the
     /// first build).
     Halo(Option<Box<HaloForces<D>>>),
-    /// Over full rows sorted by id.
-    Ordered(OrderedRows<D>),
+    /// Over full rows sorted by id, and each own atom's sums.
+    Ordered(OrderedRows<D>, Vec<AtomForce<D>>),
 }
 
 impl<const D: usize> PairSums<D> {
@@ -147,7 +160,7 @@ impl<const D: usize> PairSums<D> {
     fn images(&self) -> Images {
         match self {
             PairSums::Halo(_) => Images::HalfShell,
-            PairSums::Ordered(_) => Images::All,
+            PairSums::Ordered(..) => Images::All,
         }
     }
 
@@ -169,7 +182,7 @@ impl<const D: usize> PairSums<D> {
     ) -> Option<String> {
         let overlap = |(first, second)| MdError::Overlap { first, second }.to_string();
         match self {
-            PairSums::Ordered(rows) => {
+            PairSums::Ordered(rows, _) => {
                 match OrderedRows::build(points, owned, ids, potential.cutoff(), skin, threads) {
                     Ok(built) => {
                         *rows = built;
@@ -210,7 +223,7 @@ impl<const D: usize> PairSums<D> {
     fn needs_ids(&self) -> bool {
         match self {
             PairSums::Halo(halo) => halo.is_none(),
-            PairSums::Ordered(_) => true,
+            PairSums::Ordered(..) => true,
         }
     }
 
@@ -218,7 +231,7 @@ impl<const D: usize> PairSums<D> {
     fn reference(&self) -> &[[f64; D]] {
         match self {
             PairSums::Halo(halo) => halo.as_ref().map_or(&[], |h| h.reference()),
-            PairSums::Ordered(rows) => rows.reference(),
+            PairSums::Ordered(rows, _) => rows.reference(),
         }
     }
 
@@ -226,31 +239,7 @@ impl<const D: usize> PairSums<D> {
     fn needs_rebuild(&self, owned: &[[f64; D]]) -> bool {
         match self {
             PairSums::Halo(halo) => halo.as_ref().is_none_or(|h| h.needs_rebuild(owned)),
-            PairSums::Ordered(rows) => rows.needs_rebuild(owned),
-        }
-    }
-
-    /// The forces on the own atoms from `points` (own then ghosts, as built),
-    /// with `energy` their half energies and virials.
-    fn forces(
-        &mut self,
-        potential: &LennardJones,
-        points: &[[f64; D]],
-        energy: bool,
-        threads: &Threads,
-        out: &mut [AtomForce<D>],
-    ) {
-        match self {
-            PairSums::Halo(halo) => halo
-                .as_mut()
-                .expect("the list is built before the first forces")
-                .forces(points, energy, threads, out),
-            PairSums::Ordered(rows) if energy => {
-                ordered_forces::<true, D, _>(rows, potential, points, out, threads)
-            }
-            PairSums::Ordered(rows) => {
-                ordered_forces::<false, D, _>(rows, potential, points, out, threads)
-            }
+            PairSums::Ordered(rows, _) => rows.needs_rebuild(owned),
         }
     }
 }
@@ -307,7 +296,7 @@ impl<const D: usize> DistributedMd<D> {
         };
         let owned = atoms;
         let sums = if reproducible {
-            PairSums::Ordered(OrderedRows::default())
+            PairSums::Ordered(OrderedRows::default(), Vec::new())
         } else {
             PairSums::Halo(None)
         };
@@ -327,9 +316,11 @@ impl<const D: usize> DistributedMd<D> {
             total,
             atoms: owned,
             ghost_ids: Vec::new(),
+            ghosts: Vec::new(),
             points: Vec::new(),
+            words: Vec::new(),
             reactions: Vec::new(),
-            computed: Vec::new(),
+            energies: Vec::new(),
             observed: false,
             by_id: Vec::new(),
             span: IdSpan {
@@ -340,6 +331,7 @@ impl<const D: usize> DistributedMd<D> {
             restored_reference: None,
             energies_valid: true,
             stale: false,
+            in_slot_order: false,
             counts: ListCounts::default(),
             times: StageTimes::default(),
             communication: Duration::ZERO,
@@ -404,12 +396,13 @@ impl<const D: usize> DistributedMd<D> {
     fn redistribute(&mut self, threads: &Threads) -> Result<(), Blowup> {
         let t = Instant::now();
         self.rebalance();
-        // what the new list makes stale goes before it is built: the
-        // forces, the last output's id order
-        self.computed = Vec::new();
+        // what the new list makes stale goes before it is built: the last
+        // output's id order
         self.by_id = Vec::new();
         migrate(&self.world, &self.decomposition, &mut self.atoms);
-        self.sort_by_cell(threads);
+        if !self.in_slot_order {
+            self.sort_by_cell(threads);
+        }
         let reach = self.reach();
         self.plan = GhostPlan::new(
             &self.world,
@@ -420,11 +413,12 @@ impl<const D: usize> DistributedMd<D> {
         );
         self.ghost_ids = self.plan.ids(&self.world, &self.atoms.ids);
         let n = self.atoms.len();
+        self.ghosts.resize(self.ghost_ids.len(), [0.0; D]);
+        self.plan
+            .positions(&self.world, &self.atoms.positions, &mut self.ghosts);
         self.points.clear();
         self.points.extend_from_slice(&self.atoms.positions);
-        self.points.resize(n + self.ghost_ids.len(), [0.0; D]);
-        self.plan
-            .positions(&self.world, &self.atoms.positions, &mut self.points[n..]);
+        self.points.extend_from_slice(&self.ghosts);
         self.imbalance_sum += self.imbalance();
         self.imbalance_count += 1;
         self.ghosts_sum += self.ghost_ids.len() as f64;
@@ -450,11 +444,15 @@ impl<const D: usize> DistributedMd<D> {
         if let Some(what) = agreed {
             return Err(Blowup::new(0, what, REMEDY));
         }
-        let computed = match self.sums {
-            PairSums::Halo(_) => self.points.len(),
-            PairSums::Ordered(_) => n,
-        };
-        self.computed.resize(computed, AtomForce::default());
+        if let PairSums::Halo(Some(halo)) = &mut self.sums {
+            // the points, the list's input, are the buffer of the reordering
+            let former = halo.own_in_slot_order(&mut self.points);
+            let (points, words) = (&mut self.points, &mut self.words);
+            self.atoms.permute_through(&former, points, words);
+            self.plan.renumber(&former);
+            self.in_slot_order = true;
+        }
+        self.energies.resize(n, [0.0; 2]);
         self.stale = false;
         self.restored_reference = None;
         Ok(())
@@ -521,43 +519,62 @@ impl<const D: usize> DistributedMd<D> {
     }
 
     /// The forces on the own atoms; with `energy`, their half energies and
-    /// virials too.
+    /// virials too. The half list writes the own atoms' sums and the ghosts'
+    /// reactions straight to their arrays and sends the reactions back; the
+    /// reproducible rows sum from the own atoms' and the ghosts' positions
+    /// side by side.
     fn forces(&mut self, energy: bool, threads: &Threads) {
-        let (potential, points) = (&self.potential, &self.points);
-        self.sums
-            .forces(potential, points, energy, threads, &mut self.computed);
-        if matches!(self.sums, PairSums::Halo(_)) {
-            self.return_reactions(energy);
-        }
-        for (f, c) in self.atoms.forces.iter_mut().zip(&self.computed) {
-            *f = c.force;
+        match &mut self.sums {
+            PairSums::Halo(halo) => {
+                let halo = halo
+                    .as_mut()
+                    .expect("the list is built before the first forces");
+                let width = D + if energy { 2 } else { 0 };
+                self.reactions.resize(width * self.ghosts.len(), 0.0);
+                halo.forces(
+                    &self.atoms.positions,
+                    &self.ghosts,
+                    threads,
+                    &mut self.atoms.forces,
+                    &mut self.reactions,
+                    energy.then_some(&mut self.energies[..]),
+                );
+                self.return_reactions(width);
+            }
+            PairSums::Ordered(rows, sums) => {
+                let n = self.atoms.len();
+                self.points[..n].copy_from_slice(&self.atoms.positions);
+                self.points[n..].copy_from_slice(&self.ghosts);
+                sums.resize(n, AtomForce::default());
+                let (potential, points) = (&self.potential, &self.points);
+                if energy {
+                    ordered_forces::<true, D, _>(rows, potential, points, sums, threads);
+                } else {
+                    ordered_forces::<false, D, _>(rows, potential, points, sums, threads);
+                }
+                for (k, c) in sums.iter().enumerate() {
+                    self.atoms.forces[k] = c.force;
+                    self.energies[k] = [c.energy, c.virial];
+                }
+            }
         }
     }
 
-    /// Sends the ghosts' reactions (with `energy`, their half energies and
-    /// virials too) to their owners and adds what comes back to the own
-    /// atoms: each pair across a cut is computed on one rank only.
-    fn return_reactions(&mut self, energy: bool) {
+    /// Sends the ghosts' reactions (`width` numbers each: the force, then
+    /// with `D + 2` the half energy and virial) to their owners and adds what
+    /// comes back to the own atoms: each pair across a cut is computed on one
+    /// rank only.
+    fn return_reactions(&mut self, width: usize) {
         let t = Instant::now();
-        let n = self.atoms.len();
-        let width = D + if energy { 2 } else { 0 };
-        self.reactions.clear();
-        for c in &self.computed[n..] {
-            self.reactions.extend_from_slice(&c.force);
-            if energy {
-                self.reactions.extend([c.energy, c.virial]);
-            }
-        }
-        let computed = &mut self.computed;
+        let (forces, energies) = (&mut self.atoms.forces, &mut self.energies);
         self.plan
             .reverse(&self.world, width, &self.reactions, |k, values| {
-                let c = &mut computed[k];
-                for (f, v) in c.force.iter_mut().zip(values) {
+                for (f, v) in forces[k].iter_mut().zip(values) {
                     *f += v;
                 }
-                if energy {
-                    c.energy += values[D];
-                    c.virial += values[D + 1];
+                if width > D {
+                    energies[k][0] += values[D];
+                    energies[k][1] += values[D + 1];
                 }
             });
         self.communication += t.elapsed();
@@ -684,11 +701,9 @@ impl<const D: usize> DistributedMd<D> {
             self.counts.built(late);
             self.check_count(step)?;
         } else {
-            let n = self.atoms.len();
-            self.points[..n].copy_from_slice(&self.atoms.positions);
             let c = Instant::now();
             self.plan
-                .positions(&self.world, &self.atoms.positions, &mut self.points[n..]);
+                .positions(&self.world, &self.atoms.positions, &mut self.ghosts);
             self.communication += c.elapsed();
         }
         let t = lap(t, &mut self.times.neighbor);
@@ -860,12 +875,13 @@ impl<const D: usize> Model for DistributedMd<D> {
         if atoms.positions.iter().flatten().any(|c| !c.is_finite()) {
             return Err(StateError("a saved position is not finite".into()));
         }
-        self.computed.clear();
-        self.computed.resize(atoms.len(), AtomForce::default());
+        self.energies.clear();
+        self.energies.resize(atoms.len(), [0.0; 2]);
         self.atoms = atoms;
         self.restored_reference = Some(reference);
         self.counts = counts;
         self.stale = true;
+        self.in_slot_order = false;
         self.energies_valid = false;
         self.observe_order();
         Ok(())

@@ -122,7 +122,7 @@ impl<const D: usize> pull::OwnRows for OwnRows<'_, D> {
             values.extend_from_slice(&atoms.velocities[k]);
             values.extend_from_slice(&atoms.forces[k]);
             values.extend([atoms.masses[k], atoms.types[k] as f64]);
-            values.extend([m.computed[k].energy, m.computed[k].virial]);
+            values.extend(m.energies[k]);
             values.extend_from_slice(&reference[k]);
         }
     }

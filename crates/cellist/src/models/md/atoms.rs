@@ -64,27 +64,36 @@ impl<const D: usize> Atoms<D> {
         order: &[u32],
         scratch: &mut PermuteScratch<D>,
     ) {
+        self.permute_all_but_positions(order, &mut scratch.vectors, &mut scratch.words);
+    }
+
+    /// Reorders every array, `self[k] = old[order[k]]`, through buffers the
+    /// caller lends, `vectors` and `words` (each array gathered into one and
+    /// copied back: sequential writes, no allocation once they have grown).
+    pub fn permute_through(
+        &mut self,
+        order: &[u32],
+        vectors: &mut Vec<[f64; D]>,
+        words: &mut Vec<u64>,
+    ) {
+        self.permute_all_but_positions(order, vectors, words);
+        reorder(&mut self.positions, order, vectors, |x| x, |x| x);
+    }
+
+    /// [`Atoms::permute_through`] of every array but the positions.
+    fn permute_all_but_positions(
+        &mut self,
+        order: &[u32],
+        vectors: &mut Vec<[f64; D]>,
+        words: &mut Vec<u64>,
+    ) {
         let same = |x| x;
-        reorder(&mut self.ids, order, &mut scratch.words, same, same);
-        reorder(&mut self.types, order, &mut scratch.words, u64::from, |w| {
-            w as u32
-        });
-        reorder(
-            &mut self.masses,
-            order,
-            &mut scratch.words,
-            f64::to_bits,
-            f64::from_bits,
-        );
+        reorder(&mut self.ids, order, words, same, same);
+        reorder(&mut self.types, order, words, u64::from, |w| w as u32);
+        reorder(&mut self.masses, order, words, f64::to_bits, f64::from_bits);
         let same = |x| x;
-        reorder(
-            &mut self.velocities,
-            order,
-            &mut scratch.vectors,
-            same,
-            same,
-        );
-        reorder(&mut self.forces, order, &mut scratch.vectors, same, same);
+        reorder(&mut self.velocities, order, vectors, same, same);
+        reorder(&mut self.forces, order, vectors, same, same);
     }
 
     /// Reorders every array, `self[k] = old[order[k]]` (the atoms of
@@ -229,6 +238,20 @@ mod tests {
         assert_eq!(atoms, selected);
         by_cycles.permute_by_cycles(&order);
         assert_eq!(by_cycles, selected);
+        let mut through = by_cycles.clone();
+        through.permute_by_cycles(&slots_of_inverse(&order));
+        let (mut vectors, mut words) = (Vec::new(), Vec::new());
+        through.permute_through(&order, &mut vectors, &mut words);
+        assert_eq!(through, selected);
+    }
+
+    /// The permutation that undoes `order`.
+    fn slots_of_inverse(order: &[u32]) -> Vec<u32> {
+        let mut inverse = vec![0; order.len()];
+        for (k, &o) in order.iter().enumerate() {
+            inverse[o as usize] = k as u32;
+        }
+        inverse
     }
 
     /// An order with a slot twice is refused, not followed forever.

@@ -71,11 +71,7 @@ impl<const D: usize> ClusterForces<'_, D> {
         let (list, positions, potential) = (self.list, self.positions, self.potential);
         let cutoff2 = potential.cutoff2();
         // above[i]: the cutoff in the lanes j > i only (a cluster's own pairs)
-        let above: [F64x4; CLUSTER] = std::array::from_fn(|i| {
-            let lanes: [f64; CLUSTER] =
-                std::array::from_fn(|l| if l > i { cutoff2 } else { NO_PAIR });
-            F64x4::load(&lanes)
-        });
+        let above = above_the_diagonal(cutoff2);
         scatter_half_rows(
             self.layers,
             forces,
@@ -184,42 +180,44 @@ impl<const D: usize> ClusterForces<'_, D> {
     /// Per slot, half the energy `U(r)/2` and half the virial
     /// `r^2 (-U'(r)/r) / 2` of every listed pair within the cutoff it is in
     /// (LAMMPS's `pe/atom` split), four pairs at a time as the force loop forms
-    /// them, on one thread; `energies` and `virials` (slot order) are set.
+    /// them (the same limits, and its test that skips a block with no pair
+    /// within them: such a block adds only zeros), on one thread; `energies`
+    /// and `virials` (slot order) are set.
     pub(super) fn half_pair_sums(&self, energies: &mut [f64], virials: &mut [f64]) {
         energies.fill(0.0);
         virials.fill(0.0);
         let (list, positions, lj) = (self.list, self.positions, self.potential);
-        let (cutoff2, half) = (F64x4::splat(lj.cutoff2()), F64x4::splat(0.5));
+        let (cutoff2, half) = (lj.cutoff2(), F64x4::splat(0.5));
+        let above = above_the_diagonal(cutoff2);
         let shifts = list.image_shifts();
         for ci in 0..list.num_clusters() {
             let (xi, slots) = (&positions[ci], list.slots(ci));
+            let ni = slots.len();
+            let limits: [F64x4; CLUSTER] =
+                std::array::from_fn(|i| F64x4::splat(if i < ni { cutoff2 } else { NO_PAIR }));
             let ghosts = list.ghost_lanes(ci);
+            let xib: [[F64x4; D]; CLUSTER] =
+                std::array::from_fn(|i| std::array::from_fn(|a| F64x4::splat(xi[a][i])));
             // the pairs inside the cluster (lanes j > i), then the row's blocks
-            let blocks =
-                std::iter::once((ci, [0.0; D], true)).chain(list.row(ci).iter().map(|&entry| {
-                    let (cj, image) = unpack(entry);
-                    (cj, shifts[usize::from(image)], false)
-                }));
-            for (cj, shift, inside) in blocks {
+            let own_limits: [F64x4; CLUSTER] = std::array::from_fn(|i| limits[i].min(above[i]));
+            let own = (ci, [0.0; D], own_limits);
+            let entries = list.row(ci).iter().map(|&entry| {
+                let (cj, image) = unpack(entry);
+                (cj, shifts[usize::from(image)], limits)
+            });
+            for (cj, shift, limits) in std::iter::once(own).chain(entries) {
                 let xj = shifted(&positions[cj], &shift);
-                let ghosts_j = list.ghost_lanes(cj);
+                let limits = without_ghost_pairs(&limits, ghosts, list.ghost_lanes(cj), cutoff2);
+                if !any_within(&xib, &xj, &limits) {
+                    continue;
+                }
                 let (mut ej, mut wj) = ([0.0; CLUSTER], [0.0; CLUSTER]);
                 for (i, slot) in slots.clone().enumerate() {
-                    let ghost_pair = |l: usize| ghosts >> i & ghosts_j >> l & 1 == 1;
-                    let lanes: [f64; CLUSTER] = std::array::from_fn(|l| {
-                        if (inside && l <= i) || ghost_pair(l) {
-                            NO_PAIR
-                        } else {
-                            1.0
-                        }
-                    });
-                    let limit = cutoff2.min(F64x4::load(&lanes) * cutoff2);
-                    let minus_d: [F64x4; D] =
-                        std::array::from_fn(|a| xj[a] - F64x4::splat(xi[a][i]));
+                    let minus_d: [F64x4; D] = std::array::from_fn(|a| xj[a] - xib[i][a]);
                     let r2 = squared_length(&minus_d);
                     let (e, g) = lj.energy_and_force_lanes(r2);
-                    let e = (e * half).zero_unless_less(r2, limit).to_array();
-                    let w = (g * r2 * half).zero_unless_less(r2, limit).to_array();
+                    let e = (e * half).zero_unless_less(r2, limits[i]).to_array();
+                    let w = (g * r2 * half).zero_unless_less(r2, limits[i]).to_array();
                     energies[slot] += e.iter().sum::<f64>();
                     virials[slot] += w.iter().sum::<f64>();
                     for l in 0..CLUSTER {
@@ -234,6 +232,15 @@ impl<const D: usize> ClusterForces<'_, D> {
             }
         }
     }
+}
+
+/// `above[i]`: the cutoff `r_c^2` in the lanes `j > i` only, [`NO_PAIR`] in
+/// the others (the pairs of a cluster with itself).
+fn above_the_diagonal(cutoff2: f64) -> [F64x4; CLUSTER] {
+    std::array::from_fn(|i| {
+        let lanes: [f64; CLUSTER] = std::array::from_fn(|l| if l > i { cutoff2 } else { NO_PAIR });
+        F64x4::load(&lanes)
+    })
 }
 
 /// `limits` (per i-lane) without the pairs of two ghosts: for a ghost lane

@@ -105,19 +105,20 @@ impl<const D: usize> ClusterPairs<D> {
         totals
     }
 
-    /// [`ClusterPairs::forces`] from `points` in the order they were binned
-    /// in ([`CellList::order`]), the force on each point passed to
-    /// `force(k, f_k)` (one thread), no energy.
+    /// [`ClusterPairs::forces`] from the position of each point `k`, in the
+    /// numbering they were binned in ([`CellList::order`]), `position(k)`;
+    /// the force on each point passed to `force(k, f_k)` (one thread), no
+    /// energy.
     pub(super) fn forces_by_point(
         &mut self,
         potential: &LennardJones,
-        points: &[[f64; D]],
+        position: impl Fn(usize) -> [f64; D] + Sync,
         threads: &Threads,
         mut force: impl FnMut(usize, [f64; D]),
     ) {
         let order = self.cells.order();
         self.list.gather_by(
-            |slot| points[order[slot] as usize],
+            |slot| position(order[slot] as usize),
             threads,
             &mut self.lanes,
         );

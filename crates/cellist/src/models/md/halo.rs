@@ -23,7 +23,6 @@
 //! single-process run to rounding, not to the bit.
 
 use super::cluster_pairs::ClusterPairs;
-use super::AtomForce;
 use crate::decomposition::Subdomain;
 use crate::geometry::{Boundary, Domain, GeometryError};
 use crate::interactions::{LennardJones, PairPotential};
@@ -99,6 +98,23 @@ impl<const D: usize> HaloForces<D> {
         Ok(true)
     }
 
+    /// Renumbers the own points in the order of their slots
+    /// ([`CellList::renumber_first`]) and returns each new number's former
+    /// one, `former`: the caller stores its own atoms in that order
+    /// (`new[i] = old[former[i]]`), so that neighbours lie close in memory,
+    /// the list's reads and writes of the own atoms run in order, and the
+    /// next build bins atoms nearly sorted already. The ghosts keep their
+    /// numbers; the list, its sums and their bits do not change.
+    /// The reference positions are reordered through `buffer` (lent by the
+    /// caller: no allocation once it has grown).
+    pub fn own_in_slot_order(&mut self, buffer: &mut Vec<[f64; D]>) -> Vec<u32> {
+        let former = self.pairs.cells.renumber_first(self.owned);
+        buffer.clear();
+        buffer.extend(former.iter().map(|&k| self.reference[k as usize]));
+        self.reference.copy_from_slice(buffer);
+        former
+    }
+
     /// The own atoms' positions at the build (the reference of the skin/2
     /// test).
     pub fn reference(&self) -> &[[f64; D]] {
@@ -115,36 +131,49 @@ impl<const D: usize> HaloForces<D> {
         self.pairs.cells.order()
     }
 
-    /// Sets `out[k].force` for every point from `points` (own then ghosts,
-    /// in the build's order, at their positions now): on a ghost, the
-    /// reaction of the pairs this rank computed with it, to be sent to its
-    /// owner. With `energy`, also `out[k].energy` and `out[k].virial` (half
-    /// of each of its listed pairs'), zero without.
+    /// The pair sums at the own atoms' positions `own` and the ghosts'
+    /// `ghosts` (in the numbering of the build, each within skin/2 of its
+    /// build position): `forces[k]`, the force on own atom `k`; per ghost
+    /// `g`, its reaction (the sum of the pairs this rank computed with it, to
+    /// be sent to its owner) at `reactions[w g..w g + D]`. With `energies`,
+    /// also each own atom's half energy and half virial (half of each of its
+    /// listed pairs') in `energies[k]`, and each ghost's after its reaction
+    /// (`w = D + 2`); without, `w = D`.
     pub fn forces(
         &mut self,
-        points: &[[f64; D]],
-        energy: bool,
+        own: &[[f64; D]],
+        ghosts: &[[f64; D]],
         threads: &Threads,
-        out: &mut [AtomForce<D>],
+        forces: &mut [[f64; D]],
+        reactions: &mut [f64],
+        energies: Option<&mut [[f64; 2]]>,
     ) {
-        assert_eq!(out.len(), points.len());
+        let n = self.owned;
+        assert!(own.len() == n && forces.len() == n);
+        let width = D + if energies.is_some() { 2 } else { 0 };
+        assert_eq!(reactions.len(), width * ghosts.len());
+        let position = |k: usize| if k < n { own[k] } else { ghosts[k - n] };
         self.pairs
-            .forces_by_point(&self.potential, points, threads, |k, f| {
-                out[k] = AtomForce {
-                    force: f,
-                    energy: 0.0,
-                    virial: 0.0,
+            .forces_by_point(&self.potential, position, threads, |k, f| {
+                if k < n {
+                    forces[k] = f;
+                } else {
+                    reactions[width * (k - n)..][..D].copy_from_slice(&f);
                 }
             });
-        if energy {
-            let n = points.len();
-            self.energies.resize(n, 0.0);
-            self.virials.resize(n, 0.0);
+        if let Some(energies) = energies {
+            let points = n + ghosts.len();
+            self.energies.resize(points, 0.0);
+            self.virials.resize(points, 0.0);
             self.pairs
                 .half_pair_sums(&self.potential, &mut self.energies, &mut self.virials);
             for (slot, &k) in self.pairs.cells.order().iter().enumerate() {
-                let o = &mut out[k as usize];
-                (o.energy, o.virial) = (self.energies[slot], self.virials[slot]);
+                let (k, halves) = (k as usize, [self.energies[slot], self.virials[slot]]);
+                if k < n {
+                    energies[k] = halves;
+                } else {
+                    reactions[width * (k - n) + D..][..2].copy_from_slice(&halves);
+                }
             }
         }
     }
@@ -223,6 +252,7 @@ fn halo_cells<const D: usize>(
 
 #[cfg(test)]
 mod tests {
+    use super::super::AtomForce;
     use super::*;
     use crate::decomposition::{Balance, Decomposition, Images};
     use crate::geometry::norm2;
@@ -256,6 +286,47 @@ mod tests {
         let open = Domain::new([11.0, 8.5, 8.0], open_x).unwrap();
         check(open, 3, 300, 5, Balance::Uniform);
         check(cube([12.0, 8.5, 8.0]), 3, 300, 6, Balance::Rcb);
+    }
+
+    /// Every point's sums from [`HaloForces::forces`] with energies: an own
+    /// atom's force, half energy and half virial, a ghost's reaction and its
+    /// halves; the forces and reactions without energies are the same bits.
+    fn sums_by_point<const D: usize>(
+        halo: &mut HaloForces<D>,
+        points: &[[f64; D]],
+        owned: usize,
+        threads: &Threads,
+    ) -> Vec<AtomForce<D>> {
+        let (own, ghosts) = points.split_at(owned);
+        let mut forces = vec![[0.0; D]; owned];
+        let mut reactions = vec![0.0; (D + 2) * ghosts.len()];
+        let mut energies = vec![[0.0; 2]; owned];
+        let with = Some(&mut energies[..]);
+        halo.forces(own, ghosts, threads, &mut forces, &mut reactions, with);
+        let mut bare_forces = vec![[0.0; D]; owned];
+        let mut bare_reactions = vec![0.0; D * ghosts.len()];
+        halo.forces(
+            own,
+            ghosts,
+            threads,
+            &mut bare_forces,
+            &mut bare_reactions,
+            None,
+        );
+        assert_eq!(bare_forces, forces);
+        let reaction_forces = reactions.chunks_exact(D + 2).flat_map(|r| &r[..D]);
+        assert!(bare_reactions.iter().eq(reaction_forces));
+        let own = forces.iter().zip(&energies).map(|(f, e)| AtomForce {
+            force: *f,
+            energy: e[0],
+            virial: e[1],
+        });
+        let ghosts = reactions.chunks_exact(D + 2).map(|r| AtomForce {
+            force: std::array::from_fn(|a| r[a]),
+            energy: r[D],
+            virial: r[D + 1],
+        });
+        own.chain(ghosts).collect()
     }
 
     fn check<const D: usize>(
@@ -315,8 +386,7 @@ mod tests {
                 let subdomain = decomposition.subdomain(rank);
                 let mut halo =
                     HaloForces::build(&subdomain, &all, own.len(), lj, skin, &threads).unwrap();
-                let mut out = vec![AtomForce::default(); all.len()];
-                halo.forces(&all, true, &threads, &mut out);
+                let out = sums_by_point(&mut halo, &all, own.len(), &threads);
                 // a list of other positions rebuilt in place for these gives
                 // the fresh list's sums, bit for bit
                 let moved: Vec<[f64; D]> = all.iter().map(|x| x.map(|c| c + 0.05)).collect();
@@ -324,9 +394,25 @@ mod tests {
                     HaloForces::build(&subdomain, &moved, own.len(), lj, skin, &threads).unwrap();
                 let in_place = again.rebuild(&subdomain, &all, own.len(), &threads);
                 assert_eq!(in_place, Ok(true), "the cells changed");
-                let mut out_again = vec![AtomForce::default(); all.len()];
-                again.forces(&all, true, &threads, &mut out_again);
+                let out_again = sums_by_point(&mut again, &all, own.len(), &threads);
                 assert_eq!(out_again, out, "rebuilt in place");
+                // the own atoms stored in slot order: the same sums, bit for
+                // bit, each at its atom's new number; the ghosts' unchanged
+                let former = again.own_in_slot_order(&mut Vec::new());
+                assert!(former.iter().enumerate().any(|(i, &k)| k as usize != i));
+                let mut renumbered = all.clone();
+                for (i, &k) in former.iter().enumerate() {
+                    renumbered[i] = all[k as usize];
+                }
+                assert_eq!(again.reference(), &renumbered[..own.len()]);
+                let out_renumbered = sums_by_point(&mut again, &renumbered, own.len(), &threads);
+                for (i, &k) in former.iter().enumerate() {
+                    assert_eq!(
+                        out_renumbered[i], out[k as usize],
+                        "own atom {k} renumbered {i}"
+                    );
+                }
+                assert_eq!(out_renumbered[own.len()..], out[own.len()..]);
                 for (k, o) in from.iter().zip(&out) {
                     let s = &mut sums[*k];
                     for d in 0..D {
