@@ -30,8 +30,7 @@
 use super::PairTally;
 use crate::interactions::LennardJones;
 use crate::neighbors::{
-    scatter_half_rows, shifted, squared_length, unpack, ClusterList, Lanes, LayerPlan, Summand,
-    CLUSTER,
+    scatter_half_rows, shifted, squared_length, unpack, ClusterList, Lanes, LayerPlan, CLUSTER,
 };
 use crate::simd::F64x4;
 use crate::threads::Threads;
@@ -49,96 +48,23 @@ pub(super) struct ClusterForces<'a, const D: usize> {
 const NO_PAIR: f64 = -1.0;
 
 /// The sums one row of the list adds to: the forces on the row's i-lanes, one
-/// vector per i and axis (summed across its lanes at the end of the row), the
-/// energy and virial (the tallies), and with per-slot energies each i's
-/// energy and virial sums.
+/// vector per i and axis (summed across its lanes at the end of the row), and
+/// the energy and virial.
 struct RowSums<const D: usize> {
     fi: [[F64x4; D]; CLUSTER],
     energy: F64x4,
     virial: F64x4,
-    ei: [F64x4; CLUSTER],
-    wi: [F64x4; CLUSTER],
-}
-
-/// What the force loop adds to a cluster's slots: the forces as lanes
-/// ([`Lanes`]), or the forces and each slot's energy and virial sums
-/// ([`ForceEnergyLanes`]).
-pub(super) trait ClusterSums<const D: usize>: Summand {
-    /// The sums carry each slot's energy and virial.
-    const PER_SLOT_ENERGY: bool;
-
-    /// The sums of forces `force`, energies `energy` and virials `virial`
-    /// (lane `l` for slot `l` of the cluster).
-    fn of(force: [F64x4; D], energy: F64x4, virial: F64x4) -> Self;
-}
-
-impl<const D: usize> ClusterSums<D> for Lanes<D> {
-    const PER_SLOT_ENERGY: bool = false;
-
-    #[inline(always)]
-    fn of(force: [F64x4; D], _: F64x4, _: F64x4) -> Self {
-        force.map(F64x4::to_array)
-    }
-}
-
-/// A cluster's forces and, per slot, the sum of `U(r)` and of
-/// `r^2 (-U'(r)/r)` over the listed pairs within the cutoff it is in.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub(super) struct ForceEnergyLanes<const D: usize> {
-    pub(super) force: Lanes<D>,
-    pub(super) energy: [f64; CLUSTER],
-    pub(super) virial: [f64; CLUSTER],
-}
-
-impl<const D: usize> Summand for ForceEnergyLanes<D> {
-    const ZERO: Self = ForceEnergyLanes {
-        force: [[0.0; CLUSTER]; D],
-        energy: [0.0; CLUSTER],
-        virial: [0.0; CLUSTER],
-    };
-
-    #[inline(always)]
-    fn add_assign(&mut self, delta: &Self) {
-        self.force.add_assign(&delta.force);
-        (F64x4::load(&self.energy) + F64x4::load(&delta.energy)).store(&mut self.energy);
-        (F64x4::load(&self.virial) + F64x4::load(&delta.virial)).store(&mut self.virial);
-    }
-
-    #[inline(always)]
-    fn negated(&self) -> Self {
-        ForceEnergyLanes {
-            force: self.force.negated(),
-            energy: self.energy.map(|e| -e),
-            virial: self.virial.map(|w| -w),
-        }
-    }
-}
-
-impl<const D: usize> ClusterSums<D> for ForceEnergyLanes<D> {
-    const PER_SLOT_ENERGY: bool = true;
-
-    #[inline(always)]
-    fn of(force: [F64x4; D], energy: F64x4, virial: F64x4) -> Self {
-        ForceEnergyLanes {
-            force: force.map(F64x4::to_array),
-            energy: energy.to_array(),
-            virial: virial.to_array(),
-        }
-    }
 }
 
 impl<const D: usize> ClusterForces<'_, D> {
     /// Sets `forces` to the pair sums: `f_I = sum over row I of f_ij` (lanes of
     /// I) and `f_J -= f_ij` for every entry `J`, `f_ij = (-U'/r)(x_i - x_j)` for
     /// `r^2 < r_c^2`; with `ENERGY`, each task's (`LayerPlan`) `U` and
-    /// `W = sum r^2 (-U'/r)` added to its entry of `tallies`; with
-    /// [`ForceEnergyLanes`], also each slot's `sum U` and `sum r^2 (-U'/r)`
-    /// over its pairs (each pair's to both of its slots). The forces are the
-    /// same bits whichever the sums.
-    pub(super) fn run<const ENERGY: bool, V: ClusterSums<D>>(
+    /// `W = sum r^2 (-U'/r)` added to its entry of `tallies`.
+    pub(super) fn run<const ENERGY: bool>(
         &self,
-        forces: &mut [V],
-        halo: &mut Vec<V>,
+        forces: &mut [Lanes<D>],
+        halo: &mut Vec<Lanes<D>>,
         tallies: &mut [PairTally],
         threads: &Threads,
     ) {
@@ -163,13 +89,10 @@ impl<const D: usize> ClusterForces<'_, D> {
                     let limits: [F64x4; CLUSTER] = std::array::from_fn(|i| {
                         F64x4::splat(if i < ni { cutoff2 } else { NO_PAIR })
                     });
-                    let zero = F64x4::splat(0.0);
                     let mut sums = RowSums {
-                        fi: [[zero; D]; CLUSTER],
-                        energy: zero,
-                        virial: zero,
-                        ei: [zero; CLUSTER],
-                        wi: [zero; CLUSTER],
+                        fi: [[F64x4::splat(0.0); D]; CLUSTER],
+                        energy: F64x4::splat(0.0),
+                        virial: F64x4::splat(0.0),
                     };
                     // the pairs inside the cluster: lanes j > i of the cluster itself
                     let ghosts = list.ghost_lanes(ci);
@@ -184,8 +107,7 @@ impl<const D: usize> ClusterForces<'_, D> {
                     // the i positions broadcast once per row
                     let xib: [[F64x4; D]; CLUSTER] =
                         std::array::from_fn(|i| std::array::from_fn(|a| F64x4::splat(xi[a][i])));
-                    let (f_own, e_own, w_own) =
-                        Self::block::<ENERGY, V>(&lj, &xib, &xj, &own_limits, &mut sums);
+                    let f_own = Self::block::<ENERGY>(&lj, &xib, &xj, &own_limits, &mut sums);
                     // an entry's cluster and its lanes shifted by the entry's image
                     let lanes_of = |entry: u32| {
                         let (cj, image) = unpack(entry);
@@ -195,9 +117,8 @@ impl<const D: usize> ClusterForces<'_, D> {
                     for &entry in near {
                         let (cj, xj) = lanes_of(entry);
                         let limits = limits_for(cj);
-                        let (fj, ej, wj) =
-                            Self::block::<ENERGY, V>(&lj, &xib, &xj, &limits, &mut sums);
-                        f.add(cj, &V::of(fj, ej, wj));
+                        let fj = Self::block::<ENERGY>(&lj, &xib, &xj, &limits, &mut sums);
+                        f.add(cj, &fj.map(F64x4::to_array));
                     }
                     // a block with no pair inside the limits adds only zeros:
                     // skipping it leaves every sum as it is
@@ -205,26 +126,15 @@ impl<const D: usize> ClusterForces<'_, D> {
                         let (cj, xj) = lanes_of(entry);
                         let limits = limits_for(cj);
                         if any_within(&xib, &xj, &limits) {
-                            let (fj, ej, wj) =
-                                Self::block::<ENERGY, V>(&lj, &xib, &xj, &limits, &mut sums);
-                            f.add(cj, &V::of(fj, ej, wj));
+                            let fj = Self::block::<ENERGY>(&lj, &xib, &xj, &limits, &mut sums);
+                            f.add(cj, &fj.map(F64x4::to_array));
                         }
                     }
-                    let own: [F64x4; D] = std::array::from_fn(|a| {
+                    let own: Lanes<D> = std::array::from_fn(|a| {
                         let fj = f_own[a].to_array();
-                        let lanes: [f64; CLUSTER] =
-                            std::array::from_fn(|i| sums.fi[i][a].sum() + fj[i]);
-                        F64x4::load(&lanes)
+                        std::array::from_fn(|i| sums.fi[i][a].sum() + fj[i])
                     });
-                    let (e_own, w_own) = if V::PER_SLOT_ENERGY {
-                        let (ej, wj) = (e_own.to_array(), w_own.to_array());
-                        let e: [f64; CLUSTER] = std::array::from_fn(|i| sums.ei[i].sum() + ej[i]);
-                        let w: [f64; CLUSTER] = std::array::from_fn(|i| sums.wi[i].sum() + wj[i]);
-                        (F64x4::load(&e), F64x4::load(&w))
-                    } else {
-                        (e_own, w_own)
-                    };
-                    f.add(ci, &V::of(own, e_own, w_own));
+                    f.add(ci, &own);
                     if ENERGY {
                         tally.energy += sums.energy.sum();
                         tally.virial += sums.virial.sum();
@@ -237,19 +147,16 @@ impl<const D: usize> ClusterForces<'_, D> {
     /// The `4 x 4` pairs of the i positions `xib` (each broadcast to four
     /// lanes) with the j-lanes `xj` under the potential `lj`: adds the i forces
     /// (and with `ENERGY` the energy and virial) to `sums`, returns the j
-    /// forces; with per-slot energies (`V`) also adds each i's energy and
-    /// virial to `sums` and returns the j lanes' (zeros without). Lane `l` of
-    /// pair row `i` counts where `r^2 < limits[i]_l`.
+    /// forces. Lane `l` of pair row `i` counts where `r^2 < limits[i]_l`.
     #[inline(always)]
-    fn block<const ENERGY: bool, V: ClusterSums<D>>(
+    fn block<const ENERGY: bool>(
         lj: &LennardJones,
         xib: &[[F64x4; D]; CLUSTER],
         xj: &[F64x4; D],
         limits: &[F64x4; CLUSTER],
         sums: &mut RowSums<D>,
-    ) -> ([F64x4; D], F64x4, F64x4) {
+    ) -> [F64x4; D] {
         let mut fj = [F64x4::splat(0.0); D];
-        let (mut ej, mut wj) = (F64x4::splat(0.0), F64x4::splat(0.0));
         for (i, fi) in sums.fi.iter_mut().enumerate() {
             // -d = x_J - x_i, so that the i positions can be a memory operand
             let minus_d: [F64x4; D] = std::array::from_fn(|a| xj[a] - xib[i][a]);
@@ -264,15 +171,66 @@ impl<const D: usize> ClusterForces<'_, D> {
                 sums.energy = sums.energy + e.zero_unless_less(r2, limits[i]);
                 sums.virial = g.mul_add(r2, sums.virial);
             }
-            if V::PER_SLOT_ENERGY {
-                let e = e.zero_unless_less(r2, limits[i]);
-                sums.ei[i] = sums.ei[i] + e;
-                sums.wi[i] = g.mul_add(r2, sums.wi[i]);
-                ej = ej + e;
-                wj = g.mul_add(r2, wj);
+        }
+        fj
+    }
+}
+
+impl<const D: usize> ClusterForces<'_, D> {
+    /// Per slot, half the energy `U(r)/2` and half the virial
+    /// `r^2 (-U'(r)/r) / 2` of every listed pair within the cutoff it is in
+    /// (LAMMPS's `pe/atom` split), four pairs at a time as the force loop forms
+    /// them (the same limits, and its test that skips a block with no pair
+    /// within them: such a block adds only zeros), on one thread; `energies`
+    /// and `virials` (slot order) are set.
+    pub(super) fn half_pair_sums(&self, energies: &mut [f64], virials: &mut [f64]) {
+        energies.fill(0.0);
+        virials.fill(0.0);
+        let (list, positions, lj) = (self.list, self.positions, self.potential);
+        let (cutoff2, half) = (lj.cutoff2(), F64x4::splat(0.5));
+        let above = above_the_diagonal(cutoff2);
+        let shifts = list.image_shifts();
+        for ci in 0..list.num_clusters() {
+            let (xi, slots) = (&positions[ci], list.slots(ci));
+            let ni = slots.len();
+            let limits: [F64x4; CLUSTER] =
+                std::array::from_fn(|i| F64x4::splat(if i < ni { cutoff2 } else { NO_PAIR }));
+            let ghosts = list.ghost_lanes(ci);
+            let xib: [[F64x4; D]; CLUSTER] =
+                std::array::from_fn(|i| std::array::from_fn(|a| F64x4::splat(xi[a][i])));
+            // the pairs inside the cluster (lanes j > i), then the row's blocks
+            let own_limits: [F64x4; CLUSTER] = std::array::from_fn(|i| limits[i].min(above[i]));
+            let own = (ci, [0.0; D], own_limits);
+            let entries = list.row(ci).iter().map(|&entry| {
+                let (cj, image) = unpack(entry);
+                (cj, shifts[usize::from(image)], limits)
+            });
+            for (cj, shift, limits) in std::iter::once(own).chain(entries) {
+                let xj = shifted(&positions[cj], &shift);
+                let limits = without_ghost_pairs(&limits, ghosts, list.ghost_lanes(cj), cutoff2);
+                if !any_within(&xib, &xj, &limits) {
+                    continue;
+                }
+                let (mut ej, mut wj) = ([0.0; CLUSTER], [0.0; CLUSTER]);
+                for (i, slot) in slots.clone().enumerate() {
+                    let minus_d: [F64x4; D] = std::array::from_fn(|a| xj[a] - xib[i][a]);
+                    let r2 = squared_length(&minus_d);
+                    let (e, g) = lj.energy_and_force_lanes(r2);
+                    let e = (e * half).zero_unless_less(r2, limits[i]).to_array();
+                    let w = (g * r2 * half).zero_unless_less(r2, limits[i]).to_array();
+                    energies[slot] += e.iter().sum::<f64>();
+                    virials[slot] += w.iter().sum::<f64>();
+                    for l in 0..CLUSTER {
+                        ej[l] += e[l];
+                        wj[l] += w[l];
+                    }
+                }
+                for (l, slot) in list.slots(cj).enumerate() {
+                    energies[slot] += ej[l];
+                    virials[slot] += wj[l];
+                }
             }
         }
-        (fj, ej, wj)
     }
 }
 

@@ -10,13 +10,12 @@
 //! f_i = sum_{j in list, r_ij < r_c} f_ij,   f_j -= f_ij   (Newton's third law)
 //! ```
 
-use super::cluster_forces::{ClusterForces, ClusterSums, ForceEnergyLanes};
+use super::cluster_forces::ClusterForces;
 use super::PairTally;
 use crate::geometry::{Domain, GeometryError};
 use crate::interactions::LennardJones;
 use crate::neighbors::{CellList, ClusterList, Lanes, LayerPlan, CLUSTER};
 use crate::threads::Threads;
-use std::mem::take;
 
 /// A cell list, its half cluster pair list and the force pass's buffers.
 pub(super) struct ClusterPairs<const D: usize> {
@@ -117,83 +116,17 @@ impl<const D: usize> ClusterPairs<D> {
         threads: &Threads,
         mut force: impl FnMut(usize, [f64; D]),
     ) {
-        let (mut sums, mut halo) = (take(&mut self.lane_forces), take(&mut self.halo));
-        self.sums_by_point(
-            potential,
-            position,
-            threads,
-            &mut sums,
-            &mut halo,
-            |k, s, l| force(k, std::array::from_fn(|a| s[a][l])),
-        );
-        (self.lane_forces, self.halo) = (sums, halo);
-    }
-
-    /// [`ClusterPairs::forces_by_point`] with each point's half energy and
-    /// half virial from the same pass over the pairs,
-    /// `visit(k, f_k, u_k, w_k)`:
-    ///
-    /// ```text
-    /// u_k = (1/2) sum_j U(r_kj),   w_k = (1/2) sum_j r_kj^2 (-U'(r_kj)/r_kj)
-    /// ```
-    ///
-    /// over the listed pairs within the cutoff (LAMMPS's `pe/atom` split). The
-    /// pass's buffers are allocated for it and dropped after (observed steps
-    /// only: no memory kept between them).
-    pub(super) fn forces_and_energies_by_point(
-        &mut self,
-        potential: &LennardJones,
-        position: impl Fn(usize) -> [f64; D] + Sync,
-        threads: &Threads,
-        mut visit: impl FnMut(usize, [f64; D], f64, f64),
-    ) {
-        let (mut sums, mut halo) = (Vec::new(), Vec::new());
-        self.sums_by_point(
-            potential,
-            position,
-            threads,
-            &mut sums,
-            &mut halo,
-            |k, s: &ForceEnergyLanes<D>, l| {
-                let force = std::array::from_fn(|a| s.force[a][l]);
-                visit(k, force, 0.5 * s.energy[l], 0.5 * s.virial[l]);
-            },
-        );
-    }
-
-    /// The pair sums of the kind `V` from the positions `position(k)` (as
-    /// [`ClusterPairs::forces_by_point`]) into `sums` (one per cluster, the
-    /// kernel's `halo` beside them), each slot's passed to
-    /// `visit(k, cluster's sums, lane)` in slot order.
-    fn sums_by_point<V: ClusterSums<D>>(
-        &mut self,
-        potential: &LennardJones,
-        position: impl Fn(usize) -> [f64; D] + Sync,
-        threads: &Threads,
-        sums: &mut Vec<V>,
-        halo: &mut Vec<V>,
-        mut visit: impl FnMut(usize, &V, usize),
-    ) {
         let order = self.cells.order();
         self.list.gather_by(
             |slot| position(order[slot] as usize),
             threads,
             &mut self.lanes,
         );
-        // every element is set by the sum (scatter_half_rows): no zeroing pass
-        sums.resize(self.list.num_clusters(), V::ZERO);
-        self.tallies.fill(PairTally::default());
-        let kernel = ClusterForces {
-            list: &self.list,
-            layers: &self.layers,
-            potential,
-            positions: &self.lanes,
-        };
-        kernel.run::<false, V>(sums, halo, &mut self.tallies, threads);
+        self.lane_sums(potential, false, threads);
         let order = self.cells.order();
-        for (c, lanes) in sums.iter().enumerate() {
+        for (c, lanes) in self.lane_forces.iter().enumerate() {
             for (l, slot) in self.list.slots(c).enumerate() {
-                visit(order[slot] as usize, lanes, l);
+                force(order[slot] as usize, std::array::from_fn(|a| lanes[a][l]));
             }
         }
     }
@@ -218,7 +151,7 @@ impl<const D: usize> ClusterPairs<D> {
         };
         let (lanes, halo, tallies) = (&mut self.lane_forces, &mut self.halo, &mut self.tallies);
         if energy {
-            kernel.run::<true, _>(lanes, halo, tallies, threads);
+            kernel.run::<true>(lanes, halo, tallies, threads);
             let mut totals = PairTally::default();
             for t in tallies.iter() {
                 totals.energy += t.energy;
@@ -226,9 +159,29 @@ impl<const D: usize> ClusterPairs<D> {
             }
             Some(totals)
         } else {
-            kernel.run::<false, _>(lanes, halo, tallies, threads);
+            kernel.run::<false>(lanes, halo, tallies, threads);
             None
         }
+    }
+}
+
+impl<const D: usize> ClusterPairs<D> {
+    /// Per slot, half the energy and half the virial of every listed pair
+    /// within the cutoff it is in ([`ClusterForces::half_pair_sums`]), at the
+    /// positions of the last force pass.
+    pub(super) fn half_pair_sums(
+        &self,
+        potential: &LennardJones,
+        energies: &mut [f64],
+        virials: &mut [f64],
+    ) {
+        let kernel = ClusterForces {
+            list: &self.list,
+            layers: &self.layers,
+            potential,
+            positions: &self.lanes,
+        };
+        kernel.half_pair_sums(energies, virials);
     }
 }
 

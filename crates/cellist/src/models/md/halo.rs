@@ -37,6 +37,10 @@ pub struct HaloForces<const D: usize> {
     skin: f64,
     owned: usize,
     reference: Vec<[f64; D]>,
+    /// Per slot, the half energies and virials of an observed step (kept, so
+    /// that a step allocates nothing).
+    energies: Vec<f64>,
+    virials: Vec<f64>,
 }
 
 impl<const D: usize> HaloForces<D> {
@@ -62,6 +66,8 @@ impl<const D: usize> HaloForces<D> {
             skin,
             owned,
             reference: points[..owned].to_vec(),
+            energies: Vec::new(),
+            virials: Vec::new(),
         })
     }
 
@@ -147,32 +153,28 @@ impl<const D: usize> HaloForces<D> {
         let width = D + if energies.is_some() { 2 } else { 0 };
         assert_eq!(reactions.len(), width * ghosts.len());
         let position = |k: usize| if k < n { own[k] } else { ghosts[k - n] };
-        let potential = &self.potential;
-        match energies {
-            None => self
-                .pairs
-                .forces_by_point(potential, position, threads, |k, f| {
-                    if k < n {
-                        forces[k] = f;
-                    } else {
-                        reactions[width * (k - n)..][..D].copy_from_slice(&f);
-                    }
-                }),
-            Some(energies) => self.pairs.forces_and_energies_by_point(
-                potential,
-                position,
-                threads,
-                |k, f, u, w| {
-                    if k < n {
-                        forces[k] = f;
-                        energies[k] = [u, w];
-                    } else {
-                        let reaction = &mut reactions[width * (k - n)..][..width];
-                        reaction[..D].copy_from_slice(&f);
-                        reaction[D..].copy_from_slice(&[u, w]);
-                    }
-                },
-            ),
+        self.pairs
+            .forces_by_point(&self.potential, position, threads, |k, f| {
+                if k < n {
+                    forces[k] = f;
+                } else {
+                    reactions[width * (k - n)..][..D].copy_from_slice(&f);
+                }
+            });
+        if let Some(energies) = energies {
+            let points = n + ghosts.len();
+            self.energies.resize(points, 0.0);
+            self.virials.resize(points, 0.0);
+            self.pairs
+                .half_pair_sums(&self.potential, &mut self.energies, &mut self.virials);
+            for (slot, &k) in self.pairs.cells.order().iter().enumerate() {
+                let (k, halves) = (k as usize, [self.energies[slot], self.virials[slot]]);
+                if k < n {
+                    energies[k] = halves;
+                } else {
+                    reactions[width * (k - n) + D..][..2].copy_from_slice(&halves);
+                }
+            }
         }
     }
 
