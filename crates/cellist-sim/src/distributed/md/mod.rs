@@ -489,7 +489,10 @@ impl<const D: usize> DistributedMd<D> {
 
     /// Puts the own atoms in the order of the cells (of side cutoff + skin)
     /// they are in, so that neighbours lie close in memory (and the ghosts,
-    /// sent in this order, too); the sums do not depend on this order. A
+    /// sent in this order, too); the sums do not depend on this order. Before
+    /// the first build, after a restore and before every build of the
+    /// reproducible rows: the half list keeps the atoms in its slots' order
+    /// from one build to the next instead ([`HaloForces::own_in_slot_order`]). A
     /// stable counting sort by cell, the atoms moved in place along the
     /// permutation's cycles (8 bytes per atom for the keys and the order,
     /// no copy of the atoms' arrays).
