@@ -87,7 +87,9 @@ pub struct DistributedMd<const D: usize> {
     /// The ghosts' reactions on their way back (the half list): `D` numbers
     /// per ghost, `D + 2` with the half energy and virial.
     reactions: Vec<f64>,
-    /// Each own atom's half energy and half virial at the last observed step.
+    /// Each own atom's half energy and half virial, set by the forces of an
+    /// observed step and read only after one (a rebuild leaves them in the
+    /// old order, a plain step of the reproducible rows zeroes them).
     energies: Vec<[f64; 2]>,
     /// Any rank observed the last step: rank 0 pulls its outputs.
     observed: bool,
@@ -492,7 +494,8 @@ impl<const D: usize> DistributedMd<D> {
     /// sent in this order, too); the sums do not depend on this order. Before
     /// the first build, after a restore and before every build of the
     /// reproducible rows: the half list keeps the atoms in its slots' order
-    /// from one build to the next instead ([`HaloForces::own_in_slot_order`]). A
+    /// from one build to the next instead ([`HaloForces::own_in_slot_order`];
+    /// atoms that tie inside a cell's columns then fall in that order). A
     /// stable counting sort by cell, the atoms moved in place along the
     /// permutation's cycles (8 bytes per atom for the keys and the order,
     /// no copy of the atoms' arrays).

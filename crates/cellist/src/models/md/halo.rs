@@ -126,13 +126,14 @@ impl<const D: usize> HaloForces<D> {
         moved_beyond_half_skin(owned, &self.reference, self.skin)
     }
 
-    /// The slot of every point in build order, as the list's cells hold them.
+    /// The point (own atoms first, then ghosts) each slot of the list holds.
     fn order(&self) -> &[u32] {
         self.pairs.cells.order()
     }
 
     /// The pair sums at the own atoms' positions `own` and the ghosts'
-    /// `ghosts` (in the numbering of the build, each within skin/2 of its
+    /// `ghosts` (in the list's numbering: the build's, or the one
+    /// [`HaloForces::own_in_slot_order`] made; each within skin/2 of its
     /// build position): `forces[k]`, the force on own atom `k`; per ghost
     /// `g`, its reaction (the sum of the pairs this rank computed with it, to
     /// be sent to its owner) at `reactions[w g..w g + D]`. With `energies`,
@@ -150,6 +151,7 @@ impl<const D: usize> HaloForces<D> {
     ) {
         let n = self.owned;
         assert!(own.len() == n && forces.len() == n);
+        assert!(energies.as_ref().is_none_or(|e| e.len() == n));
         let width = D + if energies.is_some() { 2 } else { 0 };
         assert_eq!(reactions.len(), width * ghosts.len());
         let position = |k: usize| if k < n { own[k] } else { ghosts[k - n] };
@@ -413,6 +415,16 @@ mod tests {
                     );
                 }
                 assert_eq!(out_renumbered[own.len()..], out[own.len()..]);
+                // a fresh list of the atoms stored so holds the same pairs in
+                // the same slots (no two atoms tie in a cell's columns here)
+                let mut fresh =
+                    HaloForces::build(&subdomain, &renumbered, own.len(), lj, skin, &threads)
+                        .unwrap();
+                let out_fresh = sums_by_point(&mut fresh, &renumbered, own.len(), &threads);
+                assert_eq!(
+                    out_fresh, out_renumbered,
+                    "a fresh list of the renumbered atoms"
+                );
                 for (k, o) in from.iter().zip(&out) {
                     let s = &mut sums[*k];
                     for d in 0..D {
