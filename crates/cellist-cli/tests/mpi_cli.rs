@@ -75,8 +75,10 @@ fn one_rank_is_the_plain_run(dir: &Path) -> Result<(), String> {
     Ok(())
 }
 
-/// A small LJ melt (2048 atoms, 100 steps) whose dump at step 100 holds
-/// positions, velocities and forces, written as `dir/melt.toml`.
+/// A small LJ melt (2048 atoms, 100 steps) whose dump at steps 50 and 100
+/// holds positions, velocities, forces and per-atom energies (thermo every 20
+/// steps: steps that observe the thermo alone, and steps that also observe
+/// the energies), written as `dir/melt.toml`.
 fn melt_scenario(dir: &Path) -> String {
     let path = dir.join("melt.toml");
     std::fs::write(
@@ -92,7 +94,7 @@ shift = true
 steps = 100
 [output]
 thermo_every = 20
-dump = { every = 50, file = "melt.dump", columns = ["id", "x", "y", "z", "vx", "vy", "vz", "fx", "fy", "fz"] }
+dump = { every = 50, file = "melt.dump", columns = ["id", "x", "y", "z", "vx", "vy", "vz", "fx", "fy", "fz", "pe"] }
 checkpoint = { every = 50 }
 "#,
     )
@@ -317,8 +319,9 @@ fn dump_difference(a: &Path, b: &Path) -> Result<f64, String> {
 }
 
 /// `scenario` (of `model`, writing `file`) on 1 to 4 ranks against the plain
-/// run: within 1e-10; with `same_bytes` (the sums in id order: md with
-/// `[run] reproducible = true`, pse) the same bytes on 2, 3 and 4 ranks.
+/// run: `file` and `thermo.csv` within 1e-10; with `same_bytes` (the sums in
+/// id order: md with `[run] reproducible = true`, pse) the same bytes on 2, 3
+/// and 4 ranks.
 fn distributed_runs_match_the_plain_run(
     dir: &Path,
     model: &str,
@@ -347,20 +350,24 @@ fn distributed_runs_match_the_plain_run(
     for ranks in [1, 2, 3, 4] {
         let name = format!("np{ranks}");
         distributed(ranks, &strs(&args(out(&name))))?;
-        let d = dump_difference(&out("plain").join(file), &out(&name).join(file))?;
-        if d > 1e-10 {
-            return Err(format!(
-                "-np {ranks}: {file} differs from the plain run by {d:e}"
-            ));
+        for file in [file, "thermo.csv"] {
+            let d = dump_difference(&out("plain").join(file), &out(&name).join(file))?;
+            if d > 1e-10 {
+                return Err(format!(
+                    "-np {ranks}: {file} differs from the plain run by {d:e}"
+                ));
+            }
         }
     }
-    let read = |ranks: usize| std::fs::read(out(&format!("np{ranks}")).join(file));
-    let two = read(2).map_err(|e| e.to_string())?;
-    for ranks in [3, 4] {
-        if same_bytes && read(ranks).map_err(|e| e.to_string())? != two {
-            return Err(format!(
-                "{file} of 2 and {ranks} ranks are not the same bytes"
-            ));
+    for file in [file, "thermo.csv"] {
+        let read = |ranks: usize| std::fs::read(out(&format!("np{ranks}")).join(file));
+        let two = read(2).map_err(|e| e.to_string())?;
+        for ranks in [3, 4] {
+            if same_bytes && read(ranks).map_err(|e| e.to_string())? != two {
+                return Err(format!(
+                    "{file} of 2 and {ranks} ranks are not the same bytes"
+                ));
+            }
         }
     }
     Ok(())

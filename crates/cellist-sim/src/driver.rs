@@ -9,6 +9,7 @@
 //!          -> observe(step 0) on a new run
 //! loop:    observe = an observer needs thermo or energies at s
 //!                    (or, for a state spread over MPI ranks, any output is due)
+//!          model.want_particle_energies(a dump with energies is due at s)
 //!          model.step_observed(s) if observe, else model.step(s)
 //!                                         # the model's own stages, timed by it
 //!          check(model)                   # finite values, walls, particle count
@@ -325,6 +326,10 @@ impl<M: Hosted> Live<M> {
                 || (job.ranks.observe_when_due()
                     && (checkpoint || observers.iter().any(|o| o.due(step, last))));
             let stepped = if observe {
+                let energies = observers
+                    .iter()
+                    .any(|o| o.needs_particle_energies(step, last));
+                job.model.want_particle_energies(energies);
                 job.model.step_observed(step, threads)
             } else {
                 job.model.step(step, threads)

@@ -38,6 +38,15 @@ pub trait Hosted: Model {
         None
     }
 
+    /// Before each observed step ([`Model::step_observed`]), on every rank:
+    /// whether an output reads per-particle energies after it (a dump with
+    /// energy columns; false on the ranks that write no output). A model
+    /// whose per-particle energies cost a pass of their own that its thermo
+    /// does not need (the distributed md's half list) makes that pass only
+    /// when some rank wants them; the others compute them anyway, or when
+    /// read.
+    fn want_particle_energies(&mut self, _wanted: bool) {}
+
     /// On a rank of a model spread over MPI ranks, after each step that any
     /// rank observed (and after a restore): rank 0, whose outputs pull the
     /// particles from every rank, tells the others that its outputs are

@@ -145,6 +145,10 @@ impl<M: Model> Observer<M> for Dump {
     }
 
     fn needs_observables(&self, step: u64, last: u64) -> bool {
+        <Self as Observer<M>>::needs_particle_energies(self, step, last)
+    }
+
+    fn needs_particle_energies(&self, step: u64, last: u64) -> bool {
         self.energies() && <Self as Observer<M>>::due(self, step, last)
     }
 

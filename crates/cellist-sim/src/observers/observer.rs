@@ -19,6 +19,12 @@ pub trait Observer<M: Model> {
         false
     }
 
+    /// True when the step must compute per-particle energies (a dump with
+    /// energy columns due at `step`); implies [`Observer::needs_observables`].
+    fn needs_particle_energies(&self, _step: u64, _last: u64) -> bool {
+        false
+    }
+
     /// Writes what it writes for the state after `step`.
     fn observe(&mut self, model: &M, step: u64, last: u64, bar: &ProgressBar) -> SimResult;
 

@@ -40,8 +40,9 @@ use cellist::geometry::Domain;
 use cellist::interactions::{LennardJones, PairPotential};
 use cellist::models::md::{
     blowup_of, check_positions, checked_atoms, dump_particles, lap, late_note, load_atoms,
-    ordered_forces, save_atoms, AtomForce, Atoms, HaloForces, Integrator, ListCounts, MdError,
-    SavedAtoms, StageTimes, ThermoSums, REMEDY,
+    ordered_forces, save_atoms, twice_kinetic, AtomForce, Atoms, HaloForces, Integrator,
+    ListCounts, MdError, Observables, PairTally, SavedAtoms, StageTimes, Thermo, ThermoSums,
+    REMEDY,
 };
 use cellist::models::{check, md, Blowup, Checked, Model, ModelInfo, ParticleBlock, Particles};
 use cellist::neighbors::{CellGrid, OrderedRows, Rebuild, RebuildRule};
@@ -100,9 +101,21 @@ pub struct DistributedMd<const D: usize> {
     /// After a restore, until the next rebuild: the own atoms' positions at
     /// the last rebuild (the list is not built yet).
     restored_reference: Option<Vec<[f64; D]>>,
-    /// False after a restore until the next observed step: the atoms carry
-    /// no energies.
+    /// True after an observed step that computed the own atoms' energies
+    /// (with the half list: only when a rank's dump wanted them); false after
+    /// a restore until then.
     energies_valid: bool,
+    /// Set before an observed step ([`Hosted::want_particle_energies`]): an
+    /// output of this rank reads per-atom energies after it.
+    energies_wanted: bool,
+    /// The half list's energy and virial of this rank's pairs at the last
+    /// observed step.
+    pair_totals: PairTally,
+    /// With the half list, after an observed step (and at set-up) on every
+    /// rank: the system's `2K = sum m v^2` and the energy and virial of its
+    /// pairs, each rank's sums added in rank order ([`Self::add_up_thermo`]);
+    /// `None` after a restore.
+    system_sums: Option<(f64, PairTally)>,
     /// Set by a restore: the next step rebuilds whatever the skin test says.
     stale: bool,
     /// The own atoms are stored in the half list's slot order of the last
@@ -332,6 +345,9 @@ impl<const D: usize> DistributedMd<D> {
             },
             restored_reference: None,
             energies_valid: true,
+            energies_wanted: false,
+            pair_totals: PairTally::default(),
+            system_sums: None,
             stale: false,
             in_slot_order: false,
             counts: ListCounts::default(),
@@ -348,8 +364,9 @@ impl<const D: usize> DistributedMd<D> {
             .redistribute(threads)
             .map_err(|e| e.what.to_string())?;
         model.span = IdSpan::of(&model.world, &model.atoms.ids);
-        model.forces(true, threads);
-        model.observe();
+        model.forces(true, true, threads);
+        model.add_up_thermo();
+        model.observe(true);
         Ok(model)
     }
 
@@ -524,27 +541,38 @@ impl<const D: usize> DistributedMd<D> {
         self.atoms.permute_by_cycles(&order);
     }
 
-    /// The forces on the own atoms; with `energy`, their half energies and
-    /// virials too. The half list writes the own atoms' sums and the ghosts'
-    /// reactions straight to their arrays and sends the reactions back; the
-    /// reproducible rows sum from the own atoms' and the ghosts' positions
-    /// side by side.
-    fn forces(&mut self, energy: bool, threads: &Threads) {
+    /// The forces on the own atoms; when `observe`d, the half list's energy
+    /// and virial of this rank's pairs (`pair_totals`); with `energies`, the
+    /// own atoms' half energies and virials too (the reproducible rows sum
+    /// them at every observed step). The half list writes the own atoms' sums
+    /// and the ghosts' reactions straight to their arrays and sends the
+    /// reactions back; the reproducible rows sum from the own atoms' and the
+    /// ghosts' positions side by side.
+    fn forces(&mut self, observe: bool, energies: bool, threads: &Threads) {
         match &mut self.sums {
             PairSums::Halo(halo) => {
                 let halo = halo
                     .as_mut()
                     .expect("the list is built before the first forces");
-                let width = D + if energy { 2 } else { 0 };
+                let (observables, width) = if energies {
+                    (Observables::PerAtom(&mut self.energies[..]), D + 2)
+                } else if observe {
+                    (Observables::Totals, D)
+                } else {
+                    (Observables::Forces, D)
+                };
                 self.reactions.resize(width * self.ghosts.len(), 0.0);
-                halo.forces(
+                let totals = halo.forces(
                     &self.atoms.positions,
                     &self.ghosts,
                     threads,
                     &mut self.atoms.forces,
                     &mut self.reactions,
-                    energy.then_some(&mut self.energies[..]),
+                    observables,
                 );
+                if let Some(totals) = totals {
+                    self.pair_totals = totals;
+                }
                 self.return_reactions(width);
             }
             PairSums::Ordered(rows, sums) => {
@@ -553,7 +581,7 @@ impl<const D: usize> DistributedMd<D> {
                 self.points[n..].copy_from_slice(&self.ghosts);
                 sums.resize(n, AtomForce::default());
                 let (potential, points) = (&self.potential, &self.points);
-                if energy {
+                if observe {
                     ordered_forces::<true, D, _>(rows, potential, points, sums, threads);
                 } else {
                     ordered_forces::<false, D, _>(rows, potential, points, sums, threads);
@@ -564,6 +592,37 @@ impl<const D: usize> DistributedMd<D> {
                 }
             }
         }
+    }
+
+    /// With the half list, after an observed step's forces and velocities
+    /// (collective): the system's `2K` and pair energy and virial, every
+    /// rank's `[2K_r, U_r, W_r]` gathered and added in rank order, so that
+    /// the thermo needs no atom from the other ranks and its bits depend only
+    /// on the rank count and the ranks' sums.
+    fn add_up_thermo(&mut self) {
+        if !matches!(self.sums, PairSums::Halo(_)) {
+            return;
+        }
+        let t = Instant::now();
+        let mine = [
+            twice_kinetic(&self.atoms),
+            self.pair_totals.energy,
+            self.pair_totals.virial,
+        ];
+        let mut all = vec![0.0; 3 * self.world.size() as usize];
+        self.world.all_gather_into(&mine[..], &mut all[..]);
+        let mut twice_kinetic = -0.0;
+        let mut pairs = PairTally {
+            energy: -0.0,
+            virial: -0.0,
+        };
+        for rank in all.chunks_exact(3) {
+            twice_kinetic += rank[0];
+            pairs.energy += rank[1];
+            pairs.virial += rank[2];
+        }
+        self.system_sums = Some((twice_kinetic, pairs));
+        self.communication += t.elapsed();
     }
 
     /// Sends the ghosts' reactions (`width` numbers each: the force, then
@@ -586,11 +645,12 @@ impl<const D: usize> DistributedMd<D> {
         self.communication += t.elapsed();
     }
 
-    /// After an observed step: the own atoms' order by id, for the rows
-    /// rank 0 pulls ([`Hosted::serve_outputs`], [`Self::blocks`]).
-    fn observe(&mut self) {
+    /// After an observed step (`energies`: that computed the own atoms'
+    /// energies): the own atoms' order by id, for the rows rank 0 pulls
+    /// ([`Hosted::serve_outputs`], [`Self::blocks`]).
+    fn observe(&mut self, energies: bool) {
         self.observed = true;
-        self.energies_valid = true;
+        self.energies_valid = energies;
         self.observe_order();
     }
 
@@ -695,8 +755,11 @@ impl<const D: usize> DistributedMd<D> {
             Rebuild::Yes { late } => (true, late),
         };
         // one all-reduce a step for the blow-up check and the list's decision
-        let flags = [local.is_some(), wanted, observe, late].map(u8::from);
-        let [failed, rebuild, observe, late] = self.any(flags);
+        let energies = observe && self.energies_wanted;
+        let flags = [local.is_some(), wanted, observe, late, energies].map(u8::from);
+        let [failed, rebuild, observe, late, energies] = self.any(flags);
+        // the reproducible rows sum the energies with the forces
+        let energies = energies || (observe && matches!(self.sums, PairSums::Ordered(..)));
         if failed {
             self.agree_blowup(step, local)?;
         }
@@ -713,7 +776,7 @@ impl<const D: usize> DistributedMd<D> {
             self.communication += c.elapsed();
         }
         let t = lap(t, &mut self.times.neighbor);
-        self.forces(observe, threads);
+        self.forces(observe, energies, threads);
         let t = lap(t, &mut self.times.force);
         self.integrator
             .second_half(&mut self.atoms, self.dt, step, threads);
@@ -721,7 +784,8 @@ impl<const D: usize> DistributedMd<D> {
         let local = check(self, step, 0).err();
         self.agree_blowup(step, local)?;
         if observe {
-            self.observe();
+            self.add_up_thermo();
+            self.observe(energies);
         }
         Ok(())
     }
@@ -776,15 +840,25 @@ impl<const D: usize> Model for DistributedMd<D> {
         self.advance(step, true, threads)
     }
 
-    /// Summed on rank 0 over every rank's atoms in id order, a block at a
-    /// time.
+    /// With the half list, from the ranks' sums added up after the observed
+    /// step ([`Self::add_up_thermo`]); with the reproducible rows (and after
+    /// a restore), summed on rank 0 over every rank's atoms in id order, a
+    /// block at a time, so that its bits do not depend on the rank count.
     fn thermo(&self, _step: u64) -> Vec<f64> {
-        let mut sums = ThermoSums::default();
-        self.blocks(|g| {
-            sums.add(&g.atoms, &g.energies, &g.virials);
-            true
-        });
-        let th = sums.thermo::<D>(self.decomposition.domain.volume());
+        let volume = self.decomposition.domain.volume();
+        let th = match self.system_sums {
+            Some((twice_kinetic, pairs)) => {
+                Thermo::from_sums::<D>(self.total, twice_kinetic, pairs, volume)
+            }
+            None => {
+                let mut sums = ThermoSums::default();
+                self.blocks(|g| {
+                    sums.add(&g.atoms, &g.energies, &g.virials);
+                    true
+                });
+                sums.thermo::<D>(volume)
+            }
+        };
         vec![th.temp, th.pe, th.ke, th.etotal, th.press]
     }
 
@@ -889,6 +963,7 @@ impl<const D: usize> Model for DistributedMd<D> {
         self.stale = true;
         self.in_slot_order = false;
         self.energies_valid = false;
+        self.system_sums = None;
         self.observe_order();
         Ok(())
     }
@@ -927,6 +1002,13 @@ impl<const D: usize> Hosted for DistributedMd<D> {
     /// The step ends with [`check`] of the own atoms, agreed over the ranks.
     fn checks_its_steps(&self) -> bool {
         true
+    }
+
+    /// Whether this rank's dump reads per-atom energies after the coming
+    /// observed step: the half list then makes its energy pass (any rank's
+    /// wish, all-reduced with the step's flags).
+    fn want_particle_energies(&mut self, wanted: bool) {
+        self.energies_wanted = wanted;
     }
 
     /// After an observed step (or a restore): on rank 0, tells the other

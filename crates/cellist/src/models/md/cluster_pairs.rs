@@ -107,28 +107,30 @@ impl<const D: usize> ClusterPairs<D> {
 
     /// [`ClusterPairs::forces`] from the position of each point `k`, in the
     /// numbering they were binned in ([`CellList::order`]), `position(k)`;
-    /// the force on each point passed to `force(k, f_k)` (one thread), no
-    /// energy.
+    /// the force on each point passed to `force(k, f_k)` (one thread); with
+    /// `energy`, returns the energy and virial of the listed pairs.
     pub(super) fn forces_by_point(
         &mut self,
         potential: &LennardJones,
         position: impl Fn(usize) -> [f64; D] + Sync,
+        energy: bool,
         threads: &Threads,
         mut force: impl FnMut(usize, [f64; D]),
-    ) {
+    ) -> Option<PairTally> {
         let order = self.cells.order();
         self.list.gather_by(
             |slot| position(order[slot] as usize),
             threads,
             &mut self.lanes,
         );
-        self.lane_sums(potential, false, threads);
+        let totals = self.lane_sums(potential, energy, threads);
         let order = self.cells.order();
         for (c, lanes) in self.lane_forces.iter().enumerate() {
             for (l, slot) in self.list.slots(c).enumerate() {
                 force(order[slot] as usize, std::array::from_fn(|a| lanes[a][l]));
             }
         }
+        totals
     }
 
     /// The pair sums of the positions in `lanes` into `lane_forces`; with

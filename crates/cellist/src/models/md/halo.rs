@@ -23,6 +23,7 @@
 //! single-process run to rounding, not to the bit.
 
 use super::cluster_pairs::ClusterPairs;
+use super::PairTally;
 use crate::decomposition::Subdomain;
 use crate::geometry::{Boundary, Domain, GeometryError};
 use crate::interactions::{LennardJones, PairPotential};
@@ -136,10 +137,14 @@ impl<const D: usize> HaloForces<D> {
     /// [`HaloForces::own_in_slot_order`] made; each within skin/2 of its
     /// build position): `forces[k]`, the force on own atom `k`; per ghost
     /// `g`, its reaction (the sum of the pairs this rank computed with it, to
-    /// be sent to its owner) at `reactions[w g..w g + D]`. With `energies`,
+    /// be sent to its owner) at `reactions[w g..w g + D]`. With
+    /// [`Observables::Totals`] or [`Observables::PerAtom`], returns the energy
+    /// `U = sum U(r_kj)` and virial `W = sum r_kj^2 (-U'(r_kj)/r_kj)` of the
+    /// pairs this rank computed (each pair of the system on one rank only:
+    /// summed over the ranks, the system's); with [`Observables::PerAtom`],
     /// also each own atom's half energy and half virial (half of each of its
-    /// listed pairs') in `energies[k]`, and each ghost's after its reaction
-    /// (`w = D + 2`); without, `w = D`.
+    /// listed pairs') in its slice at `k`, and each ghost's after its reaction
+    /// (`w = D + 2`); otherwise `w = D`.
     pub fn forces(
         &mut self,
         own: &[[f64; D]],
@@ -147,23 +152,30 @@ impl<const D: usize> HaloForces<D> {
         threads: &Threads,
         forces: &mut [[f64; D]],
         reactions: &mut [f64],
-        energies: Option<&mut [[f64; 2]]>,
-    ) {
+        observables: Observables<'_>,
+    ) -> Option<PairTally> {
         let n = self.owned;
         assert!(own.len() == n && forces.len() == n);
-        assert!(energies.as_ref().is_none_or(|e| e.len() == n));
-        let width = D + if energies.is_some() { 2 } else { 0 };
+        let (energy, width) = match &observables {
+            Observables::Forces => (false, D),
+            Observables::Totals => (true, D),
+            Observables::PerAtom(energies) => {
+                assert_eq!(energies.len(), n);
+                (true, D + 2)
+            }
+        };
         assert_eq!(reactions.len(), width * ghosts.len());
         let position = |k: usize| if k < n { own[k] } else { ghosts[k - n] };
-        self.pairs
-            .forces_by_point(&self.potential, position, threads, |k, f| {
-                if k < n {
-                    forces[k] = f;
-                } else {
-                    reactions[width * (k - n)..][..D].copy_from_slice(&f);
-                }
-            });
-        if let Some(energies) = energies {
+        let totals =
+            self.pairs
+                .forces_by_point(&self.potential, position, energy, threads, |k, f| {
+                    if k < n {
+                        forces[k] = f;
+                    } else {
+                        reactions[width * (k - n)..][..D].copy_from_slice(&f);
+                    }
+                });
+        if let Observables::PerAtom(energies) = observables {
             let points = n + ghosts.len();
             self.energies.resize(points, 0.0);
             self.virials.resize(points, 0.0);
@@ -178,6 +190,7 @@ impl<const D: usize> HaloForces<D> {
                 }
             }
         }
+        totals
     }
 
     /// The first pair of an own atom and a neighbour at one position, as
@@ -194,6 +207,18 @@ impl<const D: usize> HaloForces<D> {
         });
         twin
     }
+}
+
+/// What a force pass of [`HaloForces::forces`] sums beyond the forces.
+pub enum Observables<'a> {
+    /// The forces alone (a plain step).
+    Forces,
+    /// Also the energy and virial of the pairs the rank computes (an observed
+    /// step's thermo).
+    Totals,
+    /// The totals, and the own atoms' half energies and half virials, one
+    /// `[u_k, w_k]` per own atom (a dump with energy columns).
+    PerAtom(&'a mut [[f64; 2]]),
 }
 
 /// The cells a subdomain's own atoms and ghosts are binned in, and their
@@ -292,32 +317,39 @@ mod tests {
 
     /// Every point's sums from [`HaloForces::forces`] with energies: an own
     /// atom's force, half energy and half virial, a ghost's reaction and its
-    /// halves; the forces and reactions without energies are the same bits.
+    /// halves; and the energy and virial of the rank's pairs. The forces and
+    /// reactions with the totals alone or without energies are the same bits,
+    /// and so are the totals with and without the per-atom halves.
     fn sums_by_point<const D: usize>(
         halo: &mut HaloForces<D>,
         points: &[[f64; D]],
         owned: usize,
         threads: &Threads,
-    ) -> Vec<AtomForce<D>> {
+    ) -> (Vec<AtomForce<D>>, PairTally) {
         let (own, ghosts) = points.split_at(owned);
         let mut forces = vec![[0.0; D]; owned];
         let mut reactions = vec![0.0; (D + 2) * ghosts.len()];
         let mut energies = vec![[0.0; 2]; owned];
-        let with = Some(&mut energies[..]);
-        halo.forces(own, ghosts, threads, &mut forces, &mut reactions, with);
-        let mut bare_forces = vec![[0.0; D]; owned];
-        let mut bare_reactions = vec![0.0; D * ghosts.len()];
-        halo.forces(
-            own,
-            ghosts,
-            threads,
-            &mut bare_forces,
-            &mut bare_reactions,
-            None,
-        );
-        assert_eq!(bare_forces, forces);
-        let reaction_forces = reactions.chunks_exact(D + 2).flat_map(|r| &r[..D]);
-        assert!(bare_reactions.iter().eq(reaction_forces));
+        let with = Observables::PerAtom(&mut energies[..]);
+        let totals = halo.forces(own, ghosts, threads, &mut forces, &mut reactions, with);
+        let totals = totals.expect("totals with the per-atom halves");
+        for observables in [Observables::Totals, Observables::Forces] {
+            let wanted = matches!(observables, Observables::Totals);
+            let mut bare_forces = vec![[0.0; D]; owned];
+            let mut bare_reactions = vec![0.0; D * ghosts.len()];
+            let bare_totals = halo.forces(
+                own,
+                ghosts,
+                threads,
+                &mut bare_forces,
+                &mut bare_reactions,
+                observables,
+            );
+            assert_eq!(bare_totals, wanted.then_some(totals));
+            assert_eq!(bare_forces, forces);
+            let reaction_forces = reactions.chunks_exact(D + 2).flat_map(|r| &r[..D]);
+            assert!(bare_reactions.iter().eq(reaction_forces));
+        }
         let own = forces.iter().zip(&energies).map(|(f, e)| AtomForce {
             force: *f,
             energy: e[0],
@@ -328,7 +360,7 @@ mod tests {
             energy: r[D],
             virial: r[D + 1],
         });
-        own.chain(ghosts).collect()
+        (own.chain(ghosts).collect(), totals)
     }
 
     fn check<const D: usize>(
@@ -369,8 +401,10 @@ mod tests {
         }
         let owner: Vec<usize> = points.iter().map(|x| decomposition.owner(x)).collect();
         let mut got = vec![AtomForce::<D>::default(); n];
+        let mut got_totals = PairTally::default();
         for threads in [Threads::single(), Threads::new(2).unwrap()] {
             let mut sums = vec![AtomForce::<D>::default(); n];
+            let mut totals = PairTally::default();
             for rank in 0..ranks {
                 let mine: Vec<usize> = (0..n).filter(|&k| owner[k] == rank).collect();
                 let own: Vec<[f64; D]> = mine.iter().map(|&k| points[k]).collect();
@@ -388,7 +422,9 @@ mod tests {
                 let subdomain = decomposition.subdomain(rank);
                 let mut halo =
                     HaloForces::build(&subdomain, &all, own.len(), lj, skin, &threads).unwrap();
-                let out = sums_by_point(&mut halo, &all, own.len(), &threads);
+                let (out, rank_totals) = sums_by_point(&mut halo, &all, own.len(), &threads);
+                totals.energy += rank_totals.energy;
+                totals.virial += rank_totals.virial;
                 // a list of other positions rebuilt in place for these gives
                 // the fresh list's sums, bit for bit
                 let moved: Vec<[f64; D]> = all.iter().map(|x| x.map(|c| c + 0.05)).collect();
@@ -397,7 +433,7 @@ mod tests {
                 let in_place = again.rebuild(&subdomain, &all, own.len(), &threads);
                 assert_eq!(in_place, Ok(true), "the cells changed");
                 let out_again = sums_by_point(&mut again, &all, own.len(), &threads);
-                assert_eq!(out_again, out, "rebuilt in place");
+                assert_eq!(out_again, (out.clone(), rank_totals), "rebuilt in place");
                 // the own atoms stored in slot order: the same sums, bit for
                 // bit, each at its atom's new number; the ghosts' unchanged
                 let former = again.own_in_slot_order(&mut Vec::new());
@@ -407,7 +443,9 @@ mod tests {
                     renumbered[i] = all[k as usize];
                 }
                 assert_eq!(again.reference(), &renumbered[..own.len()]);
-                let out_renumbered = sums_by_point(&mut again, &renumbered, own.len(), &threads);
+                let (out_renumbered, renumbered_totals) =
+                    sums_by_point(&mut again, &renumbered, own.len(), &threads);
+                assert_eq!(renumbered_totals, rank_totals);
                 for (i, &k) in former.iter().enumerate() {
                     assert_eq!(
                         out_renumbered[i], out[k as usize],
@@ -422,7 +460,8 @@ mod tests {
                         .unwrap();
                 let out_fresh = sums_by_point(&mut fresh, &renumbered, own.len(), &threads);
                 assert_eq!(
-                    out_fresh, out_renumbered,
+                    out_fresh,
+                    (out_renumbered, rank_totals),
                     "a fresh list of the renumbered atoms"
                 );
                 for (k, o) in from.iter().zip(&out) {
@@ -435,17 +474,20 @@ mod tests {
                 }
             }
             if threads.count() == 1 {
-                got = sums;
+                (got, got_totals) = (sums, totals);
             } else {
-                assert_eq!(got, sums, "1 and 2 threads");
+                assert_eq!((&got, got_totals), (&sums, totals), "1 and 2 threads");
             }
         }
         let mut want = vec![AtomForce::<D>::default(); n];
+        let mut want_totals = PairTally::default();
         for (i, j, _) in brute_force_pairs(&domain, lj.cutoff(), &points) {
             let (i, j) = (i as usize, j as usize);
             let d = domain.separation(&points[j], &points[i]);
             let r2 = norm2(&d);
             let (e, g) = lj.energy_and_force(r2);
+            want_totals.energy += e;
+            want_totals.virial += g * r2;
             for (k, sign) in [(i, 1.0), (j, -1.0)] {
                 for a in 0..D {
                     want[k].force[a] += sign * g * d[a];
@@ -463,5 +505,10 @@ mod tests {
             assert!((got[k].energy - want[k].energy).abs() <= 1e-12 * (1.0 + want[k].energy.abs()));
             assert!((got[k].virial - want[k].virial).abs() <= 1e-10 * (1.0 + want[k].virial.abs()));
         }
+        // the ranks' totals: each pair of the system once
+        let scale = 1.0 + want_totals.energy.abs();
+        assert!((got_totals.energy - want_totals.energy).abs() <= 1e-11 * scale);
+        let scale = 1.0 + want_totals.virial.abs();
+        assert!((got_totals.virial - want_totals.virial).abs() <= 1e-10 * scale);
     }
 }

@@ -24,7 +24,7 @@ mod velocity;
 pub use atoms::Atoms;
 use atoms::PermuteScratch;
 pub use frame::dump_particles;
-pub use halo::HaloForces;
+pub use halo::{HaloForces, Observables};
 pub use integrate::{Integrator, Langevin};
 pub use lattice::{lattice, Lattice, LatticeKind};
 pub use model::{
@@ -176,7 +176,9 @@ fn degrees_of_freedom<const D: usize>(n: usize) -> f64 {
     (D * n).saturating_sub(D) as f64
 }
 
-fn twice_kinetic<const D: usize>(atoms: &Atoms<D>) -> f64 {
+/// Twice the kinetic energy of `atoms`, `2K = sum_i m_i |v_i|^2`, summed in
+/// the atoms' order.
+pub fn twice_kinetic<const D: usize>(atoms: &Atoms<D>) -> f64 {
     atoms
         .velocities
         .iter()
