@@ -53,6 +53,7 @@ use mpi::collective::SystemOperation;
 use mpi::topology::SimpleCommunicator;
 use mpi::traits::*;
 use std::borrow::Cow;
+use std::cell::OnceCell;
 use std::ops::ControlFlow;
 use std::time::{Duration, Instant};
 
@@ -94,8 +95,9 @@ pub struct DistributedMd<const D: usize> {
     energies: Vec<[f64; 2]>,
     /// Any rank observed the last step: rank 0 pulls its outputs.
     observed: bool,
-    /// The own atoms' slots in ascending id (observed steps).
-    by_id: Vec<u32>,
+    /// The own atoms' slots in ascending id, sorted at the first pull of
+    /// rank 0's outputs after the atoms last changed ([`Self::by_id`]).
+    by_id: OnceCell<Vec<u32>>,
     /// The ids over all ranks.
     span: IdSpan,
     /// After a restore, until the next rebuild: the own atoms' positions at
@@ -180,7 +182,8 @@ impl<const D: usize> PairSums<D> {
     }
 
     /// Builds the list or rows of the first `owned` of `points` (own atoms,
-    /// then ghosts; `ids` alike); the failure (two atoms at one position, a
+    /// then ghosts; `ids` alike), the list's cells sized for `share` atoms
+    /// (the mean per rank); the failure (two atoms at one position, a
     /// geometry error) as its message. The half list looks for two atoms at
     /// one position at its first build only, as a single-process run does at
     /// set-up (later such a pair blows the run up); the rows at every build.
@@ -190,6 +193,7 @@ impl<const D: usize> PairSums<D> {
         subdomain: &Subdomain<D>,
         points: &[[f64; D]],
         owned: usize,
+        share: usize,
         ids: &[u64],
         potential: &LennardJones,
         skin: f64,
@@ -209,7 +213,7 @@ impl<const D: usize> PairSums<D> {
             PairSums::Halo(halo) => {
                 // in place while the cells stay those of the last build
                 if let Some(h) = halo.as_mut() {
-                    match h.rebuild(subdomain, points, owned, threads) {
+                    match h.rebuild(subdomain, points, owned, share, threads) {
                         Ok(true) => return None,
                         Ok(false) => {}
                         Err(e) => return Some(e.to_string()),
@@ -217,7 +221,8 @@ impl<const D: usize> PairSums<D> {
                 }
                 // else the old list goes first: one list in memory at a time
                 let first = halo.take().is_none();
-                let built = HaloForces::build(subdomain, points, owned, *potential, skin, threads);
+                let built =
+                    HaloForces::build(subdomain, points, owned, share, *potential, skin, threads);
                 match built {
                     Ok(built) => {
                         let built = halo.insert(Box::new(built));
@@ -337,7 +342,7 @@ impl<const D: usize> DistributedMd<D> {
             reactions: Vec::new(),
             energies: Vec::new(),
             observed: false,
-            by_id: Vec::new(),
+            by_id: OnceCell::new(),
             span: IdSpan {
                 first: 0,
                 last: 0,
@@ -415,9 +420,6 @@ impl<const D: usize> DistributedMd<D> {
     fn redistribute(&mut self, threads: &Threads) -> Result<(), Blowup> {
         let t = Instant::now();
         self.rebalance();
-        // what the new list makes stale goes before it is built: the last
-        // output's id order
-        self.by_id = Vec::new();
         migrate(&self.world, &self.decomposition, &mut self.atoms);
         if !self.in_slot_order {
             self.sort_by_cell(threads);
@@ -448,10 +450,12 @@ impl<const D: usize> DistributedMd<D> {
             keys.extend_from_slice(&self.ghost_ids);
         }
         let subdomain = self.decomposition.subdomain(self.world.rank() as usize);
+        let share = self.total / self.world.size() as usize;
         let failure = self.sums.build(
             &subdomain,
             &self.points,
             n,
+            share,
             &keys,
             &self.potential,
             self.skin,
@@ -646,20 +650,24 @@ impl<const D: usize> DistributedMd<D> {
     }
 
     /// After an observed step (`energies`: that computed the own atoms'
-    /// energies): the own atoms' order by id, for the rows rank 0 pulls
-    /// ([`Hosted::serve_outputs`], [`Self::blocks`]).
+    /// energies): rank 0 pulls its outputs ([`Hosted::serve_outputs`],
+    /// [`Self::blocks`]).
     fn observe(&mut self, energies: bool) {
         self.observed = true;
         self.energies_valid = energies;
-        self.observe_order();
     }
 
-    /// The own atoms' slots in ascending id.
-    fn observe_order(&mut self) {
-        let ids = &self.atoms.ids;
-        self.by_id.clear();
-        self.by_id.extend(0..ids.len() as u32);
-        self.by_id.sort_unstable_by_key(|&k| ids[k as usize]);
+    /// The own atoms' slots in ascending id: sorted once after the atoms
+    /// last changed (a step or a restore forgets the order), when rank 0
+    /// first pulls them, so that a step whose outputs pull no atom (the
+    /// half list's thermo) sorts nothing.
+    fn by_id(&self) -> &[u32] {
+        self.by_id.get_or_init(|| {
+            let ids = &self.atoms.ids;
+            let mut order: Vec<u32> = (0..ids.len() as u32).collect();
+            order.sort_unstable_by_key(|&k| ids[k as usize]);
+            order
+        })
     }
 
     /// On rank 0 after an observed step or a restore: the global state a
@@ -734,6 +742,7 @@ impl<const D: usize> DistributedMd<D> {
     /// atoms are put in id order for rank 0's pulls.
     fn advance(&mut self, step: u64, observe: bool, threads: &Threads) -> Result<(), Blowup> {
         self.observed = false;
+        self.by_id.take();
         let t = Instant::now();
         self.integrator
             .first_half(&mut self.atoms, self.dt, threads);
@@ -964,7 +973,7 @@ impl<const D: usize> Model for DistributedMd<D> {
         self.in_slot_order = false;
         self.energies_valid = false;
         self.system_sums = None;
-        self.observe_order();
+        self.by_id.take();
         Ok(())
     }
 }

@@ -111,7 +111,7 @@ impl<const D: usize> pull::OwnRows for OwnRows<'_, D> {
     fn rows(&self, a: u64, b: u64, ids: &mut Vec<u64>, values: &mut Vec<f64>) {
         let m = self.0;
         let id = |k: &u32| m.atoms.ids[*k as usize];
-        let (by_id, a, b) = (&m.by_id, a, b);
+        let (by_id, a, b) = (m.by_id(), a, b);
         let range = by_id.partition_point(|k| id(k) < a)..by_id.partition_point(|k| id(k) < b);
         ids.clear();
         values.clear();

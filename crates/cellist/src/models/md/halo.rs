@@ -47,18 +47,23 @@ pub struct HaloForces<const D: usize> {
 impl<const D: usize> HaloForces<D> {
     /// The list of `points` (the `owned` own atoms first, then the ghosts at
     /// their images next to `subdomain`), of reach `cutoff + skin`, binned in
-    /// the cells of `halo_cells`.
+    /// the cells of `halo_cells` for `share` atoms in the subdomain (the mean
+    /// own atoms per rank, `N / P`: cells that followed the own count, which
+    /// changes at every migration, would flip between two sizes when a side
+    /// sits at a threshold, as the fcc lattice's does, and then differ
+    /// between the ranks and cost fresh builds).
     pub fn build(
         subdomain: &Subdomain<D>,
         points: &[[f64; D]],
         owned: usize,
+        share: usize,
         potential: LennardJones,
         skin: f64,
         threads: &Threads,
     ) -> Result<Self, GeometryError> {
         assert!(owned <= points.len());
         let cutoff = potential.cutoff();
-        let (domain, grid, side) = halo_cells(subdomain, owned, cutoff + skin)?;
+        let (domain, grid, side) = halo_cells(subdomain, share, cutoff + skin)?;
         let cells = CellList::build_on_grid(&domain, grid, side, points, Some(threads));
         let pairs = ClusterPairs::from_cells(cells, owned, cutoff, skin, threads);
         Ok(HaloForces {
@@ -74,20 +79,20 @@ impl<const D: usize> HaloForces<D> {
 
     /// Builds the list of new `points` (the first `owned` own) again in
     /// place when they bin in the cells of the last build (`halo_cells` of
-    /// the same subdomain and about as many own atoms): the list of
-    /// [`HaloForces::build`], with the buffers of the last build kept (no
-    /// allocation once they have grown). `Ok(false)`, and nothing changed,
-    /// when the cells differ.
+    /// the same subdomain and `share`): the list of [`HaloForces::build`],
+    /// with the buffers of the last build kept (no allocation once they have
+    /// grown). `Ok(false)`, and nothing changed, when the cells differ.
     pub fn rebuild(
         &mut self,
         subdomain: &Subdomain<D>,
         points: &[[f64; D]],
         owned: usize,
+        share: usize,
         threads: &Threads,
     ) -> Result<bool, GeometryError> {
         assert!(owned <= points.len());
         let (domain, grid, side) =
-            halo_cells(subdomain, owned, self.potential.cutoff() + self.skin)?;
+            halo_cells(subdomain, share, self.potential.cutoff() + self.skin)?;
         if !self.pairs.cells.is_on(&domain, &grid, side) {
             return Ok(false);
         }
@@ -223,17 +228,19 @@ pub enum Observables<'a> {
 
 /// The cells a subdomain's own atoms and ghosts are binned in, and their
 /// least side: the side `s` of a single-process cluster list at the
-/// subdomain's density, `2 (CLUSTER V / N)^(1/D)` and at least `reach`
+/// density of `share` atoms in the subdomain, `2 (CLUSTER V / share)^(1/D)`
+/// and at least `reach`
 /// ([`ClusterList::cell_side`](crate::neighbors::ClusterList::cell_side)),
 /// periodic along the uncut axes (the box's cells of at least `s`), and
-/// along a cut axis of width `w` open with `k = round(w / s)` cells of
-/// `c = w / k >= reach` inside the subdomain and `m = ceil(reach / c)` more on each
-/// side for the ghosts: the faces between subdomains are faces between cells,
+/// along a cut axis of width `w` open with `k = max(1, floor(w / s))` cells
+/// of `c = w / k` inside the subdomain (as many of at least `s` as fit, like
+/// the uncut axes and a single-process list; never narrower than `reach`)
+/// and `m = ceil(reach / c)` more on each side for the ghosts: the faces between subdomains are faces between cells,
 /// so that few clusters mix own atoms and ghosts (atoms on a face may round
 /// into the cell beyond it).
 fn halo_cells<const D: usize>(
     subdomain: &Subdomain<D>,
-    owned: usize,
+    share: usize,
     reach: f64,
 ) -> Result<(Domain<D>, CellGrid<D>, f64), GeometryError> {
     let Subdomain {
@@ -249,15 +256,15 @@ fn halo_cells<const D: usize>(
         .filter(|&d| periodic(d))
         .map(|d| 0.5 * whole.length[d] * (1.0 - 1e-9))
         .fold(f64::INFINITY, f64::min);
-    let side = (2.0 * (CLUSTER as f64 * volume / owned.max(1) as f64).powf(1.0 / D as f64))
+    let side = (2.0 * (CLUSTER as f64 * volume / share.max(1) as f64).powf(1.0 / D as f64))
         .min(widest)
         .max(reach);
     let mut domain = whole;
     let mut dims = [1; D];
     for d in 0..D {
         if cut[d] {
-            // the nearest count to cells of `side`, none narrower than `reach`
-            let inside = ((width[d] / side).round() as usize)
+            // as many cells of at least `side` as fit, none narrower than `reach`
+            let inside = CellGrid::<D>::cells_along(width[d], side)
                 .min(CellGrid::<D>::cells_along(width[d], reach))
                 .max(1);
             let c = width[d] / inside as f64;
@@ -400,6 +407,7 @@ mod tests {
             assert_ne!(decomposition, equal, "the planes did not move");
         }
         let owner: Vec<usize> = points.iter().map(|x| decomposition.owner(x)).collect();
+        let share = n / ranks;
         let mut got = vec![AtomForce::<D>::default(); n];
         let mut got_totals = PairTally::default();
         for threads in [Threads::single(), Threads::new(2).unwrap()] {
@@ -421,7 +429,8 @@ mod tests {
                 }
                 let subdomain = decomposition.subdomain(rank);
                 let mut halo =
-                    HaloForces::build(&subdomain, &all, own.len(), lj, skin, &threads).unwrap();
+                    HaloForces::build(&subdomain, &all, own.len(), share, lj, skin, &threads)
+                        .unwrap();
                 let (out, rank_totals) = sums_by_point(&mut halo, &all, own.len(), &threads);
                 totals.energy += rank_totals.energy;
                 totals.virial += rank_totals.virial;
@@ -429,8 +438,9 @@ mod tests {
                 // the fresh list's sums, bit for bit
                 let moved: Vec<[f64; D]> = all.iter().map(|x| x.map(|c| c + 0.05)).collect();
                 let mut again =
-                    HaloForces::build(&subdomain, &moved, own.len(), lj, skin, &threads).unwrap();
-                let in_place = again.rebuild(&subdomain, &all, own.len(), &threads);
+                    HaloForces::build(&subdomain, &moved, own.len(), share, lj, skin, &threads)
+                        .unwrap();
+                let in_place = again.rebuild(&subdomain, &all, own.len(), share, &threads);
                 assert_eq!(in_place, Ok(true), "the cells changed");
                 let out_again = sums_by_point(&mut again, &all, own.len(), &threads);
                 assert_eq!(out_again, (out.clone(), rank_totals), "rebuilt in place");
@@ -455,9 +465,16 @@ mod tests {
                 assert_eq!(out_renumbered[own.len()..], out[own.len()..]);
                 // a fresh list of the atoms stored so holds the same pairs in
                 // the same slots (no two atoms tie in a cell's columns here)
-                let mut fresh =
-                    HaloForces::build(&subdomain, &renumbered, own.len(), lj, skin, &threads)
-                        .unwrap();
+                let mut fresh = HaloForces::build(
+                    &subdomain,
+                    &renumbered,
+                    own.len(),
+                    share,
+                    lj,
+                    skin,
+                    &threads,
+                )
+                .unwrap();
                 let out_fresh = sums_by_point(&mut fresh, &renumbered, own.len(), &threads);
                 assert_eq!(
                     out_fresh,
