@@ -1,8 +1,9 @@
 //! MPI test of the command line (feature `mpi`; its own binary, run directly,
 //! not under mpirun: it starts `mpirun` itself). `cellist run` on one rank is
-//! the plain run; md on 2, 3 and 4 ranks gives the dumps of the plain run
-//! within 1e-10 after 100 steps (and with `[run] reproducible = true`, as pse
-//! always, the same bytes on 2, 3 and 4 ranks), an uneven md system (a slab
+//! the plain run; md on 2, 3 and 4 ranks gives the dumps (with per-atom
+//! energies) and the thermo of the plain run within 1e-10 after 100 steps (and
+//! with `[run] reproducible = true`, as pse always, the same bytes on 2, 3 and
+//! 4 ranks), an uneven md system (a slab
 //! in a third of the box) with balanced planes likewise, a 4-rank
 //! checkpoint continues in one process and on 2 ranks like the uninterrupted
 //! run; the Barnes-Hut trees of gravity and of the vortex model on 1 to 4 ranks

@@ -38,9 +38,10 @@ pub trait Hosted: Model {
         None
     }
 
-    /// Before each observed step ([`Model::step_observed`]), on every rank:
+    /// Before each step this rank observes ([`Model::step_observed`]):
     /// whether an output reads per-particle energies after it (a dump with
-    /// energy columns; false on the ranks that write no output). A model
+    /// energy columns; false on the ranks that write no output, whose wish a
+    /// spread model all-reduces with rank 0's). A model
     /// whose per-particle energies cost a pass of their own that its thermo
     /// does not need (the distributed md's half list) makes that pass only
     /// when some rank wants them; the others compute them anyway, or when

@@ -64,7 +64,8 @@ fn needs_energies(format: DumpFormat, columns: &[String]) -> bool {
 /// Writes the frame of `model` after `step` to `out` in `format` (LAMMPS
 /// dumps with `columns`), a block of rows at a time: what is held besides the
 /// model is one block, not a copy of every particle. An internal error for a
-/// model without particles; an output error naming `name` if a write fails.
+/// model without particles, or without the per-particle energies a `pe`
+/// column asks for; an output error naming `name` if a write fails.
 pub fn write_frame<M: Model + ?Sized>(
     model: &M,
     step: u64,
@@ -74,18 +75,29 @@ pub fn write_frame<M: Model + ?Sized>(
     name: &str,
 ) -> SimResult {
     let time = step as f64 * model.dt();
+    let energies = needs_energies(format, columns);
     let mut written = Ok(());
+    let mut without_energies = false;
     let mut write = |block: ParticleBlock| {
+        if energies && block.rows.energies.is_none() {
+            without_energies = true;
+            return ControlFlow::Break(());
+        }
         written = write_block(out, block, step, format, columns, time);
         match written {
             Ok(()) => ControlFlow::Continue(()),
             Err(_) => ControlFlow::Break(()),
         }
     };
-    let energies = needs_energies(format, columns);
     if !model.particle_blocks(step, energies, &mut write) {
         return Err(SimError::Internal(format!(
             "model {} has no particle columns to dump",
+            model.info().name
+        )));
+    }
+    if without_energies {
+        return Err(SimError::Internal(format!(
+            "model {} has no per-particle energies for the pe column at step {step}",
             model.info().name
         )));
     }

@@ -268,8 +268,10 @@ pub trait Model {
     fn checked(&self) -> Checked<'_>;
 
     /// The particles for a dump frame at `step`; `energies` asks for per-particle
-    /// energies (after [`Model::step_observed`]). `None` for models without
-    /// particle dumps.
+    /// energies (after a [`Model::step_observed`] that was to make them: a
+    /// model whose energies cost a pass of their own may make them only when
+    /// told a dump wants them, and gives none otherwise). `None` for models
+    /// without particle dumps.
     fn particles(&self, step: u64, energies: bool) -> Option<Particles> {
         let _ = (step, energies);
         None

@@ -3,7 +3,8 @@
 //! computes the forces on its own atoms in one of two ways (`PairSums`):
 //!
 //! - by default over a half cluster list of its own atoms and the ghosts of
-//!   half the directions ([`HaloForces`], [`Images::HalfShell`]): each pair
+//!   half the directions ([`HaloForces`](cellist::models::md::HaloForces),
+//!   [`Images::HalfShell`](cellist::decomposition::Images::HalfShell)): each pair
 //!   once over all ranks, the single-process kernel, the ghosts' reactions
 //!   sent back to their owners ([`GhostPlan::reverse`]); the result agrees
 //!   with other rank counts to rounding;
@@ -14,22 +15,27 @@
 //! ```text
 //! step:  first half (kick + drift)          # own atoms
 //!        check positions; rebuild? = some atom moved more than skin/2
-//!        one all-reduce of both             # every rank stops on the same blow-up
+//!        one all-reduce of the step's flags # the blow-up, rebuild?, observed?,
+//!                                           # a dump's per-atom energies wanted?
 //!          rebuild: (rcb, imbalance > 1.05: new planes), wrap, migrate to
 //!                   owners, count the atoms (all-reduce), new ghost plan and
 //!                   ids, new list or rows
 //!          else:    send the ghosts' positions along the plan
 //!        forces on own atoms and ghosts; the ghosts' reactions back (default)
+//!          observed: the pairs' energy and virial (the per-atom halves only
+//!          for a dump that wants them)
 //!        second half (kick)
 //!        check v and f (agreed)
-//!        observed step: the own atoms' order by id, for rank 0's pulls
+//!        observed step (default): the ranks' 2K, U and W all-gathered and
+//!          added in rank order (the thermo)
 //! ```
 //!
 //! Rank 0 writes every output, pulling the atoms from every rank a block of
-//! ids at a time in id order ([`super::pull`]) while the other ranks serve
-//! its asks ([`Hosted::serve_outputs`]): thermo summed in id order, dumps
-//! and the global state for checkpoints, the same bytes as one process
-//! would write, without the whole state on one rank. The speed line adds the communication time of rank 0 and the load
+//! ids at a time in id order ([`super::pull`]; each rank sorts its atoms by
+//! id at the first pull after a step) while the other ranks serve its asks
+//! ([`Hosted::serve_outputs`]): dumps and the global state for checkpoints,
+//! the same bytes as one process would write, without the whole state on one
+//! rank; with the reproducible rows also the thermo, summed in id order. The speed line adds the communication time of rank 0 and the load
 //! imbalance (largest over mean atoms per rank, averaged over the rebuilds).
 
 use super::pull::{self, IdSpan, OwnRows as _};
@@ -40,8 +46,8 @@ use cellist::geometry::Domain;
 use cellist::interactions::{LennardJones, PairPotential};
 use cellist::models::md::{
     blowup_of, check_positions, checked_atoms, dump_particles, lap, late_note, load_atoms,
-    ordered_forces, save_atoms, twice_kinetic, AtomForce, Atoms, Integrator, ListCounts,
-    Observables, PairTally, SavedAtoms, StageTimes, Thermo, ThermoSums, REMEDY,
+    ordered_forces, save_atoms, twice_kinetic, AtomForce, Atoms, HaloSums, Integrator, ListCounts,
+    PairTally, SavedAtoms, StageTimes, ThermoSums, REMEDY,
 };
 use cellist::models::{check, md, Blowup, Checked, Model, ModelInfo, ParticleBlock, Particles};
 use cellist::neighbors::{CellGrid, OrderedRows, Rebuild, RebuildRule};
@@ -91,8 +97,9 @@ pub struct DistributedMd<const D: usize> {
     /// per ghost, `D + 2` with the half energy and virial.
     reactions: Vec<f64>,
     /// Each own atom's half energy and half virial, set by the forces of an
-    /// observed step and read only after one (a rebuild leaves them in the
-    /// old order, a plain step of the reproducible rows zeroes them).
+    /// observed step that computed them (`energies_valid`) and read only
+    /// after it (a rebuild leaves them in the old order, a plain step of the
+    /// reproducible rows zeroes them).
     energies: Vec<[f64; 2]>,
     /// Any rank observed the last step: rank 0 pulls its outputs.
     observed: bool,
@@ -111,14 +118,11 @@ pub struct DistributedMd<const D: usize> {
     /// Set before an observed step ([`Hosted::want_particle_energies`]): an
     /// output of this rank reads per-atom energies after it.
     energies_wanted: bool,
-    /// The half list's energy and virial of this rank's pairs at the last
-    /// observed step.
-    pair_totals: PairTally,
     /// With the half list, after an observed step (and at set-up) on every
-    /// rank: the system's `2K = sum m v^2` and the energy and virial of its
-    /// pairs, each rank's sums added in rank order ([`Self::add_up_thermo`]);
-    /// `None` after a restore.
-    system_sums: Option<(f64, PairTally)>,
+    /// rank, until the next step: the system's `2K = sum m v^2` and the
+    /// energy and virial of its pairs, each rank's sums added in rank order
+    /// ([`Self::add_up_thermo`]); `None` otherwise.
+    system_sums: Option<ThermoSums>,
     /// Set by a restore: the next step rebuilds whatever the skin test says.
     stale: bool,
     /// The own atoms are stored in the half list's slot order of the last
@@ -248,7 +252,6 @@ impl<const D: usize> DistributedMd<D> {
             restored_reference: None,
             energies_valid: true,
             energies_wanted: false,
-            pair_totals: PairTally::default(),
             system_sums: None,
             stale: false,
             in_slot_order: false,
@@ -266,8 +269,9 @@ impl<const D: usize> DistributedMd<D> {
             .redistribute(threads)
             .map_err(|e| e.what.to_string())?;
         model.span = IdSpan::of(&model.world, &model.atoms.ids);
-        model.forces(true, true, threads);
-        model.add_up_thermo();
+        if let Some(pairs) = model.forces(true, true, threads) {
+            model.add_up_thermo(pairs);
+        }
         model.observe(true);
         Ok(model)
     }
@@ -412,7 +416,8 @@ impl<const D: usize> DistributedMd<D> {
     /// sent in this order, too); the sums do not depend on this order. Before
     /// the first build, after a restore and before every build of the
     /// reproducible rows: the half list keeps the atoms in its slots' order
-    /// from one build to the next instead ([`HaloForces::own_in_slot_order`];
+    /// from one build to the next instead
+    /// ([`HaloForces::own_in_slot_order`](cellist::models::md::HaloForces::own_in_slot_order);
     /// atoms that tie inside a cell's columns then fall in that order). A
     /// stable counting sort by cell, the atoms moved in place along the
     /// permutation's cycles (8 bytes per atom for the keys and the order,
@@ -442,25 +447,25 @@ impl<const D: usize> DistributedMd<D> {
         self.atoms.permute_by_cycles(&order);
     }
 
-    /// The forces on the own atoms; when `observe`d, the half list's energy
-    /// and virial of this rank's pairs (`pair_totals`); with `energies`, the
+    /// The forces on the own atoms; when `observe`d, the half list returns
+    /// the energy and virial of this rank's pairs; with `energies`, the
     /// own atoms' half energies and virials too (the reproducible rows sum
     /// them at every observed step). The half list writes the own atoms' sums
     /// and the ghosts' reactions straight to their arrays and sends the
     /// reactions back; the reproducible rows sum from the own atoms' and the
     /// ghosts' positions side by side.
-    fn forces(&mut self, observe: bool, energies: bool, threads: &Threads) {
+    fn forces(&mut self, observe: bool, energies: bool, threads: &Threads) -> Option<PairTally> {
         match &mut self.sums {
             PairSums::Halo(halo) => {
                 let halo = halo
                     .as_mut()
                     .expect("the list is built before the first forces");
-                let (observables, width) = if energies {
-                    (Observables::PerAtom(&mut self.energies[..]), D + 2)
+                let (wanted, width) = if energies {
+                    (HaloSums::PerAtom(&mut self.energies[..]), D + 2)
                 } else if observe {
-                    (Observables::Totals, D)
+                    (HaloSums::Totals, D)
                 } else {
-                    (Observables::Forces, D)
+                    (HaloSums::Forces, D)
                 };
                 self.reactions.resize(width * self.ghosts.len(), 0.0);
                 let totals = halo.forces(
@@ -469,12 +474,10 @@ impl<const D: usize> DistributedMd<D> {
                     threads,
                     &mut self.atoms.forces,
                     &mut self.reactions,
-                    observables,
+                    wanted,
                 );
-                if let Some(totals) = totals {
-                    self.pair_totals = totals;
-                }
                 self.return_reactions(width);
+                totals
             }
             PairSums::Ordered(rows, sums) => {
                 let n = self.atoms.len();
@@ -491,38 +494,39 @@ impl<const D: usize> DistributedMd<D> {
                     self.atoms.forces[k] = c.force;
                     self.energies[k] = [c.energy, c.virial];
                 }
+                None
             }
         }
     }
 
     /// With the half list, after an observed step's forces and velocities
-    /// (collective): the system's `2K` and pair energy and virial, every
-    /// rank's `[2K_r, U_r, W_r]` gathered and added in rank order, so that
-    /// the thermo needs no atom from the other ranks and its bits depend only
-    /// on the rank count and the ranks' sums.
-    fn add_up_thermo(&mut self) {
-        if !matches!(self.sums, PairSums::Halo(_)) {
-            return;
-        }
+    /// (collective; `pairs`, the energy and virial of this rank's pairs):
+    /// the system's thermo sums, every rank's `[N_r, 2K_r, U_r, W_r]`
+    /// gathered and added in rank order, so that the thermo needs no atom
+    /// from the other ranks and its bits depend only on the rank count and
+    /// the ranks' sums.
+    fn add_up_thermo(&mut self, pairs: PairTally) {
         let t = Instant::now();
         let mine = [
+            self.atoms.len() as f64,
             twice_kinetic(&self.atoms),
-            self.pair_totals.energy,
-            self.pair_totals.virial,
+            pairs.energy,
+            pairs.virial,
         ];
-        let mut all = vec![0.0; 3 * self.world.size() as usize];
+        let mut all = vec![0.0; mine.len() * self.world.size() as usize];
         self.world.all_gather_into(&mine[..], &mut all[..]);
-        let mut twice_kinetic = -0.0;
-        let mut pairs = PairTally {
-            energy: -0.0,
-            virial: -0.0,
-        };
-        for rank in all.chunks_exact(3) {
-            twice_kinetic += rank[0];
-            pairs.energy += rank[1];
-            pairs.virial += rank[2];
+        let mut sums = ThermoSums::default();
+        for [atoms, kinetic, energy, virial] in all.as_chunks::<4>().0 {
+            sums.add_part(
+                *atoms as usize,
+                *kinetic,
+                PairTally {
+                    energy: *energy,
+                    virial: *virial,
+                },
+            );
         }
-        self.system_sums = Some((twice_kinetic, pairs));
+        self.system_sums = Some(sums);
         self.communication += t.elapsed();
     }
 
@@ -635,11 +639,15 @@ const INFO: ModelInfo = ModelInfo {
 };
 
 impl<const D: usize> DistributedMd<D> {
-    /// Advances to `step` on every rank; when any rank `observe`s, the own
-    /// atoms are put in id order for rank 0's pulls.
+    /// Advances to `step` on every rank; when any rank `observe`s, the
+    /// thermo's sums (and the per-atom energies a dump wants) are made for
+    /// rank 0's outputs. What the last state's outputs read is forgotten
+    /// first: its id order, energies and sums.
     fn advance(&mut self, step: u64, observe: bool, threads: &Threads) -> Result<(), Blowup> {
         self.observed = false;
         self.by_id.take();
+        self.energies_valid = false;
+        self.system_sums = None;
         let t = Instant::now();
         self.integrator
             .first_half(&mut self.atoms, self.dt, threads);
@@ -682,7 +690,7 @@ impl<const D: usize> DistributedMd<D> {
             self.communication += c.elapsed();
         }
         let t = lap(t, &mut self.times.neighbor);
-        self.forces(observe, energies, threads);
+        let pairs = self.forces(observe, energies, threads);
         let t = lap(t, &mut self.times.force);
         self.integrator
             .second_half(&mut self.atoms, self.dt, step, threads);
@@ -690,7 +698,10 @@ impl<const D: usize> DistributedMd<D> {
         let local = check(self, step, 0).err();
         self.agree_blowup(step, local)?;
         if observe {
-            self.add_up_thermo();
+            // the half list's pair sums: on every rank alike (observe is agreed)
+            if let Some(pairs) = pairs {
+                self.add_up_thermo(pairs);
+            }
             self.observe(energies);
         }
         Ok(())
@@ -746,16 +757,16 @@ impl<const D: usize> Model for DistributedMd<D> {
         self.advance(step, true, threads)
     }
 
-    /// With the half list, from the ranks' sums added up after the observed
-    /// step ([`Self::add_up_thermo`]); with the reproducible rows (and after
-    /// a restore), summed on rank 0 over every rank's atoms in id order, a
-    /// block at a time, so that its bits do not depend on the rank count.
+    /// After set-up or an observed step (when the driver reads it): with the
+    /// half list, from the ranks' sums added up after the step
+    /// (`add_up_thermo`); with the reproducible rows, summed on rank
+    /// 0 over every rank's atoms in id order, a block at a time (collective:
+    /// the other ranks serve the pulls), so that its bits do not depend on
+    /// the rank count.
     fn thermo(&self, _step: u64) -> Vec<f64> {
         let volume = self.decomposition.domain.volume();
         let th = match self.system_sums {
-            Some((twice_kinetic, pairs)) => {
-                Thermo::from_sums::<D>(self.total, twice_kinetic, pairs, volume)
-            }
+            Some(sums) => sums.thermo::<D>(volume),
             None => {
                 let mut sums = ThermoSums::default();
                 self.blocks(|g| {

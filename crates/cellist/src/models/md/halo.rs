@@ -38,8 +38,8 @@ pub struct HaloForces<const D: usize> {
     skin: f64,
     owned: usize,
     reference: Vec<[f64; D]>,
-    /// Per slot, the half energies and virials of an observed step (kept, so
-    /// that a step allocates nothing).
+    /// Per slot, the half energies and virials of the last pass with
+    /// per-atom energies (kept, so that a step allocates nothing).
     energies: Vec<f64>,
     virials: Vec<f64>,
 }
@@ -143,10 +143,10 @@ impl<const D: usize> HaloForces<D> {
     /// build position): `forces[k]`, the force on own atom `k`; per ghost
     /// `g`, its reaction (the sum of the pairs this rank computed with it, to
     /// be sent to its owner) at `reactions[w g..w g + D]`. With
-    /// [`Observables::Totals`] or [`Observables::PerAtom`], returns the energy
+    /// [`HaloSums::Totals`] or [`HaloSums::PerAtom`], returns the energy
     /// `U = sum U(r_kj)` and virial `W = sum r_kj^2 (-U'(r_kj)/r_kj)` of the
     /// pairs this rank computed (each pair of the system on one rank only:
-    /// summed over the ranks, the system's); with [`Observables::PerAtom`],
+    /// summed over the ranks, the system's); with [`HaloSums::PerAtom`],
     /// also each own atom's half energy and half virial (half of each of its
     /// listed pairs') in its slice at `k`, and each ghost's after its reaction
     /// (`w = D + 2`); otherwise `w = D`.
@@ -157,14 +157,14 @@ impl<const D: usize> HaloForces<D> {
         threads: &Threads,
         forces: &mut [[f64; D]],
         reactions: &mut [f64],
-        observables: Observables<'_>,
+        sums: HaloSums<'_>,
     ) -> Option<PairTally> {
         let n = self.owned;
         assert!(own.len() == n && forces.len() == n);
-        let (energy, width) = match &observables {
-            Observables::Forces => (false, D),
-            Observables::Totals => (true, D),
-            Observables::PerAtom(energies) => {
+        let (energy, width) = match &sums {
+            HaloSums::Forces => (false, D),
+            HaloSums::Totals => (true, D),
+            HaloSums::PerAtom(energies) => {
                 assert_eq!(energies.len(), n);
                 (true, D + 2)
             }
@@ -180,7 +180,7 @@ impl<const D: usize> HaloForces<D> {
                         reactions[width * (k - n)..][..D].copy_from_slice(&f);
                     }
                 });
-        if let Observables::PerAtom(energies) = observables {
+        if let HaloSums::PerAtom(energies) = sums {
             let points = n + ghosts.len();
             self.energies.resize(points, 0.0);
             self.virials.resize(points, 0.0);
@@ -215,7 +215,7 @@ impl<const D: usize> HaloForces<D> {
 }
 
 /// What a force pass of [`HaloForces::forces`] sums beyond the forces.
-pub enum Observables<'a> {
+pub enum HaloSums<'a> {
     /// The forces alone (a plain step).
     Forces,
     /// Also the energy and virial of the pairs the rank computes (an observed
@@ -234,10 +234,13 @@ pub enum Observables<'a> {
 /// periodic along the uncut axes (the box's cells of at least `s`), and
 /// along a cut axis of width `w` open with `k = max(1, floor(w / s))` cells
 /// of `c = w / k` inside the subdomain (as many of at least `s` as fit, like
-/// the uncut axes and a single-process list; never narrower than `reach`)
-/// and `m = ceil(reach / c)` more on each side for the ghosts: the faces between subdomains are faces between cells,
-/// so that few clusters mix own atoms and ghosts (atoms on a face may round
-/// into the cell beyond it).
+/// the uncut axes and a single-process list) and `m = ceil(reach / c)` more
+/// on each side for the ghosts (one, for a subdomain at least `reach` wide):
+/// the faces between subdomains are faces between cells, so that few
+/// clusters mix own atoms and ghosts (atoms on a face may round into the cell
+/// beyond it). Sized for the mean density, a crowded subdomain of uneven
+/// atoms under equal cuts gets larger cells than its own density would
+/// (more pairs tested per cluster; balanced cuts give it a smaller volume).
 fn halo_cells<const D: usize>(
     subdomain: &Subdomain<D>,
     share: usize,
@@ -263,10 +266,8 @@ fn halo_cells<const D: usize>(
     let mut dims = [1; D];
     for d in 0..D {
         if cut[d] {
-            // as many cells of at least `side` as fit, none narrower than `reach`
-            let inside = CellGrid::<D>::cells_along(width[d], side)
-                .min(CellGrid::<D>::cells_along(width[d], reach))
-                .max(1);
+            // as many cells of at least `side` (itself at least `reach`) as fit
+            let inside = CellGrid::<D>::cells_along(width[d], side);
             let c = width[d] / inside as f64;
             let ghost_cells = (reach / c).ceil() as usize;
             dims[d] = inside + 2 * ghost_cells;
@@ -297,8 +298,8 @@ mod tests {
     /// Every rank of a decomposition played in one process: each builds its
     /// list over its own atoms and its half-shell ghosts, the ghosts'
     /// reactions, half energies and half virials go back to their owners, and
-    /// every atom's force, energy and virial is the brute-force sum over all
-    /// pairs (minimum image), for slabs, a 2 x 2 cut (3D) and a 3 x 2 cut (2D),
+    /// every atom's force, energy and virial, and the ranks' pair energy and
+    /// virial added up, are the brute-force sums over all pairs (minimum image), for slabs, a 2 x 2 cut (3D) and a 3 x 2 cut (2D),
     /// on 1 and 2 threads alike; also with a box open along the cut axis and
     /// with balanced planes for atoms crowded towards one end. The atoms
     /// include some on the faces between subdomains (where a cell could take
@@ -337,11 +338,11 @@ mod tests {
         let mut forces = vec![[0.0; D]; owned];
         let mut reactions = vec![0.0; (D + 2) * ghosts.len()];
         let mut energies = vec![[0.0; 2]; owned];
-        let with = Observables::PerAtom(&mut energies[..]);
+        let with = HaloSums::PerAtom(&mut energies[..]);
         let totals = halo.forces(own, ghosts, threads, &mut forces, &mut reactions, with);
         let totals = totals.expect("totals with the per-atom halves");
-        for observables in [Observables::Totals, Observables::Forces] {
-            let wanted = matches!(observables, Observables::Totals);
+        for sums in [HaloSums::Totals, HaloSums::Forces] {
+            let wanted = matches!(sums, HaloSums::Totals);
             let mut bare_forces = vec![[0.0; D]; owned];
             let mut bare_reactions = vec![0.0; D * ghosts.len()];
             let bare_totals = halo.forces(
@@ -350,7 +351,7 @@ mod tests {
                 threads,
                 &mut bare_forces,
                 &mut bare_reactions,
-                observables,
+                sums,
             );
             assert_eq!(bare_totals, wanted.then_some(totals));
             assert_eq!(bare_forces, forces);

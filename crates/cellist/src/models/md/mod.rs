@@ -24,7 +24,7 @@ mod velocity;
 pub use atoms::Atoms;
 use atoms::PermuteScratch;
 pub use frame::dump_particles;
-pub use halo::{HaloForces, Observables};
+pub use halo::{HaloForces, HaloSums};
 pub use integrate::{Integrator, Langevin};
 pub use lattice::{lattice, Lattice, LatticeKind};
 pub use model::{
@@ -580,6 +580,16 @@ impl ThermoSums {
             self.totals.energy += u;
             self.totals.virial += w;
         }
+    }
+
+    /// Adds the sums of a part of the system taken apart (another rank's
+    /// atoms): `atoms` atoms whose `sum m v^2` is `twice_kinetic` and whose
+    /// pairs' energy and virial are `pairs`.
+    pub fn add_part(&mut self, atoms: usize, twice_kinetic: f64, pairs: PairTally) {
+        self.atoms += atoms;
+        self.twice_kinetic += twice_kinetic;
+        self.totals.energy += pairs.energy;
+        self.totals.virial += pairs.virial;
     }
 
     /// The thermo of the atoms added so far in a box of `volume`.
