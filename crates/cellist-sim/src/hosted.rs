@@ -41,11 +41,10 @@ pub trait Hosted: Model {
     /// Before each step this rank observes ([`Model::step_observed`]):
     /// whether an output reads per-particle energies after it (a dump with
     /// energy columns; false on the ranks that write no output, whose wish a
-    /// spread model all-reduces with rank 0's). A model
-    /// whose per-particle energies cost a pass of their own that its thermo
-    /// does not need (the distributed md's half list) makes that pass only
-    /// when some rank wants them; the others compute them anyway, or when
-    /// read.
+    /// spread model all-reduces with rank 0's). A model whose per-particle
+    /// energies cost a pass of their own that its thermo does not need (the
+    /// distributed md's half list) makes that pass only when some rank wants
+    /// them; the others compute them anyway, or when read.
     fn want_particle_energies(&mut self, _wanted: bool) {}
 
     /// On a rank of a model spread over MPI ranks, after each step that any
