@@ -203,6 +203,8 @@ impl Turn {
     /// `m >= 0`, real and imaginary parts apart); `full` is scratch.
     pub fn forward(&self, p: usize, a: &[Complex64], out: &mut Parts, full: &mut Parts) {
         out.clear(p);
+        // degree n's block starts where degree n - 1's ends (block_start(n))
+        let mut start = 0;
         for n in 0..=p {
             let w = 2 * n + 1;
             full.re.resize(w, 0.0);
@@ -212,7 +214,8 @@ impl Turn {
                 let v = signed(a, n, mp) * self.phase(mp);
                 (full.re[k], full.im[k]) = (v.re, v.im);
             }
-            let block = &self.forward[block_start(n)..block_start(n) + w * words(n)];
+            let block = &self.forward[start..start + w * words(n)];
+            start += w * words(n);
             let range = at(n, 0)..at(n, n) + 1;
             products(
                 block,
@@ -236,6 +239,7 @@ impl Turn {
         sums: &mut Parts,
     ) {
         sums.clear(p);
+        let mut start = 0;
         for k in 0..=p {
             let w = 2 * k + 1;
             full.re.resize(w, 0.0);
@@ -244,7 +248,8 @@ impl Turn {
                 let v = b.signed(k, i as isize - k as isize);
                 (full.re[i], full.im[i]) = (v.re, v.im);
             }
-            let block = &self.back[block_start(k)..block_start(k) + w * words(k)];
+            let block = &self.back[start..start + w * words(k)];
+            start += w * words(k);
             let range = at(k, 0)..at(k, k) + 1;
             products(
                 block,
@@ -557,23 +562,42 @@ pub(super) fn m2l_turned(
             power *= rho_s;
         }
         // sum_{n >= l} a'_n^l f[n + k] for LANES consecutive k in lanes (the
-        // factorials are padded with zeros past 2p + 1)
+        // factorials are padded with zeros past 2p + 1), two such runs of k
+        // at a time where there are two: four sums that do not wait on each
+        // other, each over n in the same order
         let mut k = l;
         while k <= p {
-            let (mut re, mut im) = (Word::splat(0.0), Word::splat(0.0));
-            for i in 0..len {
-                let f = Word::load(&factorials[l + k + i..]);
-                re = f.mul_add(Word::splat(full.re[i]), re);
-                im = f.mul_add(Word::splat(full.im[i]), im);
+            let zero = Word::splat(0.0);
+            let (mut re, mut im, mut re2, mut im2) = (zero, zero, zero, zero);
+            let runs = if k + LANES <= p { 2 } else { 1 };
+            if runs == 2 {
+                for i in 0..len {
+                    let (vr, vi) = (Word::splat(full.re[i]), Word::splat(full.im[i]));
+                    let f = Word::load(&factorials[l + k + i..]);
+                    let g = Word::load(&factorials[l + k + LANES + i..]);
+                    re = f.mul_add(vr, re);
+                    im = f.mul_add(vi, im);
+                    re2 = g.mul_add(vr, re2);
+                    im2 = g.mul_add(vi, im2);
+                }
+            } else {
+                for i in 0..len {
+                    let f = Word::load(&factorials[l + k + i..]);
+                    re = f.mul_add(Word::splat(full.re[i]), re);
+                    im = f.mul_add(Word::splat(full.im[i]), im);
+                }
             }
-            let (mut sum_re, mut sum_im) = ([0.0; LANES], [0.0; LANES]);
-            re.store(&mut sum_re);
-            im.store(&mut sum_im);
-            for lane in 0..LANES.min(p + 1 - k) {
-                let t = at(k + lane, l);
-                (shifted.re[t], shifted.im[t]) = (sum_re[lane], sum_im[lane]);
+            for (run, (re, im)) in [(re, im), (re2, im2)].into_iter().take(runs).enumerate() {
+                let first = k + run * LANES;
+                let (mut sum_re, mut sum_im) = ([0.0; LANES], [0.0; LANES]);
+                re.store(&mut sum_re);
+                im.store(&mut sum_im);
+                for lane in 0..LANES.min(p + 1 - first) {
+                    let t = at(first + lane, l);
+                    (shifted.re[t], shifted.im[t]) = (sum_re[lane], sum_im[lane]);
+                }
             }
-            k += LANES;
+            k += runs * LANES;
         }
     }
     // a'_n^{-l} = (-1)^l conj(a'_n^l), times (-1)^k (s_t / d)^k / d
