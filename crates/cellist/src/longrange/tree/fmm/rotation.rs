@@ -11,7 +11,7 @@
 //!
 //! (`d^n` Wigner's small d-matrix). Each turn is then `O(p^3)`.
 
-use super::solid::{at, signed};
+use super::solid::at;
 use crate::simd::{F64x8, Register};
 use rustfft::num_complex::Complex64;
 use std::collections::HashMap;
@@ -79,18 +79,6 @@ impl Parts {
         for v in [&mut self.re, &mut self.im] {
             v.clear();
             v.resize(terms, 0.0);
-        }
-    }
-
-    /// Term `(n, m)` for any `m` (`(-1)^m conj` of `(n, -m)` below 0).
-    #[inline(always)]
-    fn signed(&self, n: usize, m: isize) -> Complex64 {
-        let t = at(n, m.unsigned_abs());
-        let v = Complex64::new(self.re[t], self.im[t]);
-        match (m < 0, m.unsigned_abs() % 2) {
-            (false, _) => v,
-            (true, 0) => v.conj(),
-            (true, _) => -v.conj(),
         }
     }
 }
@@ -209,10 +197,19 @@ impl Turn {
             let w = 2 * n + 1;
             full.re.resize(w, 0.0);
             full.im.resize(w, 0.0);
-            for k in 0..w {
-                let mp = k as isize - n as isize;
-                let v = signed(a, n, mp) * self.phase(mp);
-                (full.re[k], full.im[k]) = (v.re, v.im);
+            // m' = 0..=n, and m' = -m from the same product: (-1)^m conj(x) conj(e)
+            // is (-1)^m conj(x e) to the bit (the same products, negated)
+            for m in 0..=n {
+                let v = a[at(n, m)] * self.phases[m];
+                (full.re[n + m], full.im[n + m]) = (v.re, v.im);
+                if m > 0 {
+                    let (re, im) = if m % 2 == 0 {
+                        (v.re, -v.im)
+                    } else {
+                        (-v.re, v.im)
+                    };
+                    (full.re[n - m], full.im[n - m]) = (re, im);
+                }
             }
             let block = &self.forward[start..start + w * words(n)];
             start += w * words(n);
@@ -244,9 +241,15 @@ impl Turn {
             let w = 2 * k + 1;
             full.re.resize(w, 0.0);
             full.im.resize(w, 0.0);
-            for i in 0..w {
-                let v = b.signed(k, i as isize - k as isize);
-                (full.re[i], full.im[i]) = (v.re, v.im);
+            // l = 0..=k, and l = -l's (-1)^l conj from the same term
+            for l in 0..=k {
+                let t = at(k, l);
+                let (re, im) = (b.re[t], b.im[t]);
+                (full.re[k + l], full.im[k + l]) = (re, im);
+                if l > 0 {
+                    let (re, im) = if l % 2 == 0 { (re, -im) } else { (-re, im) };
+                    (full.re[k - l], full.im[k - l]) = (re, im);
+                }
             }
             let block = &self.back[start..start + w * words(k)];
             start += w * words(k);
@@ -439,7 +442,7 @@ mod tests {
     /// The harmonics' turn: `R_n^m(Q x) = sum D e^{-i m' alpha} R_n^{m'}(x)`.
     #[test]
     fn turned_harmonics_are_the_harmonics_of_the_turned_point() {
-        use super::super::solid::{regular, terms};
+        use super::super::solid::{regular, signed, terms};
         let p = 20;
         let lf = log_factorials(2 * p + 2);
         let v = [0.3, -0.7, 0.5];
