@@ -81,6 +81,21 @@ impl Parts {
             v.resize(terms, 0.0);
         }
     }
+
+    /// In a degree-`n` row of columns `-n..=n`: `v` at column `m >= 0` and
+    /// `(-1)^m conj(v)` at `-m` (a term and its mirror).
+    #[inline(always)]
+    fn set_pair(&mut self, n: usize, m: usize, v: Complex64) {
+        (self.re[n + m], self.im[n + m]) = (v.re, v.im);
+        if m > 0 {
+            let (re, im) = if m % 2 == 0 {
+                (v.re, -v.im)
+            } else {
+                (-v.re, v.im)
+            };
+            (self.re[n - m], self.im[n - m]) = (re, im);
+        }
+    }
 }
 
 /// The turn of one direction onto `+z`: the phases `e^{i m alpha}` and the
@@ -197,19 +212,10 @@ impl Turn {
             let w = 2 * n + 1;
             full.re.resize(w, 0.0);
             full.im.resize(w, 0.0);
-            // m' = 0..=n, and m' = -m from the same product: (-1)^m conj(x) conj(e)
-            // is (-1)^m conj(x e) to the bit (the same products, negated)
+            // m' = -m from the same product: (-1)^m conj(x) conj(e) is
+            // (-1)^m conj(x e) to the bit (the same products, negated)
             for m in 0..=n {
-                let v = a[at(n, m)] * self.phases[m];
-                (full.re[n + m], full.im[n + m]) = (v.re, v.im);
-                if m > 0 {
-                    let (re, im) = if m % 2 == 0 {
-                        (v.re, -v.im)
-                    } else {
-                        (-v.re, v.im)
-                    };
-                    (full.re[n - m], full.im[n - m]) = (re, im);
-                }
+                full.set_pair(n, m, a[at(n, m)] * self.phases[m]);
             }
             let block = &self.forward[start..start + w * words(n)];
             start += w * words(n);
@@ -241,15 +247,9 @@ impl Turn {
             let w = 2 * k + 1;
             full.re.resize(w, 0.0);
             full.im.resize(w, 0.0);
-            // l = 0..=k, and l = -l's (-1)^l conj from the same term
             for l in 0..=k {
                 let t = at(k, l);
-                let (re, im) = (b.re[t], b.im[t]);
-                (full.re[k + l], full.im[k + l]) = (re, im);
-                if l > 0 {
-                    let (re, im) = if l % 2 == 0 { (re, -im) } else { (-re, im) };
-                    (full.re[k - l], full.im[k - l]) = (re, im);
-                }
+                full.set_pair(k, l, Complex64::new(b.re[t], b.im[t]));
             }
             let block = &self.back[start..start + w * words(k)];
             start += w * words(k);
@@ -516,6 +516,29 @@ impl TurnedM2l {
     }
 }
 
+/// For `R` runs of [`LANES`] consecutive `k`, from `f[from]` on: the sums
+/// `sum_i f[from + r LANES + i + lane] (re_i, im_i)` of the first `len` terms
+/// of `full`, each over `i` in order; the runs' sums do not wait on each other.
+#[inline(always)]
+fn factorial_sums<const R: usize>(
+    factorials: &[f64],
+    from: usize,
+    full: &Parts,
+    len: usize,
+) -> [(Word, Word); R] {
+    let zero = Word::splat(0.0);
+    let mut sums = [(zero, zero); R];
+    for i in 0..len {
+        let (vr, vi) = (Word::splat(full.re[i]), Word::splat(full.im[i]));
+        for (r, (re, im)) in sums.iter_mut().enumerate() {
+            let f = Word::load(&factorials[from + r * LANES + i..]);
+            *re = f.mul_add(vr, *re);
+            *im = f.mul_add(vi, *im);
+        }
+    }
+    sums
+}
+
 /// M2L of the multipole `a` about `c` (scale `s_c`) into the local about `t`
 /// (scale `s_t`), whose separation `D = t - c` has the direction `key`
 /// ([`direction`]): turned so that `D` points along `+z` (`d = |D|`),
@@ -570,27 +593,16 @@ pub(super) fn m2l_turned(
         // other, each over n in the same order
         let mut k = l;
         while k <= p {
-            let zero = Word::splat(0.0);
-            let (mut re, mut im, mut re2, mut im2) = (zero, zero, zero, zero);
-            let runs = if k + LANES <= p { 2 } else { 1 };
-            if runs == 2 {
-                for i in 0..len {
-                    let (vr, vi) = (Word::splat(full.re[i]), Word::splat(full.im[i]));
-                    let f = Word::load(&factorials[l + k + i..]);
-                    let g = Word::load(&factorials[l + k + LANES + i..]);
-                    re = f.mul_add(vr, re);
-                    im = f.mul_add(vi, im);
-                    re2 = g.mul_add(vr, re2);
-                    im2 = g.mul_add(vi, im2);
-                }
+            let two = k + LANES <= p;
+            let (one_run, two_runs);
+            let runs: &[(Word, Word)] = if two {
+                two_runs = factorial_sums::<2>(factorials, l + k, full, len);
+                &two_runs
             } else {
-                for i in 0..len {
-                    let f = Word::load(&factorials[l + k + i..]);
-                    re = f.mul_add(Word::splat(full.re[i]), re);
-                    im = f.mul_add(Word::splat(full.im[i]), im);
-                }
-            }
-            for (run, (re, im)) in [(re, im), (re2, im2)].into_iter().take(runs).enumerate() {
+                one_run = factorial_sums::<1>(factorials, l + k, full, len);
+                &one_run
+            };
+            for (run, &(re, im)) in runs.iter().enumerate() {
                 let first = k + run * LANES;
                 let (mut sum_re, mut sum_im) = ([0.0; LANES], [0.0; LANES]);
                 re.store(&mut sum_re);
@@ -600,7 +612,7 @@ pub(super) fn m2l_turned(
                     (shifted.re[t], shifted.im[t]) = (sum_re[lane], sum_im[lane]);
                 }
             }
-            k += runs * LANES;
+            k += runs.len() * LANES;
         }
     }
     // a'_n^{-l} = (-1)^l conj(a'_n^l), times (-1)^k (s_t / d)^k / d
