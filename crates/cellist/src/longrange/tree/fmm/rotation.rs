@@ -88,7 +88,7 @@ impl Parts {
     fn set_pair(&mut self, n: usize, m: usize, v: Complex64) {
         (self.re[n + m], self.im[n + m]) = (v.re, v.im);
         if m > 0 {
-            let (re, im) = if m % 2 == 0 {
+            let (re, im) = if m.is_multiple_of(2) {
                 (v.re, -v.im)
             } else {
                 (-v.re, v.im)
