@@ -286,10 +286,10 @@ pub enum BenchCommand {
     /// per pair for direct) and, for the approximate solvers, the RMS relative force
     /// error against the direct sum.
     Gravity(BenchGravityArgs),
-    /// 2D vortex particles (two Gaussian vortices on a lattice over [-1, 1]^2,
-    /// sigma = 1.5 h): time per velocity evaluation and, for the tree and the mesh,
-    /// the RMS relative velocity error against the direct sum (on a subset of
-    /// target particles when N is large).
+    /// Vortex particles (2D: two Gaussian vortices on a lattice over [-1, 1]^2;
+    /// with --dim 3: a vortex ring; sigma = 1.5 h): time per velocity evaluation
+    /// (in 3D with its gradient) and the RMS relative errors against the direct
+    /// sum (on a subset of target particles when N is large).
     Vortex(BenchVortexArgs),
 }
 
@@ -302,8 +302,10 @@ pub enum VortexSolverArg {
     BarnesHut,
     /// Vortex-in-cell: M4' onto a mesh, FFT Poisson solve, M4' back.
     Mesh,
-    /// The fast multipole method (2D): complex expansions on the quadtree,
-    /// accuracy set by --tolerance or --order.
+    /// The fast multipole method: complex expansions on the quadtree (2D), or
+    /// the curl of three solid-harmonic potentials on the octree with the blob
+    /// law's rest on a cluster list (3D); accuracy set by --tolerance or
+    /// --order.
     Fmm,
 }
 

@@ -6,8 +6,11 @@ use super::vortex::{
     errors, largest_relative, median_seconds, spread_targets, VortexBench, VortexBenchSolver,
 };
 use crate::error::{SimError, SimResult};
+use crate::models::fmm_name;
 use cellist::longrange::biot_savart3::velocity_and_gradient_at;
-use cellist::longrange::{BlobKernel3, TreeParams, Vic3Boundary, Vic3Params, VortexTree3};
+use cellist::longrange::{
+    BlobKernel3, ErrorFit, TreeParams, Vic3Boundary, Vic3Params, VortexTree3,
+};
 use cellist::models::vortex3::{seed3, InitialVorticity3, Ring, Velocity3Engine, Velocity3Solver};
 use cellist::Threads;
 
@@ -74,12 +77,10 @@ pub fn vortex3(
                 format!("mesh (grid {grid}^3)"),
             )
         }
-        VortexBenchSolver::Fmm { .. } => {
-            return Err(SimError::Input(
-                "--solver fmm computes the 2D vortex velocity; with --dim 3 use direct, barnes-hut or mesh"
-                    .into(),
-            ))
-        }
+        VortexBenchSolver::Fmm { accuracy } => (
+            Velocity3Solver::Fmm(accuracy),
+            fmm_name(accuracy, ErrorFit::VORTEX_3D),
+        ),
     };
     let mut engine = Velocity3Engine::new(kind, sigma, n).map_err(SimError::Input)?;
     let mut velocity = vec![[0.0; 3]; n];

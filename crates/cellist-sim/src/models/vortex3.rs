@@ -17,7 +17,7 @@ use crate::observers::{ChartLabels, FieldPlan, OutputPlan, PlotSpec, TableStyle}
 use crate::ranks::Ranks;
 use crate::scenario::keys::choice;
 use crate::scenario::Scenario;
-use cellist::longrange::{Vic3Boundary, Vic3Params};
+use cellist::longrange::{ErrorFit, Vic3Boundary, Vic3Params};
 use cellist::models::vortex3::{
     seed3, Abc, Extras3, InitialVorticity3, Relaxation, Ring, Stretching, Velocity3Solver, View3,
     Vortex3Model, Vortex3Params, Vortex3System, RING_CUT,
@@ -409,13 +409,8 @@ fn solver3(
             {
                 return Err(err(abc_needs.into()))
             }
-            SolverChoice::Fmm(_) => {
-                return Err(err(
-                    "system.velocity: the fmm computes the 2D vortex velocity; in 3D use direct, barnes-hut or mesh"
-                        .into(),
-                ))
-            }
             SolverChoice::Direct => Velocity3Solver::Direct,
+            SolverChoice::Fmm(accuracy) => Velocity3Solver::Fmm(accuracy),
             SolverChoice::BarnesHut(p) => Velocity3Solver::BarnesHut(p),
             SolverChoice::Mesh { grid, periodic } => {
                 let boundary = match periodic {
@@ -557,6 +552,7 @@ pub fn run<L: Launch>(
                 p.grid
             ),
         },
+        Velocity3Solver::Fmm(a) => super::fmm_keys::fmm_name(a, ErrorFit::VORTEX_3D),
     };
     context.say(format!(
         "vortex (3D): {n} particles, {}; nu {}, sigma {} ({} h), {} stretching, velocity by {solver_name}, remeshing {}{}",

@@ -214,6 +214,44 @@ impl BlobKernel3 {
     }
 }
 
+impl BlobKernel3 {
+    /// `[g - g_point, g_2 - g_2,point]` at `|r|^2 = r2` (lanes): the blob law's
+    /// difference from the point law ([`BlobKernel3::far`]), zero from `r2 =
+    /// 90 sigma^2` on (where [`BlobKernel3::radial`] is the point law), and
+    /// the blob law's own at `r2 = 0` (the point law taken as zero there).
+    /// One square root and two divisions per lane: `1 / r` serves the point
+    /// law and the `erfc` range's `z = r / (sqrt 2 sigma)`.
+    #[inline(always)]
+    pub(crate) fn rest_from_point(&self, r2: F64x4) -> [F64x4; 2] {
+        let c = F64x4::splat;
+        let zero = c(0.0);
+        let x = r2 * c(self.inv_two_sigma2);
+        if F64x4::mask_less(x, c(FAR)) == 0 {
+            return [zero; 2];
+        }
+        let inv_r = c(1.0) / r2.sqrt();
+        let e = exp_nonpositive(-x);
+        let root = self.inv_two_sigma2.sqrt();
+        let (z, inv_z) = (r2 * inv_r * c(root), inv_r * c(1.0 / root));
+        let blob = match F64x4::mask_less(x, c(SERIES_BELOW)) {
+            0 => middle_at(e, z, inv_z),
+            0b1111 => near(x, e),
+            _ => {
+                let (n, m) = (near(x, e), middle_at(e, z, inv_z));
+                std::array::from_fn(|k| F64x4::select_less(x, c(SERIES_BELOW), n[k], m[k]))
+            }
+        };
+        let inv = inv_r * inv_r;
+        let point = c(0.25 / PI) * inv * inv_r;
+        let apart = |v: F64x4| F64x4::select_less(zero, r2, v, zero);
+        let rest = [
+            blob[0] * c(self.scale[0]) - apart(point),
+            blob[1] * c(self.scale[1]) - apart(c(-3.0) * point * inv),
+        ];
+        rest.map(|v| F64x4::select_less(x, c(FAR), v, zero))
+    }
+}
+
 /// `sum_k c[k] x^k` as `E(x^2) + x O(x^2)`, the even and odd powers' two
 /// Horner chains of fused multiply-adds side by side (half the dependent steps
 /// of one chain: the kernel's polynomials bound its latency).
@@ -248,9 +286,14 @@ fn near<T: Sqrt>(x: T, e: T) -> [T; RADIAL] {
 /// upward recurrence (see [`BlobKernel3::radial`]).
 #[inline(always)]
 fn middle<T: Sqrt>(x: T, e: T) -> [T; RADIAL] {
-    let c = T::splat;
     let z = x.sqrt();
-    let inv_z = c(1.0) / z;
+    middle_at(e, z, T::splat(1.0) / z)
+}
+
+/// [`middle`] with `z = sqrt x` and `1 / z` given.
+#[inline(always)]
+fn middle_at<T: Sqrt>(e: T, z: T, inv_z: T) -> [T; RADIAL] {
+    let c = T::splat;
     let half_inv_x = c(0.5) * inv_z * inv_z;
     let t = c(2.0) / (c(2.0) + z);
     let s = (t - c(ERFC_MID)) * c(ERFC_SCALE);

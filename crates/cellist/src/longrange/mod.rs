@@ -8,6 +8,8 @@
 
 pub mod biot_savart;
 pub mod biot_savart3;
+#[cfg(test)]
+pub(crate) mod blobs3_testkit;
 pub mod direct;
 pub mod mesh;
 pub mod p3m;
@@ -22,8 +24,8 @@ pub use mesh::{
 };
 pub use p3m::P3m;
 pub use tree::{
-    BarnesHut, ErrorFit, FmmAccuracy, GravityFmm, Share, TreeParams, VortexFmm, VortexTree,
-    VortexTree3,
+    BarnesHut, ErrorFit, FmmAccuracy, GravityFmm, Share, TreeParams, VortexFmm, VortexFmm3,
+    VortexTree, VortexTree3,
 };
 
 use crate::interactions::GravityLaw;

@@ -92,6 +92,18 @@ mod register {
     binary!(Sub, sub, _mm512_sub_pd);
     binary!(Mul, mul, _mm512_mul_pd);
     binary!(Div, div, _mm512_div_pd);
+
+    impl F64x8 {
+        /// `if a < b { then } else { otherwise }`, lane by lane (false
+        /// where either is NaN).
+        #[inline(always)]
+        pub fn select_less(a: Self, b: Self, then: Self, otherwise: Self) -> Self {
+            unsafe {
+                let less = _mm512_cmp_pd_mask::<_CMP_LT_OQ>(a.0, b.0);
+                F64x8(_mm512_mask_blend_pd(less, otherwise.0, then.0))
+            }
+        }
+    }
 }
 
 #[cfg(not(all(target_arch = "x86_64", target_feature = "avx512f")))]
@@ -169,6 +181,16 @@ mod register {
     binary!(Sub, sub);
     binary!(Mul, mul);
     binary!(Div, div);
+
+    impl F64x8 {
+        /// `if a < b { then } else { otherwise }`, lane by lane (false
+        /// where either is NaN).
+        #[inline(always)]
+        pub fn select_less(a: Self, b: Self, then: Self, otherwise: Self) -> Self {
+            let half = |k: usize| F64x4::select_less(a.0[k], b.0[k], then.0[k], otherwise.0[k]);
+            F64x8([half(0), half(1)])
+        }
+    }
 }
 
 pub use register::F64x8;
@@ -198,6 +220,9 @@ mod tests {
         assert_eq!(bits(x * y), each(&|p, q| p * q));
         assert_eq!(bits(x / y), each(&|p, q| p / q));
         assert_eq!(bits(x.sqrt()), each(&|p, _| p.sqrt()));
+        let (one, two) = (F64x8::splat(1.0), F64x8::splat(2.0));
+        let pick = |p: f64, q: f64| if p < q { 1.0 } else { 2.0 };
+        assert_eq!(bits(F64x8::select_less(x, y, one, two)), each(&pick));
         let four = |f: &dyn Fn(F64x4, F64x4) -> F64x4| -> [u64; 8] {
             let low = f(F64x4::load(&a[..4]), F64x4::load(&b[..4])).to_array();
             let high = f(F64x4::load(&a[4..]), F64x4::load(&b[4..])).to_array();

@@ -46,7 +46,9 @@ mod vortex;
 mod vortex3;
 mod walk;
 
-pub use fmm::{ErrorFit, FmmAccuracy, GravityFmm, VortexFmm, ORDER_RANGE, TOLERANCE_RANGE};
+pub use fmm::{
+    ErrorFit, FmmAccuracy, GravityFmm, VortexFmm, VortexFmm3, ORDER_RANGE, TOLERANCE_RANGE,
+};
 pub use gravity::BarnesHut;
 pub use share::Share;
 pub use vortex::VortexTree;

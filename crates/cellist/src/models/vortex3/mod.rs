@@ -42,8 +42,8 @@ use super::vortex::{check_blob_params, pse_reach, VortexError};
 use crate::geometry::{wrap_coordinate, Boundary, Domain};
 use crate::interpolation::{remesh, Lattice};
 use crate::longrange::{
-    BlobKernel3, DirectBiotSavart3, TreeParams, Vic3Boundary, Vic3Params, VortexInCell3,
-    VortexTree3,
+    BlobKernel3, DirectBiotSavart3, FmmAccuracy, TreeParams, Vic3Boundary, Vic3Params, VortexFmm3,
+    VortexInCell3, VortexTree3,
 };
 use crate::memory::{as_arrays, as_arrays_mut};
 use crate::threads::Threads;
@@ -78,6 +78,8 @@ pub enum Velocity3Solver {
     BarnesHut(TreeParams),
     /// Vortex-in-cell on a 3D mesh: `O(N + M^3 log M)`.
     Mesh(Vic3Params),
+    /// The fast multipole method at this accuracy: `O(N)`.
+    Fmm(FmmAccuracy),
 }
 
 /// The physical and numerical parameters.
@@ -155,6 +157,8 @@ pub enum Velocity3Engine {
     Tree(Box<VortexTree3>),
     /// Vortex-in-cell.
     Mesh(Box<VortexInCell3>),
+    /// The fast multipole method.
+    Fmm(Box<VortexFmm3>),
 }
 
 impl Velocity3Engine {
@@ -170,6 +174,9 @@ impl Velocity3Engine {
             }
             Velocity3Solver::Mesh(p) => {
                 Velocity3Engine::Mesh(Box::new(VortexInCell3::new(p, sigma)?))
+            }
+            Velocity3Solver::Fmm(accuracy) => {
+                Velocity3Engine::Fmm(Box::new(VortexFmm3::new(kernel, accuracy)?))
             }
         })
     }
@@ -188,6 +195,7 @@ impl Velocity3Engine {
             Velocity3Engine::Direct(s) => s.compute(positions, alpha, velocity, gradient, threads),
             Velocity3Engine::Tree(s) => s.compute(positions, alpha, velocity, gradient, threads),
             Velocity3Engine::Mesh(s) => s.compute(positions, alpha, velocity, gradient, threads),
+            Velocity3Engine::Fmm(s) => s.compute(positions, alpha, velocity, gradient, threads),
         }
     }
 }

@@ -19,6 +19,41 @@ pub(super) struct Cube {
     pub radius: f64,
 }
 
+impl Cube {
+    /// The cube of an octree node: its centre and half its diagonal.
+    pub fn around(node: &Node) -> Self {
+        Cube {
+            centre: node.corner.map(|c| c + 0.5 * node.side),
+            radius: node.side * 0.5 * 3f64.sqrt(),
+        }
+    }
+}
+
+/// `shifted[i] = positions[i] - c`, `c` the middle of the points' bounding
+/// box (the origin if it is not finite), so that the boxes' centres are
+/// rounded at the scale of the system, not of its distance from the origin
+/// (the turns of M2L follow the boxes' exact grid directions); a field that
+/// depends on separations only does not change under the shift.
+pub(super) fn shift_to_middle(positions: &[[f64; 3]], shifted: &mut Vec<[f64; 3]>) {
+    let (low, high) = positions.iter().fold(
+        ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]),
+        |(lo, hi), x| {
+            (
+                std::array::from_fn(|a| lo[a].min(x[a])),
+                std::array::from_fn(|a| hi[a].max(x[a])),
+            )
+        },
+    );
+    let middle: [f64; 3] = std::array::from_fn(|a| 0.5 * (low[a] + high[a]));
+    let middle = middle.map(|m| if m.is_finite() { m } else { 0.0 });
+    shifted.clear();
+    shifted.extend(
+        positions
+            .iter()
+            .map(|x| std::array::from_fn(|a| x[a] - middle[a])),
+    );
+}
+
 /// How two leaves meet pair by pair.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(super) enum Pairs {

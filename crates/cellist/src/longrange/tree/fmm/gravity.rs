@@ -4,8 +4,8 @@
 //! near field.
 
 use super::super::build::{Node, Sizes};
-use super::engine::{Cube, Engine, Expansions, Pairs};
-use super::rotation::{direction, m2l_turned, TurnedM2l};
+use super::engine::{shift_to_middle, Cube, Engine, Expansions, Pairs};
+use super::rotation::{m2l_by_direction, FarPairs, TurnedM2l};
 use super::solid;
 use super::solid::LANES;
 use super::{ErrorFit, FmmAccuracy};
@@ -122,30 +122,12 @@ impl GravityFmm {
     /// Fills `out` with the accelerations and potentials of `sources` (see
     /// [`GravityFmm`]).
     ///
-    /// The bodies are taken relative to the middle of their bounding box, so
-    /// that the boxes' centres are rounded at the scale of the system, not of
-    /// its distance from the origin (the turns of M2L follow the boxes' exact
-    /// grid directions); the field does not change under the shift.
+    /// The bodies are taken relative to the middle of their bounding box
+    /// (`engine::shift_to_middle`).
     pub fn compute(&mut self, sources: &Sources, out: FieldOut, threads: &Threads) {
         let position = sources.position;
         assert_eq!(position.len(), sources.mass.len());
-        let (low, high) = position.iter().fold(
-            ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]),
-            |(lo, hi), x| {
-                (
-                    std::array::from_fn(|a| lo[a].min(x[a])),
-                    std::array::from_fn(|a| hi[a].max(x[a])),
-                )
-            },
-        );
-        let middle: [f64; 3] = std::array::from_fn(|a| 0.5 * (low[a] + high[a]));
-        let middle = middle.map(|m| if m.is_finite() { m } else { 0.0 });
-        self.shifted.clear();
-        self.shifted.extend(
-            position
-                .iter()
-                .map(|x| std::array::from_fn(|a| x[a] - middle[a])),
-        );
+        shift_to_middle(position, &mut self.shifted);
         self.engine.build(&self.shifted, threads);
         let l = &mut self.laplace;
         for c in l.x.iter_mut() {
@@ -192,7 +174,7 @@ struct Scratch {
     spread: Vec<f64>,
     turned: TurnedM2l,
     /// A group's far pairs `(direction, target, source)`.
-    far: Vec<([i64; 3], u32, u32)>,
+    far: FarPairs,
     reactions: [Vec<f64>; 4],
 }
 
@@ -216,12 +198,8 @@ impl Expansions for Laplace {
         self.reach
     }
 
-    /// The node's cube: its centre and half its diagonal.
     fn cube(&self, node: &Node) -> Cube {
-        Cube {
-            centre: node.corner.map(|c| c + 0.5 * node.side),
-            radius: node.side * 0.5 * 3f64.sqrt(),
-        }
+        Cube::around(node)
     }
 
     fn p2m(
@@ -282,9 +260,6 @@ impl Expansions for Laplace {
         );
     }
 
-    /// Grouped by direction (then target and source), so that each turn's
-    /// matrices stay in the cache while they serve; the order is a function
-    /// of the boxes.
     fn m2l(
         &self,
         multipoles: &[Complex64],
@@ -295,36 +270,9 @@ impl Expansions for Laplace {
         locals: &mut [Complex64],
         scratch: &mut Scratch,
     ) {
-        let terms = self.terms();
-        let side = |c: Cube| c.radius * 2.0 / 3f64.sqrt();
-        let pairs = &mut scratch.far;
-        pairs.clear();
-        for k in 0..starts.len() - 1 {
-            let t = group + k;
-            for &s in &sources[starts[k]..starts[k + 1]] {
-                let (to, from) = (cubes[t], cubes[s as usize]);
-                let d = std::array::from_fn(|a| to.centre[a] - from.centre[a]);
-                pairs.push((direction(d, side(to).min(side(from))), t as u32, s));
-            }
-        }
-        pairs.sort_unstable();
-        for &(key, t, s) in pairs.iter() {
-            let (t, s) = (t as usize, s as usize);
-            let (to, from) = (cubes[t], cubes[s]);
-            let a = &multipoles[s * terms..(s + 1) * terms];
-            let local = &mut locals[(t - group) * terms..(t - group + 1) * terms];
-            let source = (from.centre, from.radius);
-            let target = (to.centre, to.radius);
-            m2l_turned(
-                self.order,
-                a,
-                source,
-                local,
-                target,
-                key,
-                &mut scratch.turned,
-            );
-        }
+        let far = (group, starts, sources);
+        let turned = (&mut scratch.far, &mut scratch.turned);
+        m2l_by_direction(self.order, 1, multipoles, cubes, far, locals, turned);
     }
 
     fn l2l(

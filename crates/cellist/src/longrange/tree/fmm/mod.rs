@@ -1,17 +1,21 @@
 //! The fast multipole method on the octree the Barnes-Hut solvers build: one
 //! traversal ([`engine`]) and two kinds of expansions, complex-variable ones
 //! in 2D ([`complex`], the vortex velocity) and solid harmonics in 3D
-//! ([`solid`], gravity's `1/r`).
+//! ([`solid`]: gravity's `1/r`, and the 3D vortex velocity as the curl of
+//! three such potentials, [`vortex3`]).
 
+mod blob_rest;
 mod complex;
 mod engine;
 mod gravity;
 mod rotation;
 mod solid;
 mod vortex;
+mod vortex3;
 
 pub use gravity::GravityFmm;
 pub use vortex::VortexFmm;
+pub use vortex3::VortexFmm3;
 
 /// The tolerances an FMM takes, exclusive bounds.
 pub const TOLERANCE_RANGE: (f64, f64) = (1e-15, 1e-1);

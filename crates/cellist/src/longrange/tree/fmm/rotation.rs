@@ -11,6 +11,7 @@
 //!
 //! (`d^n` Wigner's small d-matrix). Each turn is then `O(p^3)`.
 
+use super::engine::Cube;
 use super::solid::at;
 use crate::simd::{F64x8, Register};
 use rustfft::num_complex::Complex64;
@@ -371,6 +372,53 @@ impl Turns {
 /// The bytes of one turn of order `p` (its two blocks of SIMD words).
 fn turn_bytes(p: usize) -> usize {
     2 * block_start(p + 1) * std::mem::size_of::<Word>()
+}
+
+/// A group's far pairs `(direction, target, source)`, as M2L sorts them.
+pub(super) type FarPairs = Vec<([i64; 3], u32, u32)>;
+
+/// M2L of a target group by rotation ([`m2l_turned`]) for multipoles and
+/// locals of `components` expansions of order `p` each, stacked per box
+/// (`components * terms(p)` numbers): for every far pair `(t, s)` of the
+/// group (`far = (group, starts, sources)`, the sources of box `group + k`
+/// at `sources[starts[k]..starts[k + 1]]`), each component's local of `t`
+/// receives the same component's multipole of `s`. The pairs run grouped by
+/// direction (then target and source), so that each turn's matrices stay in
+/// the cache while they serve; the order is a function of the boxes.
+/// `pairs` is scratch.
+pub(super) fn m2l_by_direction(
+    p: usize,
+    components: usize,
+    multipoles: &[Complex64],
+    cubes: &[Cube],
+    (group, starts, sources): (usize, &[usize], &[u32]),
+    locals: &mut [Complex64],
+    (pairs, turned): (&mut FarPairs, &mut TurnedM2l),
+) {
+    let terms = super::solid::terms(p);
+    let stride = components * terms;
+    let side = |c: Cube| c.radius * 2.0 / 3f64.sqrt();
+    pairs.clear();
+    for k in 0..starts.len() - 1 {
+        let t = group + k;
+        for &s in &sources[starts[k]..starts[k + 1]] {
+            let (to, from) = (cubes[t], cubes[s as usize]);
+            let d = std::array::from_fn(|a| to.centre[a] - from.centre[a]);
+            pairs.push((direction(d, side(to).min(side(from))), t as u32, s));
+        }
+    }
+    pairs.sort_unstable();
+    for &(key, t, s) in pairs.iter() {
+        let (t, s) = (t as usize, s as usize);
+        let (to, from) = (cubes[t], cubes[s]);
+        let source = (from.centre, from.radius);
+        let target = (to.centre, to.radius);
+        for c in 0..components {
+            let a = &multipoles[s * stride + c * terms..][..terms];
+            let local = &mut locals[(t - group) * stride + c * terms..][..terms];
+            m2l_turned(p, a, source, local, target, key, turned);
+        }
+    }
 }
 
 /// The direction of the separation `d` between two boxes of the octree

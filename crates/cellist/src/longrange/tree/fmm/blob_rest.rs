@@ -1,0 +1,238 @@
+//! What the 3D blob law adds to the point law near a blob: the pair sums of
+//! `g - g_point` over the pairs closer than a cutoff, on a half cluster pair
+//! list ([`ClusterList`]: `4 x 4` pairs at a time from lanes, as md's forces),
+//! each pair once and each particle's sum in an order fixed by the list.
+
+use crate::geometry::Domain;
+use crate::longrange::biot_savart3::{assemble, terms, BlobKernel3, SUMS};
+use crate::neighbors::{
+    scatter_half_rows, shifted, unpack, CellList, ClusterList, Lanes, LayerForces, LayerPlan,
+    CLUSTER,
+};
+use crate::simd::F64x4;
+use crate::threads::{fill_indexed, Threads};
+
+/// The tail of the blob law beyond `rho = r / sigma`, relative to the point
+/// law, for the velocity and its gradient: with `Q` of
+/// [`crate::longrange::biot_savart3`], `g / g_point = Q` and
+/// `g_2 / g_2,point = Q - rho Q' / 3`, `Q' = sqrt(2 / pi) rho^2 exp(-rho^2 / 2)`,
+/// so the larger difference is `1 - Q + rho Q' / 3`, and
+/// `1 - Q = erfc(rho / sqrt 2) + sqrt(2 / pi) rho exp(-rho^2 / 2)`, which for
+/// `rho >= 3` is below `(1 + 1 / rho^2) sqrt(2 / pi) rho exp(-rho^2 / 2)`.
+fn tail_bound(rho: f64) -> f64 {
+    let gauss = (2.0 / std::f64::consts::PI).sqrt() * (-0.5 * rho * rho).exp();
+    gauss * (rho + 1.0 / rho + rho * rho * rho / 3.0)
+}
+
+/// How much below the tolerance the tail of one pair at the cutoff lies:
+/// the pairs near the cutoff are a thin shell of the sum, and their tails
+/// point every way. Measured: see [`BlobRest::new`].
+const TAIL_SLACK: f64 = 0.25;
+
+/// The blob law's difference from the point law within the cutoff `r_c`:
+/// `u(x_i) += sum_{|r| < r_c} alpha_j x r (g - g_point)`, and the gradient's
+/// terms with `g - g_point` and `g_2 - g_2,point`
+/// ([`crate::longrange::biot_savart3`]), plus each particle's own term
+/// `[alpha_i]_x g(0)`. The list holds every pair within `r_c` and some
+/// beyond, whose (smaller) difference is added as well. The point law at
+/// `r = 0` is taken as zero (the FMM's near field skips such a pair), so two
+/// blobs at one position add the blob law's `g(0)`.
+#[derive(Debug)]
+pub(super) struct BlobRest {
+    kernel: BlobKernel3,
+    cutoff: f64,
+    pairs: u64,
+    positions: Vec<Lanes<3>>,
+    alpha: Vec<Lanes<3>>,
+    sums: Vec<Lanes<SUMS>>,
+    halo: Vec<Lanes<SUMS>>,
+}
+
+impl BlobRest {
+    /// The rest for `kernel` at a relative `tolerance`: the cutoff is
+    /// `rho sigma` with the least `rho >= 3` (to 1e-3) at which the tail of
+    /// one pair ([`tail_bound`]) is below `tolerance / TAIL_SLACK`.
+    pub(super) fn new(kernel: BlobKernel3, tolerance: f64) -> Self {
+        let target = tolerance / TAIL_SLACK;
+        let mut rho = 3.0;
+        while tail_bound(rho) > target && rho < 40.0 {
+            rho += 1e-3;
+        }
+        BlobRest {
+            kernel,
+            cutoff: rho * kernel.sigma(),
+            pairs: 0,
+            positions: Vec::new(),
+            alpha: Vec::new(),
+            sums: Vec::new(),
+            halo: Vec::new(),
+        }
+    }
+
+    /// The cutoff `r_c`.
+    pub(super) fn cutoff(&self) -> f64 {
+        self.cutoff
+    }
+
+    /// The pairs of particles the list held at the last evaluation (the
+    /// lanes of its cluster pairs, each pair once).
+    pub(super) fn pairs(&self) -> u64 {
+        self.pairs
+    }
+
+    /// Adds the rest to `velocity` and `gradient` of the blobs
+    /// `(positions, alpha)`.
+    pub(super) fn add(
+        &mut self,
+        positions: &[[f64; 3]],
+        alpha: &[[f64; 3]],
+        velocity: &mut [[f64; 3]],
+        gradient: &mut [[f64; 9]],
+        threads: &Threads,
+    ) {
+        let domain = Domain::open_around(positions);
+        let side = ClusterList::cell_side(&domain, self.cutoff, positions.len());
+        let mut cells = CellList::build_in(&domain, side, positions, threads)
+            .expect("an open domain takes any positive cutoff");
+        cells.order_cells_in_columns(Some(threads));
+        let list = ClusterList::build(&cells, self.cutoff, 0.0, threads, &mut self.positions);
+        self.pairs = (CLUSTER * CLUSTER * list.num_entries()) as u64;
+        let plan = LayerPlan::over(&cells, list.cell_clusters());
+        list.gather(cells.positions(), threads, &mut self.positions);
+        let order = cells.order();
+        fill_indexed(&mut self.alpha, list.num_clusters(), Some(threads), |c| {
+            let mut lanes = [[0.0; CLUSTER]; 3];
+            for (l, slot) in list.slots(c).enumerate() {
+                for (a, lane) in lanes.iter_mut().enumerate() {
+                    lane[l] = alpha[order[slot] as usize][a];
+                }
+            }
+            lanes
+        });
+        self.sums
+            .resize(list.num_clusters(), [[0.0; CLUSTER]; SUMS]);
+        let rows = Rows {
+            kernel: &self.kernel,
+            own: self.kernel.radial(0.0)[0],
+            list: &list,
+            positions: &self.positions,
+            alpha: &self.alpha,
+        };
+        let mut tallies = vec![(); plan.num_tasks()];
+        scatter_half_rows(
+            &plan,
+            &mut self.sums,
+            &mut self.halo,
+            &mut tallies,
+            threads,
+            |clusters, sums, _| {
+                for c in clusters {
+                    rows.row(c, sums);
+                }
+            },
+        );
+        for c in 0..list.num_clusters() {
+            for (l, slot) in list.slots(c).enumerate() {
+                let (u, g) = assemble(&self.sums[c].map(|s| s[l]));
+                let k = order[slot] as usize;
+                for (o, u) in velocity[k].iter_mut().zip(u) {
+                    *o += u;
+                }
+                for (o, g) in gradient[k].iter_mut().zip(g) {
+                    *o += g;
+                }
+            }
+        }
+    }
+}
+
+/// What the rows of the rest read: the list and its clusters' lanes.
+struct Rows<'a> {
+    kernel: &'a BlobKernel3,
+    /// `g(0)`.
+    own: f64,
+    list: &'a ClusterList<3>,
+    positions: &'a [Lanes<3>],
+    alpha: &'a [Lanes<3>],
+}
+
+impl Rows<'_> {
+    /// Row `c`: adds to `sums` the terms of cluster `c`'s particles over
+    /// their own pairs (slot `j` above slot `i`) and the row's clusters,
+    /// their own terms, and each entry's reactions.
+    fn row(&self, c: usize, sums: &LayerForces<Lanes<SUMS>>) {
+        let zero = F64x4::splat(0.0);
+        let (xi, ai) = (&self.positions[c], &self.alpha[c]);
+        let ni = self.list.slots(c).len();
+        let mut mine = [[zero; SUMS]; CLUSTER];
+        // the pairs inside the cluster: lanes j > i
+        let above: [F64x4; CLUSTER] = std::array::from_fn(|i| {
+            F64x4::load(&std::array::from_fn::<f64, CLUSTER, _>(|j| {
+                if j > i {
+                    1.0
+                } else {
+                    0.0
+                }
+            }))
+        });
+        let mut own = self.block(c, xi, ai, ni, &above, &mut mine);
+        let every = [F64x4::splat(1.0); CLUSTER];
+        for &entry in self.list.row(c) {
+            let cj = unpack(entry).0;
+            sums.add(cj, &self.block(cj, xi, ai, ni, &every, &mut mine));
+        }
+        // each particle's own term: S += alpha_i g(0)
+        let g0 = self.own;
+        for (s, o) in own.iter_mut().enumerate() {
+            for (i, m) in mine.iter().enumerate().take(ni) {
+                let itself = if (3..6).contains(&s) {
+                    ai[s - 3][i] * g0
+                } else {
+                    0.0
+                };
+                o[i] += m[s].sum() + itself;
+            }
+        }
+        sums.add(c, &own);
+    }
+
+    /// The `ni x 4` pairs of the i-lanes `(xi, ai)` with cluster `cj`'s
+    /// lanes (`mask[i]` on lane `j`: 1 for a pair, 0 for none): their terms
+    /// added to `mine[i]`, and returned, the cluster's reactions (`u` odd in
+    /// `r`).
+    #[inline(always)]
+    fn block(
+        &self,
+        cj: usize,
+        xi: &Lanes<3>,
+        ai: &Lanes<3>,
+        ni: usize,
+        mask: &[F64x4; CLUSTER],
+        mine: &mut [[F64x4; SUMS]; CLUSTER],
+    ) -> Lanes<SUMS> {
+        let xj = shifted(&self.positions[cj], &[0.0; 3]);
+        let aj = self.alpha[cj].map(|a| F64x4::load(&a));
+        let mut theirs = [F64x4::splat(0.0); SUMS];
+        for i in 0..ni {
+            let d = [0, 1, 2].map(|a| F64x4::splat(xi[a][i]) - xj[a]);
+            let (g, g2) = rest(self.kernel, d);
+            let (g, g2) = (g * mask[i], g2 * mask[i]);
+            for (m, t) in mine[i].iter_mut().zip(terms(aj, d, g, g2)) {
+                *m = *m + t;
+            }
+            let from_i = terms([0, 1, 2].map(|a| F64x4::splat(ai[a][i])), d, g, g2);
+            for (s, (t, f)) in theirs.iter_mut().zip(from_i).enumerate() {
+                *t = if s < 3 { *t - f } else { *t + f };
+            }
+        }
+        theirs.map(F64x4::to_array)
+    }
+}
+
+/// `g - g_point` and `g_2 - g_2,point` at the separations `r`
+/// ([`BlobKernel3::rest_from_point`]).
+#[inline(always)]
+fn rest(kernel: &BlobKernel3, r: [F64x4; 3]) -> (F64x4, F64x4) {
+    let [g, g2] = kernel.rest_from_point(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]);
+    (g, g2)
+}
