@@ -404,6 +404,7 @@ fn solver3(
         match solver_choice(scenario, velocity, default_tree().theta)? {
             SolverChoice::Direct
             | SolverChoice::BarnesHut(_)
+            | SolverChoice::Fmm(_)
             | SolverChoice::Mesh { periodic: None, .. }
                 if abc =>
             {

@@ -218,11 +218,12 @@ impl BlobKernel3 {
     /// `[g - g_point, g_2 - g_2,point]` at `|r|^2 = r2` (lanes): the blob law's
     /// difference from the point law ([`BlobKernel3::far`]), zero from `r2 =
     /// 90 sigma^2` on (where [`BlobKernel3::radial`] is the point law), and
-    /// the blob law's own at `r2 = 0` (the point law taken as zero there).
-    /// One square root and two divisions per lane: `1 / r` serves the point
-    /// law and the `erfc` range's `z = r / (sqrt 2 sigma)`.
+    /// the blob law itself below `r2 = close2` (the point law taken as zero
+    /// there, where it would be far larger than the blob law). One square
+    /// root and two divisions per lane: `1 / r` serves the point law and the
+    /// `erfc` range's `z = r / (sqrt 2 sigma)`.
     #[inline(always)]
-    pub(crate) fn rest_from_point(&self, r2: F64x4) -> [F64x4; 2] {
+    pub(crate) fn rest_from_point(&self, r2: F64x4, close2: f64) -> [F64x4; 2] {
         let c = F64x4::splat;
         let zero = c(0.0);
         let x = r2 * c(self.inv_two_sigma2);
@@ -243,7 +244,7 @@ impl BlobKernel3 {
         };
         let inv = inv_r * inv_r;
         let point = c(0.25 / PI) * inv * inv_r;
-        let apart = |v: F64x4| F64x4::select_less(zero, r2, v, zero);
+        let apart = |v: F64x4| F64x4::select_less(r2, c(close2), zero, v);
         let rest = [
             blob[0] * c(self.scale[0]) - apart(point),
             blob[1] * c(self.scale[1]) - apart(c(-3.0) * point * inv),

@@ -7,7 +7,7 @@ use super::super::build::{Node, Sizes};
 use super::engine::{shift_to_middle, Cube, Engine, Expansions, Pairs};
 use super::rotation::{m2l_by_direction, FarPairs, TurnedM2l};
 use super::solid;
-use super::solid::LANES;
+use super::solid::{harmonics, lanes, LANES};
 use super::{ErrorFit, FmmAccuracy};
 use crate::interactions::GravityLaw;
 use crate::longrange::direct::{Block, Kernel};
@@ -38,6 +38,7 @@ impl ErrorFit {
         decay: 0.55,
         at_zero: 3e-3,
         least: 8,
+        knee: None,
     };
 }
 
@@ -353,20 +354,6 @@ fn add(sums: &mut [f64; 4], got: [f64; 4]) {
     for (s, g) in sums.iter_mut().zip(got) {
         *s += g;
     }
-}
-
-/// The buffers `lanes` with room for `terms` harmonics of [`LANES`] points.
-fn lanes(lanes: &mut (Vec<F64x8>, Vec<F64x8>), terms: usize) -> (&mut [F64x8], &mut [F64x8]) {
-    for v in [&mut lanes.0, &mut lanes.1] {
-        v.resize(terms, F64x8::splat(0.0));
-    }
-    (&mut lanes.0[..terms], &mut lanes.1[..terms])
-}
-
-/// `buffer` with `terms` zeros' room.
-fn harmonics(buffer: &mut Vec<Complex64>, terms: usize) -> &mut [Complex64] {
-    buffer.resize(terms, Complex64::new(0.0, 0.0));
-    &mut buffer[..terms]
 }
 
 impl Laplace {

@@ -24,8 +24,10 @@ pub const TOLERANCE_RANGE: (f64, f64) = (1e-15, 1e-1);
 pub const ORDER_RANGE: (usize, usize) = (1, 63);
 
 /// How the measured error of an FMM falls with its order `p`: from order
-/// `least` on, the error at order `p` is below `at_zero decay^p`. Each
-/// kernel's fit is stated where its constants are measured.
+/// `least` on, the error at order `p` is below `at_zero decay^p`, and past
+/// order `knee` below `at_zero decay^knee slower^(p - knee)` (a kernel whose
+/// fall slows at high orders; `knee = None` for one fall). Each kernel's fit
+/// is stated where its constants are measured.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ErrorFit {
     /// The fall per order.
@@ -34,6 +36,21 @@ pub struct ErrorFit {
     pub at_zero: f64,
     /// The least order a tolerance picks (below it the fall is slower).
     pub least: usize,
+    /// The order from which the error falls by `slower` per order, and that
+    /// fall.
+    pub knee: Option<(usize, f64)>,
+}
+
+impl ErrorFit {
+    /// The bound `at_zero decay^p` (`slower` per order past the knee).
+    pub fn bound(&self, p: usize) -> f64 {
+        match self.knee {
+            Some((knee, slower)) if p > knee => {
+                self.at_zero * self.decay.powi(knee as i32) * slower.powi((p - knee) as i32)
+            }
+            _ => self.at_zero * self.decay.powi(p as i32),
+        }
+    }
 }
 
 /// How accurate an FMM evaluation is asked to be.
@@ -67,11 +84,17 @@ impl FmmAccuracy {
         Ok(())
     }
 
-    /// The expansions' order `p` under the kernel's `fit`.
+    /// The expansions' order `p` under the kernel's `fit`: the least
+    /// `p >= least` whose [`ErrorFit::bound`] is at most the tolerance.
     pub fn order(&self, fit: ErrorFit) -> usize {
         match *self {
             FmmAccuracy::Tolerance(t) => {
-                let p = ((t / fit.at_zero).ln() / fit.decay.ln()).ceil() as usize;
+                let p = match fit.knee {
+                    Some((knee, slower)) if fit.bound(knee) > t => {
+                        knee + ((t / fit.bound(knee)).ln() / slower.ln()).ceil() as usize
+                    }
+                    _ => ((t / fit.at_zero).ln() / fit.decay.ln()).ceil() as usize,
+                };
                 p.clamp(fit.least.max(ORDER_RANGE.0), ORDER_RANGE.1)
             }
             FmmAccuracy::Order(p) => p,
@@ -79,11 +102,11 @@ impl FmmAccuracy {
     }
 
     /// The tolerance the order stands for under `fit`: the given one, or
-    /// `at_zero decay^p`.
+    /// [`ErrorFit::bound`] at the order.
     pub fn tolerance(&self, fit: ErrorFit) -> f64 {
         match *self {
             FmmAccuracy::Tolerance(t) => t,
-            FmmAccuracy::Order(p) => fit.at_zero * fit.decay.powi(p as i32),
+            FmmAccuracy::Order(p) => fit.bound(p),
         }
     }
 }

@@ -125,6 +125,23 @@ pub(super) fn regular_lanes(v: [F64x8; 3], p: usize, re: &mut [F64x8], im: &mut 
     }
 }
 
+/// The buffers `lanes` with room for `terms` harmonics of [`LANES`] points.
+pub(super) fn lanes(
+    lanes: &mut (Vec<F64x8>, Vec<F64x8>),
+    terms: usize,
+) -> (&mut [F64x8], &mut [F64x8]) {
+    for v in [&mut lanes.0, &mut lanes.1] {
+        v.resize(terms, F64x8::splat(0.0));
+    }
+    (&mut lanes.0[..terms], &mut lanes.1[..terms])
+}
+
+/// `buffer` with `terms` zeros' room.
+pub(super) fn harmonics(buffer: &mut Vec<Complex64>, terms: usize) -> &mut [Complex64] {
+    buffer.resize(terms, Complex64::new(0.0, 0.0));
+    &mut buffer[..terms]
+}
+
 /// P2M: adds `M_n^m += q conj(R_n^m((x - c) / s))` for each source `(x, q)`.
 pub(super) fn p2m(
     p: usize,

@@ -35,6 +35,7 @@ impl ErrorFit {
         decay: 0.45,
         at_zero: 0.05,
         least: 1,
+        knee: None,
     };
 }
 

@@ -16,10 +16,10 @@
 //! a cell list ([`super::blob_rest`]).
 
 use super::super::build::{Node, Sizes};
-use super::blob_rest::BlobRest;
+use super::blob_rest::{close_squared, BlobRest};
 use super::engine::{shift_to_middle, Cube, Engine, Expansions, Pairs};
 use super::rotation::{m2l_by_direction, FarPairs, TurnedM2l};
-use super::solid::{self, at, signed, LANES};
+use super::solid::{self, at, harmonics, lanes, signed, LANES};
 use super::{ErrorFit, FmmAccuracy};
 use crate::longrange::biot_savart3::{assert_lengths, BlobKernel3};
 use crate::simd::{F64x8, Register};
@@ -48,17 +48,20 @@ const SUM: usize = 12;
 impl ErrorFit {
     /// The 3D vortex FMM's fit of the RMS relative errors of the velocity
     /// and of its gradient (the larger, by 3-20 times) against the direct
-    /// blob sum, measured with the rest exact: the gradient's error of 3000
-    /// and 20,000 random blobs and of a vortex ring (`sigma = 1.5 h`) falls
-    /// about 0.55-fold per order up to `p = 20` (at `p = 6`: 3.0e-3 and
-    /// 3.4e-3; at 10: 1.9e-4 and 2.1e-4; at 20: 5.5e-7 and 6.4e-7), then
-    /// more slowly (the ring's from 6.4e-7 at 20 to 4.6e-11 at 50: 0.73 per
-    /// order). `0.1 0.66^p` bounds every measured point from `p = 6` on
-    /// (by 2 at `p = 50` for the ring, by 10 or more at low orders).
+    /// blob sum, measured with the rest exact, on 3000 and 20,000 random
+    /// blobs and on a vortex ring (`sigma = 1.5 h`): the gradient's error
+    /// falls about 0.56-fold per order up to `p = 16` (at `p = 6`: 3.4e-3,
+    /// 3.0e-3, 1.4e-3; at 10: 2.1e-4, 1.9e-4, 3.8e-5; at 16: 4.9e-6, 4.8e-6,
+    /// 2.2e-6), then more slowly (the ring's from 6.4e-7 at 20 to 4.6e-11 at
+    /// 50: 0.73 per order; the clouds' 0.65). `0.16 0.56^p`, then 0.73 per
+    /// order from `p = 16`, bounds every measured point from `p = 8` on (by
+    /// 2 or more up to `p = 16`, by 6 or more beyond; at `p = 6` by 1.4 only,
+    /// so a tolerance picks at least 8).
     pub const VORTEX_3D: ErrorFit = ErrorFit {
-        decay: 0.66,
-        at_zero: 0.1,
-        least: 6,
+        decay: 0.56,
+        at_zero: 0.16,
+        least: 8,
+        knee: Some((16, 0.73)),
     };
 }
 
@@ -87,6 +90,7 @@ impl VortexFmm3 {
             accuracy,
             curl: CurlLaplace {
                 order: accuracy.order(ErrorFit::VORTEX_3D),
+                close2: close_squared(&kernel),
                 x: Default::default(),
                 alpha: Default::default(),
             },
@@ -164,6 +168,9 @@ impl VortexFmm3 {
 #[derive(Debug)]
 struct CurlLaplace {
     order: usize,
+    /// Pairs closer than this (squared) are the blob rest's alone
+    /// ([`close_squared`]).
+    close2: f64,
     x: [Vec<f64>; 3],
     alpha: [Vec<f64>; 3],
 }
@@ -321,10 +328,7 @@ impl Expansions for CurlLaplace {
         {
             derivative_locals(self.order, l, inv, d);
         }
-        for v in [&mut scratch.lanes.0, &mut scratch.lanes.1] {
-            v.resize(below, F64x8::splat(0.0));
-        }
-        let (re, im) = (&mut scratch.lanes.0[..below], &mut scratch.lanes.1[..below]);
+        let (re, im) = lanes(&mut scratch.lanes, below);
         let quarter = F64x8::splat(0.25 / PI);
         let mut values = [[0.0; LANES]; SUM];
         for first in particles.clone().step_by(LANES) {
@@ -373,12 +377,6 @@ impl Expansions for CurlLaplace {
             _ => self.leaf_pairs::<true>(how, targets, sources, first, out, scratch),
         }
     }
-}
-
-/// `buffer` with room for `terms` harmonics.
-fn harmonics(buffer: &mut Vec<Complex64>, terms: usize) -> &mut [Complex64] {
-    buffer.resize(terms, Complex64::new(0.0, 0.0));
-    &mut buffer[..terms]
 }
 
 /// The locals (order `p - 1`) of `d_x Phi`, `d_y Phi` and `d_z Phi`, one
@@ -466,7 +464,7 @@ impl CurlLaplace {
     ///
     /// `r = x_i - x_j`, `g = 1 / (4 pi r^3)`, `g_2 = -3 g / r^2`; the
     /// partner receives the same with `alpha_i` and `u` negated. Lanes past
-    /// the partners, and a partner at the target's position, add nothing.
+    /// the partners, and partners closer than `sqrt(close2)`, add nothing.
     #[inline(always)]
     fn row<const SYMMETRIC: bool>(
         &self,
@@ -482,14 +480,16 @@ impl CurlLaplace {
         let end = F64x8::splat(partners.end as f64);
         let lane = F64x8::load(&[0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0]);
         let quarter = F64x8::splat(0.25 / PI);
+        let close2 = F64x8::splat(self.close2);
         let mut acc = [zero; SUM];
         for (k, j) in partners.clone().step_by(LANES).enumerate() {
             let d = [0, 1, 2].map(|a| xi[a] - F64x8::load(&self.x[a][j..]));
             let r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
             let inside = F64x8::splat(j as f64) + lane;
-            // a lane past the partners or at the target's position: r^2 = 1, g = 0
-            let keep =
-                F64x8::select_less(inside, end, F64x8::select_less(zero, r2, one, zero), zero);
+            // a lane past the partners, or a partner closer than the blob
+            // rest's `CLOSE sigma` (its law is whole there): r^2 = 1, g = 0
+            let near = F64x8::select_less(r2, close2, zero, one);
+            let keep = F64x8::select_less(inside, end, near, zero);
             let r2 = F64x8::select_less(zero, keep, r2, one);
             let inv = one / r2.sqrt();
             let inv2 = inv * inv;

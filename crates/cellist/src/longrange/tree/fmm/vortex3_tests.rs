@@ -97,9 +97,11 @@ fn derivative_locals_differentiate() {
     }
 }
 
+/// More particles than a target group holds: groups in parallel, leaves
+/// met one-sided across groups.
 #[test]
 fn threads_give_the_same_bits() {
-    let (x, alpha, kernel) = cloud(9, 6000);
+    let (x, alpha, kernel) = cloud(9, 3 * GROUP);
     let run =
         |threads: &Threads| fmm_field(FmmAccuracy::Tolerance(1e-6), kernel, &x, &alpha, threads);
     let (u1, g1) = run(&Threads::single());
@@ -113,5 +115,40 @@ fn a_tolerance_out_of_range_is_refused() {
     for t in [0.0, 1e-16, 0.5, f64::NAN] {
         let e = VortexFmm3::new(kernel, FmmAccuracy::Tolerance(t)).unwrap_err();
         assert!(e.contains("tolerance"), "{e}");
+    }
+}
+
+/// No particle, one, and two at one position (plus one apart): the blob
+/// sums' values, finite.
+#[test]
+fn edge_cases() {
+    let one = Threads::single();
+    let kernel = BlobKernel3::new(0.1);
+    let accuracy = FmmAccuracy::Tolerance(1e-8);
+    let mut fmm = VortexFmm3::new(kernel, accuracy).unwrap();
+    fmm.compute(&[], &[], &mut [], &mut [], &one);
+    let cases: [(Vec<[f64; 3]>, Vec<[f64; 3]>); 2] = [
+        (vec![[0.3, 0.1, -0.2]], vec![[1.0, 2.0, 3.0]]),
+        (
+            vec![[0.0; 3], [0.0; 3], [0.05, 0.0, 0.0]],
+            vec![[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+        ),
+    ];
+    for (x, alpha) in cases {
+        let (u, g) = velocity_and_gradient_at(&kernel, &x, &x, &alpha, &one);
+        let (mut fu, mut fg) = (vec![[0.0; 3]; x.len()], vec![[0.0; 9]; x.len()]);
+        fmm.compute(&x, &alpha, &mut fu, &mut fg, &one);
+        for (got, want) in fu.iter().flatten().zip(u.iter().flatten()) {
+            assert!(
+                (got - want).abs() <= 1e-12 * want.abs().max(1.0),
+                "{fu:?} {u:?}"
+            );
+        }
+        for (got, want) in fg.iter().flatten().zip(g.iter().flatten()) {
+            assert!(
+                (got - want).abs() <= 1e-12 * want.abs().max(1.0),
+                "{fg:?} {g:?}"
+            );
+        }
     }
 }
