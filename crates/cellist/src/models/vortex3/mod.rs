@@ -17,8 +17,9 @@
 //!              + nu / eps^2 sum_q h^3 (alpha_q - alpha_p) eta_eps(x_q - x_p),
 //! ```
 //!
-//! with `eps = sigma`. The velocity and its gradient come from one of three
-//! solvers: all pairs, the Barnes-Hut octree, or vortex-in-cell on a 3D mesh.
+//! with `eps = sigma`. The velocity and its gradient come from one of four
+//! solvers: all pairs, the Barnes-Hut octree, vortex-in-cell on a 3D mesh, or
+//! the fast multipole method.
 //! Every `remesh_every` steps the strengths go back onto the lattice with the M4'
 //! kernel, and every `relaxation.every` steps the Pedrizzetti relaxation turns
 //! the strengths towards the divergence-free vorticity `curl u` of the flow,

@@ -69,7 +69,7 @@ impl ErrorFit {
 /// blobs (the law of [`crate::longrange::biot_savart3`]) at a requested
 /// accuracy: the point law's far field by expansions, its near field pair by
 /// pair, and the blob law's difference from it within a cutoff `r_c` chosen
-/// from the tolerance ([`BlobRest`]). Each particle's sum runs in an order
+/// from the tolerance (`blob_rest`). Each particle's sum runs in an order
 /// fixed by the tree and the cell list, so 1 and N threads give the same
 /// bits.
 #[derive(Debug)]

@@ -127,7 +127,8 @@ fn edge_cases() {
     let accuracy = FmmAccuracy::Tolerance(1e-8);
     let mut fmm = VortexFmm3::new(kernel, accuracy).unwrap();
     fmm.compute(&[], &[], &mut [], &mut [], &one);
-    let cases: [(Vec<[f64; 3]>, Vec<[f64; 3]>); 2] = [
+    type Blobs = (Vec<[f64; 3]>, Vec<[f64; 3]>);
+    let cases: [Blobs; 2] = [
         (vec![[0.3, 0.1, -0.2]], vec![[1.0, 2.0, 3.0]]),
         (
             vec![[0.0; 3], [0.0; 3], [0.05, 0.0, 0.0]],
