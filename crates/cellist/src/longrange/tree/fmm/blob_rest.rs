@@ -38,7 +38,9 @@ const TAIL_SLACK: f64 = 0.25;
 /// terms with `g - g_point` and `g_2 - g_2,point`
 /// ([`crate::longrange::biot_savart3`]), plus each particle's own term
 /// `[alpha_i]_x g(0)`. The list holds every pair within `r_c` and some
-/// beyond, whose (smaller) difference is added as well. Closer than
+/// beyond: a particle's four pairs with a cluster are computed together,
+/// and unless all four lie beyond `r_c` their (smaller) differences beyond
+/// it are added as well. Closer than
 /// [`CLOSE`] `sigma` the point law is taken as zero (the FMM's near field
 /// skips such a pair) and the rest is the blob law itself.
 #[derive(Debug)]
@@ -124,6 +126,8 @@ impl BlobRest {
             .resize(list.num_clusters(), [[0.0; CLUSTER]; SUMS]);
         let rows = Rows {
             kernel: &self.kernel,
+            cutoff2: self.cutoff * self.cutoff,
+            close2: close_squared(&self.kernel),
             own: self.kernel.radial(0.0)[0],
             list,
             positions: &self.positions,
@@ -160,6 +164,10 @@ impl BlobRest {
 /// What the rows of the rest read: the list and its clusters' lanes.
 struct Rows<'a> {
     kernel: &'a BlobKernel3,
+    /// `r_c^2`.
+    cutoff2: f64,
+    /// [`close_squared`].
+    close2: f64,
     /// `g(0)`.
     own: f64,
     list: &'a ClusterList<3>,
@@ -224,9 +232,15 @@ impl Rows<'_> {
         let xj = shifted(&self.positions[cj], &[0.0; 3]);
         let aj = self.alpha[cj].map(|a| F64x4::load(&a));
         let mut theirs = [F64x4::splat(0.0); SUMS];
+        let cut2 = F64x4::splat(self.cutoff2);
         for i in 0..ni {
             let d = [0, 1, 2].map(|a| F64x4::splat(xi[a][i]) - xj[a]);
-            let (g, g2) = rest(self.kernel, d);
+            let r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+            // four pairs beyond the cutoff: their rest is dropped
+            if !F64x4::any_less(r2, cut2) {
+                continue;
+            }
+            let [g, g2] = self.kernel.rest_from_point(r2, self.close2);
             let (g, g2) = (g * mask[i], g2 * mask[i]);
             for (m, t) in mine[i].iter_mut().zip(terms(aj, d, g, g2)) {
                 *m = *m + t;
@@ -238,15 +252,6 @@ impl Rows<'_> {
         }
         theirs.map(F64x4::to_array)
     }
-}
-
-/// `g - g_point` and `g_2 - g_2,point` at the separations `r`, the blob law
-/// itself closer than [`CLOSE`] `sigma` ([`BlobKernel3::rest_from_point`]).
-#[inline(always)]
-fn rest(kernel: &BlobKernel3, r: [F64x4; 3]) -> (F64x4, F64x4) {
-    let close2 = close_squared(kernel);
-    let [g, g2] = kernel.rest_from_point(r[0] * r[0] + r[1] * r[1] + r[2] * r[2], close2);
-    (g, g2)
 }
 
 /// Pairs closer than `CLOSE sigma` take the blob law whole from the rest, and

@@ -66,6 +66,21 @@ pub(super) enum Pairs {
     Within,
 }
 
+impl Pairs {
+    /// The pair terms that `targets` particles of a leaf meet `sources` of
+    /// another (or, [`Pairs::Within`], of the same) in this way: a pair
+    /// summed at both its particles counts twice, a particle with itself not
+    /// at all.
+    pub fn terms(self, targets: usize, sources: usize) -> u64 {
+        let n = (targets * sources) as u64;
+        match self {
+            Pairs::OneSided => n,
+            Pairs::Both => 2 * n,
+            Pairs::Within => n - sources as u64,
+        }
+    }
+}
+
 /// The expansions and pair law of one kernel, on particles that it holds in
 /// the tree's order.
 pub(super) trait Expansions: Sync {

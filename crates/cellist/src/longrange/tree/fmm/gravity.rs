@@ -441,12 +441,7 @@ impl Laplace {
                 add(&mut out[j - first], reactions.each_ref().map(|r| r[k]));
             }
         }
-        let n = (targets.len() * len) as u64;
-        match how {
-            Pairs::OneSided => n,
-            Pairs::Both => 2 * n,
-            Pairs::Within => n - len as u64,
-        }
+        how.terms(targets.len(), len)
     }
 }
 

@@ -449,12 +449,7 @@ impl CurlLaplace {
                 }
             }
         }
-        let n = (targets.len() * len) as u64;
-        match how {
-            Pairs::OneSided => n,
-            Pairs::Both => 2 * n,
-            Pairs::Within => n - len as u64,
-        }
+        how.terms(targets.len(), len)
     }
 
     /// Target `i`'s point-law sums over `partners` (their reactions added
