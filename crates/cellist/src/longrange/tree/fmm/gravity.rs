@@ -254,11 +254,9 @@ impl Expansions for Laplace {
         to: Cube,
         scratch: &mut Scratch,
     ) {
-        let h = harmonics(&mut scratch.harmonics, self.terms());
-        let (f, t) = (from, to);
-        solid::m2m(
-            self.order, child, f.centre, f.radius, parent, t.centre, t.radius, h,
-        );
+        let (from, to) = ((from.centre, from.radius), (to.centre, to.radius));
+        let h = &mut scratch.harmonics;
+        solid::shift_each(solid::m2m, self.order, child, from, parent, to, h);
     }
 
     fn m2l(
@@ -284,11 +282,9 @@ impl Expansions for Laplace {
         to: Cube,
         scratch: &mut Scratch,
     ) {
-        let h = harmonics(&mut scratch.harmonics, self.terms());
-        let (f, t) = (from, to);
-        solid::l2l(
-            self.order, parent, f.centre, f.radius, child, t.centre, t.radius, h,
-        );
+        let (from, to) = ((from.centre, from.radius), (to.centre, to.radius));
+        let h = &mut scratch.harmonics;
+        solid::shift_each(solid::l2l, self.order, parent, from, child, to, h);
     }
 
     fn l2p(

@@ -142,6 +142,30 @@ pub(super) fn harmonics(buffer: &mut Vec<Complex64>, terms: usize) -> &mut [Comp
     &mut buffer[..terms]
 }
 
+/// A translation of expansions of order `p` from one box to another:
+/// [`m2m`] or [`l2l`].
+pub(super) type Shift =
+    fn(usize, &[Complex64], [f64; 3], f64, &mut [Complex64], [f64; 3], f64, &mut [Complex64]);
+
+/// `shift` of each of the expansions of order `p` stacked in `from` (about
+/// the box `(from_centre, from_scale)`) added to the same one of `to`
+/// (about `(to_centre, to_scale)`); `harmonics` is scratch.
+pub(super) fn shift_each(
+    shift: Shift,
+    p: usize,
+    from: &[Complex64],
+    (from_centre, from_scale): ([f64; 3], f64),
+    to: &mut [Complex64],
+    (to_centre, to_scale): ([f64; 3], f64),
+    harmonics: &mut Vec<Complex64>,
+) {
+    let terms = terms(p);
+    let h = self::harmonics(harmonics, terms);
+    for (a, b) in from.chunks_exact(terms).zip(to.chunks_exact_mut(terms)) {
+        shift(p, a, from_centre, from_scale, b, to_centre, to_scale, h);
+    }
+}
+
 /// P2M: adds `M_n^m += q conj(R_n^m((x - c) / s))` for each source `(x, q)`.
 pub(super) fn p2m(
     p: usize,

@@ -245,23 +245,9 @@ impl Expansions for CurlLaplace {
         to: Cube,
         scratch: &mut Scratch,
     ) {
-        let terms = solid::terms(self.order);
-        let h = harmonics(&mut scratch.harmonics, terms);
-        for (c, p) in child
-            .chunks_exact(terms)
-            .zip(parent.chunks_exact_mut(terms))
-        {
-            solid::m2m(
-                self.order,
-                c,
-                from.centre,
-                from.radius,
-                p,
-                to.centre,
-                to.radius,
-                h,
-            );
-        }
+        let (from, to) = ((from.centre, from.radius), (to.centre, to.radius));
+        let h = &mut scratch.harmonics;
+        solid::shift_each(solid::m2m, self.order, child, from, parent, to, h);
     }
 
     fn m2l(
@@ -287,23 +273,9 @@ impl Expansions for CurlLaplace {
         to: Cube,
         scratch: &mut Scratch,
     ) {
-        let terms = solid::terms(self.order);
-        let h = harmonics(&mut scratch.harmonics, terms);
-        for (p, c) in parent
-            .chunks_exact(terms)
-            .zip(child.chunks_exact_mut(terms))
-        {
-            solid::l2l(
-                self.order,
-                p,
-                from.centre,
-                from.radius,
-                c,
-                to.centre,
-                to.radius,
-                h,
-            );
-        }
+        let (from, to) = ((from.centre, from.radius), (to.centre, to.radius));
+        let h = &mut scratch.harmonics;
+        solid::shift_each(solid::l2l, self.order, parent, from, child, to, h);
     }
 
     /// The locals of `d_b Phi_c` ([`derivative_locals`]), evaluated with
