@@ -30,7 +30,9 @@ fn tail_bound(rho: f64) -> f64 {
 /// random blobs and a vortex ring (`sigma = 1.5 h`): a tail of `T` per pair
 /// at the cutoff gave RMS errors of the gradient of 0.02-0.05 `T` (the
 /// velocity's 3-10 times less) for `T` from 1e-2 to 1e-6, so `T = 4 tol`
-/// keeps them below a fifth of the tolerance.
+/// keeps them below a fifth of the tolerance. (Measured with every pair of
+/// the list added; with the blocks beyond `r_c` skipped, the 10^5 ring's
+/// gradient error at 1e-3 rose from 9.4e-5 to 1.3e-4, expansions included.)
 const TAIL_SLACK: f64 = 0.25;
 
 /// The blob law's difference from the point law within the cutoff `r_c`:
@@ -40,9 +42,9 @@ const TAIL_SLACK: f64 = 0.25;
 /// `[alpha_i]_x g(0)`. The list holds every pair within `r_c` and some
 /// beyond: a particle's four pairs with a cluster are computed together,
 /// and unless all four lie beyond `r_c` their (smaller) differences beyond
-/// it are added as well. Closer than
-/// [`CLOSE`] `sigma` the point law is taken as zero (the FMM's near field
-/// skips such a pair) and the rest is the blob law itself.
+/// it are added as well. Closer than [`CLOSE`] `sigma` the point law is
+/// taken as zero (the FMM's near field skips such a pair) and the rest is the
+/// blob law itself.
 #[derive(Debug)]
 pub(super) struct BlobRest {
     kernel: BlobKernel3,
