@@ -10,7 +10,7 @@ use crate::neighbors::{
     CLUSTER,
 };
 use crate::simd::F64x4;
-use crate::threads::{fill_indexed, Threads};
+use crate::threads::Threads;
 
 /// The tail of the blob law beyond `rho = r / sigma`, relative to the point
 /// law, for the velocity and its gradient: with `Q` of
@@ -115,15 +115,9 @@ impl BlobRest {
         let plan = LayerPlan::over(&cells, list.cell_clusters());
         list.gather(cells.positions(), threads, &mut self.positions);
         let order = cells.order();
-        fill_indexed(&mut self.alpha, list.num_clusters(), Some(threads), |c| {
-            let mut lanes = [[0.0; CLUSTER]; 3];
-            for (l, slot) in list.slots(c).enumerate() {
-                for (a, lane) in lanes.iter_mut().enumerate() {
-                    lane[l] = alpha[order[slot] as usize][a];
-                }
-            }
-            lanes
-        });
+        // (the strengths' lanes beyond a cluster's size hold the padding too:
+        // their pairs, at the padding's distance, have no rest)
+        list.gather_by(|slot| alpha[order[slot] as usize], threads, &mut self.alpha);
         self.sums
             .resize(list.num_clusters(), [[0.0; CLUSTER]; SUMS]);
         let rows = Rows {
