@@ -257,12 +257,14 @@ impl BlobKernel3 {
 /// Horner chains of fused multiply-adds side by side (half the dependent steps
 /// of one chain: the kernel's polynomials bound its latency).
 #[inline(always)]
-fn polynomial<T: Real>(c: &[f64], x: T) -> T {
+fn polynomial<T: Real, const N: usize>(c: &[f64; N], x: T) -> T {
     let y = x * x;
+    // (a loop of a constant count, which the compiler unrolls: over a slice
+    // it stayed a loop, each step waiting on the last)
     let chain = |start: usize| {
         let mut p = T::splat(0.0);
-        for &a in c.iter().skip(start).step_by(2).rev() {
-            p = p.mul_add(y, T::splat(a));
+        for k in (start..N).step_by(2).rev() {
+            p = p.mul_add(y, T::splat(c[k]));
         }
         p
     };

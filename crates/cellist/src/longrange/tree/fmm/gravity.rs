@@ -5,7 +5,7 @@
 
 use super::super::build::{Node, Sizes};
 use super::engine::{shift_to_middle, Cube, Engine, Expansions, Pairs};
-use super::rotation::{m2l_by_direction, FarPairs, TurnedM2l};
+use super::rotation::{m2l_by_direction, FarPairs, M2lLanes};
 use super::solid;
 use super::solid::{harmonics, lanes, LANES};
 use super::{ErrorFit, FmmAccuracy};
@@ -173,7 +173,7 @@ struct Scratch {
     lanes: (Vec<F64x8>, Vec<F64x8>),
     /// The lanes' harmonics, term by term, lane after lane within a term.
     spread: Vec<f64>,
-    turned: TurnedM2l,
+    turned: M2lLanes,
     /// A group's far pairs `(direction, target, source)`.
     far: FarPairs,
     reactions: [Vec<f64>; 4],

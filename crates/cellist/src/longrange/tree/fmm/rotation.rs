@@ -17,85 +17,90 @@ use crate::simd::{F64x8, Register};
 use rustfft::num_complex::Complex64;
 use std::collections::HashMap;
 
-/// The SIMD word of the turns' matrices: eight rows at a time.
+/// The SIMD word of M2L: the same coefficient of [`LANES`] translations
+/// side by side (one direction, so one turn, for all of them).
 type Word = F64x8;
 
-/// Rows per [`Word`].
-const LANES: usize = Word::WIDTH;
+/// Translations per [`Word`].
+pub(super) const LANES: usize = Word::WIDTH;
 
-/// `out[r] = sum_c block[c][r] v[c]` for the complex `v` (parts apart): the
-/// block holds, for each input `c`, the outputs `r` in `words` SIMD words;
-/// each word of outputs sums over the inputs in two interleaved halves, so
-/// that the multiply-adds do not wait on each other.
+/// `-x` in every lane, zeros' signs included (a product by `-1` is exact).
 #[inline(always)]
-fn products(
-    block: &[Word],
-    words: usize,
-    (vr, vi): (&[f64], &[f64]),
-    out_re: &mut [f64],
-    out_im: &mut [f64],
-) {
-    let inputs = vr.len();
-    let zero = Word::splat(0.0);
-    for j in 0..words {
-        let (mut re, mut im, mut re2, mut im2) = (zero, zero, zero, zero);
-        let mut c = 0;
-        while c + 2 <= inputs {
-            let (a, b) = (block[c * words + j], block[(c + 1) * words + j]);
-            re = a.mul_add(Word::splat(vr[c]), re);
-            im = a.mul_add(Word::splat(vi[c]), im);
-            re2 = b.mul_add(Word::splat(vr[c + 1]), re2);
-            im2 = b.mul_add(Word::splat(vi[c + 1]), im2);
-            c += 2;
-        }
-        if c < inputs {
-            let a = block[c * words + j];
-            re = a.mul_add(Word::splat(vr[c]), re);
-            im = a.mul_add(Word::splat(vi[c]), im);
-        }
-        let (mut sum_re, mut sum_im) = ([0.0; LANES], [0.0; LANES]);
-        (re + re2).store(&mut sum_re);
-        (im + im2).store(&mut sum_im);
-        let (re, im) = (sum_re, sum_im);
-        for i in 0..LANES {
-            let r = LANES * j + i;
-            if r < out_re.len() {
-                (out_re[r], out_im[r]) = (re[i], im[i]);
-            }
-        }
-    }
+fn negated(x: Word) -> Word {
+    x * Word::splat(-1.0)
 }
 
-/// An expansion's terms `m >= 0` with their real and imaginary parts apart.
+/// `(re + i im) (e.re + i e.im)` in every lane, as `Complex64`'s product
+/// rounds it: `re e.re - im e.im`, `re e.im + im e.re`.
+#[inline(always)]
+fn times(re: Word, im: Word, e: Complex64) -> (Word, Word) {
+    let (er, ei) = (Word::splat(e.re), Word::splat(e.im));
+    (re * er - im * ei, re * ei + im * er)
+}
+
+/// The terms `m >= 0` of [`LANES`] expansions, or one degree's `-n..=n`,
+/// a word per coefficient, real and imaginary parts apart.
 #[derive(Clone, Debug, Default)]
-pub(super) struct Parts {
-    re: Vec<f64>,
-    im: Vec<f64>,
+struct Lanes {
+    re: Vec<Word>,
+    im: Vec<Word>,
 }
 
-impl Parts {
-    /// Zero terms for order `p`.
-    fn clear(&mut self, p: usize) {
-        let terms = at(p + 1, 0);
+impl Lanes {
+    /// `len` zero coefficients.
+    fn clear(&mut self, len: usize) {
         for v in [&mut self.re, &mut self.im] {
             v.clear();
-            v.resize(terms, 0.0);
+            v.resize(len, Word::splat(0.0));
         }
     }
 
-    /// In a degree-`n` row of columns `-n..=n`: `v` at column `m >= 0` and
-    /// `(-1)^m conj(v)` at `-m` (a term and its mirror).
+    /// Degree `n`'s terms `m` and `-m` of a real field from the term `m >= 0`,
+    /// at indices `n + m` and `n - m`: `v_n^{-m} = (-1)^m conj(v_n^m)`.
     #[inline(always)]
-    fn set_pair(&mut self, n: usize, m: usize, v: Complex64) {
-        (self.re[n + m], self.im[n + m]) = (v.re, v.im);
+    fn set_pair(&mut self, n: usize, m: usize, (re, im): (Word, Word)) {
+        (self.re[n + m], self.im[n + m]) = (re, im);
         if m > 0 {
             let (re, im) = if m.is_multiple_of(2) {
-                (v.re, -v.im)
+                (re, negated(im))
             } else {
-                (-v.re, v.im)
+                (negated(re), im)
             };
             (self.re[n - m], self.im[n - m]) = (re, im);
         }
+    }
+}
+
+/// `out[m] = sum_c d(m, c) v[c]` for `m = 0..=n` and the `2n + 1` complex
+/// inputs `v` of every lane; each output sums over the inputs in two
+/// interleaved halves (even and odd `c`), so that the multiply-adds do not
+/// wait on each other.
+#[inline(always)]
+fn products(
+    n: usize,
+    d: impl Fn(usize, usize) -> f64,
+    v: &Lanes,
+    (out_re, out_im): (&mut [Word], &mut [Word]),
+) {
+    let inputs = 2 * n + 1;
+    let zero = Word::splat(0.0);
+    for m in 0..=n {
+        let (mut re, mut im, mut re2, mut im2) = (zero, zero, zero, zero);
+        let mut c = 0;
+        while c + 2 <= inputs {
+            let (a, b) = (Word::splat(d(m, c)), Word::splat(d(m, c + 1)));
+            re = a.mul_add(v.re[c], re);
+            im = a.mul_add(v.im[c], im);
+            re2 = b.mul_add(v.re[c + 1], re2);
+            im2 = b.mul_add(v.im[c + 1], im2);
+            c += 2;
+        }
+        if c < inputs {
+            let a = Word::splat(d(m, c));
+            re = a.mul_add(v.re[c], re);
+            im = a.mul_add(v.im[c], im);
+        }
+        (out_re[m], out_im[m]) = (re + re2, im + im2);
     }
 }
 
@@ -104,21 +109,8 @@ impl Parts {
 #[derive(Clone, Debug)]
 pub(super) struct Turn {
     phases: Vec<Complex64>,
-    /// Per degree `n`, for each column `m'` (`-n..=n`) the rows `m = 0..=n`
-    /// of `D^n`, [`LANES`] to a SIMD word (padded with zeros).
-    forward: Vec<Word>,
-    /// Per degree `n`, for each row `l` (`-n..=n`) the columns `l' = 0..=n`.
-    back: Vec<Word>,
-}
-
-/// Words per column of degree `n`'s blocks: `ceil((n + 1) / LANES)`.
-fn words(n: usize) -> usize {
-    (n + 1).div_ceil(LANES)
-}
-
-/// Where degree `n`'s block starts: `sum_{j < n} (2j + 1) words(j)`.
-fn block_start(n: usize) -> usize {
-    (0..n).map(|j| (2 * j + 1) * words(j)).sum()
+    /// `D^n` row by row from [`start`]`(n)` on.
+    matrices: Vec<f64>,
 }
 
 /// Where degree `n`'s matrix starts: `sum_{j < n} (2j + 1)^2`.
@@ -157,120 +149,67 @@ impl Turn {
                 }
             }
         }
-        let mut forward = Vec::with_capacity(block_start(p + 1));
-        let mut back = Vec::with_capacity(block_start(p + 1));
-        for n in 0..=p {
-            let w = 2 * n + 1;
-            let d = |i: usize, k: usize| matrices[start(n) + i * w + k];
-            // rows and columns m >= 0 sit from index n on
-            let word = |f: &dyn Fn(usize) -> f64, j: usize| {
-                let lanes: [f64; LANES] = std::array::from_fn(|i| {
-                    if LANES * j + i <= n {
-                        f(n + LANES * j + i)
-                    } else {
-                        0.0
-                    }
-                });
-                Word::load(&lanes)
-            };
-            for c in 0..w {
-                for j in 0..words(n) {
-                    forward.push(word(&|r| d(r, c), j));
-                }
-            }
-            for l in 0..w {
-                for j in 0..words(n) {
-                    back.push(word(&|c| d(l, c), j));
-                }
-            }
-        }
-        Turn {
-            phases,
-            forward,
-            back,
-        }
+        Turn { phases, matrices }
     }
 
-    /// `D^n_{m m'}` for `m >= 0`.
+    /// `D^n` row by row: `D^n_{m m'}` at `(m + n) (2n + 1) + m' + n`.
+    #[inline(always)]
+    fn matrix(&self, n: usize) -> &[f64] {
+        &self.matrices[start(n)..start(n + 1)]
+    }
+
+    /// `D^n_{m m'}`.
     #[cfg(test)]
     fn get(&self, n: usize, m: isize, mp: isize) -> f64 {
-        let c = (mp + n as isize) as usize;
-        let word = self.forward[block_start(n) + c * words(n) + m as usize / LANES];
-        let mut lanes = [0.0; LANES];
-        word.store(&mut lanes);
-        lanes[m as usize % LANES]
+        let w = 2 * n as isize + 1;
+        self.matrix(n)[((m + n as isize) * w + mp + n as isize) as usize]
     }
 
-    /// The multipole `a` (terms `m >= 0`) turned:
-    /// `a'_n^m = sum_{m'} D^n_{m m'} e^{i m' alpha} a_n^{m'}` (the conjugate of
-    /// the harmonics' turn, as a multipole holds `conj(R)`), into `out` (terms
-    /// `m >= 0`, real and imaginary parts apart); `full` is scratch.
-    pub fn forward(&self, p: usize, a: &[Complex64], out: &mut Parts, full: &mut Parts) {
-        out.clear(p);
-        // degree n's block starts where degree n - 1's ends (block_start(n))
-        let mut start = 0;
+    /// The turned terms `a'_n^m = sum_{m'} D^n_{m m'} e^{i m' alpha} a_n^{m'}`
+    /// (`m >= 0`) of the lanes' multipoles `a` (terms `m >= 0`), into `out`.
+    fn forward(&self, p: usize, a: &Lanes, out: &mut Lanes, full: &mut Lanes) {
+        out.clear(at(p + 1, 0));
         for n in 0..=p {
-            let w = 2 * n + 1;
-            full.re.resize(w, 0.0);
-            full.im.resize(w, 0.0);
-            // m' = -m from the same product: (-1)^m conj(x) conj(e) is
-            // (-1)^m conj(x e) to the bit (the same products, negated)
+            full.clear(2 * n + 1);
             for m in 0..=n {
-                full.set_pair(n, m, a[at(n, m)] * self.phases[m]);
+                let t = at(n, m);
+                full.set_pair(n, m, times(a.re[t], a.im[t], self.phases[m]));
             }
-            let block = &self.forward[start..start + w * words(n)];
-            start += w * words(n);
-            let range = at(n, 0)..at(n, n) + 1;
+            let (range, d, w) = (at(n, 0)..at(n, n) + 1, self.matrix(n), 2 * n + 1);
             products(
-                block,
-                words(n),
-                (&full.re[..w], &full.im[..w]),
-                &mut out.re[range.clone()],
-                &mut out.im[range],
+                n,
+                |m, c| d[(n + m) * w + c],
+                full,
+                (&mut out.re[range.clone()], &mut out.im[range]),
             );
         }
     }
 
-    /// The local `b'` of the turned frame (terms `m >= 0`) turned back and
-    /// added to `local`: `b_k^{l'} += e^{i l' alpha} sum_l b'_k^l D^k_{l l'}`;
-    /// `full` and `sums` are scratch.
-    pub fn back(
-        &self,
-        p: usize,
-        b: &Parts,
-        local: &mut [Complex64],
-        full: &mut Parts,
-        sums: &mut Parts,
-    ) {
-        sums.clear(p);
-        let mut start = 0;
+    /// The turned-back local terms `b_k^l = e^{i l alpha} sum_{l'} D^k_{l' l}
+    /// b'_k^{l'}` (`l >= 0`) of the lanes' turned locals `b`, into `out`.
+    fn back(&self, p: usize, b: &Lanes, out: &mut Lanes, full: &mut Lanes) {
+        out.clear(at(p + 1, 0));
         for k in 0..=p {
-            let w = 2 * k + 1;
-            full.re.resize(w, 0.0);
-            full.im.resize(w, 0.0);
+            full.clear(2 * k + 1);
             for l in 0..=k {
                 let t = at(k, l);
-                full.set_pair(k, l, Complex64::new(b.re[t], b.im[t]));
+                full.set_pair(k, l, (b.re[t], b.im[t]));
             }
-            let block = &self.back[start..start + w * words(k)];
-            start += w * words(k);
-            let range = at(k, 0)..at(k, k) + 1;
+            let (range, d, w) = (at(k, 0)..at(k, k) + 1, self.matrix(k), 2 * k + 1);
             products(
-                block,
-                words(k),
-                (&full.re[..w], &full.im[..w]),
-                &mut sums.re[range.clone()],
-                &mut sums.im[range],
+                k,
+                |l, c| d[c * w + k + l],
+                full,
+                (&mut out.re[range.clone()], &mut out.im[range.clone()]),
             );
-            for lp in 0..=k {
-                let t = at(k, lp);
-                local[t] += Complex64::new(sums.re[t], sums.im[t]) * self.phase(lp as isize);
+            for (l, t) in range.enumerate() {
+                (out.re[t], out.im[t]) = times(out.re[t], out.im[t], self.phases[l]);
             }
         }
     }
 
     /// `e^{i m alpha}` for any `m`.
-    #[inline(always)]
+    #[cfg(test)]
     fn phase(&self, m: isize) -> Complex64 {
         let e = self.phases[m.unsigned_abs()];
         if m >= 0 {
@@ -369,22 +308,23 @@ impl Turns {
     }
 }
 
-/// The bytes of one turn of order `p` (its two blocks of SIMD words).
+/// The bytes of one turn of order `p` (its matrices).
 fn turn_bytes(p: usize) -> usize {
-    2 * block_start(p + 1) * std::mem::size_of::<Word>()
+    start(p + 1) * std::mem::size_of::<f64>()
 }
 
 /// A group's far pairs `(direction, target, source)`, as M2L sorts them.
 pub(super) type FarPairs = Vec<([i64; 3], u32, u32)>;
 
-/// M2L of a target group by rotation ([`m2l_turned`]) for multipoles and
-/// locals of `components` expansions of order `p` each, stacked per box
-/// (`components * terms(p)` numbers): for every far pair `(t, s)` of the
-/// group (`far = (group, starts, sources)`, the sources of box `group + k`
-/// at `sources[starts[k]..starts[k + 1]]`), each component's local of `t`
-/// receives the same component's multipole of `s`. The pairs run grouped by
-/// direction (then target and source), so that each turn's matrices stay in
-/// the cache while they serve; the order is a function of the boxes.
+/// M2L of a target group by rotation ([`M2lLanes::translate`]) for
+/// multipoles and locals of `components` expansions of order `p` each,
+/// stacked per box (`components * terms(p)` numbers): for every far pair
+/// `(t, s)` of the group (`far = (group, starts, sources)`, the sources of
+/// box `group + k` at `sources[starts[k]..starts[k + 1]]`), each component's
+/// local of `t` receives the same component's multipole of `s`. The pairs
+/// run grouped by direction (then target and source), [`LANES`] translations
+/// (pairs and components) of one direction at a time, and each local adds
+/// its translations in that order, which is a function of the boxes.
 /// `pairs` is scratch.
 pub(super) fn m2l_by_direction(
     p: usize,
@@ -393,7 +333,7 @@ pub(super) fn m2l_by_direction(
     cubes: &[Cube],
     (group, starts, sources): (usize, &[usize], &[u32]),
     locals: &mut [Complex64],
-    (pairs, turned): (&mut FarPairs, &mut TurnedM2l),
+    (pairs, m2l): (&mut FarPairs, &mut M2lLanes),
 ) {
     let terms = super::solid::terms(p);
     let stride = components * terms;
@@ -408,16 +348,43 @@ pub(super) fn m2l_by_direction(
         }
     }
     pairs.sort_unstable();
-    for &(key, t, s) in pairs.iter() {
-        let (t, s) = (t as usize, s as usize);
-        let (to, from) = (cubes[t], cubes[s]);
-        let source = (from.centre, from.radius);
-        let target = (to.centre, to.radius);
-        for c in 0..components {
-            let a = &multipoles[s * stride + c * terms..][..terms];
-            let local = &mut locals[(t - group) * stride + c * terms..][..terms];
-            m2l_turned(p, a, source, local, target, key, turned);
+    // the translations (pair, component) in order, LANES at a time, cut
+    // where the direction changes
+    let mut first = 0;
+    while first < pairs.len() {
+        let key = pairs[first].0;
+        let same = pairs[first..].iter().take_while(|q| q.0 == key).count();
+        let run = &pairs[first..first + same];
+        let items = run.len() * components;
+        let mut done = 0;
+        while done < items {
+            let count = LANES.min(items - done);
+            let item = |lane: usize| {
+                let (t, s) = (
+                    run[(done + lane) / components].1,
+                    run[(done + lane) / components].2,
+                );
+                (t as usize, s as usize, (done + lane) % components)
+            };
+            m2l.translate(p, key, count, |lane| {
+                let (t, s, c) = item(lane);
+                let (to, from) = (cubes[t], cubes[s]);
+                Translation {
+                    multipole: &multipoles[s * stride + c * terms..][..terms],
+                    source: (from.centre, from.radius),
+                    target: (to.centre, to.radius),
+                }
+            });
+            for lane in 0..count {
+                let (t, _, c) = item(lane);
+                m2l.add_lane(
+                    lane,
+                    &mut locals[(t - group) * stride + c * terms..][..terms],
+                );
+            }
+            done += count;
         }
+        first += same;
     }
 }
 
@@ -441,7 +408,6 @@ fn gcd(a: i64, b: i64) -> i64 {
         gcd(b, a % b)
     }
 }
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -531,148 +497,169 @@ mod tests {
     }
 }
 
+/// One M2L of [`M2lLanes::translate`]: a multipole (terms `m >= 0`) about
+/// the source's centre with its scale, into a local about the target's.
+pub(super) struct Translation<'a> {
+    pub multipole: &'a [Complex64],
+    pub source: ([f64; 3], f64),
+    pub target: ([f64; 3], f64),
+}
+
 /// What M2L by rotation keeps per thread: the turns met so far, `ln k!`,
-/// `k!`, and the turned expansions.
+/// `k!`, and the lanes' expansions on their way.
 #[derive(Debug, Default)]
-pub(super) struct TurnedM2l {
+pub(super) struct M2lLanes {
     order: usize,
     turns: Turns,
     log_factorials: Vec<f64>,
     factorials: Vec<f64>,
-    turned: Parts,
-    shifted: Parts,
-    sums: Parts,
-    full: Parts,
+    /// The lanes' multipoles, then their locals, coefficient by coefficient.
+    staged: (Vec<[f64; LANES]>, Vec<[f64; LANES]>),
+    multipoles: Lanes,
+    turned: Lanes,
+    shifted: Lanes,
+    locals: Lanes,
+    full: Lanes,
 }
 
-impl TurnedM2l {
+impl M2lLanes {
     fn prepare(&mut self, p: usize) {
         if self.order != p || self.factorials.is_empty() {
-            *self = TurnedM2l {
+            *self = M2lLanes {
                 order: p,
                 log_factorials: log_factorials(4 * p + 2),
-                factorials: (0..=2 * p + LANES)
+                factorials: (0..=2 * p + 1)
                     .scan(1.0, |f, k| {
-                        let v = if k <= 2 * p + 1 { *f } else { 0.0 };
+                        let v = *f;
                         *f *= (k + 1) as f64;
                         Some(v)
                     })
                     .collect(),
-                ..TurnedM2l::default()
+                ..M2lLanes::default()
             };
         }
     }
-}
 
-/// For `R` runs of [`LANES`] consecutive `k`, from `f[from]` on: the sums
-/// `sum_i f[from + r LANES + i + lane] (re_i, im_i)` of the first `len` terms
-/// of `full`, each over `i` in order; the runs' sums do not wait on each other.
-#[inline(always)]
-fn factorial_sums<const R: usize>(
-    factorials: &[f64],
-    from: usize,
-    full: &Parts,
-    len: usize,
-) -> [(Word, Word); R] {
-    let zero = Word::splat(0.0);
-    let mut sums = [(zero, zero); R];
-    for i in 0..len {
-        let (vr, vi) = (Word::splat(full.re[i]), Word::splat(full.im[i]));
-        for (r, (re, im)) in sums.iter_mut().enumerate() {
-            let f = Word::load(&factorials[from + r * LANES + i..]);
-            *re = f.mul_add(vr, *re);
-            *im = f.mul_add(vi, *im);
+    /// M2L of `count` (at most [`LANES`]) translations `lane(0..count)`
+    /// whose separations `D = t - c` (target centre less source centre) all
+    /// have the direction `key` ([`direction`]), side by side in the lanes:
+    /// each multipole `a` about `c` (scale `s_c`) is turned so that `D`
+    /// points along `+z` (`d = |D|`), translated there into the local about
+    /// `t` (scale `s_t`),
+    ///
+    /// `b'_k^l = (-1)^k (s_t / d)^k / d sum_{n = |l|}^{p} a'_n^{-l} (s_c / d)^n (n + k)!`
+    ///
+    /// (`I_j^m(d z) = j! / d^(j + 1)` for `m = 0`, else 0), and turned back
+    /// (every `n, k <= p`); [`M2lLanes::add_lane`] adds a lane's local.
+    /// Each lane's numbers take the same operations in the same order as
+    /// one translation alone.
+    pub fn translate<'a>(
+        &mut self,
+        p: usize,
+        key: [i64; 3],
+        count: usize,
+        lane: impl Fn(usize) -> Translation<'a>,
+    ) {
+        assert!((1..=LANES).contains(&count));
+        self.prepare(p);
+        let terms = at(p + 1, 0);
+        // the lanes past `count`: no multipole, at distance 1
+        let mut distance = [1.0; LANES];
+        let (mut rho_s, mut rho_t) = ([0.0; LANES], [0.0; LANES]);
+        let (re, im) = &mut self.staged;
+        for v in [&mut *re, &mut *im] {
+            v.clear();
+            v.resize(terms, [0.0; LANES]);
         }
-    }
-    sums
-}
-
-/// M2L of the multipole `a` about `c` (scale `s_c`) into the local about `t`
-/// (scale `s_t`), whose separation `D = t - c` has the direction `key`
-/// ([`direction`]): turned so that `D` points along `+z` (`d = |D|`),
-/// translated there,
-///
-/// `b'_k^l = (-1)^k (s_t / d)^k / d sum_{n = |l|}^{p} a'_n^{-l} (s_c / d)^n (n + k)!`
-///
-/// (`I_j^m(d z) = j! / d^(j + 1)` for `m = 0`, else 0), and turned back
-/// (every `n, k <= p`).
-#[allow(clippy::too_many_arguments)]
-pub(super) fn m2l_turned(
-    p: usize,
-    a: &[Complex64],
-    (source_centre, source_scale): ([f64; 3], f64),
-    local: &mut [Complex64],
-    (target_centre, target_scale): ([f64; 3], f64),
-    key: [i64; 3],
-    scratch: &mut TurnedM2l,
-) {
-    scratch.prepare(p);
-    let d: [f64; 3] = std::array::from_fn(|k| target_centre[k] - source_centre[k]);
-    let distance = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
-    let TurnedM2l {
-        turns,
-        log_factorials,
-        factorials,
-        turned,
-        shifted,
-        sums,
-        full,
-        ..
-    } = scratch;
-    let turn = turns.of(key, p, log_factorials);
-    turn.forward(p, a, turned, full);
-    let (rho_s, rho_t) = (source_scale / distance, target_scale / distance);
-    // b'_k^l for each l: the sums over n of a'_n^l (s_c / d)^n (n + k)!, LANES
-    // k at a time
-    shifted.clear(p);
-    for l in 0..=p {
-        let len = p - l + 1;
-        full.re.resize(len, 0.0);
-        full.im.resize(len, 0.0);
-        let mut power = rho_s.powi(l as i32);
-        for (i, n) in (l..=p).enumerate() {
-            let t = at(n, l);
-            (full.re[i], full.im[i]) = (turned.re[t] * power, turned.im[t] * power);
-            power *= rho_s;
-        }
-        // sum_{n >= l} a'_n^l f[n + k] for LANES consecutive k in lanes (the
-        // factorials are padded with zeros past 2p + 1), two such runs of k
-        // at a time where there are two: four sums that do not wait on each
-        // other, each over n in the same order
-        let mut k = l;
-        while k <= p {
-            let two = k + LANES <= p;
-            let (one_run, two_runs);
-            let runs: &[(Word, Word)] = if two {
-                two_runs = factorial_sums::<2>(factorials, l + k, full, len);
-                &two_runs
-            } else {
-                one_run = factorial_sums::<1>(factorials, l + k, full, len);
-                &one_run
-            };
-            for (run, &(re, im)) in runs.iter().enumerate() {
-                let first = k + run * LANES;
-                let (mut sum_re, mut sum_im) = ([0.0; LANES], [0.0; LANES]);
-                re.store(&mut sum_re);
-                im.store(&mut sum_im);
-                for lane in 0..LANES.min(p + 1 - first) {
-                    let t = at(first + lane, l);
-                    (shifted.re[t], shifted.im[t]) = (sum_re[lane], sum_im[lane]);
-                }
+        for l in 0..count {
+            let Translation {
+                multipole,
+                source,
+                target,
+            } = lane(l);
+            let d: [f64; 3] = std::array::from_fn(|k| target.0[k] - source.0[k]);
+            distance[l] = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+            (rho_s[l], rho_t[l]) = (source.1 / distance[l], target.1 / distance[l]);
+            for (t, a) in multipole.iter().enumerate() {
+                (re[t][l], im[t][l]) = (a.re, a.im);
             }
-            k += runs.len() * LANES;
+        }
+        self.multipoles.clear(terms);
+        for t in 0..terms {
+            self.multipoles.re[t] = Word::load(&re[t]);
+            self.multipoles.im[t] = Word::load(&im[t]);
+        }
+        let M2lLanes {
+            turns,
+            log_factorials,
+            factorials,
+            multipoles,
+            turned,
+            shifted,
+            locals,
+            full,
+            ..
+        } = self;
+        let turn = turns.of(key, p, log_factorials);
+        turn.forward(p, multipoles, turned, full);
+        shifted.clear(terms);
+        for l in 0..=p {
+            // a'_n^l (s_c / d)^n for n = l..=p
+            let len = p - l + 1;
+            full.clear(len);
+            let mut power = Word::load(&rho_s.map(|r| r.powi(l as i32)));
+            let step = Word::load(&rho_s);
+            for (i, n) in (l..=p).enumerate() {
+                let t = at(n, l);
+                (full.re[i], full.im[i]) = (turned.re[t] * power, turned.im[t] * power);
+                power = power * step;
+            }
+            // sum_{n >= l} a'_n^l f[n + k], four k at a time (eight sums that
+            // do not wait on each other, each over n in order)
+            let mut k = l;
+            while k <= p {
+                let runs = 4.min(p + 1 - k);
+                let zero = Word::splat(0.0);
+                let (mut sum_re, mut sum_im) = ([zero; 4], [zero; 4]);
+                for i in 0..len {
+                    for r in 0..runs {
+                        let f = Word::splat(factorials[l + k + r + i]);
+                        sum_re[r] = f.mul_add(full.re[i], sum_re[r]);
+                        sum_im[r] = f.mul_add(full.im[i], sum_im[r]);
+                    }
+                }
+                for r in 0..runs {
+                    let t = at(k + r, l);
+                    (shifted.re[t], shifted.im[t]) = (sum_re[r], sum_im[r]);
+                }
+                k += runs;
+            }
+        }
+        // a'_n^{-l} = (-1)^l conj(a'_n^l), times (-1)^k (s_t / d)^k / d
+        let mut factor = Word::load(&distance.map(|d| 1.0 / d));
+        let step = Word::load(&rho_t.map(|r| -r));
+        for k in 0..=p {
+            for l in 0..=k {
+                let t = at(k, l);
+                let sign = if l % 2 == 0 { factor } else { negated(factor) };
+                shifted.re[t] = shifted.re[t] * sign;
+                shifted.im[t] = shifted.im[t] * negated(sign);
+            }
+            factor = factor * step;
+        }
+        turn.back(p, shifted, locals, full);
+        let (re, im) = &mut self.staged;
+        for t in 0..terms {
+            self.locals.re[t].store(&mut re[t]);
+            self.locals.im[t].store(&mut im[t]);
         }
     }
-    // a'_n^{-l} = (-1)^l conj(a'_n^l), times (-1)^k (s_t / d)^k / d
-    let mut factor = 1.0 / distance;
-    for k in 0..=p {
-        for l in 0..=k {
-            let t = at(k, l);
-            let sign = if l % 2 == 0 { factor } else { -factor };
-            shifted.re[t] *= sign;
-            shifted.im[t] *= -sign;
+
+    /// Adds lane `lane`'s local of the last [`M2lLanes::translate`] to `local`.
+    pub fn add_lane(&self, lane: usize, local: &mut [Complex64]) {
+        let (re, im) = &self.staged;
+        for (t, l) in local.iter_mut().enumerate() {
+            *l += Complex64::new(re[t][lane], im[t][lane]);
         }
-        factor *= -rho_t;
     }
-    turn.back(p, shifted, local, full, sums);
 }

@@ -362,7 +362,7 @@ pub(super) fn l2p_lanes(
 
 #[cfg(test)]
 mod tests {
-    use super::super::rotation::{direction, m2l_turned, TurnedM2l};
+    use super::super::rotation::{direction, M2lLanes, Translation};
     use super::*;
     use crate::random::Rng;
 
@@ -490,12 +490,16 @@ mod tests {
             // the same source twice, halved: their sum is the whole
             let half: Vec<Complex64> = parent.iter().map(|c| c * 0.5).collect();
             let mut local = zero.clone();
-            let mut scratch = TurnedM2l::default();
+            let mut m2l = M2lLanes::default();
             let d = std::array::from_fn(|a| target_c[a] - parent_c[a]);
-            for _ in 0..2 {
-                let (source, target) = ((parent_c, s_parent), (target_c, s_parent));
-                let key = direction(d, 1.0);
-                m2l_turned(p, &half, source, &mut local, target, key, &mut scratch);
+            // two lanes of one batch, added one after the other
+            m2l.translate(p, direction(d, 1.0), 2, |_| Translation {
+                multipole: &half,
+                source: (parent_c, s_parent),
+                target: (target_c, s_parent),
+            });
+            for lane in 0..2 {
+                m2l.add_lane(lane, &mut local);
             }
             let mut leaf = zero.clone();
             l2l(

@@ -18,7 +18,7 @@
 use super::super::build::{Node, Sizes};
 use super::blob_rest::{close_squared, BlobRest};
 use super::engine::{shift_to_middle, Cube, Engine, Expansions, Pairs};
-use super::rotation::{m2l_by_direction, FarPairs, TurnedM2l};
+use super::rotation::{m2l_by_direction, FarPairs, M2lLanes};
 use super::solid::{self, at, harmonics, lanes, signed, LANES};
 use super::{ErrorFit, FmmAccuracy};
 use crate::longrange::biot_savart3::{assert_lengths, BlobKernel3};
@@ -182,7 +182,7 @@ struct Scratch {
     lanes: (Vec<F64x8>, Vec<F64x8>),
     /// The nine locals of `d_b Phi_c` of a leaf (`3 c + b`).
     derived: Vec<Complex64>,
-    turned: TurnedM2l,
+    turned: M2lLanes,
     far: FarPairs,
     /// A source leaf's reactions, [`SUM`] arrays.
     reactions: Vec<Vec<f64>>,
