@@ -451,6 +451,14 @@ impl Register for F64x4 {
     }
 }
 
+/// `[f(0), f(1), f(2)]`, always inlined: a hot loop's per-axis arrays (an
+/// array's `map` was left a call in the pair loops, and a call there spills
+/// every vector register the loop holds).
+#[inline(always)]
+pub fn axes<T>(f: impl Fn(usize) -> T) -> [T; 3] {
+    [f(0), f(1), f(2)]
+}
+
 /// The number types a kernel is written once for: `f64` and [`F64x4`], whose
 /// lanes do the same IEEE operations, so that four lanes give the bits of four
 /// scalar calls (for [`Real::max`], as long as `b` is neither NaN nor zero).

@@ -25,7 +25,7 @@ use super::mesh::slab::part;
 use super::mesh::{Alone, Exchange, MeshBoundary, MeshParams, MeshSolver, Rank};
 use super::{FieldOut, Sources};
 use crate::interactions::GravityLaw;
-use crate::simd::F64x4;
+use crate::simd::{axes, F64x4};
 use crate::threads::Threads;
 use rayon::prelude::*;
 use std::ops::Range;
@@ -511,7 +511,7 @@ impl ShortPairs<'_> {
             F64x4::splat(self.eps2),
         );
         for j in (js.start..whole).step_by(4) {
-            let mut d = [0, 1, 2].map(|a| F64x4::load(&x[a][j..]) - xi4[a]);
+            let mut d = axes(|a| F64x4::load(&x[a][j..]) - xi4[a]);
             if self.periodic {
                 for v in &mut d {
                     *v = (*v * inv_length).round_ties_even().neg_mul_add(length, *v);

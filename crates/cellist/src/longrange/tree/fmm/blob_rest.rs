@@ -9,7 +9,7 @@ use crate::neighbors::{
     scatter_half_rows, shifted, unpack, CellList, ClusterList, Lanes, LayerForces, LayerPlan,
     CLUSTER,
 };
-use crate::simd::F64x4;
+use crate::simd::{axes, F64x4};
 use crate::threads::Threads;
 
 /// The tail of the blob law beyond `rho = r / sigma`, relative to the point
@@ -226,11 +226,11 @@ impl Rows<'_> {
         mine: &mut [[F64x4; SUMS]; CLUSTER],
     ) -> Lanes<SUMS> {
         let xj = shifted(&self.positions[cj], &[0.0; 3]);
-        let aj = self.alpha[cj].map(|a| F64x4::load(&a));
+        let aj = axes(|a| F64x4::load(&self.alpha[cj][a]));
         let mut theirs = [F64x4::splat(0.0); SUMS];
         let cut2 = F64x4::splat(self.cutoff2);
         for i in 0..ni {
-            let d = [0, 1, 2].map(|a| F64x4::splat(xi[a][i]) - xj[a]);
+            let d = axes(|a| F64x4::splat(xi[a][i]) - xj[a]);
             let r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
             // four pairs beyond the cutoff: their rest is dropped
             if !F64x4::any_less(r2, cut2) {
@@ -241,7 +241,7 @@ impl Rows<'_> {
             for (m, t) in mine[i].iter_mut().zip(terms(aj, d, g, g2)) {
                 *m = *m + t;
             }
-            let from_i = terms([0, 1, 2].map(|a| F64x4::splat(ai[a][i])), d, g, g2);
+            let from_i = terms(axes(|a| F64x4::splat(ai[a][i])), d, g, g2);
             for (s, (t, f)) in theirs.iter_mut().zip(from_i).enumerate() {
                 *t = if s < 3 { *t - f } else { *t + f };
             }

@@ -22,7 +22,7 @@ use super::rotation::{m2l_by_direction, FarPairs, M2lLanes};
 use super::solid::{self, at, harmonics, lanes, signed, LANES};
 use super::{ErrorFit, FmmAccuracy};
 use crate::longrange::biot_savart3::{assert_lengths, BlobKernel3};
-use crate::simd::{F64x8, Register};
+use crate::simd::{axes, F64x8, Register};
 use crate::threads::Threads;
 use rustfft::num_complex::Complex64;
 use std::f64::consts::PI;
@@ -442,15 +442,15 @@ impl CurlLaplace {
     ) -> [f64; SUM] {
         let zero = F64x8::splat(0.0);
         let one = F64x8::splat(1.0);
-        let xi = [0, 1, 2].map(|a| F64x8::splat(self.x[a][i]));
-        let ai = [0, 1, 2].map(|a| F64x8::splat(self.alpha[a][i]));
+        let xi = axes(|a| F64x8::splat(self.x[a][i]));
+        let ai = axes(|a| F64x8::splat(self.alpha[a][i]));
         let end = F64x8::splat(partners.end as f64);
         let lane = F64x8::load(&[0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0]);
         let quarter = F64x8::splat(0.25 / PI);
         let close2 = F64x8::splat(self.close2);
         let mut acc = [zero; SUM];
         for (k, j) in partners.clone().step_by(LANES).enumerate() {
-            let d = [0, 1, 2].map(|a| xi[a] - F64x8::load(&self.x[a][j..]));
+            let d = axes(|a| xi[a] - F64x8::load(&self.x[a][j..]));
             let r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
             let inside = F64x8::splat(j as f64) + lane;
             // a lane past the partners, or a partner closer than the blob
@@ -462,7 +462,7 @@ impl CurlLaplace {
             let inv2 = inv * inv;
             let g = keep * quarter * inv * inv2;
             let g2 = F64x8::splat(-3.0) * g * inv2;
-            let aj = [0, 1, 2].map(|a| F64x8::load(&self.alpha[a][j..]));
+            let aj = axes(|a| F64x8::load(&self.alpha[a][j..]));
             let terms = |alpha: [F64x8; 3], acc: &mut [F64x8; SUM], sign: F64x8| {
                 let w = cross(alpha, d);
                 let v = [w[0] * g2, w[1] * g2, w[2] * g2];
