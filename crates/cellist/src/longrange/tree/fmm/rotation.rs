@@ -22,7 +22,7 @@ use std::collections::HashMap;
 type Word = F64x8;
 
 /// Translations per [`Word`].
-pub(super) const LANES: usize = Word::WIDTH;
+const LANES: usize = Word::WIDTH;
 
 /// `-x` in every lane, zeros' signs included (a product by `-1` is exact).
 #[inline(always)]
@@ -287,7 +287,7 @@ pub(super) struct Turns {
 
 /// The most bytes of turns a thread keeps: past them the cache starts
 /// afresh (a turn depends only on its key, so results do not change). A turn
-/// takes about 57 KB at order 15; a Plummer sphere of 3 x 10^5 bodies meets
+/// takes about 44 KB at order 15; a Plummer sphere of 3 x 10^5 bodies meets
 /// about 1400 directions.
 const TURN_BYTES: usize = 256 << 20;
 
@@ -408,100 +408,15 @@ fn gcd(a: i64, b: i64) -> i64 {
         gcd(b, a % b)
     }
 }
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// `d^j_{m' m}(beta)` by the alternating sum over `s` (fine for small
-    /// `j`), written out here.
-    fn wigner_by_sum(j: i64, mp: i64, m: i64, beta: f64) -> f64 {
-        let f = |x: i64| (1..=x).map(|v| v as f64).product::<f64>();
-        let mut total = 0.0;
-        for s in 0..=2 * j {
-            let (a1, a2, a3) = (j + m - s, mp - m + s, j - mp - s);
-            if a1 < 0 || a2 < 0 || a3 < 0 {
-                continue;
-            }
-            let sign = if (mp - m + s).rem_euclid(2) == 0 {
-                1.0
-            } else {
-                -1.0
-            };
-            total += sign * (f(j + mp) * f(j - mp) * f(j + m) * f(j - m)).sqrt()
-                / (f(a1) * f(s) * f(a2) * f(a3))
-                * (0.5 * beta).cos().powi((2 * j + m - mp - 2 * s) as i32)
-                * (0.5 * beta).sin().powi((mp - m + 2 * s) as i32);
-        }
-        total
-    }
-
-    #[test]
-    fn the_jacobi_form_matches_the_sum() {
-        let lf = log_factorials(40);
-        for beta in [0.0, 0.3, 1.2, 2.0, std::f64::consts::PI] {
-            for j in 0..=8 {
-                for mp in -j..=j {
-                    for m in -j..=j {
-                        let (a, b) = (wigner_d(j, mp, m, beta, &lf), wigner_by_sum(j, mp, m, beta));
-                        assert!(
-                            (a - b).abs() < 1e-12,
-                            "j {j} m' {mp} m {m} beta {beta}: {a} vs {b}"
-                        );
-                    }
-                }
-            }
-        }
-    }
-
-    /// The harmonics' turn: `R_n^m(Q x) = sum D e^{-i m' alpha} R_n^{m'}(x)`.
-    #[test]
-    fn turned_harmonics_are_the_harmonics_of_the_turned_point() {
-        use super::super::solid::{regular, signed, terms};
-        let p = 20;
-        let lf = log_factorials(2 * p + 2);
-        let v = [0.3, -0.7, 0.5];
-        let turn = Turn::new(v, p, &lf);
-        let r = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-        let (beta, alpha) = ((v[2] / r).acos(), v[1].atan2(v[0]));
-        // Q = R_y(-beta) R_z(-alpha)
-        let x = [0.2, 0.1, -0.3];
-        let rz = [
-            alpha.cos() * x[0] + alpha.sin() * x[1],
-            -alpha.sin() * x[0] + alpha.cos() * x[1],
-            x[2],
-        ];
-        let qx = [
-            beta.cos() * rz[0] - beta.sin() * rz[2],
-            rz[1],
-            beta.sin() * rz[0] + beta.cos() * rz[2],
-        ];
-        let (mut h, mut hq) = (
-            vec![Complex64::new(0.0, 0.0); terms(p)],
-            vec![Complex64::new(0.0, 0.0); terms(p)],
-        );
-        regular(x, p, &mut h);
-        regular(qx, p, &mut hq);
-        for n in 0..=p {
-            for m in 0..=n as isize {
-                let mut sum = Complex64::new(0.0, 0.0);
-                for mp in -(n as isize)..=n as isize {
-                    sum += signed(&h, n, mp) * turn.phase(mp).conj() * turn.get(n, m, mp);
-                }
-                let want = hq[at(n, m as usize)];
-                assert!(
-                    (sum - want).norm() < 1e-12 * (1.0 + want.norm()),
-                    "n {n} m {m}: {sum} vs {want}"
-                );
-            }
-        }
-    }
-}
 
 /// One M2L of [`M2lLanes::translate`]: a multipole (terms `m >= 0`) about
 /// the source's centre with its scale, into a local about the target's.
 pub(super) struct Translation<'a> {
+    /// The multipole's terms `m >= 0`, [`super::solid::at`]'s order.
     pub multipole: &'a [Complex64],
+    /// The source box's centre and scale `s_c`.
     pub source: ([f64; 3], f64),
+    /// The target box's centre and scale `s_t`.
     pub target: ([f64; 3], f64),
 }
 
@@ -660,6 +575,141 @@ impl M2lLanes {
         let (re, im) = &self.staged;
         for (t, l) in local.iter_mut().enumerate() {
             *l += Complex64::new(re[t][lane], im[t][lane]);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `d^j_{m' m}(beta)` by the alternating sum over `s` (fine for small
+    /// `j`), written out here.
+    fn wigner_by_sum(j: i64, mp: i64, m: i64, beta: f64) -> f64 {
+        let f = |x: i64| (1..=x).map(|v| v as f64).product::<f64>();
+        let mut total = 0.0;
+        for s in 0..=2 * j {
+            let (a1, a2, a3) = (j + m - s, mp - m + s, j - mp - s);
+            if a1 < 0 || a2 < 0 || a3 < 0 {
+                continue;
+            }
+            let sign = if (mp - m + s).rem_euclid(2) == 0 {
+                1.0
+            } else {
+                -1.0
+            };
+            total += sign * (f(j + mp) * f(j - mp) * f(j + m) * f(j - m)).sqrt()
+                / (f(a1) * f(s) * f(a2) * f(a3))
+                * (0.5 * beta).cos().powi((2 * j + m - mp - 2 * s) as i32)
+                * (0.5 * beta).sin().powi((mp - m + 2 * s) as i32);
+        }
+        total
+    }
+
+    #[test]
+    fn the_jacobi_form_matches_the_sum() {
+        let lf = log_factorials(40);
+        for beta in [0.0, 0.3, 1.2, 2.0, std::f64::consts::PI] {
+            for j in 0..=8 {
+                for mp in -j..=j {
+                    for m in -j..=j {
+                        let (a, b) = (wigner_d(j, mp, m, beta, &lf), wigner_by_sum(j, mp, m, beta));
+                        assert!(
+                            (a - b).abs() < 1e-12,
+                            "j {j} m' {mp} m {m} beta {beta}: {a} vs {b}"
+                        );
+                    }
+                }
+            }
+        }
+    }
+
+    /// The harmonics' turn: `R_n^m(Q x) = sum D e^{-i m' alpha} R_n^{m'}(x)`.
+    #[test]
+    fn turned_harmonics_are_the_harmonics_of_the_turned_point() {
+        use super::super::solid::{regular, signed, terms};
+        let p = 20;
+        let lf = log_factorials(2 * p + 2);
+        let v = [0.3, -0.7, 0.5];
+        let turn = Turn::new(v, p, &lf);
+        let r = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+        let (beta, alpha) = ((v[2] / r).acos(), v[1].atan2(v[0]));
+        // Q = R_y(-beta) R_z(-alpha)
+        let x = [0.2, 0.1, -0.3];
+        let rz = [
+            alpha.cos() * x[0] + alpha.sin() * x[1],
+            -alpha.sin() * x[0] + alpha.cos() * x[1],
+            x[2],
+        ];
+        let qx = [
+            beta.cos() * rz[0] - beta.sin() * rz[2],
+            rz[1],
+            beta.sin() * rz[0] + beta.cos() * rz[2],
+        ];
+        let (mut h, mut hq) = (
+            vec![Complex64::new(0.0, 0.0); terms(p)],
+            vec![Complex64::new(0.0, 0.0); terms(p)],
+        );
+        regular(x, p, &mut h);
+        regular(qx, p, &mut hq);
+        for n in 0..=p {
+            for m in 0..=n as isize {
+                let mut sum = Complex64::new(0.0, 0.0);
+                for mp in -(n as isize)..=n as isize {
+                    sum += signed(&h, n, mp) * turn.phase(mp).conj() * turn.get(n, m, mp);
+                }
+                let want = hq[at(n, m as usize)];
+                assert!(
+                    (sum - want).norm() < 1e-12 * (1.0 + want.norm()),
+                    "n {n} m {m}: {sum} vs {want}"
+                );
+            }
+        }
+    }
+
+    /// Eight different translations of one direction in one batch give the
+    /// bits of each run alone (lanes do not see each other).
+    #[test]
+    fn lanes_give_the_bits_of_one_translation_alone() {
+        let p = 12;
+        let terms = super::super::solid::terms(p);
+        let multipoles: Vec<Vec<Complex64>> = (0..LANES)
+            .map(|l| {
+                (0..terms)
+                    .map(|k| {
+                        let v = ((k * 31 + l * 17) % 23) as f64 / 7.0 - 1.5;
+                        Complex64::new(v, 0.3 * v - 0.1 * l as f64)
+                    })
+                    .collect()
+            })
+            .collect();
+        // one direction (1, 2, 2), at distances and scales that differ per lane
+        let translation = |l: usize| {
+            let (k, scale) = (1.0 + l as f64 * 0.5, 0.4 + 0.05 * l as f64);
+            Translation {
+                multipole: &multipoles[l],
+                source: ([0.1, -0.2, 0.3], scale),
+                target: ([0.1 + k, -0.2 + 2.0 * k, 0.3 + 2.0 * k], 0.8 * scale),
+            }
+        };
+        let mut together = M2lLanes::default();
+        together.translate(p, [1, 2, 2], LANES, translation);
+        for l in 0..LANES {
+            let mut alone = M2lLanes::default();
+            alone.translate(p, [1, 2, 2], 1, |_| translation(l));
+            let (mut a, mut b) = (
+                vec![Complex64::new(0.0, 0.0); terms],
+                vec![Complex64::new(0.0, 0.0); terms],
+            );
+            together.add_lane(l, &mut a);
+            alone.add_lane(0, &mut b);
+            let bits = |v: &[Complex64]| {
+                v.iter()
+                    .map(|c| (c.re.to_bits(), c.im.to_bits()))
+                    .collect::<Vec<_>>()
+            };
+            assert!(a.iter().any(|c| c.norm() > 0.0));
+            assert_eq!(bits(&a), bits(&b), "lane {l}");
         }
     }
 }
