@@ -11,8 +11,8 @@
 //! vortex-in-cell velocity on a slab-decomposed mesh on 1 to 4 ranks give the
 //! plain run's dumps and fields within 1e-10; md, pse and gravity (ring and
 //! tree) on 2 ranks write `summary.json` with the MPI figures; bad input, a
-//! thin subdomain, more ranks than mesh planes and a blow-up
-//! stop every rank with one message from rank 0 and a non-zero status, never
+//! thin subdomain, more ranks than mesh planes and a blow-up (md's, and
+//! gravity's with its bodies divided among the ranks) stop every rank with one message from rank 0 and a non-zero status, never
 //! a hang. Ends with `N passed, N failed`.
 //!
 //! ```text
@@ -523,6 +523,59 @@ fn blowup_stops_every_rank(dir: &Path) -> Result<(), String> {
     Ok(())
 }
 
+/// Two bodies of mass 0.5 at rest at x = -0.5 and 0.5, unsoftened, one per
+/// rank of 2: after one Euler step of dt 1 they meet at x = 0 and the second
+/// step's field is not finite. Every rank stops with status 3 and one
+/// message naming body 0, and rank 0 writes the last good state (step 1) put
+/// together from the ranks' parts: the plain run's frame and checkpoint, the
+/// same bytes (each body's field is one pair's, the same on any rank).
+fn gravity_blowup_on_two_ranks(dir: &Path) -> Result<(), String> {
+    let folder = dir.join("gravity-blowup");
+    std::fs::create_dir_all(&folder).map_err(|e| e.to_string())?;
+    std::fs::write(
+        folder.join("two.txt"),
+        "0.5 -0.5 0 0 0 0 0\n0.5 0.5 0 0 0 0 0\n",
+    )
+    .map_err(|e| e.to_string())?;
+    let scenario = folder.join("crash.toml");
+    std::fs::write(
+        &scenario,
+        "model = \"gravity\"\n[system]\ninitial = { file = \"two.txt\" }\nsoftening = 0.0\n\
+         [run]\nsteps = 10\ndt = 1.0\nintegrator = \"euler\"\n\
+         [output]\nthermo_every = 1\ncheckpoint = { every = 1 }\n",
+    )
+    .map_err(|e| e.to_string())?;
+    let scenario = scenario.display().to_string();
+    let (alone, spread) = (folder.join("plain"), folder.join("np2"));
+    let o = Command::new(env!("CARGO_BIN_EXE_cellist"))
+        .args(["run", &scenario, "--out"])
+        .arg(&alone)
+        .output()
+        .map_err(|e| e.to_string())?;
+    if o.status.code() != Some(3) {
+        return Err(format!("the plain run did not blow up: {o:?}"));
+    }
+    let o = mpirun(2, &["run", &scenario, "--out", spread.to_str().unwrap()])?;
+    let err = String::from_utf8_lossy(&o.stderr);
+    let lines: Vec<&str> = err.lines().filter(|l| l.starts_with("error: ")).collect();
+    if o.status.code() != Some(3)
+        || lines.len() != 1
+        || !lines[0].contains("step 2: the state of body 0 is not finite")
+        || !lines[0].contains("last good state (step 1)")
+    {
+        return Err(format!(
+            "expected status 3 and one `error: step 2: the state of body 0 ...` line:\n{err}"
+        ));
+    }
+    for file in ["last.dump", "state.ckpt", "thermo.csv"] {
+        let read = |d: &Path| std::fs::read(d.join(file)).map_err(|e| format!("{file}: {e}"));
+        if read(&alone)? != read(&spread)? {
+            return Err(format!("{file} of 2 ranks is not the plain run's"));
+        }
+    }
+    Ok(())
+}
+
 /// `scenario` of `model` on 2 ranks writes one `summary.json` (rank 0's) with
 /// 2 ranks, the run's steps and particles, and the MPI figures: the
 /// communication time and the two imbalances (at least 1).
@@ -689,6 +742,10 @@ fn main() {
         (
             "-np 4: a blow-up stops every rank with one message",
             blowup_stops_every_rank(dir.path()),
+        ),
+        (
+            "-np 2: gravity's bodies meet, every rank stops with one message, the plain run's last state",
+            gravity_blowup_on_two_ranks(dir.path()),
         ),
         (
             "-np 3: a subdomain thinner than cutoff + skin, one message",

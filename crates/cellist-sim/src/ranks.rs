@@ -22,14 +22,16 @@ pub enum Ranks {
     /// In this process alone.
     #[default]
     One,
-    /// Spread over the ranks of `world` by domain decomposition (md, pse): each
-    /// rank steps its own particles, and rank 0 gathers the state whenever an
-    /// observer or a checkpoint is due.
+    /// Spread over the ranks of `world` (md and pse by domain decomposition,
+    /// gravity's direct sum by blocks of bodies): each rank steps its own
+    /// particles, and rank 0 pulls the state whenever an observer or a
+    /// checkpoint is due.
     #[cfg(feature = "mpi")]
     Spread(SimpleCommunicator),
     /// Held whole on every rank of `world`, which advance it alike and divide
-    /// its field sums (gravity and vortex: the direct solvers by the ring pass,
-    /// the trees by parts); `figures` are what the solver measures.
+    /// its field sums (the vortex model's direct solver by the ring pass,
+    /// gravity's and the vortex model's trees by parts and meshes by slabs);
+    /// `figures` are what the solver measures.
     #[cfg(feature = "mpi")]
     Replicated {
         /// The ranks.

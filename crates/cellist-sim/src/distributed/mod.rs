@@ -16,15 +16,18 @@
 //!
 //! What runs distributed, on the driver like every model (rank 0 writes the
 //! outputs): md and pse by domain decomposition ([`md::DistributedMd`],
-//! [`pse::DistributedPse`]), and gravity and the vortex model with their
-//! direct solvers by the ring pass ([`ring`]), their Barnes-Hut trees by
-//! parts of the tree ([`tree`]) and their mesh solvers (PM, P3M,
+//! [`pse::DistributedPse`]); gravity's direct sum with the bodies divided
+//! among the ranks and summed by the ring pass
+//! ([`gravity::DistributedGravity`], [`ring`]); the vortex model's direct
+//! sum by the ring pass, and gravity's and the vortex model's Barnes-Hut
+//! trees by parts of the tree ([`tree`]) and mesh solvers (PM, P3M,
 //! vortex-in-cell) on a slab-decomposed mesh ([`mesh`]), their state
 //! replicated on every rank ([`replicated`]) and their field sums and
 //! transforms divided ([`parts`]). Whatever can fail on
 //! one rank only is agreed ([`agree`]): every rank stops with the message of
 //! the lowest rank that failed, none waits in an exchange.
 
+pub mod gravity;
 pub mod md;
 pub mod mesh;
 pub mod parts;
@@ -40,6 +43,7 @@ use crate::error::SimError;
 use crate::scenario::{ModelKind, Scenario};
 use cellist::decomposition::{Decomposition, Images};
 use cellist::models::Blowup;
+use cellist::state::{State, StateError};
 use mpi::collective::SystemOperation;
 use mpi::topology::SimpleCommunicator;
 use mpi::traits::*;
@@ -530,6 +534,34 @@ pub fn world_of_many() -> Option<SimpleCommunicator> {
     }
     let world = SimpleCommunicator::world();
     (world.size() > 1).then_some(world)
+}
+
+/// The section that marks one rank's part of a spread model's state:
+/// `[rank, ranks]`.
+const PART: &str = "rank_part";
+
+/// Marks `state` as the part of this rank of `world` ([`is_own_part`]).
+pub fn mark_part<C: Communicator>(world: &C, state: &mut State) {
+    state.put_u64s(PART, [world.rank() as u64, world.size() as u64]);
+}
+
+/// Whether `state` is this rank's own part of a spread model's state (saved
+/// with [`mark_part`]) rather than a global state (a checkpoint file of any
+/// number of ranks, or of one process); the part of another rank, or of
+/// another rank count, is an error.
+pub fn is_own_part<C: Communicator>(world: &C, state: &State) -> Result<bool, StateError> {
+    if !state.has(PART) {
+        return Ok(false);
+    }
+    let (rank, ranks) = (world.rank() as u64, world.size() as u64);
+    let part = state.u64s_of(PART, 2)?;
+    if part != [rank, ranks] {
+        return Err(StateError(format!(
+            "the state is rank {} of {}'s part, not rank {rank} of {ranks}'s",
+            part[0], part[1]
+        )));
+    }
+    Ok(true)
 }
 
 /// This process's rank in a run over several MPI ranks (`None` in one process).

@@ -142,6 +142,16 @@ pub fn serve<C: Communicator>(world: &C, own: &impl OwnRows) {
     }
 }
 
+/// After rank 0's outputs: on rank 0, [`release`]s the other ranks; on the
+/// others, [`serve`]s rank 0's pulls of `own` until then.
+pub fn serve_until_written<C: Communicator>(world: &C, own: &impl OwnRows) {
+    if world.rank() == 0 {
+        release(world);
+    } else {
+        serve(world, own);
+    }
+}
+
 /// On rank 0: every rank's `ids` and rows of `width` numbers, rank after
 /// rank, into `all_ids` and `all_values`.
 fn gather_rows<C: Communicator>(

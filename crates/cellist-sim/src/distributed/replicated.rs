@@ -1,13 +1,15 @@
 //! Models whose state every rank holds in full and advances alike, their
-//! field sums divided among the ranks: gravity and the vortex model with their
-//! direct solvers by the ring pass ([`super::ring`]), with their Barnes-Hut
+//! field sums divided among the ranks: the vortex model with its direct
+//! solver by the ring pass ([`super::ring`]; gravity's bodies are divided
+//! among the ranks instead, [`super::gravity`]), gravity and the vortex model
+//! with their Barnes-Hut
 //! trees by parts of the tree ([`super::tree`]) and with their mesh solvers on
 //! a mesh cut into slabs of planes ([`super::mesh`]). Every rank takes the same
 //! steps on the same bits, so the checks agree without messages; rank 0 writes
 //! the outputs ([`Ranks::Replicated`]).
 
 use super::mesh::{MeshGravity, MeshGravitySolver, MeshVortex, MpiExchange};
-use super::ring::{RingGravity, RingVortex};
+use super::ring::RingVortex;
 use super::tree::{TreeGravity, TreeVortex};
 use crate::ranks::Ranks;
 use cellist::interactions::GravityLaw;
@@ -17,18 +19,6 @@ use cellist::longrange::{
 use cellist::models::gravity::{Solver, SolverChoice};
 use cellist::models::vortex::{VelocityEngine, VelocitySolver};
 use mpi::traits::Communicator;
-
-/// On several ranks, gravity's direct solver by the ring pass for `law`, and
-/// its ranks; `None` in one process.
-pub fn gravity_ring(law: GravityLaw) -> Option<(Solver, Ranks)> {
-    let world = super::world_of_many()?;
-    let solver = RingGravity::new(world.duplicate(), law);
-    let figures = solver.figures();
-    Some((
-        Solver::External(Box::new(solver)),
-        Ranks::Replicated { world, figures },
-    ))
-}
 
 /// On several ranks, gravity's Barnes-Hut tree divided among them for `law`
 /// with `params`, and its ranks; `None` in one process.

@@ -7,9 +7,11 @@
 //! hidden once `gamma n^2 > alpha + beta n`.
 //!
 //! [`RingGravity`] and [`RingVortex`] are the engine's direct solvers made
-//! distributed: given every particle (the state is replicated), each rank sums
-//! the field at the block it owns over all blocks by the ring, and the blocks'
-//! results are gathered on every rank.
+//! distributed. Gravity's bodies are divided among the ranks
+//! ([`super::gravity`]): each rank sums the field at its own bodies over every
+//! rank's by the ring. The vortex model's particles every rank holds (the
+//! state is replicated): each rank sums the velocity at a block of them over
+//! all blocks by the ring, and the blocks' results are gathered on every rank.
 
 use super::parts::{all_gather_parts, Figures};
 use cellist::interactions::GravityLaw;
@@ -123,7 +125,7 @@ fn ring_gravity_timed<C: Communicator>(
 /// The blocks `n` particles are cut into on the ranks of `world`: rank `r`
 /// sums for the particles `bounds[r]..bounds[r + 1]`, `bounds[r] = n r / P`;
 /// and this rank's block.
-fn blocks(n: usize, world: &SimpleCommunicator) -> (Vec<usize>, std::ops::Range<usize>) {
+pub(super) fn blocks(n: usize, world: &SimpleCommunicator) -> (Vec<usize>, std::ops::Range<usize>) {
     let (rank, ranks) = (world.rank() as usize, world.size() as usize);
     let bounds: Vec<usize> = (0..=ranks).map(|r| n * r / ranks).collect();
     let mine = bounds[rank]..bounds[rank + 1];
@@ -136,7 +138,9 @@ fn ring_figures() -> Figures {
 }
 
 /// Gravity's direct sum by the ring pass: the engine's [`FieldSolver`] for a
-/// run whose bodies every rank holds.
+/// run whose bodies are divided among the ranks. Each rank computes with its
+/// own bodies as the sources it is given, and gets their field due to every
+/// rank's bodies ([`ring_gravity`]).
 pub struct RingGravity {
     world: SimpleCommunicator,
     law: GravityLaw,
@@ -153,7 +157,7 @@ impl RingGravity {
         }
     }
 
-    /// The figures, shared.
+    /// The figures, shared: the time spent waiting for the ring's blocks.
     pub fn figures(&self) -> Figures {
         self.figures.clone()
     }
@@ -166,21 +170,18 @@ impl std::fmt::Debug for RingGravity {
 }
 
 impl FieldSolver for RingGravity {
+    /// Collective: every rank calls it with its own bodies as `sources`.
     fn compute(&mut self, sources: &Sources, out: FieldOut, threads: &Threads) {
-        let n = sources.mass.len();
-        let (bounds, mine) = blocks(n, &self.world);
         let (acc, phi, waited) = ring_gravity_timed(
             &self.world,
             self.law,
-            &sources.position[mine.clone()],
-            &sources.mass[mine],
+            sources.position,
+            sources.mass,
             threads,
         );
-        let t = Instant::now();
-        let acc_out = out.acc.as_flattened_mut();
-        all_gather_parts(&self.world, acc.as_flattened(), 3, &bounds, acc_out);
-        all_gather_parts(&self.world, &phi, 1, &bounds, out.phi);
-        self.figures.add(waited + t.elapsed(), &bounds);
+        out.acc.copy_from_slice(&acc);
+        out.phi.copy_from_slice(&phi);
+        self.figures.add_wait(waited);
     }
 }
 

@@ -535,7 +535,7 @@ fn body_plan(setup: &Setup) -> Option<BodyPlan> {
 
 fn run_setup<L: Launch>(
     scenario: &Scenario,
-    setup: Setup,
+    mut setup: Setup,
     context: &RunContext,
     launch: L,
 ) -> SimResult<L::Output> {
@@ -546,7 +546,7 @@ fn run_setup<L: Launch>(
         || Solver::new(&setup.choice, setup.law, setup.bodies.len()).map_err(|e| scenario.error(e));
     #[cfg(feature = "mpi")]
     let distributed = {
-        use crate::distributed::replicated::{gravity_mesh, gravity_ring, gravity_tree};
+        use crate::distributed::replicated::{gravity_mesh, gravity_tree};
         let (p, n) = (
             crate::distributed::world_of_many()
                 .map_or(1, |w| mpi::traits::Communicator::size(&w) as usize),
@@ -563,7 +563,10 @@ fn run_setup<L: Launch>(
                 .map_err(|e| scenario.error(e))?
                 .map(|(solver, ranks)| {
                     let line = format!(
-                        "mpi: {p} ranks; the Barnes-Hut tree of all {n} bodies built alike on                          every rank (the bodies held by every rank), each rank walking a run of                          its groups balanced by interactions, the results all-gathered: one                          process's forces to the bit"
+                        "mpi: {p} ranks; the Barnes-Hut tree of all {n} bodies built alike on \
+                         every rank (the bodies held by every rank), each rank walking a run of \
+                         its groups balanced by interactions, the results all-gathered: one \
+                         process's forces to the bit"
                     );
                     (solver, ranks, line)
                 }),
@@ -573,13 +576,10 @@ fn run_setup<L: Launch>(
                 )),
                 None => None,
             },
-            SolverChoice::Direct => gravity_ring(setup.law).map(|(solver, ranks)| {
-                let line = format!(
-                    "mpi: {p} ranks; the direct sum by the ring pass, each rank summing for a                      block of about {} bodies (the bodies held by every rank)",
-                    n / p
-                );
-                (solver, ranks, line)
-            }),
+            SolverChoice::Direct => match crate::distributed::world_of_many() {
+                Some(world) => return run_spread(scenario, setup, context, launch, world, started),
+                None => None,
+            },
         }
     };
     #[cfg(feature = "mpi")]
@@ -592,13 +592,77 @@ fn run_setup<L: Launch>(
     };
     #[cfg(not(feature = "mpi"))]
     let (solver, ranks) = (single()?, Ranks::One);
-    let system = GravitySystem::with_solver(setup.law, setup.bodies.clone(), solver, threads)
-        .map_err(|e| match e {
+    let plan = output_plan(&setup);
+    let bodies = std::mem::take(&mut setup.bodies);
+    let system =
+        GravitySystem::with_solver(setup.law, bodies, solver, threads).map_err(|e| match e {
             GravityError::NotFinite { .. } => {
                 scenario.error(format!("step 0 (the first forces): {e}"))
             }
             GravityError::Parameter(_) => scenario.error(e),
         })?;
+    say_setup(&setup, context);
+    let mut model = GravityModel::new(system, setup.integrator, setup.dt);
+    model.dimension = setup.dimension;
+    let spec = job_spec(scenario, &setup, out_dir)?;
+    launch.launch(spec.with(model).on(ranks), &plan, context, started)
+}
+
+/// The run of `setup` into `dir`: its steps, checkpoints, physics keys and
+/// last frame.
+fn job_spec(scenario: &Scenario, setup: &Setup, dir: &std::path::Path) -> SimResult<JobSpec> {
+    Ok(JobSpec {
+        steps: setup.steps,
+        dir: dir.to_path_buf(),
+        checkpoint: setup.checkpoint.clone(),
+        physics: scenario.physics_keys()?,
+        last_frame: LastFrame::Dump {
+            file: "last.dump",
+            columns: dump_columns(),
+        },
+    })
+}
+
+/// On the ranks of `world`, the direct sum's run with the bodies divided
+/// among the ranks ([`DistributedGravity`]).
+#[cfg(feature = "mpi")]
+fn run_spread<L: Launch>(
+    scenario: &Scenario,
+    mut setup: Setup,
+    context: &RunContext,
+    launch: L,
+    world: mpi::topology::SimpleCommunicator,
+    started: Instant,
+) -> SimResult<L::Output> {
+    use crate::distributed::gravity::DistributedGravity;
+    use mpi::traits::Communicator;
+    let (ranks, n) = (world.size() as usize, setup.bodies.len());
+    context.say(format!(
+        "mpi: {ranks} ranks; the direct sum by the ring pass, each rank holding and summing for \
+         a block of about {} bodies",
+        n / ranks
+    ));
+    let plan = output_plan(&setup);
+    let bodies = std::mem::take(&mut setup.bodies);
+    let spread = crate::ranks::Ranks::Spread(world.duplicate());
+    let model = DistributedGravity::new(
+        world,
+        setup.law,
+        bodies,
+        setup.integrator,
+        setup.dt,
+        setup.dimension,
+        context.threads,
+    )
+    .map_err(|e| scenario.error(e))?;
+    say_setup(&setup, context);
+    let spec = job_spec(scenario, &setup, &context.out_dir)?;
+    launch.launch(spec.with(model).on(spread), &plan, context, started)
+}
+
+/// Says what the run is: the bodies, the law and the solver, the steps and
+/// where the results go.
+fn say_setup(setup: &Setup, context: &RunContext) {
     context.say(format!(
         "gravity: {}; G {}, softening {}{}; solver {}",
         setup.initial,
@@ -616,10 +680,15 @@ fn run_setup<L: Launch>(
         setup.steps,
         setup.dt,
         setup.integrator_name,
-        threads.count(),
-        out_dir.display()
+        context.threads.count(),
+        context.out_dir.display()
     ));
-    let plan = OutputPlan {
+}
+
+/// The outputs of `setup`: the thermo table and its energy plot, the dumps,
+/// the pictures of the bodies and the trajectories.
+fn output_plan(setup: &Setup) -> OutputPlan {
+    OutputPlan {
         thermo_every: setup.thermo_every,
         table: TableStyle {
             width: 18,
@@ -645,22 +714,9 @@ fn run_setup<L: Launch>(
             })
             .collect(),
         field: None,
-        bodies: body_plan(&setup),
+        bodies: body_plan(setup),
         trajectories: setup.trajectories.clone(),
-    };
-    let mut model = GravityModel::new(system, setup.integrator, setup.dt);
-    model.dimension = setup.dimension;
-    let spec = JobSpec {
-        steps: setup.steps,
-        dir: out_dir.to_path_buf(),
-        checkpoint: setup.checkpoint.clone(),
-        physics: scenario.physics_keys()?,
-        last_frame: LastFrame::Dump {
-            file: "last.dump",
-            columns: dump_columns(),
-        },
-    };
-    launch.launch(spec.with(model).on(ranks), &plan, context, started)
+    }
 }
 
 impl Hosted for GravityModel {

@@ -401,7 +401,10 @@ pub fn run<L: Launch>(
                 .map_err(|e| err(format!("system: {e}")))?
                 .map(|(engine, ranks)| {
                     let line = format!(
-                        "mpi: {p} ranks; the Barnes-Hut tree of all the particles built alike                          on every rank (the particles held by every rank), each rank walking a                          run of its groups balanced by interactions, the results all-gathered:                          one process's velocities to the bit"
+                        "mpi: {p} ranks; the Barnes-Hut tree of all the particles built alike \
+                        on every rank (the particles held by every rank), each rank walking a \
+                        run of its groups balanced by interactions, the results all-gathered: \
+                        one process's velocities to the bit"
                     );
                     (engine, ranks, line)
                 }),
@@ -414,7 +417,8 @@ pub fn run<L: Launch>(
             },
             VelocitySolver::Direct => vortex_ring(kernel).map(|(engine, ranks)| {
                 let line = format!(
-                    "mpi: {p} ranks; the direct velocity by the ring pass, each rank summing                      for a block of about {} particles (the particles held by every rank)",
+                    "mpi: {p} ranks; the direct velocity by the ring pass, each rank summing \
+                    for a block of about {} particles (the particles held by every rank)",
                     n / p
                 );
                 (engine, ranks, line)

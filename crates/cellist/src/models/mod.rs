@@ -9,5 +9,6 @@ pub mod vortex;
 pub mod vortex3;
 
 pub use model::{
-    check, Blowup, Checked, CheckedArray, Field, Ids, Model, ModelInfo, ParticleBlock, Particles,
+    check, whole_frame, Blowup, Checked, CheckedArray, Field, Ids, Model, ModelInfo, ParticleBlock,
+    Particles,
 };

@@ -195,6 +195,21 @@ pub struct ParticleBlock<'a> {
     pub rows: &'a Particles,
 }
 
+/// The whole frame of a model that hands its particles out a block at a time
+/// ([`Model::particle_blocks`]), its blocks appended in order; `None` where the
+/// model gives none (or, spread over ranks, on a rank that writes no output).
+pub fn whole_frame(model: &(impl Model + ?Sized), step: u64, energies: bool) -> Option<Particles> {
+    let mut all: Option<Particles> = None;
+    let whole = model.particle_blocks(step, energies, &mut |block| {
+        match &mut all {
+            None => all = Some(block.rows.clone()),
+            Some(all) => all.append(block.rows),
+        }
+        ControlFlow::Continue(())
+    });
+    whole.then(|| all.unwrap_or_default())
+}
+
 /// A field carried by particles: one value per particle, for field files and
 /// pictures.
 #[derive(Clone, Debug, PartialEq)]

@@ -39,7 +39,7 @@
 //! imbalance (largest over mean atoms per rank, averaged over the rebuilds).
 
 use super::pull::{self, IdSpan, OwnRows as _};
-use super::{agree, agree_blowup, migrate, GhostPlan};
+use super::{agree, agree_blowup, is_own_part, mark_part, migrate, GhostPlan};
 use crate::hosted::{Distribution, Hosted};
 use cellist::decomposition::{Balance, Decomposition, REBALANCE_ABOVE};
 use cellist::geometry::Domain;
@@ -49,7 +49,9 @@ use cellist::models::md::{
     ordered_forces, save_atoms, twice_kinetic, AtomForce, Atoms, HaloSums, Integrator, ListCounts,
     PairTally, SavedAtoms, StageTimes, ThermoSums, REMEDY,
 };
-use cellist::models::{check, md, Blowup, Checked, Model, ModelInfo, ParticleBlock, Particles};
+use cellist::models::{
+    check, md, whole_frame, Blowup, Checked, Model, ModelInfo, ParticleBlock, Particles,
+};
 use cellist::neighbors::{CellGrid, OrderedRows, Rebuild, RebuildRule};
 use cellist::state::{State, StateError};
 use cellist::threads::counting_sort;
@@ -786,15 +788,7 @@ impl<const D: usize> Model for DistributedMd<D> {
     /// On rank 0 every atom (sorted by id, positions wrapped), pulled from
     /// every rank; `None` on the other ranks.
     fn particles(&self, step: u64, energies: bool) -> Option<Particles> {
-        let mut all: Option<Particles> = None;
-        let whole = self.particle_blocks(step, energies, &mut |block| {
-            match &mut all {
-                None => all = Some(block.rows.clone()),
-                Some(all) => all.append(block.rows),
-            }
-            ControlFlow::Continue(())
-        });
-        whole.then(|| all.unwrap_or_default())
+        whole_frame(self, step, energies)
     }
 
     /// On rank 0 the atoms sorted by id a block at a time, pulled from every
@@ -840,7 +834,7 @@ impl<const D: usize> Model for DistributedMd<D> {
     /// [`Hosted::file_state`]).
     fn save(&self, state: &mut State) {
         save_atoms(state, &self.atoms, self.reference(), self.counts);
-        state.put_u64s(PART, [self.world.rank() as u64, self.world.size() as u64]);
+        mark_part(&self.world, state);
     }
 
     /// Takes the atoms this rank owns: from its own part of the state
@@ -850,15 +844,8 @@ impl<const D: usize> Model for DistributedMd<D> {
     /// error alone.
     fn restore(&mut self, state: &State, _threads: &Threads) -> Result<(), StateError> {
         self.observed = true;
-        let (rank, ranks) = (self.world.rank() as u64, self.world.size() as u64);
-        let (atoms, reference, counts) = if state.has(PART) {
-            let part = state.u64s_of(PART, 2)?;
-            if part != [rank, ranks] {
-                return Err(StateError(format!(
-                    "the state is rank {} of {}'s part, not rank {rank} of {ranks}'s",
-                    part[0], part[1]
-                )));
-            }
+        let rank = self.world.rank() as u64;
+        let (atoms, reference, counts) = if is_own_part(&self.world, state)? {
             let n = state.u64s("ids")?.len();
             load_atoms::<D>(state, n)?
         } else {
@@ -885,10 +872,6 @@ impl<const D: usize> Model for DistributedMd<D> {
         Ok(())
     }
 }
-
-/// The section that marks one rank's part of a distributed md state:
-/// `[rank, ranks]`.
-const PART: &str = "rank_part";
 
 impl<const D: usize> Hosted for DistributedMd<D> {
     /// Microseconds per atom-step over the ranks, the communication, the load
@@ -932,13 +915,8 @@ impl<const D: usize> Hosted for DistributedMd<D> {
     /// ranks that its outputs are written; on the others, serves rank 0's
     /// pulls of their atoms until then.
     fn serve_outputs(&self) {
-        if !self.observed_everywhere() {
-            return;
-        }
-        if self.world.rank() == 0 {
-            pull::release(&self.world);
-        } else {
-            pull::serve(&self.world, &OwnRows(self));
+        if self.observed_everywhere() {
+            pull::serve_until_written(&self.world, &OwnRows(self));
         }
     }
 

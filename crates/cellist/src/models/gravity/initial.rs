@@ -17,6 +17,15 @@ pub struct Bodies {
 }
 
 impl Bodies {
+    /// The bodies `range` of the input order.
+    pub fn part(&self, range: std::ops::Range<usize>) -> Bodies {
+        Bodies {
+            mass: self.mass[range.clone()].to_vec(),
+            position: self.position[range.clone()].to_vec(),
+            velocity: self.velocity[range].to_vec(),
+        }
+    }
+
     /// Number of bodies.
     pub fn len(&self) -> usize {
         self.mass.len()

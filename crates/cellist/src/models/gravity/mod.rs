@@ -8,7 +8,9 @@ mod initial;
 mod model;
 
 pub use initial::{plummer, two_body_seed004, Bodies};
-pub use model::{GravityModel, INFO};
+pub use model::{
+    body_particles, checked_bodies, load_bodies, save_bodies, thermo_row, GravityModel, INFO,
+};
 
 use crate::interactions::GravityLaw;
 use crate::longrange::{
@@ -136,7 +138,7 @@ impl fmt::Display for GravityError {
 impl std::error::Error for GravityError {}
 
 /// The conserved quantities: energies, momentum and angular momentum.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Observables {
     /// `T = 1/2 sum m v^2`.
     pub kinetic: f64,
@@ -149,6 +151,24 @@ pub struct Observables {
 }
 
 impl Observables {
+    /// Adds body `m` at `x` with velocity `v` and potential `phi`:
+    /// `T += m |v|^2 / 2`, `W += m phi / 2`, `P += m v`, `L += m x cross v`.
+    pub fn add_body(&mut self, m: f64, x: [f64; 3], v: [f64; 3], phi: f64) {
+        self.kinetic += 0.5 * m * (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+        self.potential += 0.5 * m * phi;
+        for a in 0..3 {
+            self.momentum[a] += m * v[a];
+        }
+        let l = [
+            x[1] * v[2] - x[2] * v[1],
+            x[2] * v[0] - x[0] * v[2],
+            x[0] * v[1] - x[1] * v[0],
+        ];
+        for a in 0..3 {
+            self.angular_momentum[a] += m * l[a];
+        }
+    }
+
     /// `E = T + W`.
     pub fn total(&self) -> f64 {
         self.kinetic + self.potential
@@ -191,20 +211,7 @@ impl GravitySystem {
                 bodies.velocity.len()
             )));
         }
-        let sources = Sources {
-            mass: &bodies.mass,
-            position: &bodies.position,
-        };
-        check_sources(&law, &sources).map_err(GravityError::Parameter)?;
-        if let Some(i) = bodies
-            .velocity
-            .iter()
-            .position(|v| v.iter().any(|c| !c.is_finite()))
-        {
-            return Err(GravityError::Parameter(format!(
-                "body {i}: velocity is not finite"
-            )));
-        }
+        check_bodies(&law, &bodies)?;
         let mut system = GravitySystem {
             law,
             bodies,
@@ -351,31 +358,34 @@ impl GravitySystem {
         }
     }
 
-    /// Energies, momentum and angular momentum now.
+    /// Energies, momentum and angular momentum now, summed over the bodies in
+    /// input order ([`Observables::add_body`]).
     pub fn observables(&self) -> Observables {
         let b = &self.bodies;
-        let mut o = Observables {
-            kinetic: 0.0,
-            potential: 0.0,
-            momentum: [0.0; 3],
-            angular_momentum: [0.0; 3],
-        };
+        let mut o = Observables::default();
         for i in 0..self.len() {
-            let (m, x, v) = (b.mass[i], b.position[i], b.velocity[i]);
-            o.kinetic += 0.5 * m * (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
-            o.potential += 0.5 * m * self.phi[i];
-            for a in 0..3 {
-                o.momentum[a] += m * v[a];
-            }
-            let l = [
-                x[1] * v[2] - x[2] * v[1],
-                x[2] * v[0] - x[0] * v[2],
-                x[0] * v[1] - x[1] * v[0],
-            ];
-            for a in 0..3 {
-                o.angular_momentum[a] += m * l[a];
-            }
+            o.add_body(b.mass[i], b.position[i], b.velocity[i], self.phi[i]);
         }
         o
+    }
+}
+
+/// The checks of a system's bodies before its first forces: those of every
+/// solver's sources ([`check_sources`]) and finite velocities.
+pub fn check_bodies(law: &GravityLaw, bodies: &Bodies) -> Result<(), GravityError> {
+    let sources = Sources {
+        mass: &bodies.mass,
+        position: &bodies.position,
+    };
+    check_sources(law, &sources).map_err(GravityError::Parameter)?;
+    match bodies
+        .velocity
+        .iter()
+        .position(|v| v.iter().any(|c| !c.is_finite()))
+    {
+        Some(i) => Err(GravityError::Parameter(format!(
+            "body {i}: velocity is not finite"
+        ))),
+        None => Ok(()),
     }
 }

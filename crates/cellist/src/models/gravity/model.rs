@@ -1,6 +1,6 @@
 //! Self-gravitating bodies behind the driver's [`Model`] interface.
 
-use super::{Bodies, GravitySystem, Integrator};
+use super::{Bodies, GravitySystem, Integrator, Observables};
 use crate::models::{Blowup, Checked, CheckedArray, Ids, Model, ModelInfo, Particles};
 use crate::state::{State, StateError};
 use crate::threads::Threads;
@@ -77,75 +77,25 @@ impl Model for GravityModel {
         result.map_err(|e| Blowup::new(step, e.to_string(), INFO.remedy))
     }
 
-    /// Energies, `(E - E0) / |E0|` (or `E - E0` when `E0 = 0`), momentum and angular
-    /// momentum.
+    /// The row of [`thermo_row`] now.
     fn thermo(&self, step: u64) -> Vec<f64> {
-        let o = self.system.observables();
-        let de = o.total() - self.e0;
-        let rel = if self.e0 == 0.0 {
-            de
-        } else {
-            de / self.e0.abs()
-        };
-        let (p, l) = (o.momentum, o.angular_momentum);
-        vec![
-            step as f64 * self.dt,
-            o.kinetic,
-            o.potential,
-            o.total(),
-            rel,
-            p[0],
-            p[1],
-            p[2],
-            l[0],
-            l[1],
-            l[2],
-        ]
+        thermo_row(&self.system.observables(), self.e0, step as f64 * self.dt)
     }
 
     /// Bodies are named by their index in the input (0-based), as the engine's
     /// errors name them.
     fn checked(&self) -> Checked<'_> {
-        let b = self.system.bodies();
-        fn vector<'a>(quantity: &'static str, v: &'a [[f64; 3]]) -> CheckedArray<'a> {
-            CheckedArray {
-                quantity,
-                values: v.as_flattened(),
-                per_particle: 3,
-            }
-        }
-        let arrays = vec![
-            vector("position", &b.position),
-            vector("velocity", &b.velocity),
-            vector("acceleration", self.system.accelerations()),
-            CheckedArray {
-                quantity: "potential",
-                values: self.system.potentials(),
-                per_particle: 1,
-            },
-        ];
-        Checked::new(Ids::Index, arrays)
+        let field = (self.system.accelerations(), self.system.potentials());
+        checked_bodies(Ids::Index, self.system.bodies(), field)
     }
 
     /// In input order with ids 1..=N; the box is the bodies' bounding box.
     fn particles(&self, _step: u64, _energies: bool) -> Option<Particles> {
         let b = self.system.bodies();
-        let (lo, hi) = crate::geometry::bounding_box(&b.position);
-        Some(Particles {
-            dimension: self.dimension,
-            lo,
-            hi,
-            periodic: [false; 3],
-            ids: (1..=b.len() as u64).collect(),
-            types: Vec::new(),
-            positions: b.position.clone(),
-            velocities: b.velocity.clone(),
-            forces: Vec::new(),
-            energies: None,
-            masses: Some(b.mass.clone()),
-            accelerations: Some(self.system.accelerations().to_vec()),
-            potentials: Some(self.system.potentials().to_vec()),
-        })
+        let bounds = crate::geometry::bounding_box(&b.position);
+        let ids = (1..=b.len() as u64).collect();
+        let field = (self.system.accelerations(), self.system.potentials());
+        Some(body_particles(self.dimension, bounds, ids, b, field))
     }
 
     fn stage_times(&self) -> Vec<(&'static str, Duration)> {
@@ -153,29 +103,121 @@ impl Model for GravityModel {
     }
 
     fn save(&self, state: &mut State) {
-        let b = self.system.bodies();
-        state.put_f64s("mass", b.mass.iter().copied());
-        state.put_vectors("position", &b.position);
-        state.put_vectors("velocity", &b.velocity);
-        state.put_vectors("acceleration", self.system.accelerations());
-        state.put_f64s("potential", self.system.potentials().iter().copied());
-        state.put_f64s("e0", [self.e0]);
+        let field = (self.system.accelerations(), self.system.potentials());
+        save_bodies(state, self.system.bodies(), field, self.e0);
     }
 
     fn restore(&mut self, state: &State, _threads: &Threads) -> Result<(), StateError> {
-        let n = self.len();
-        let bodies = Bodies {
-            mass: state.f64s_of("mass", n)?,
-            position: state.vectors("position", n)?,
-            velocity: state.vectors("velocity", n)?,
-        };
-        self.e0 = state.f64("e0")?;
-        self.system
-            .restore(
-                bodies,
-                state.vectors("acceleration", n)?,
-                state.f64s_of("potential", n)?,
-            )
-            .map_err(StateError)
+        let (bodies, acc, phi, e0) = load_bodies(state, self.len())?;
+        self.e0 = e0;
+        self.system.restore(bodies, acc, phi).map_err(StateError)
     }
+}
+
+/// The arrays of `bodies` named by `ids` that must stay finite: positions,
+/// velocities and the accelerations and potentials of `field`.
+pub fn checked_bodies<'a>(
+    ids: Ids<'a>,
+    bodies: &'a Bodies,
+    field: (&'a [[f64; 3]], &'a [f64]),
+) -> Checked<'a> {
+    fn vector<'a>(quantity: &'static str, v: &'a [[f64; 3]]) -> CheckedArray<'a> {
+        CheckedArray {
+            quantity,
+            values: v.as_flattened(),
+            per_particle: 3,
+        }
+    }
+    let arrays = vec![
+        vector("position", &bodies.position),
+        vector("velocity", &bodies.velocity),
+        vector("acceleration", field.0),
+        CheckedArray {
+            quantity: "potential",
+            values: field.1,
+            per_particle: 1,
+        },
+    ];
+    Checked::new(ids, arrays)
+}
+
+/// The thermo row of bodies whose sums are `o`, at `time`, against the energy
+/// `e0` of step 0: `time`, `T`, `W`, `E = T + W`, `(E - E0) / |E0|` (or `E -
+/// E0` when `E0 = 0`), `P` and `L` (the columns of [`INFO`]).
+pub fn thermo_row(o: &Observables, e0: f64, time: f64) -> Vec<f64> {
+    let de = o.total() - e0;
+    let rel = if e0 == 0.0 { de } else { de / e0.abs() };
+    let (p, l) = (o.momentum, o.angular_momentum);
+    vec![
+        time,
+        o.kinetic,
+        o.potential,
+        o.total(),
+        rel,
+        p[0],
+        p[1],
+        p[2],
+        l[0],
+        l[1],
+        l[2],
+    ]
+}
+
+/// The dump rows of `bodies` named `ids`, with their accelerations and
+/// potentials `field`, in the box `bounds` (`(lo, hi)`) of a run in
+/// `dimension` dimensions.
+pub fn body_particles(
+    dimension: usize,
+    bounds: ([f64; 3], [f64; 3]),
+    ids: Vec<u64>,
+    bodies: &Bodies,
+    field: (&[[f64; 3]], &[f64]),
+) -> Particles {
+    Particles {
+        dimension,
+        lo: bounds.0,
+        hi: bounds.1,
+        periodic: [false; 3],
+        ids,
+        types: Vec::new(),
+        positions: bodies.position.clone(),
+        velocities: bodies.velocity.clone(),
+        forces: Vec::new(),
+        energies: None,
+        masses: Some(bodies.mass.clone()),
+        accelerations: Some(field.0.to_vec()),
+        potentials: Some(field.1.to_vec()),
+    }
+}
+
+/// Writes the state of `bodies` with their accelerations and potentials
+/// `field` and the energy `e0` of step 0 into `state` (a checkpoint's
+/// layout: `mass`, `position`, `velocity`, `acceleration`, `potential`, `e0`).
+pub fn save_bodies(state: &mut State, bodies: &Bodies, field: (&[[f64; 3]], &[f64]), e0: f64) {
+    state.put_f64s("mass", bodies.mass.iter().copied());
+    state.put_vectors("position", &bodies.position);
+    state.put_vectors("velocity", &bodies.velocity);
+    state.put_vectors("acceleration", field.0);
+    state.put_f64s("potential", field.1.iter().copied());
+    state.put_f64s("e0", [e0]);
+}
+
+/// The `n` bodies of a state written by [`save_bodies`], their accelerations,
+/// potentials and the energy of step 0.
+#[allow(clippy::type_complexity)]
+pub fn load_bodies(
+    state: &State,
+    n: usize,
+) -> Result<(Bodies, Vec<[f64; 3]>, Vec<f64>, f64), StateError> {
+    let bodies = Bodies {
+        mass: state.f64s_of("mass", n)?,
+        position: state.vectors("position", n)?,
+        velocity: state.vectors("velocity", n)?,
+    };
+    Ok((
+        bodies,
+        state.vectors("acceleration", n)?,
+        state.f64s_of("potential", n)?,
+        state.f64("e0")?,
+    ))
 }

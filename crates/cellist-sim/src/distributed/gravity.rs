@@ -1,0 +1,466 @@
+//! Gravity's direct sum on several ranks with the bodies divided among them:
+//! rank `r` owns the bodies `N r / P .. N (r + 1) / P` of the input order for
+//! the whole run (the direct sum does not care where they are), steps them,
+//! and sums their field over every rank's bodies by seed 003's ring pass
+//! ([`RingGravity`]). A rank holds its `N / P` bodies and the block in flight
+//! on the ring, never the whole system after set-up.
+//!
+//! ```text
+//! step:  kick + drift of the own bodies (the integrator's first part)
+//!        the ring pass: the field at the own bodies of every rank's block
+//!        kick (leapfrog's second half); check the own bodies
+//!        one all-reduce: a blow-up on any rank (its message), observed?
+//!          observed: the box of all bodies (two all-reduces)
+//! ```
+//!
+//! Rank 0 writes every output, pulling the bodies from every rank a block of
+//! ids at a time in id order ([`super::pull`]) while the other ranks serve
+//! its asks: dumps, pictures and checkpoints (in the single-process layout,
+//! so a checkpoint of `P` ranks restarts in one process or on any number of
+//! ranks) are those of a plain run, and the thermo sums run over the bodies
+//! in id order as one process sums them. The forces follow the ring's order
+//! (each body's sum over the blocks, its own first), so a run agrees with
+//! one process to rounding.
+
+use super::parts::Figures;
+use super::pull::{self, IdSpan, OwnRows};
+use super::ring::{blocks, RingGravity};
+use super::{agree, agree_blowup, is_own_part, mark_part};
+use crate::hosted::{Distribution, Hosted};
+use cellist::interactions::GravityLaw;
+use cellist::models::gravity::{
+    body_particles, check_bodies, checked_bodies, load_bodies, save_bodies, thermo_row, Bodies,
+    GravityError, GravitySystem, Integrator, Observables, Solver, INFO as GRAVITY,
+};
+use cellist::models::{
+    whole_frame, Blowup, Checked, Ids, Model, ModelInfo, ParticleBlock, Particles,
+};
+use cellist::state::{State, StateError};
+use cellist::Threads;
+use mpi::collective::SystemOperation;
+use mpi::topology::SimpleCommunicator;
+use mpi::traits::*;
+use std::borrow::Cow;
+use std::ops::{ControlFlow, Range};
+use std::time::{Duration, Instant};
+
+/// Numbers per body in a pulled row: `x y z vx vy vz m ax ay az phi`.
+const ROW: usize = 11;
+
+/// The box of every body at the last observed step, in one rank's part:
+/// `lo` then `hi`.
+const BOUNDS: &str = "bounds";
+
+/// What a distributed gravity model is: gravity's, with a body count per rank
+/// that is not the run's.
+const INFO: ModelInfo = ModelInfo {
+    count_may_change: true,
+    ..GRAVITY
+};
+
+/// The gravity model of one rank of a distributed run (direct sum).
+pub struct DistributedGravity {
+    world: SimpleCommunicator,
+    /// The own bodies, their field by the ring.
+    system: GravitySystem,
+    integrator: Integrator,
+    dt: f64,
+    /// 2 for bodies in the plane z = 0, else 3.
+    dimension: usize,
+    /// The energy at step 0.
+    e0: f64,
+    /// The own bodies' places in the input order (0-based).
+    own: Range<usize>,
+    /// The same, one per body, naming them in messages.
+    ids: Vec<u64>,
+    /// The bodies over all ranks.
+    total: usize,
+    /// The box `(lo, hi)` of every body at the last observed step.
+    bounds: ([f64; 3], [f64; 3]),
+    /// Any rank observed the last step (or the state was restored): rank 0
+    /// pulls its outputs.
+    observed: bool,
+    /// Largest over mean bodies per rank.
+    imbalance: f64,
+    /// The ring's waiting time.
+    ring: Figures,
+    /// The time in the other messages: the step's agreement, the box, the
+    /// pulls.
+    communication: Duration,
+    step_time: Duration,
+}
+
+impl DistributedGravity {
+    /// This rank's part of `bodies` (every rank passes all of them, as the
+    /// scenario built them), under `law`, stepped by `integrator` with `dt`;
+    /// the first forces by the ring. Collective; every rank returns the same
+    /// error.
+    pub fn new(
+        world: SimpleCommunicator,
+        law: GravityLaw,
+        bodies: Bodies,
+        integrator: Integrator,
+        dt: f64,
+        dimension: usize,
+        threads: &Threads,
+    ) -> Result<Self, String> {
+        // every rank checks every body, so that all give the same message
+        check_bodies(&law, &bodies).map_err(|e| e.to_string())?;
+        let total = bodies.len();
+        let (bounds, own) = blocks(total, &world);
+        let mine = bodies.part(own.clone());
+        drop(bodies);
+        let solver = RingGravity::new(world.duplicate(), law);
+        let ring = solver.figures();
+        let system =
+            GravitySystem::with_solver(law, mine, Solver::External(Box::new(solver)), threads);
+        let failure = system
+            .as_ref()
+            .err()
+            .map(|e| format!("step 0 (the first forces): {}", global(e, own.start)));
+        if let Some(message) = agree(&world, failure) {
+            return Err(message);
+        }
+        let system = system.expect("no rank failed");
+        let most = bounds.windows(2).map(|b| b[1] - b[0]).max().unwrap_or(0);
+        let mut model = DistributedGravity {
+            imbalance: most as f64 * world.size() as f64 / total.max(1) as f64,
+            world,
+            system,
+            integrator,
+            dt,
+            dimension,
+            e0: 0.0,
+            ids: (own.start as u64..own.end as u64).collect(),
+            own,
+            total,
+            bounds: ([0.0; 3], [0.0; 3]),
+            observed: true,
+            ring,
+            communication: Duration::ZERO,
+            step_time: Duration::ZERO,
+        };
+        model.bounds = model.box_of_all();
+        let mut e0 = 0.0;
+        if model.world.rank() == 0 {
+            e0 = model.observables().total();
+        }
+        pull::serve_until_written(&model.world, &Rows(&model));
+        model.world.process_at_rank(0).broadcast_into(&mut e0);
+        model.e0 = e0;
+        Ok(model)
+    }
+
+    /// Advances to `step` on every rank; the box of all bodies is found when
+    /// any rank `observe`s.
+    fn advance(&mut self, step: u64, observe: bool, threads: &Threads) -> Result<(), Blowup> {
+        let t = Instant::now();
+        let stepped = self.system.step(self.dt, self.integrator, threads);
+        self.step_time += t.elapsed();
+        let bad = stepped
+            .err()
+            .map(|e| Blowup::new(step, global(&e, self.own.start), INFO.remedy));
+        let c = Instant::now();
+        let agreed = agree_blowup(&self.world, step, bad);
+        self.communication += c.elapsed();
+        if let Some(blowup) = agreed {
+            return Err(blowup);
+        }
+        let c = Instant::now();
+        let mut observe_any = 0u8;
+        self.world
+            .all_reduce_into(&u8::from(observe), &mut observe_any, SystemOperation::max());
+        self.observed = observe_any != 0;
+        if self.observed {
+            self.bounds = self.box_of_all();
+        }
+        self.communication += c.elapsed();
+        Ok(())
+    }
+
+    /// The box `(lo, hi)` of every rank's bodies (collective).
+    fn box_of_all(&self) -> ([f64; 3], [f64; 3]) {
+        let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+        for x in &self.system.bodies().position {
+            for k in 0..3 {
+                lo[k] = lo[k].min(x[k]);
+                hi[k] = hi[k].max(x[k]);
+            }
+        }
+        let (mut all_lo, mut all_hi) = ([0.0; 3], [0.0; 3]);
+        self.world
+            .all_reduce_into(&lo[..], &mut all_lo[..], SystemOperation::min());
+        self.world
+            .all_reduce_into(&hi[..], &mut all_hi[..], SystemOperation::max());
+        (all_lo, all_hi)
+    }
+
+    /// On rank 0: every rank's bodies a block of ids at a time, in id order,
+    /// as `visit(ids, rows)` ([`ROW`] numbers each) until it returns false.
+    /// The other ranks must serve ([`Hosted::serve_outputs`]).
+    fn blocks(&self, visit: impl FnMut(&[u64], &[f64]) -> bool) {
+        let span = IdSpan {
+            first: 1,
+            last: self.total as u64,
+            count: self.total,
+        };
+        pull::pull(&self.world, span, &Rows(self), visit);
+    }
+
+    /// On rank 0: the energies and momenta of every body, summed in id
+    /// order as one process sums them.
+    fn observables(&self) -> Observables {
+        let mut o = Observables::default();
+        self.blocks(|_, rows| {
+            for r in rows.chunks_exact(ROW) {
+                o.add_body(r[6], [r[0], r[1], r[2]], [r[3], r[4], r[5]], r[10]);
+            }
+            true
+        });
+        o
+    }
+}
+
+/// `e` with the body it names numbered in the input order, the own bodies
+/// starting at `first`.
+fn global(e: &GravityError, first: usize) -> String {
+    match e {
+        GravityError::NotFinite { index } => GravityError::NotFinite {
+            index: index + first,
+        }
+        .to_string(),
+        GravityError::Parameter(m) => m.clone(),
+    }
+}
+
+/// A block of pulled rows as bodies, their accelerations and potentials.
+fn bodies_of(rows: &[f64]) -> (Bodies, Vec<[f64; 3]>, Vec<f64>) {
+    let mut bodies = Bodies::default();
+    let (mut acc, mut phi) = (Vec::new(), Vec::new());
+    for r in rows.chunks_exact(ROW) {
+        bodies.position.push([r[0], r[1], r[2]]);
+        bodies.velocity.push([r[3], r[4], r[5]]);
+        bodies.mass.push(r[6]);
+        acc.push([r[7], r[8], r[9]]);
+        phi.push(r[10]);
+    }
+    (bodies, acc, phi)
+}
+
+/// A rank's bodies as rows for rank 0's pulls, ids `1..=N` in input order.
+struct Rows<'a>(&'a DistributedGravity);
+
+impl OwnRows for Rows<'_> {
+    fn width(&self) -> usize {
+        ROW
+    }
+
+    fn rows(&self, a: u64, b: u64, ids: &mut Vec<u64>, values: &mut Vec<f64>) {
+        ids.clear();
+        values.clear();
+        let model = self.0;
+        let first = model.own.start as u64 + 1;
+        let (lo, hi) = (a.max(first), b.min(model.own.end as u64 + 1));
+        let bodies = model.system.bodies();
+        let (acc, phi) = (model.system.accelerations(), model.system.potentials());
+        for id in lo..hi.max(lo) {
+            let k = (id - first) as usize;
+            let (x, v) = (bodies.position[k], bodies.velocity[k]);
+            ids.push(id);
+            values.extend_from_slice(&[x[0], x[1], x[2], v[0], v[1], v[2], bodies.mass[k]]);
+            values.extend_from_slice(&acc[k]);
+            values.push(phi[k]);
+        }
+    }
+}
+
+impl Model for DistributedGravity {
+    fn info(&self) -> &ModelInfo {
+        &INFO
+    }
+
+    /// The bodies this rank owns (they never move between ranks).
+    fn len(&self) -> usize {
+        self.own.len()
+    }
+
+    fn dt(&self) -> f64 {
+        self.dt
+    }
+
+    fn step(&mut self, step: u64, threads: &Threads) -> Result<(), Blowup> {
+        self.advance(step, false, threads)
+    }
+
+    fn step_observed(&mut self, step: u64, threads: &Threads) -> Result<(), Blowup> {
+        self.advance(step, true, threads)
+    }
+
+    /// On rank 0, the row of one process ([`thermo_row`]), its sums over
+    /// every body in id order (pulled; the other ranks serve); empty on the
+    /// others.
+    fn thermo(&self, step: u64) -> Vec<f64> {
+        if self.world.rank() != 0 {
+            return Vec::new();
+        }
+        thermo_row(&self.observables(), self.e0, step as f64 * self.dt)
+    }
+
+    /// The own bodies' state (checked by the step on every rank).
+    fn checked(&self) -> Checked<'_> {
+        let field = (self.system.accelerations(), self.system.potentials());
+        checked_bodies(Ids::U64(&self.ids), self.system.bodies(), field)
+    }
+
+    /// On rank 0 every body in input order, pulled from every rank; `None`
+    /// on the others.
+    fn particles(&self, step: u64, energies: bool) -> Option<Particles> {
+        whole_frame(self, step, energies)
+    }
+
+    /// On rank 0 the bodies in input order a block at a time, pulled from
+    /// every rank, in the box of all bodies; false on the others.
+    fn particle_blocks(
+        &self,
+        _step: u64,
+        _energies: bool,
+        visit: &mut dyn FnMut(ParticleBlock<'_>) -> ControlFlow<()>,
+    ) -> bool {
+        if self.world.rank() != 0 {
+            return false;
+        }
+        let mut first = 0;
+        self.blocks(|ids, rows| {
+            let (bodies, acc, phi) = bodies_of(rows);
+            let rows = body_particles(
+                self.dimension,
+                self.bounds,
+                ids.to_vec(),
+                &bodies,
+                (&acc, &phi),
+            );
+            let go_on = visit(ParticleBlock {
+                total: self.total,
+                first,
+                rows: &rows,
+            })
+            .is_continue();
+            first += ids.len();
+            go_on
+        });
+        true
+    }
+
+    fn stage_times(&self) -> Vec<(&'static str, Duration)> {
+        vec![("Step", self.step_time)]
+    }
+
+    /// This rank's part of the state: its own bodies in the layout of
+    /// [`save_bodies`], the box of all bodies, marked with the rank and the
+    /// rank count (every rank saves at the same steps; a checkpoint file
+    /// holds the global state, [`Hosted::file_state`]).
+    fn save(&self, state: &mut State) {
+        let field = (self.system.accelerations(), self.system.potentials());
+        save_bodies(state, self.system.bodies(), field, self.e0);
+        let (lo, hi) = self.bounds;
+        state.put_f64s(BOUNDS, lo.into_iter().chain(hi));
+        mark_part(&self.world, state);
+    }
+
+    /// Takes the bodies this rank owns: from its own part of the state
+    /// ([`Model::save`] of this rank), or from a global state (a checkpoint
+    /// file of any number of ranks, or of one process). Not collective: a
+    /// rank that fails returns its error alone.
+    fn restore(&mut self, state: &State, _threads: &Threads) -> Result<(), StateError> {
+        self.observed = true;
+        let (bodies, acc, phi, e0, bounds) = if is_own_part(&self.world, state)? {
+            let (bodies, acc, phi, e0) = load_bodies(state, self.len())?;
+            let b = state.f64s_of(BOUNDS, 6)?;
+            let bounds = ([b[0], b[1], b[2]], [b[3], b[4], b[5]]);
+            (bodies, acc, phi, e0, bounds)
+        } else {
+            let (all, acc, phi, e0) = load_bodies(state, self.total)?;
+            let bounds = cellist::geometry::bounding_box(&all.position);
+            let own = self.own.clone();
+            let (acc, phi) = (acc[own.clone()].to_vec(), phi[own.clone()].to_vec());
+            (all.part(own), acc, phi, e0, bounds)
+        };
+        self.e0 = e0;
+        self.bounds = bounds;
+        self.system.restore(bodies, acc, phi).map_err(StateError)
+    }
+}
+
+impl Hosted for DistributedGravity {
+    /// Seconds per step, the ring's waiting time, the other messages' and
+    /// the balance of the blocks.
+    fn speed(&self, loop_seconds: f64, steps: u64, threads: usize) -> String {
+        let waited = self.ring.waited().as_secs_f64();
+        let share = |s: f64| 100.0 * s / loop_seconds.max(1e-300);
+        format!(
+            "Loop time of {loop_seconds:.4} s on {} ranks x {threads} thread(s) for {steps} \
+             steps with {} bodies: {:.4e} s per step\n\
+             Ring pass: {waited:.4} s on rank 0 waiting for blocks ({:.1}% of the loop); other \
+             messages {:.4} s ({:.1}%); load imbalance {:.3} (largest over mean bodies per rank)",
+            self.world.size(),
+            self.total,
+            loop_seconds / steps.max(1) as f64,
+            share(waited),
+            self.communication.as_secs_f64(),
+            share(self.communication.as_secs_f64()),
+            self.imbalance,
+        )
+    }
+
+    /// The step ends with the own bodies' check, agreed over the ranks.
+    fn checks_its_steps(&self) -> bool {
+        true
+    }
+
+    /// After an observed step (or a restore): on rank 0, tells the other
+    /// ranks that its outputs are written; on the others, serves rank 0's
+    /// pulls of their bodies until then.
+    fn serve_outputs(&self) {
+        if self.observed_everywhere() {
+            pull::serve_until_written(&self.world, &Rows(self));
+        }
+    }
+
+    /// True after a step that any rank observed, and after a restore.
+    fn observed_everywhere(&self) -> bool {
+        self.observed
+    }
+
+    /// On rank 0 the global state in the single-process layout
+    /// ([`save_bodies`]), pulled from every rank's current bodies (the state
+    /// just saved or restored). The other ranks' `saved`.
+    fn file_state<'a>(&self, saved: &'a State) -> Cow<'a, State> {
+        if self.world.rank() != 0 {
+            return Cow::Borrowed(saved);
+        }
+        let mut all = Bodies::default();
+        let (mut acc, mut phi) = (Vec::new(), Vec::new());
+        self.blocks(|_, rows| {
+            let (bodies, a, p) = bodies_of(rows);
+            all.mass.extend(bodies.mass);
+            all.position.extend(bodies.position);
+            all.velocity.extend(bodies.velocity);
+            acc.extend(a);
+            phi.extend(p);
+            true
+        });
+        let mut state = State::default();
+        save_bodies(&mut state, &all, (&acc, &phi), self.e0);
+        Cow::Owned(state)
+    }
+
+    /// This rank's communication time, the balance of the blocks (fixed:
+    /// bodies never move between ranks) and the body count.
+    fn distribution(&self) -> Option<Distribution> {
+        Some(Distribution {
+            communication: self.communication + self.ring.waited(),
+            imbalance_particles: self.imbalance,
+            particles: self.total,
+        })
+    }
+}
