@@ -6,14 +6,18 @@
 //! 4 ranks), an uneven md system (a slab
 //! in a third of the box) with balanced planes likewise, a 4-rank
 //! checkpoint continues in one process and on 2 ranks like the uninterrupted
-//! run; the Barnes-Hut trees of gravity and of the vortex model on 1 to 4 ranks
-//! give the bytes of the plain run; gravity's PM and P3M and the
-//! vortex-in-cell velocity on a slab-decomposed mesh on 1 to 4 ranks give the
-//! plain run's dumps and fields within 1e-10; md, pse and gravity (ring and
-//! tree) on 2 ranks write `summary.json` with the MPI figures; bad input, a
-//! thin subdomain, more ranks than mesh planes and a blow-up (md's, and
-//! gravity's with its bodies divided among the ranks) stop every rank with one message from rank 0 and a non-zero status, never
-//! a hang. Ends with `N passed, N failed`.
+//! run; gravity's direct sum with its bodies divided among 1 to 4 ranks gives
+//! the plain run's dumps within 1e-10, also with ranks that own no body (2
+//! bodies) and with more bodies than one block of rank 0's pulls; the
+//! Barnes-Hut trees of gravity and of the vortex model on 1 to 4 ranks give
+//! the bytes of the plain run; gravity's PM and P3M and the vortex-in-cell
+//! velocity on a slab-decomposed mesh on 1 to 4 ranks give the plain run's
+//! dumps and fields within 1e-10; md, pse and gravity (ring and tree) on 2
+//! ranks write `summary.json` with the MPI figures; bad input, a thin
+//! subdomain, more ranks than mesh planes and a blow-up (md's, and gravity's
+//! with its bodies divided among the ranks) stop every rank with one message
+//! from rank 0 and a non-zero status, never a hang. Ends with `N passed, N
+//! failed`.
 //!
 //! ```text
 //! cargo test --release -p cellist-cli --features mpi --test mpi_cli
@@ -220,6 +224,23 @@ checkpoint = {{ every = 50 }}
         ),
     )
     .expect("write the scenario");
+    path.display().to_string()
+}
+
+/// The direct-sum gravity `scenario` with its Plummer sphere's 1000 bodies
+/// replaced by `initial`, 10 steps, a dump at the last: `dir/NAME.toml`.
+fn gravity_variant(dir: &Path, name: &str, scenario: &str, initial: &str) -> String {
+    let text = std::fs::read_to_string(scenario).expect("the gravity scenario");
+    let path = dir.join(format!("{name}.toml"));
+    let text = text
+        .replace(
+            r#"initial = { kind = "plummer", n = 1000, seed = 1 }"#,
+            &format!("initial = {initial}"),
+        )
+        .replace("steps = 100", "steps = 10")
+        .replace("every = 50, file", "every = 10, file")
+        .replace("checkpoint = { every = 50 }", "");
+    std::fs::write(&path, text).expect("write the scenario");
     path.display().to_string()
 }
 
@@ -640,6 +661,18 @@ fn main() {
     let melt = melt_scenario(dir.path());
     let pse = pse_scenario(dir.path());
     let gravity = gravity_scenario(dir.path(), "gravity", r#"{ kind = "direct" }"#);
+    let two_bodies = gravity_variant(
+        dir.path(),
+        "gravity-two",
+        &gravity,
+        r#"{ kind = "two-body-seed004" }"#,
+    );
+    let five_thousand = gravity_variant(
+        dir.path(),
+        "gravity-5000",
+        &gravity,
+        r#"{ kind = "plummer", n = 5000, seed = 2 }"#,
+    );
     let pm = gravity_scenario(dir.path(), "pm", r#"{ kind = "pm", grid = 16 }"#);
     let p3m = gravity_scenario(
         dir.path(),
@@ -686,6 +719,14 @@ fn main() {
         (
             "gravity direct by the ring on 1 to 4 ranks: the dumps of the plain run within 1e-10",
             distributed_runs_match_the_plain_run(dir.path(), "gravity", &gravity, "stars.dump", false),
+        ),
+        (
+            "gravity direct, 2 bodies on 1 to 4 ranks (ranks with no body): the dumps of the plain run within 1e-10",
+            distributed_runs_match_the_plain_run(dir.path(), "gravity-two", &two_bodies, "stars.dump", false),
+        ),
+        (
+            "gravity direct, 5000 bodies on 1 to 4 ranks (rank 0 pulls two blocks): the dumps of the plain run within 1e-10",
+            distributed_runs_match_the_plain_run(dir.path(), "gravity-5000", &five_thousand, "stars.dump", false),
         ),
         (
             "vortex direct by the ring on 1 to 4 ranks: the fields of the plain run within 1e-10",

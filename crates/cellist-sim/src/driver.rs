@@ -229,7 +229,8 @@ impl<M: Hosted> Job<M> {
         };
         let good = outputs.and_then(|()| self.snapshot(first, &mut observers));
         self.model.serve_outputs();
-        let good = good?;
+        // rank 0's outputs may fail alone: every rank stops with it
+        let good = agreed(&self.ranks, good)?;
         Ok(Live {
             count: self.model.len(),
             scenario_steps: self.steps,
@@ -379,7 +380,9 @@ impl<M: Hosted> Live<M> {
 
     /// Completes the observers' files (plots, animations) and reports the run.
     pub fn finish(mut self) -> SimResult<Report<M>> {
-        self.finish_outputs()?;
+        // rank 0's files may fail alone: every rank stops with it
+        let finished = self.finish_outputs();
+        agreed(&self.job.ranks, finished)?;
         let thermo = self
             .observers
             .iter_mut()

@@ -30,9 +30,10 @@ pub trait Hosted: Model {
     /// microseconds per atom-step, pair kernels per second, steps per second.
     fn speed(&self, loop_seconds: f64, steps: u64, threads: usize) -> String;
 
-    /// On a rank of a model spread over MPI ranks (domain decomposition), its
-    /// communication time and load imbalance; `None` for a model held in one
-    /// process (or whole on every rank: the ring's figures are its
+    /// On a rank of a model spread over MPI ranks (md and pse by domain
+    /// decomposition, gravity's divided bodies), its communication time and
+    /// load imbalance; `None` for a model held in one process (or whole on
+    /// every rank: a replicated solver's figures are its
     /// [`Ranks`](crate::ranks::Ranks)').
     fn distribution(&self) -> Option<Distribution> {
         None

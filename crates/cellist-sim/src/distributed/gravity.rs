@@ -2,15 +2,18 @@
 //! rank `r` owns the bodies `N r / P .. N (r + 1) / P` of the input order for
 //! the whole run (the direct sum does not care where they are), steps them,
 //! and sums their field over every rank's bodies by seed 003's ring pass
-//! ([`RingGravity`]). A rank holds its `N / P` bodies and the block in flight
-//! on the ring, never the whole system after set-up.
+//! ([`RingGravity`]). Through the steps a rank holds its `N / P` bodies and
+//! the block in flight on the ring. The whole system is held at set-up (every
+//! rank builds every body before it keeps its block, and decodes a whole
+//! checkpoint file at a restart), and by rank 0 for a checkpoint file, a
+//! picture or a trajectory frame (dumps and thermo take a block at a time).
 //!
 //! ```text
 //! step:  kick + drift of the own bodies (the integrator's first part)
 //!        the ring pass: the field at the own bodies of every rank's block
 //!        kick (leapfrog's second half); check the own bodies
-//!        one all-reduce: a blow-up on any rank (its message), observed?
-//!          observed: the box of all bodies (two all-reduces)
+//!        all-reduces: a blow-up on any rank (the lowest one's message), then
+//!          observed?; observed: the box of all bodies (two more)
 //! ```
 //!
 //! Rank 0 writes every output, pulling the bodies from every rank a block of
@@ -22,7 +25,7 @@
 //! (each body's sum over the blocks, its own first), so a run agrees with
 //! one process to rounding.
 
-use super::parts::Figures;
+use super::parts::{imbalance, Figures};
 use super::pull::{self, IdSpan, OwnRows};
 use super::ring::{blocks, RingGravity};
 use super::{agree, agree_blowup, is_own_part, mark_part};
@@ -30,7 +33,7 @@ use crate::hosted::{Distribution, Hosted};
 use cellist::interactions::GravityLaw;
 use cellist::models::gravity::{
     body_particles, check_bodies, checked_bodies, load_bodies, save_bodies, thermo_row, Bodies,
-    GravityError, GravitySystem, Integrator, Observables, Solver, INFO as GRAVITY,
+    GravityError, GravitySystem, Integrator, Observables, SavedBodies, Solver, INFO as GRAVITY,
 };
 use cellist::models::{
     whole_frame, Blowup, Checked, Ids, Model, ModelInfo, ParticleBlock, Particles,
@@ -84,8 +87,10 @@ pub struct DistributedGravity {
     imbalance: f64,
     /// The ring's waiting time.
     ring: Figures,
-    /// The time in the other messages: the step's agreement, the box, the
-    /// pulls.
+    /// The ring's waiting time at set-up (the first forces), not the loop's.
+    setup_wait: Duration,
+    /// The time in the steps' other messages: the blow-up's agreement, the
+    /// observed flag and the box.
     communication: Duration,
     step_time: Duration,
 }
@@ -122,9 +127,9 @@ impl DistributedGravity {
             return Err(message);
         }
         let system = system.expect("no rank failed");
-        let most = bounds.windows(2).map(|b| b[1] - b[0]).max().unwrap_or(0);
         let mut model = DistributedGravity {
-            imbalance: most as f64 * world.size() as f64 / total.max(1) as f64,
+            imbalance: imbalance(&bounds),
+            setup_wait: ring.waited(),
             world,
             system,
             integrator,
@@ -205,6 +210,11 @@ impl DistributedGravity {
             count: self.total,
         };
         pull::pull(&self.world, span, &Rows(self), visit);
+    }
+
+    /// The ring's waiting time since set-up.
+    fn ring_wait(&self) -> Duration {
+        self.ring.waited().saturating_sub(self.setup_wait)
     }
 
     /// On rank 0: the energies and momenta of every body, summed in id
@@ -395,7 +405,7 @@ impl Hosted for DistributedGravity {
     /// Seconds per step, the ring's waiting time, the other messages' and
     /// the balance of the blocks.
     fn speed(&self, loop_seconds: f64, steps: u64, threads: usize) -> String {
-        let waited = self.ring.waited().as_secs_f64();
+        let waited = self.ring_wait().as_secs_f64();
         let share = |s: f64| 100.0 * s / loop_seconds.max(1e-300);
         format!(
             "Loop time of {loop_seconds:.4} s on {} ranks x {threads} thread(s) for {steps} \
@@ -433,24 +443,20 @@ impl Hosted for DistributedGravity {
 
     /// On rank 0 the global state in the single-process layout
     /// ([`save_bodies`]), pulled from every rank's current bodies (the state
-    /// just saved or restored). The other ranks' `saved`.
+    /// just saved or restored) a block at a time into its sections
+    /// ([`SavedBodies`]), so that it is held once. The other ranks' `saved`.
     fn file_state<'a>(&self, saved: &'a State) -> Cow<'a, State> {
         if self.world.rank() != 0 {
             return Cow::Borrowed(saved);
         }
-        let mut all = Bodies::default();
-        let (mut acc, mut phi) = (Vec::new(), Vec::new());
+        let mut saved = SavedBodies::with_capacity(self.total);
         self.blocks(|_, rows| {
-            let (bodies, a, p) = bodies_of(rows);
-            all.mass.extend(bodies.mass);
-            all.position.extend(bodies.position);
-            all.velocity.extend(bodies.velocity);
-            acc.extend(a);
-            phi.extend(p);
+            let (bodies, acc, phi) = bodies_of(rows);
+            saved.push(&bodies, (&acc, &phi));
             true
         });
         let mut state = State::default();
-        save_bodies(&mut state, &all, (&acc, &phi), self.e0);
+        saved.finish(&mut state, self.e0);
         Cow::Owned(state)
     }
 
@@ -458,7 +464,7 @@ impl Hosted for DistributedGravity {
     /// bodies never move between ranks) and the body count.
     fn distribution(&self) -> Option<Distribution> {
         Some(Distribution {
-            communication: self.communication + self.ring.waited(),
+            communication: self.communication + self.ring_wait(),
             imbalance_particles: self.imbalance,
             particles: self.total,
         })

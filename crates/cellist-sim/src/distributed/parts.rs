@@ -41,8 +41,10 @@ pub fn imbalance(bounds: &[usize]) -> f64 {
     most as f64 * parts as f64 / n.max(1) as f64
 }
 
-/// What the solver of a replicated run measures on this rank, shared with the
-/// run's [`Ranks`](crate::ranks::Ranks) that reports it: how the sums are
+/// What a solver whose sums are divided among the ranks measures on this
+/// rank, shared with what reports it (a replicated run's
+/// [`Ranks`](crate::ranks::Ranks), or the model of gravity's divided bodies):
+/// how the sums are
 /// divided (for the speed line), the time spent in messages and waiting for
 /// the other ranks, and the balance of the parts, per evaluation.
 #[derive(Clone, Debug)]
@@ -83,7 +85,8 @@ impl Figures {
     }
 
     /// Adds `waited` to the time in messages, no evaluation counted (a
-    /// solver whose parts are not particles: a mesh's slabs).
+    /// solver whose parts are not particles, a mesh's slabs; or the ring of
+    /// gravity's divided bodies, whose model keeps their balance).
     pub fn add_wait(&self, waited: Duration) {
         if let Ok(mut t) = self.tally.lock() {
             t.waited += waited;

@@ -86,7 +86,7 @@ pub trait OwnRows {
 
 /// On rank 0: every rank's rows ([`OwnRows`]) a block of ids at a time, in
 /// ascending id, handed to `visit(ids, values)` until it returns false. The
-/// other ranks must be in [`serve`]; end with [`release`].
+/// other ranks must be serving ([`serve_until_written`]); end with it.
 pub fn pull<C: Communicator>(
     world: &C,
     span: IdSpan,
@@ -119,14 +119,14 @@ pub fn pull<C: Communicator>(
 }
 
 /// On rank 0: tells the ranks in [`serve`] that the outputs are written.
-pub fn release<C: Communicator>(world: &C) {
+fn release<C: Communicator>(world: &C) {
     let mut ask = [DONE, 0, 0];
     world.process_at_rank(0).broadcast_into(&mut ask[..]);
 }
 
 /// On the ranks other than 0: answers rank 0's asks for rows ([`pull`])
 /// until it [`release`]s them.
-pub fn serve<C: Communicator>(world: &C, own: &impl OwnRows) {
+fn serve<C: Communicator>(world: &C, own: &impl OwnRows) {
     let (mut ids, mut values) = (Vec::new(), Vec::new());
     loop {
         let mut ask = [0u64; 3];
@@ -142,8 +142,9 @@ pub fn serve<C: Communicator>(world: &C, own: &impl OwnRows) {
     }
 }
 
-/// After rank 0's outputs: on rank 0, [`release`]s the other ranks; on the
-/// others, [`serve`]s rank 0's pulls of `own` until then.
+/// After rank 0's outputs: on rank 0, tells the other ranks that they are
+/// written; on the others, serves rank 0's pulls of `own` ([`pull`]) until
+/// then.
 pub fn serve_until_written<C: Communicator>(world: &C, own: &impl OwnRows) {
     if world.rank() == 0 {
         release(world);

@@ -153,7 +153,7 @@ impl RingGravity {
         RingGravity {
             world,
             law,
-            figures: ring_figures(),
+            figures: Figures::new("Ring pass", "waiting for blocks"),
         }
     }
 

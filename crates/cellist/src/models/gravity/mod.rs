@@ -9,7 +9,8 @@ mod model;
 
 pub use initial::{plummer, two_body_seed004, Bodies};
 pub use model::{
-    body_particles, checked_bodies, load_bodies, save_bodies, thermo_row, GravityModel, INFO,
+    body_particles, checked_bodies, load_bodies, save_bodies, thermo_row, GravityModel,
+    SavedBodies, INFO,
 };
 
 use crate::interactions::GravityLaw;

@@ -2,7 +2,7 @@
 
 use super::{Bodies, GravitySystem, Integrator, Observables};
 use crate::models::{Blowup, Checked, CheckedArray, Ids, Model, ModelInfo, Particles};
-use crate::state::{State, StateError};
+use crate::state::{SectionBuilder, State, StateError};
 use crate::threads::Threads;
 use std::time::{Duration, Instant};
 
@@ -194,12 +194,51 @@ pub fn body_particles(
 /// `field` and the energy `e0` of step 0 into `state` (a checkpoint's
 /// layout: `mass`, `position`, `velocity`, `acceleration`, `potential`, `e0`).
 pub fn save_bodies(state: &mut State, bodies: &Bodies, field: (&[[f64; 3]], &[f64]), e0: f64) {
-    state.put_f64s("mass", bodies.mass.iter().copied());
-    state.put_vectors("position", &bodies.position);
-    state.put_vectors("velocity", &bodies.velocity);
-    state.put_vectors("acceleration", field.0);
-    state.put_f64s("potential", field.1.iter().copied());
-    state.put_f64s("e0", [e0]);
+    let mut saved = SavedBodies::with_capacity(bodies.len());
+    saved.push(bodies, field);
+    saved.finish(state, e0);
+}
+
+/// The sections of [`save_bodies`] put together a block of bodies at a time
+/// (in order), so that a state gathered from parts is held once.
+pub struct SavedBodies {
+    mass: SectionBuilder,
+    position: SectionBuilder,
+    velocity: SectionBuilder,
+    acceleration: SectionBuilder,
+    potential: SectionBuilder,
+}
+
+impl SavedBodies {
+    /// Empty sections with room for `n` bodies.
+    pub fn with_capacity(n: usize) -> Self {
+        SavedBodies {
+            mass: SectionBuilder::with_capacity(n),
+            position: SectionBuilder::with_capacity(3 * n),
+            velocity: SectionBuilder::with_capacity(3 * n),
+            acceleration: SectionBuilder::with_capacity(3 * n),
+            potential: SectionBuilder::with_capacity(n),
+        }
+    }
+
+    /// Appends `bodies` with their accelerations and potentials `field`.
+    pub fn push(&mut self, bodies: &Bodies, field: (&[[f64; 3]], &[f64])) {
+        self.mass.push_f64s(bodies.mass.iter().copied());
+        self.position.push_vectors(&bodies.position);
+        self.velocity.push_vectors(&bodies.velocity);
+        self.acceleration.push_vectors(field.0);
+        self.potential.push_f64s(field.1.iter().copied());
+    }
+
+    /// Puts the sections into `state`, with the energy `e0` of step 0.
+    pub fn finish(self, state: &mut State, e0: f64) {
+        state.put_section("mass", self.mass);
+        state.put_section("position", self.position);
+        state.put_section("velocity", self.velocity);
+        state.put_section("acceleration", self.acceleration);
+        state.put_section("potential", self.potential);
+        state.put_f64s("e0", [e0]);
+    }
 }
 
 /// The `n` bodies of a state written by [`save_bodies`], their accelerations,
