@@ -36,7 +36,8 @@ const MIN_WIDTH: u32 = MARGIN + LEFT_LABELS + 100 + BAR_GAP + BAR_WIDTH + RIGHT_
 
 /// What a field chart shows and how large it is. The field's colours are those of
 /// [`FieldPainter`]: blue for `-scale` (and below), white for 0, red for `+scale` (and
-/// above); grey where no particle's square reaches.
+/// above); grey where no particle's square reaches. The colour bar runs from
+/// `-scale` to `+scale`, or from 0 for a field of magnitudes.
 #[derive(Clone, Debug, PartialEq)]
 pub struct FieldChart {
     /// The width of the picture in pixels (at least 330, raised if smaller); the
@@ -63,12 +64,16 @@ pub struct FieldChart {
     /// view wrap to the other side ([`FieldChart::render`]; otherwise they are
     /// clipped).
     pub periodic: bool,
+    /// The values are magnitudes, never negative (`|ω|`): the colour bar runs
+    /// from 0 (white) to `scale` (red), without the blue half no value takes.
+    pub magnitude: bool,
 }
 
 impl FieldChart {
     /// A 640-pixel-wide chart of the view `[lo, lo + side)^2` for particles `spacing`
     /// apart with colours saturating at `|value| = scale`, with an empty title, the
-    /// value label `"value"`, no unit, axes `x` and `y`, not periodic.
+    /// value label `"value"`, no unit, axes `x` and `y`, not periodic, signed
+    /// values.
     pub fn new(lo: [f64; 2], side: f64, spacing: f64, scale: f64) -> Self {
         FieldChart {
             width: 640,
@@ -81,6 +86,7 @@ impl FieldChart {
             unit: String::new(),
             axes: ["x".into(), "y".into()],
             periodic: false,
+            magnitude: false,
         }
     }
 
@@ -106,7 +112,8 @@ impl FieldChart {
     }
 
     /// The colour bar in pixels: its top left pixel `[column, row]`, width and height.
-    /// Its top row is the colour of `+scale`, its bottom row that of `-scale`.
+    /// Its top row is the colour of `+scale`, its bottom row that of `-scale`
+    /// (of 0 for a field of [`magnitude`](FieldChart::magnitude)s).
     pub fn colour_bar_area(&self) -> ([u32; 2], u32, u32) {
         let ([x0, y0], n) = self.plot_area();
         ([x0 + n + BAR_GAP, y0], BAR_WIDTH, n)
@@ -141,7 +148,8 @@ impl FieldChart {
             .map(|([x, y], v)| ([x - lo[0], y - lo[1]], v));
         let field = palette_rgb(painter.render(shifted), &palette);
         let scale = painter.scale();
-        self.render_painted(field, (-scale, scale), |value| {
+        let low = if self.magnitude { 0.0 } else { -scale };
+        self.render_painted(field, (low, scale), |value| {
             palette_rgb(&[painter.colour_index(value)], &palette)
                 .try_into()
                 .expect("three bytes")
@@ -444,6 +452,31 @@ mod tests {
         assert!(dark(0..x0 - 2, y0..y0 + n) > 50);
         assert!(dark(x0..x0 + n, y0 + n + 2..height) > 50);
         assert!(dark(bx + bw + 2..width, by..by + bh) > 50);
+    }
+
+    /// A field of magnitudes: its colour bar runs from white (0) at the
+    /// bottom to red (`scale`) at the top, with no blue.
+    #[test]
+    fn a_magnitude_bar_runs_from_zero() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("magnitude.png");
+        let chart = FieldChart {
+            magnitude: true,
+            ..example()
+        };
+        let points = lattice().map(|(x, v)| (x, v.abs()));
+        field_chart(&path, &chart, points).unwrap();
+        let (width, _, rgb) = decode(&path);
+        let ([bx, by], bw, bh) = chart.colour_bar_area();
+        let bar = |row| pixel(&rgb, width, [bx + bw / 2, by + row]);
+        assert_eq!(bar(0), palette_colour(255));
+        assert_eq!(bar(bh - 1), palette_colour(chart_index(&chart, 0.0)));
+        // halfway up (the middle of its row): about scale / 2, a light red
+        let middle = bar(bh / 2);
+        let value = (1.0 - (bh / 2) as f64 / bh as f64 - 0.5 / bh as f64) * chart.scale;
+        assert_eq!(middle, palette_colour(chart_index(&chart, value)));
+        assert!(middle[0] > middle[2]);
+        assert!((0..bh).all(|row| bar(row)[0] >= bar(row)[2]));
     }
 
     fn chart_index(chart: &FieldChart, value: f64) -> u8 {

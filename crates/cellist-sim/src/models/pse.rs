@@ -373,6 +373,7 @@ fn run_in<const D: usize, L: Launch>(
                 title: "φ",
                 value: "φ (strength per volume)",
                 unit: "simulation units",
+                magnitude: false,
             },
         }),
         bodies: None,

@@ -509,6 +509,7 @@ pub fn run<L: Launch>(
                 title: "vorticity",
                 value: "ω = Γ/h²",
                 unit: "simulation units",
+                magnitude: false,
             },
         }),
         bodies: None,

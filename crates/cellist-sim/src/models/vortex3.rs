@@ -632,6 +632,7 @@ pub fn run<L: Launch>(
                 title: "|vorticity|",
                 value: "|ω| = |α|/h³",
                 unit: "simulation units",
+                magnitude: true,
             },
         }),
         bodies: None,

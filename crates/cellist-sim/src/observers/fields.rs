@@ -63,6 +63,8 @@ pub struct ChartLabels {
     pub value: &'static str,
     /// The unit of length of the axes ("simulation units"; empty for none).
     pub unit: &'static str,
+    /// The values are magnitudes, never negative: the colour bar runs from 0.
+    pub magnitude: bool,
 }
 
 /// Field snapshots: CSV files, and PNG pictures and GIF frames as charts (the
@@ -99,6 +101,7 @@ impl FieldFiles {
         chart.value_label = labels.value.to_string();
         chart.unit = labels.unit.to_string();
         chart.periodic = field.periodic;
+        chart.magnitude = labels.magnitude;
         chart.axes = [field.axes[0], field.axes[1]].map(|a| ["x", "y", "z"][a].to_string());
         let palette = FieldPainter::palette();
         let files = SnapshotFiles {
@@ -132,11 +135,15 @@ impl<M: Model> Observer<M> for FieldFiles {
         }
         let layer = middle_layer(&field);
         let what = match layer {
-            Some(z) => format!(
-                "{} in the layer {} = {z:.4}",
-                self.labels.title,
-                ["x", "y", "z"][field.axes[2]]
-            ),
+            Some(z) => {
+                // a layer that rounds to 0 is written 0.0000, not -0.0000
+                let z = if (z * 1e4).round() == 0.0 { 0.0 } else { z };
+                format!(
+                    "{} in the layer {} = {z:.4}",
+                    self.labels.title,
+                    ["x", "y", "z"][field.axes[2]]
+                )
+            }
             None => self.labels.title.to_string(),
         };
         self.chart.title = snapshot_title(&what, step, model.dt());
