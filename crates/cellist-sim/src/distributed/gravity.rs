@@ -74,8 +74,6 @@ pub struct DistributedGravity {
     e0: f64,
     /// The own bodies' places in the input order (0-based).
     own: Range<usize>,
-    /// The same, one per body, naming them in messages.
-    ids: Vec<u64>,
     /// The bodies over all ranks.
     total: usize,
     /// The box `(lo, hi)` of every body at the last observed step.
@@ -136,7 +134,6 @@ impl DistributedGravity {
             dt,
             dimension,
             e0: 0.0,
-            ids: (own.start as u64..own.end as u64).collect(),
             own,
             total,
             bounds: ([0.0; 3], [0.0; 3]),
@@ -319,7 +316,11 @@ impl Model for DistributedGravity {
     /// The own bodies' state (checked by the step on every rank).
     fn checked(&self) -> Checked<'_> {
         let field = (self.system.accelerations(), self.system.potentials());
-        checked_bodies(Ids::U64(&self.ids), self.system.bodies(), field)
+        checked_bodies(
+            Ids::From(self.own.start as u64),
+            self.system.bodies(),
+            field,
+        )
     }
 
     /// On rank 0 every body in input order, pulled from every rank; `None`

@@ -70,6 +70,9 @@ pub struct CheckedArray<'a> {
 pub enum Ids<'a> {
     /// Particle `k` is called `k` (its place in the input, 0-based).
     Index,
+    /// Particle `k` is called `first + k`: a run of the input's places
+    /// (gravity's bodies on one rank of several).
+    From(u64),
     /// Ids as the model keeps them (md's atom ids).
     U64(&'a [u64]),
     /// Ids as the model keeps them (the collision benchmark's input ids, the
@@ -82,6 +85,7 @@ impl Ids<'_> {
     pub fn of(&self, k: usize) -> u64 {
         match self {
             Ids::Index => k as u64,
+            Ids::From(first) => first + k as u64,
             Ids::U64(ids) => ids[k],
             Ids::U32(ids) => ids[k] as u64,
         }
@@ -415,4 +419,20 @@ pub fn check(model: &(impl Model + ?Sized), step: u64, count: usize) -> Result<(
         });
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Ids;
+
+    /// Each way of naming particles gives particle `k` its own id.
+    #[test]
+    fn ids_name_each_particle() {
+        let (wide, narrow) = ([40u64, 7, 12], [3u32, 9]);
+        let named = |ids: Ids, n: usize| (0..n).map(|k| ids.of(k)).collect::<Vec<_>>();
+        assert_eq!(named(Ids::Index, 3), [0, 1, 2]);
+        assert_eq!(named(Ids::From(250), 3), [250, 251, 252]);
+        assert_eq!(named(Ids::U64(&wide), 3), [40, 7, 12]);
+        assert_eq!(named(Ids::U32(&narrow), 2), [3, 9]);
+    }
 }
