@@ -182,13 +182,13 @@ impl DistributedGravity {
 
     /// The box `(lo, hi)` of every rank's bodies (collective).
     fn box_of_all(&self) -> ([f64; 3], [f64; 3]) {
-        let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
-        for x in &self.system.bodies().position {
-            for k in 0..3 {
-                lo[k] = lo[k].min(x[k]);
-                hi[k] = hi[k].max(x[k]);
-            }
-        }
+        let position = &self.system.bodies().position;
+        // a rank without bodies adds nothing to the minimum and the maximum
+        let (lo, hi) = if position.is_empty() {
+            ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3])
+        } else {
+            cellist::geometry::bounding_box(position)
+        };
         let (mut all_lo, mut all_hi) = ([0.0; 3], [0.0; 3]);
         self.world
             .all_reduce_into(&lo[..], &mut all_lo[..], SystemOperation::min());
