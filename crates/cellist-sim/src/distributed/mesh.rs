@@ -1,10 +1,12 @@
-//! The mesh solvers on several ranks: gravity's particle-mesh and P3M, and the
-//! vortex model's vortex-in-cell velocity, each rank holding every particle
-//! (the state is replicated, [`super::replicated`]) and a slab of the mesh's
-//! planes. The engine does the physics and the slab FFT
-//! ([`cellist::longrange::mesh::slab`]); this module gives it MPI's
-//! collectives ([`MpiExchange`]): the all-to-all transposes of the FFT and
-//! the all-gathers of the particles' results.
+//! The mesh solvers on several ranks, each rank holding a slab of the mesh's
+//! planes: gravity's particle-mesh and P3M with the bodies divided among the
+//! ranks ([`SpreadMesh`], for [`super::gravity`]), and the vortex model's
+//! vortex-in-cell velocity with every particle on each rank (the state is
+//! replicated, [`super::replicated`]). The engine does the physics, the slab
+//! FFT ([`cellist::longrange::mesh::slab`]) and the bodies' routes to the
+//! slabs; this module gives it MPI's collectives ([`MpiExchange`]): the
+//! all-to-all transposes of the FFT and routes of the bodies, and the
+//! all-gathers of the particles' results.
 
 use super::layout;
 use super::parts::Figures;
@@ -26,11 +28,24 @@ pub struct MpiExchange {
 }
 
 impl MpiExchange {
-    /// The exchange on the ranks of `world`.
+    /// The exchange on the ranks of `world`, for a mesh whose particles every
+    /// rank holds.
     pub fn new(world: SimpleCommunicator) -> Self {
         MpiExchange {
             world,
             figures: Figures::new("Slab-decomposed mesh", "in the transposes and gathers"),
+        }
+    }
+
+    /// The exchange on the ranks of `world`, for a mesh whose particles are
+    /// divided among them.
+    pub fn routing(world: SimpleCommunicator) -> Self {
+        MpiExchange {
+            world,
+            figures: Figures::new(
+                "Slab-decomposed mesh",
+                "in the transposes and the bodies' routes",
+            ),
         }
     }
 
@@ -81,42 +96,45 @@ impl Exchange for MpiExchange {
     }
 }
 
-/// Gravity's mesh solvers on the ranks of an [`MpiExchange`].
+/// Gravity's mesh solvers, particle-mesh and P3M.
 #[derive(Debug)]
 // built once per run and matched once per step: its size does not matter
 #[allow(clippy::large_enum_variant)]
-pub enum MeshGravitySolver {
+pub enum GravityMesh {
     /// Particle-mesh.
     Pm(ParticleMesh),
-    /// P3M, its short range divided by blocks of bodies.
+    /// P3M.
     P3m(P3m),
 }
 
-/// A gravity mesh solver on several ranks: the engine's [`FieldSolver`] for a
-/// run whose bodies every rank holds.
-pub struct MeshGravity {
-    solver: MeshGravitySolver,
+/// Gravity's mesh solver on several ranks, the bodies divided among them:
+/// the engine's [`FieldSolver`] over a rank's own bodies, the ranks' bodies
+/// following each other in rank order ([`ParticleMesh::compute_spread`],
+/// [`P3m::compute_spread`]).
+pub struct SpreadMesh {
+    solver: GravityMesh,
     exchange: MpiExchange,
 }
 
-impl MeshGravity {
+impl SpreadMesh {
     /// `solver`, built for this rank's slab of `exchange`'s ranks.
-    pub fn new(solver: MeshGravitySolver, exchange: MpiExchange) -> Self {
-        MeshGravity { solver, exchange }
+    pub fn new(solver: GravityMesh, exchange: MpiExchange) -> Self {
+        SpreadMesh { solver, exchange }
     }
 }
 
-impl std::fmt::Debug for MeshGravity {
+impl std::fmt::Debug for SpreadMesh {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(f, "{:?} on {} ranks", self.solver, self.exchange.ranks())
     }
 }
 
-impl FieldSolver for MeshGravity {
+impl FieldSolver for SpreadMesh {
     fn compute(&mut self, sources: &Sources, out: FieldOut, threads: &Threads) {
+        let exchange = &self.exchange;
         match &mut self.solver {
-            MeshGravitySolver::Pm(s) => s.compute_shared(sources, out, threads, &self.exchange),
-            MeshGravitySolver::P3m(s) => s.compute_shared(sources, out, threads, &self.exchange),
+            GravityMesh::Pm(s) => s.compute_spread(sources, out, threads, exchange),
+            GravityMesh::P3m(s) => s.compute_spread(sources, out, threads, exchange),
         }
     }
 }

@@ -1,22 +1,20 @@
 //! Models whose state every rank holds in full and advances alike, their
 //! field sums divided among the ranks: the vortex model with its direct
-//! solver by the ring pass ([`super::ring`]; gravity's bodies are divided
-//! among the ranks instead, [`super::gravity`]), gravity and the vortex model
-//! with their Barnes-Hut
-//! trees by parts of the tree ([`super::tree`]) and with their mesh solvers on
-//! a mesh cut into slabs of planes ([`super::mesh`]). Every rank takes the same
+//! solver by the ring pass ([`super::ring`]), gravity and the vortex model
+//! with their Barnes-Hut trees by parts of the tree ([`super::tree`]), and
+//! the vortex model's vortex-in-cell on a mesh cut into slabs of planes
+//! ([`super::mesh`]). (Gravity's direct sum and mesh solvers divide the
+//! bodies among the ranks instead: [`super::gravity`].) Every rank takes the same
 //! steps on the same bits, so the checks agree without messages; rank 0 writes
 //! the outputs ([`Ranks::Replicated`]).
 
-use super::mesh::{MeshGravity, MeshGravitySolver, MeshVortex, MpiExchange};
+use super::mesh::{MeshVortex, MpiExchange};
 use super::ring::RingVortex;
 use super::tree::{TreeGravity, TreeVortex};
 use crate::ranks::Ranks;
 use cellist::interactions::GravityLaw;
-use cellist::longrange::{
-    BlobKernel, MeshParams, P3m, ParticleMesh, Rank, TreeParams, VortexInCell,
-};
-use cellist::models::gravity::{Solver, SolverChoice};
+use cellist::longrange::{BlobKernel, Rank, TreeParams, VortexInCell};
+use cellist::models::gravity::Solver;
 use cellist::models::vortex::{VelocityEngine, VelocitySolver};
 use mpi::traits::Communicator;
 
@@ -68,71 +66,27 @@ pub fn vortex_tree(
     )
 }
 
-/// What the slab decomposition of a mesh of `grid` planes along x gives each
-/// of `ranks` ranks, for the run's `mpi:` line.
-fn slabs(grid: usize, ranks: usize) -> String {
+/// The planes of a mesh of `grid` planes along x that the slab decomposition
+/// gives each of `ranks` ranks, for the run's `mpi:` line.
+pub fn slab_planes(grid: usize, ranks: usize) -> String {
     let (few, many) = (grid / ranks, grid.div_ceil(ranks));
     let planes = if few == many {
         format!("{few}")
     } else {
         format!("{few} or {many}")
     };
-    format!(
-        "each rank assigns to and transforms a slab of {planes} of the {grid} mesh planes along \
-         x (the FFT's transposes by all-to-all) and interpolates the particles of its planes, \
-         the results gathered on every rank"
-    )
+    format!("{planes} of the {grid} mesh planes along x")
 }
 
-/// On several ranks, gravity's mesh solver `choice` (PM or P3M) for `law` on
-/// a slab-decomposed mesh, its ranks and the run's `mpi:` line for `bodies`
-/// bodies; `None` in one process or for another solver; the error of a mesh
-/// with fewer planes than ranks.
-pub fn gravity_mesh(
-    choice: &SolverChoice,
-    law: GravityLaw,
-    bodies: usize,
-) -> Option<Result<(Solver, Ranks, String), String>> {
-    let (mesh, split): (&MeshParams, Option<f64>) = match choice {
-        SolverChoice::Pm(mesh) => (mesh, None),
-        SolverChoice::P3m { mesh, split_cells } => (mesh, Some(*split_cells)),
-        _ => return None,
-    };
-    let world = super::world_of_many()?;
-    let exchange = MpiExchange::new(world.duplicate());
-    let rank = Rank::of(&exchange);
-    let built = match split {
-        None => ParticleMesh::on_rank(law, *mesh, rank).map(MeshGravitySolver::Pm),
-        Some(s) => P3m::on_rank(law, *mesh, s, rank).map(MeshGravitySolver::P3m),
-    };
-    Some(built.map(|solver| {
-        let ranks = rank.count;
-        let short = if split.is_some() {
-            format!(
-                "; the short range summed for a block of about {} bodies by each rank",
-                bodies / ranks
-            )
-        } else {
-            String::new()
-        };
-        let line = format!(
-            "mpi: {ranks} ranks; the {} on a slab-decomposed mesh: {}{short} (every rank \
-             holds every body)",
-            if split.is_some() {
-                "P3M"
-            } else {
-                "particle-mesh"
-            },
-            slabs(mesh.grid, ranks)
-        );
-        let figures = exchange.figures();
-        let solver = MeshGravity::new(solver, exchange);
-        (
-            Solver::External(Box::new(solver)),
-            Ranks::Replicated { world, figures },
-            line,
-        )
-    }))
+/// What the slab decomposition of a mesh of `grid` planes gives each of
+/// `ranks` ranks whose particles every rank holds, for the run's `mpi:` line.
+fn slabs(grid: usize, ranks: usize) -> String {
+    format!(
+        "each rank assigns to and transforms a slab of {} (the FFT's transposes by \
+         all-to-all) and interpolates the particles of its planes, the results gathered on \
+         every rank",
+        slab_planes(grid, ranks)
+    )
 }
 
 /// On several ranks, the vortex model's mesh solver `kind` (vortex-in-cell)

@@ -546,18 +546,28 @@ fn run_setup<L: Launch>(
         || Solver::new(&setup.choice, setup.law, setup.bodies.len()).map_err(|e| scenario.error(e));
     #[cfg(feature = "mpi")]
     let distributed = {
-        use crate::distributed::replicated::{gravity_mesh, gravity_tree};
+        use crate::distributed::gravity::SpreadField;
+        use crate::distributed::replicated::gravity_tree;
         let (p, n) = (
             crate::distributed::world_of_many()
                 .map_or(1, |w| mpi::traits::Communicator::size(&w) as usize),
             setup.bodies.len(),
         );
         match setup.choice {
-            SolverChoice::Pm(_) | SolverChoice::P3m { .. } => {
-                gravity_mesh(&setup.choice, setup.law, n)
-                    .transpose()
-                    .map_err(|e| scenario.error(e))?
-            }
+            SolverChoice::Pm(mesh) => match crate::distributed::world_of_many() {
+                Some(world) => {
+                    let field = SpreadField::Pm(mesh);
+                    return run_spread(scenario, setup, context, launch, world, field, started);
+                }
+                None => None,
+            },
+            SolverChoice::P3m { mesh, split_cells } => match crate::distributed::world_of_many() {
+                Some(world) => {
+                    let field = SpreadField::P3m(mesh, split_cells);
+                    return run_spread(scenario, setup, context, launch, world, field, started);
+                }
+                None => None,
+            },
             SolverChoice::BarnesHut(params) => gravity_tree(setup.law, params)
                 .transpose()
                 .map_err(|e| scenario.error(e))?
@@ -577,7 +587,10 @@ fn run_setup<L: Launch>(
                 None => None,
             },
             SolverChoice::Direct => match crate::distributed::world_of_many() {
-                Some(world) => return run_spread(scenario, setup, context, launch, world, started),
+                Some(world) => {
+                    let field = SpreadField::Ring;
+                    return run_spread(scenario, setup, context, launch, world, field, started);
+                }
                 None => None,
             },
         }
@@ -623,8 +636,8 @@ fn job_spec(scenario: &Scenario, setup: &Setup, dir: &std::path::Path) -> SimRes
     })
 }
 
-/// On the ranks of `world`, the direct sum's run with the bodies divided
-/// among the ranks ([`DistributedGravity`]).
+/// On the ranks of `world`, the run with the bodies divided among the ranks
+/// and their field by `field` ([`DistributedGravity`]).
 #[cfg(feature = "mpi")]
 fn run_spread<L: Launch>(
     scenario: &Scenario,
@@ -632,16 +645,35 @@ fn run_spread<L: Launch>(
     context: &RunContext,
     launch: L,
     world: mpi::topology::SimpleCommunicator,
+    field: crate::distributed::gravity::SpreadField,
     started: Instant,
 ) -> SimResult<L::Output> {
-    use crate::distributed::gravity::DistributedGravity;
+    use crate::distributed::gravity::{DistributedGravity, SpreadField};
+    use crate::distributed::replicated::slab_planes;
     use mpi::traits::Communicator;
     let (ranks, n) = (world.size() as usize, setup.bodies.len());
-    context.say(format!(
-        "mpi: {ranks} ranks; the direct sum by the ring pass, each rank holding and summing for \
-         a block of about {} bodies",
-        n / ranks
-    ));
+    context.say(match field {
+        SpreadField::Ring => format!(
+            "mpi: {ranks} ranks; the direct sum by the ring pass, each rank holding and summing \
+             for a block of about {} bodies",
+            n / ranks
+        ),
+        SpreadField::Pm(mesh) => format!(
+            "mpi: {ranks} ranks; the particle-mesh on a slab-decomposed mesh, each rank holding \
+             a block of about {} bodies and a slab of {} (the FFT's transposes by all-to-all); \
+             the bodies sent to the slabs their clouds touch, their fields sent back",
+            n / ranks,
+            slab_planes(mesh.grid, ranks)
+        ),
+        SpreadField::P3m(mesh, _) => format!(
+            "mpi: {ranks} ranks; P3M on a slab-decomposed mesh, each rank holding a block of \
+             about {} bodies and a slab of {} (the FFT's transposes by all-to-all); the bodies \
+             sent to the slabs their clouds touch and to the slabs of the cell list within \
+             reach of theirs, their fields sent back",
+            n / ranks,
+            slab_planes(mesh.grid, ranks)
+        ),
+    });
     let plan = output_plan(&setup);
     let bodies = std::mem::take(&mut setup.bodies);
     let spread = crate::ranks::Ranks::Spread(world.duplicate());
@@ -649,6 +681,7 @@ fn run_spread<L: Launch>(
         world,
         setup.law,
         bodies,
+        field,
         setup.integrator,
         setup.dt,
         setup.dimension,

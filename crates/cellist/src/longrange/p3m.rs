@@ -21,6 +21,8 @@
 //! convention of [`super::ParticleMesh`].
 
 use super::mesh::green::{long_pair, Reach};
+use super::mesh::route::{Arrived, Place, Route};
+use super::mesh::slab::owner;
 use super::mesh::slab::part;
 use super::mesh::{Alone, Exchange, MeshBoundary, MeshParams, MeshSolver, Rank};
 use super::{FieldOut, Sources};
@@ -168,6 +170,12 @@ pub struct P3m {
     split: f64,
     table: LongTable,
     cells: Cells,
+    /// The short-range `(acc, phi)` of each own particle.
+    short: Vec<[f64; 4]>,
+    /// On several ranks: the particles routed here for the short range, and
+    /// the routing's buffers.
+    arrived: Arrived<1>,
+    route: Route<1>,
 }
 
 impl std::fmt::Debug for P3m {
@@ -187,7 +195,7 @@ impl P3m {
     }
 
     /// The solver on `rank`'s slab of a mesh shared by several ranks, each of
-    /// which holds every particle and sums the short range for a block of them;
+    /// which holds its own part of the particles ([`P3m::compute_spread`]);
     /// refuses what [`P3m::new`] refuses and more ranks than the grid has planes.
     pub fn on_rank(
         law: GravityLaw,
@@ -222,6 +230,9 @@ impl P3m {
             split: split_cells,
             table: LongTable::new(),
             cells,
+            short: Vec::new(),
+            arrived: Arrived::default(),
+            route: Route::default(),
         })
     }
 
@@ -232,14 +243,21 @@ impl P3m {
 
     /// Fills `out` with the P3M accelerations and potentials of `sources`.
     pub fn compute(&mut self, sources: &Sources, out: FieldOut, threads: &Threads) {
-        self.compute_shared(sources, out, threads, &Alone);
+        self.compute_spread(sources, out, threads, &Alone);
     }
 
-    /// [`P3m::compute`] on the ranks of `exchange`, every rank calling it with
-    /// every particle: each transforms its slab of the mesh and sums the short
-    /// range for its block of the cell-sorted particles, and every rank gets
-    /// every particle's result.
-    pub fn compute_shared(
+    /// [`P3m::compute`] on the ranks of `exchange`, the particles divided
+    /// among them: every rank calls it with its own part of them (`sources`),
+    /// the parts following each other in rank order, and gets its own
+    /// particles' results in `out`. The mesh as
+    /// [`super::ParticleMesh::compute_spread`]; the short range by slabs of
+    /// the cell list's planes along x: each particle travels to the ranks
+    /// whose planes lie within [`REACH`] planes of its own, so that every
+    /// rank holds every cell its planes' particles visit, whole and in input
+    /// order, and the rank of the particle's plane sums it and sends it back.
+    /// The accelerations of one process bit for bit, the potentials to
+    /// rounding on an isolated mesh.
+    pub fn compute_spread(
         &mut self,
         sources: &Sources,
         out: FieldOut,
@@ -248,38 +266,39 @@ impl P3m {
     ) {
         let rank = self.mesh.rank();
         assert_eq!(Rank::of(exchange), rank, "the exchange's ranks");
-        if sources.mass.len() < 2 {
+        let Some(bounds) = self.mesh.place(sources.position, threads, exchange) else {
             out.acc.fill([0.0; 3]);
             out.phi.fill(0.0);
             return;
-        }
-        self.mesh.place(sources.position, threads, exchange);
+        };
         let r_s = self.split * self.mesh.cell();
+        let r_cut = CUT * r_s;
         let periodic = match self.mesh.params().boundary {
             MeshBoundary::Periodic { origin, length } => Some((origin, length)),
             MeshBoundary::Isolated => None,
         };
-        self.cells.sort(sources, CUT * r_s, periodic);
+        let grid = Grid::covering(bounds, r_cut, periodic);
         let n = sources.mass.len();
-        let block = part(n, rank.index, rank.count);
-        self.cells.sum(
-            self.mesh.law(),
-            &self.table,
-            (r_s, CUT * r_s),
-            periodic,
-            block.clone(),
-            threads,
-        );
-        if rank.count > 1 {
-            let mine = self.cells.sum[block].to_vec();
-            let counts: Vec<usize> = (0..rank.count)
-                .map(|r| 4 * part(n, r, rank.count).len())
-                .collect();
-            exchange.all_gather(
-                mine.as_flattened(),
-                &counts,
-                self.cells.sum.as_flattened_mut(),
+        self.short.resize(n, [0.0; 4]);
+        if rank.count == 1 {
+            self.cells.sort(grid, sources, periodic);
+            self.cells.sum(
+                self.mesh.law(),
+                &self.table,
+                (r_s, r_cut),
+                periodic,
+                0..n,
+                threads,
             );
+            let cells = &self.cells;
+            threads.install(|| {
+                self.short
+                    .par_iter_mut()
+                    .zip(cells.slot.par_iter())
+                    .for_each(|(short, &s)| *short = cells.sum[s])
+            });
+        } else {
+            self.short_range_spread(sources, grid, (r_s, r_cut), periodic, exchange, threads);
         }
         let FieldOut { acc, phi } = out;
         self.mesh.solve(
@@ -291,13 +310,12 @@ impl P3m {
             threads,
             exchange,
         );
-        let cells = &self.cells;
+        let short = &self.short;
         threads.install(|| {
             acc.par_iter_mut()
                 .zip(phi.par_iter_mut())
-                .zip(cells.slot.par_iter())
-                .for_each(|((acc, phi), &s)| {
-                    let add = cells.sum[s];
+                .zip(short.par_iter())
+                .for_each(|((acc, phi), add)| {
                     for a in 0..3 {
                         acc[a] += add[a];
                     }
@@ -305,57 +323,140 @@ impl P3m {
                 });
         });
     }
+
+    /// The short range of this rank's own particles `sources` on several
+    /// ranks into `self.short`: the particles routed by the cell list's planes
+    /// of `grid` (see [`P3m::compute_spread`]), sorted and summed for the
+    /// planes of this rank, the sums sent back. Collective.
+    fn short_range_spread(
+        &mut self,
+        sources: &Sources,
+        grid: Grid,
+        (r_s, r_cut): (f64, f64),
+        periodic: Option<([f64; 3], f64)>,
+        exchange: &dyn Exchange,
+        threads: &Threads,
+    ) {
+        let rank = self.mesh.rank();
+        let planes = grid.count[0];
+        let place = |x: &[f64; 3]| {
+            let c = grid.coords(&wrap(x, periodic))[0];
+            let mut place = Place::new([owner(c, planes, rank.count)]);
+            for d in -(REACH as isize)..=REACH as isize {
+                let q = c as isize + d;
+                let q = match periodic {
+                    Some(_) => q.rem_euclid(planes as isize),
+                    None if (0..planes as isize).contains(&q) => q,
+                    None => continue,
+                };
+                place.add(owner(q as usize, planes, rank.count));
+            }
+            place
+        };
+        let mut arrived = std::mem::take(&mut self.arrived);
+        self.route.forward(
+            sources.position,
+            sources.mass,
+            exchange,
+            &mut arrived,
+            place,
+        );
+        let routed = Sources {
+            mass: &arrived.mass,
+            position: &arrived.position,
+        };
+        self.cells.sort(grid, &routed, periodic);
+        // this rank's planes: a run of the cells' row-major order
+        let mine = part(planes, rank.index, rank.count);
+        let row = |plane: usize| grid.index([plane, 0, 0]);
+        // (row(planes) is the cell count, whose start is the particle count)
+        let (first, end) = (
+            self.cells.start[row(mine.start)],
+            self.cells.start[row(mine.end)],
+        );
+        self.cells.sum(
+            self.mesh.law(),
+            &self.table,
+            (r_s, r_cut),
+            periodic,
+            first..end,
+            threads,
+        );
+        let cells = &self.cells;
+        self.route.back(
+            &arrived,
+            0,
+            exchange,
+            &mut self.short,
+            |i| cells.sum[cells.slot[i]],
+            threads,
+        );
+        self.arrived = arrived;
+    }
 }
 
-impl Cells {
-    /// Counting-sorts `sources` into cells of side `>= r_cut / REACH` over their bounding
-    /// box (isolated) or the box `(origin, length)`, positions wrapped into it.
-    fn sort(&mut self, sources: &Sources, r_cut: f64, periodic: Option<([f64; 3], f64)>) {
-        let n = sources.mass.len();
-        let wrap = |x: &[f64; 3]| -> [f64; 3] {
-            match periodic {
-                Some((origin, length)) => std::array::from_fn(|a| {
-                    let u = (x[a] - origin[a]).rem_euclid(length);
-                    if u >= length {
-                        0.0
-                    } else {
-                        u
-                    }
-                }),
-                None => *x,
+/// `x` wrapped into the box `(origin, length)` when periodic, as the cell
+/// list places it.
+fn wrap(x: &[f64; 3], periodic: Option<([f64; 3], f64)>) -> [f64; 3] {
+    match periodic {
+        Some((origin, length)) => std::array::from_fn(|a| {
+            let u = (x[a] - origin[a]).rem_euclid(length);
+            if u >= length {
+                0.0
+            } else {
+                u
             }
-        };
+        }),
+        None => *x,
+    }
+}
+
+impl Grid {
+    /// Cells of side `>= r_cut / REACH` over the box `(lo, hi)` of the
+    /// particles (isolated) or the box `(origin, length)`, in which the
+    /// positions are wrapped.
+    fn covering(
+        (lo, hi): ([f64; 3], [f64; 3]),
+        r_cut: f64,
+        periodic: Option<([f64; 3], f64)>,
+    ) -> Grid {
         match periodic {
             Some((_, length)) => {
                 let count = ((REACH as f64 * length / r_cut).floor() as usize).max(1);
-                self.grid = Grid {
+                Grid {
                     count: [count; 3],
                     side: [length / count as f64; 3],
                     lo: [0.0; 3],
-                };
+                }
             }
             None => {
-                let mut lo = [f64::INFINITY; 3];
-                let mut hi = [f64::NEG_INFINITY; 3];
-                for x in sources.position {
-                    for a in 0..3 {
-                        lo[a] = lo[a].min(x[a]);
-                        hi[a] = hi[a].max(x[a]);
-                    }
-                }
+                let mut grid = Grid {
+                    lo,
+                    ..Grid::default()
+                };
                 for a in 0..3 {
                     let extent = hi[a] - lo[a];
                     let count = ((REACH as f64 * extent / r_cut).floor() as usize).max(1);
-                    self.grid.count[a] = count;
-                    self.grid.side[a] = if extent > 0.0 {
+                    grid.count[a] = count;
+                    grid.side[a] = if extent > 0.0 {
                         extent / count as f64
                     } else {
                         1.0
                     };
                 }
-                self.grid.lo = lo;
+                grid
             }
         }
+    }
+}
+
+impl Cells {
+    /// Counting-sorts `sources` into the cells of `grid`, positions wrapped
+    /// into the box `(origin, length)` when periodic.
+    fn sort(&mut self, grid: Grid, sources: &Sources, periodic: Option<([f64; 3], f64)>) {
+        let n = sources.mass.len();
+        let wrap = |x: &[f64; 3]| wrap(x, periodic);
+        self.grid = grid;
         let cells = self.grid.count.iter().product::<usize>();
         self.start.clear();
         self.start.resize(cells + 1, 0);

@@ -56,10 +56,11 @@ impl Geometry {
 }
 
 impl Stencil {
-    /// The plane (along axis 0) of the stencil's lower nodes.
+    /// The two planes (along axis 0) of the stencil's nodes, the lower first
+    /// (the upper wraps to 0 on a periodic mesh).
     #[inline]
-    pub(crate) fn base(&self) -> usize {
-        self.node[0][0]
+    pub(crate) fn planes(&self) -> [usize; 2] {
+        self.node[0]
     }
 
     /// Calls `visit(index, weight)` for those of the 8 nodes whose plane

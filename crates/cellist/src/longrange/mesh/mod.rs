@@ -23,6 +23,7 @@ mod cic;
 mod fft;
 pub(crate) mod green;
 mod m4;
+pub(crate) mod route;
 pub mod slab;
 #[cfg(test)]
 pub(crate) mod testkit;
@@ -40,8 +41,9 @@ use cic::Geometry;
 use fft::Fft3;
 use green::{Reach, Spectra};
 use rayon::prelude::*;
+use route::{mesh_place, Arrived, Route};
 use rustfft::num_complex::Complex;
-use slab::{gather_owned, owner, Slab};
+use slab::Slab;
 
 /// The largest grid accepted.
 pub const MAX_GRID: usize = 256;
@@ -153,6 +155,44 @@ pub(crate) fn apply_kernels(out: &mut [Complex<f64>], terms: &[Term], derivative
         });
 }
 
+/// The bounding box `(lo, hi)` of every rank's `positions` (collective on
+/// several ranks), and their count.
+fn extent(positions: &[[f64; 3]], exchange: &dyn Exchange) -> (([f64; 3], [f64; 3]), usize) {
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for x in positions {
+        for a in 0..3 {
+            lo[a] = lo[a].min(x[a]);
+            hi[a] = hi[a].max(x[a]);
+        }
+    }
+    let ranks = exchange.ranks();
+    if ranks == 1 {
+        return ((lo, hi), positions.len());
+    }
+    // lo, hi and the count of every rank
+    let mine = [
+        lo[0],
+        lo[1],
+        lo[2],
+        hi[0],
+        hi[1],
+        hi[2],
+        positions.len() as f64,
+    ];
+    let mut all = vec![0.0; 7 * ranks];
+    exchange.all_gather(&mine, &vec![7; ranks], &mut all);
+    let mut count = 0;
+    for r in all.chunks_exact(7) {
+        for a in 0..3 {
+            lo[a] = lo[a].min(r[a]);
+            hi[a] = hi[a].max(r[3 + a]);
+        }
+        count += r[6] as usize;
+    }
+    ((lo, hi), count)
+}
+
 /// The mesh machinery shared by [`ParticleMesh`] and [`super::P3m`]: its
 /// geometry, transforms, Green's function and buffers, on one rank's slab
 /// of planes along axis 0 (module `slab`; every plane in one process).
@@ -176,6 +216,10 @@ pub(crate) struct MeshSolver {
     fields: [Vec<f64>; 4],
     /// `(acc, phi)` of every particle on one of the interlaced meshes.
     got: Vec<[f64; 4]>,
+    /// The particles routed to this rank from every rank's part (on several
+    /// ranks), and the routing's buffers.
+    arrived: Arrived<2>,
+    route: Route<2>,
 }
 
 impl MeshSolver {
@@ -240,6 +284,8 @@ impl MeshSolver {
             work: vec![Complex::default(); len],
             fields: std::array::from_fn(|_| vec![0.0; window * plane]),
             got: Vec::new(),
+            arrived: Arrived::default(),
+            route: Route::default(),
         })
     }
 
@@ -263,20 +309,17 @@ impl MeshSolver {
         self.geometry.cell
     }
 
-    /// Places an isolated mesh over `positions`: the cell is the smallest ladder
-    /// rung `2^(j/8) >= extent / (grid - 3)` and the mesh is centred on the
-    /// bounding box, so every particle is at least a cell inside it (half a cell
-    /// on the interlaced mesh). The Green's function is re-made when the rung
-    /// changes.
-    fn cover(&mut self, positions: &[[f64; 3]], threads: &Threads, exchange: &dyn Exchange) {
-        let mut lo = [f64::INFINITY; 3];
-        let mut hi = [f64::NEG_INFINITY; 3];
-        for x in positions {
-            for a in 0..3 {
-                lo[a] = lo[a].min(x[a]);
-                hi[a] = hi[a].max(x[a]);
-            }
-        }
+    /// Places an isolated mesh over the box `(lo, hi)` of the particles: the
+    /// cell is the smallest ladder rung `2^(j/8) >= extent / (grid - 3)` and
+    /// the mesh is centred on the box, so every particle is at least a cell
+    /// inside it (half a cell on the interlaced mesh). The Green's function is
+    /// re-made when the rung changes.
+    fn cover(
+        &mut self,
+        (lo, hi): ([f64; 3], [f64; 3]),
+        threads: &Threads,
+        exchange: &dyn Exchange,
+    ) {
         let extent = (0..3).map(|a| hi[a] - lo[a]).fold(0.0, f64::max);
         let n = self.params.grid;
         let floor = self.law.softening().max(f64::MIN_POSITIVE.sqrt());
@@ -303,25 +346,35 @@ impl MeshSolver {
         }
     }
 
-    /// Places the mesh for `positions` (isolated: re-covers them);
-    /// [`MeshSolver::solve`] then uses this geometry.
+    /// Places the mesh for every rank's `positions` (collective on several
+    /// ranks), re-covering them on an isolated mesh; [`MeshSolver::solve`]
+    /// then uses this geometry. The box of the particles, or `None` and
+    /// nothing placed when there are fewer than two in all (no field).
     pub(crate) fn place(
         &mut self,
         positions: &[[f64; 3]],
         threads: &Threads,
         exchange: &dyn Exchange,
-    ) {
-        if self.params.boundary == MeshBoundary::Isolated {
-            self.cover(positions, threads, exchange);
+    ) -> Option<([f64; 3], [f64; 3])> {
+        let (bounds, count) = extent(positions, exchange);
+        if count < 2 {
+            return None;
         }
+        if self.params.boundary == MeshBoundary::Isolated {
+            self.cover(bounds, threads, exchange);
+        }
+        Some(bounds)
     }
 
     /// Writes the mesh's `acc_i` and `phi_i` (own cloud removed) of `sources` to
-    /// `out`, for the geometry of the last [`MeshSolver::place`]. Each rank
-    /// assigns the masses to its planes (every particle in input order, so that
-    /// each node sums in the order of one process) and interpolates the
-    /// particles whose stencil's lower plane it holds; their results are
-    /// gathered on every rank.
+    /// `out`, for the geometry of the last [`MeshSolver::place`]. On several
+    /// ranks, `sources` and `out` are this rank's own part of the particles,
+    /// the parts following each other in rank order: the particles travel to
+    /// the ranks whose planes their stencils touch and their results back
+    /// (module `route`). Each rank assigns the masses to its planes (the
+    /// particles in input order, so that each node sums in the order of one
+    /// process) and interpolates the particles whose stencil's lower plane it
+    /// holds.
     pub(crate) fn solve(
         &mut self,
         sources: &Sources,
@@ -334,15 +387,30 @@ impl MeshSolver {
         let rank = self.slab.rank();
         let owned = self.slab.owned_window(n);
         let window = self.slab.window(n, 0, 1);
-        self.got.resize(sources.mass.len(), [0.0; 4]);
         // the two interlaced meshes: the second's nodes are half a cell lower
-        for pass in 0..2 {
-            let mut geometry = self.geometry;
-            if pass == 1 {
-                geometry.origin = geometry.origin.map(|o| o - half);
-            }
+        let mut lower = self.geometry;
+        lower.origin = lower.origin.map(|o| o - half);
+        let geometries = [self.geometry, lower];
+        let routing = rank.count > 1;
+        let mut arrived = std::mem::take(&mut self.arrived);
+        if routing {
+            self.route.forward(
+                sources.position,
+                sources.mass,
+                exchange,
+                &mut arrived,
+                |x| mesh_place(x, &geometries, rank.count),
+            );
+        }
+        let (position, mass) = if routing {
+            (&arrived.position[..], &arrived.mass[..])
+        } else {
+            (sources.position, sources.mass)
+        };
+        self.got.resize(sources.mass.len(), [0.0; 4]);
+        for (pass, geometry) in geometries.iter().enumerate() {
             self.mass.fill(0.0);
-            for (x, &m) in sources.position.iter().zip(sources.mass) {
+            for (x, &m) in position.iter().zip(mass) {
                 geometry
                     .stencil(x)
                     .each(n, owned, |k, w| self.mass[k] += w * m);
@@ -350,28 +418,33 @@ impl MeshSolver {
             self.transform(threads, exchange);
             let fields = &self.fields;
             let own = &self.spectra.own;
-            gather_owned(
-                rank,
-                exchange,
-                &mut self.got,
-                |i| owner(geometry.stencil(&sources.position[i]).base(), n, rank.count),
-                |i| {
-                    let stencil = geometry.stencil(&sources.position[i]);
-                    let mut sum = [0.0; 4];
-                    stencil.each(n, window, |k, w| {
-                        for (s, f) in sum.iter_mut().zip(fields) {
-                            *s += w * f[k];
-                        }
-                    });
-                    [
-                        sum[1],
-                        sum[2],
-                        sum[3],
-                        sum[0] - sources.mass[i] * stencil.own(own),
-                    ]
-                },
-                threads,
-            );
+            let value = |x: &[f64; 3], m: f64| {
+                let stencil = geometry.stencil(x);
+                let mut sum = [0.0; 4];
+                stencil.each(n, window, |k, w| {
+                    for (s, f) in sum.iter_mut().zip(fields) {
+                        *s += w * f[k];
+                    }
+                });
+                [sum[1], sum[2], sum[3], sum[0] - m * stencil.own(own)]
+            };
+            if routing {
+                self.route.back(
+                    &arrived,
+                    pass,
+                    exchange,
+                    &mut self.got,
+                    |i| value(&position[i], mass[i]),
+                    threads,
+                );
+            } else {
+                threads.install(|| {
+                    self.got
+                        .par_iter_mut()
+                        .enumerate()
+                        .for_each(|(i, g)| *g = value(&position[i], mass[i]))
+                });
+            }
             let got = &self.got;
             threads.install(|| {
                 out.acc
@@ -391,6 +464,7 @@ impl MeshSolver {
                     });
             });
         }
+        self.arrived = arrived;
     }
 
     /// The mesh fields from the mesh masses: `phi = IFFT(P FFT(mass))` and
@@ -455,7 +529,8 @@ impl ParticleMesh {
     }
 
     /// The solver on `rank`'s slab of a mesh shared by several ranks, each of
-    /// which holds every particle; refuses what [`ParticleMesh::new`] refuses and
+    /// which holds its own part of the particles
+    /// ([`ParticleMesh::compute_spread`]); refuses what [`ParticleMesh::new`] refuses and
     /// more ranks than the grid has planes.
     pub fn on_rank(law: GravityLaw, params: MeshParams, rank: Rank) -> Result<Self, String> {
         Ok(ParticleMesh {
@@ -471,15 +546,18 @@ impl ParticleMesh {
 
     /// Fills `out` with the mesh's accelerations and potentials of `sources`.
     pub fn compute(&mut self, sources: &Sources, out: FieldOut, threads: &Threads) {
-        self.compute_shared(sources, out, threads, &Alone);
+        self.compute_spread(sources, out, threads, &Alone);
     }
 
-    /// [`ParticleMesh::compute`] on the ranks of `exchange`, every rank calling
-    /// it with every particle: each transforms its slab of the mesh, and every
-    /// rank gets every particle's result: the accelerations of one process bit
-    /// for bit, the potentials to rounding on an isolated mesh (the own-cloud
-    /// kernel's sum over the modes is split among the ranks).
-    pub fn compute_shared(
+    /// [`ParticleMesh::compute`] on the ranks of `exchange`, the particles
+    /// divided among them: every rank calls it with its own part of them
+    /// (`sources`), the parts following each other in rank order, and gets
+    /// its own particles' results in `out`. Each rank transforms its slab of
+    /// the mesh; the particles travel to the slabs their stencils touch and
+    /// their results back (module `route`): the accelerations of one process
+    /// bit for bit, the potentials to rounding on an isolated mesh (the
+    /// own-cloud kernel's sum over the modes is split among the ranks).
+    pub fn compute_spread(
         &mut self,
         sources: &Sources,
         out: FieldOut,
@@ -491,12 +569,15 @@ impl ParticleMesh {
             self.solver.rank(),
             "the exchange's ranks"
         );
-        if sources.mass.len() < 2 {
+        if self
+            .solver
+            .place(sources.position, threads, exchange)
+            .is_none()
+        {
             out.acc.fill([0.0; 3]);
             out.phi.fill(0.0);
             return;
         }
-        self.solver.place(sources.position, threads, exchange);
         self.solver.solve(sources, out, threads, exchange);
     }
 }
@@ -642,23 +723,35 @@ mod tests {
     }
 
     /// PM and P3M of `(m, x)` on `ranks` thread-ranks ([`slab::testkit::Hub`]),
-    /// each rank's result.
-    fn shared(params: MeshParams, m: &[f64], x: &[[f64; 3]], ranks: usize) -> Vec<(Field, Field)> {
-        slab::testkit::Hub::run(ranks, |exchange| {
+    /// the particles divided among the ranks: each rank's results joined in
+    /// rank order.
+    fn shared(params: MeshParams, m: &[f64], x: &[[f64; 3]], ranks: usize) -> (Field, Field) {
+        let parts = slab::testkit::Hub::run(ranks, |exchange| {
             let rank = Rank::of(exchange);
             let threads = Threads::single();
             let mut pm = ParticleMesh::on_rank(law(), params, rank).unwrap();
             let mut p3m = P3m::on_rank(law(), params, 1.25, rank).unwrap();
+            let own = slab::part(m.len(), rank.index, ranks);
+            let (m, x) = (&m[own.clone()], &x[own]);
             // twice: the second call reuses the Green's function
             let mut run_both = || {
                 (
-                    run(m, x, |s, o| pm.compute_shared(s, o, &threads, exchange)),
-                    run(m, x, |s, o| p3m.compute_shared(s, o, &threads, exchange)),
+                    run(m, x, |s, o| pm.compute_spread(s, o, &threads, exchange)),
+                    run(m, x, |s, o| p3m.compute_spread(s, o, &threads, exchange)),
                 )
             };
             run_both();
             run_both()
-        })
+        });
+        let join = |fields: Vec<&Field>| -> Field {
+            let acc = fields.iter().flat_map(|f| f.0.clone()).collect();
+            let phi = fields.iter().flat_map(|f| f.1.clone()).collect();
+            (acc, phi)
+        };
+        (
+            join(parts.iter().map(|p| &p.0).collect()),
+            join(parts.iter().map(|p| &p.1).collect()),
+        )
     }
 
     /// `a` and `b` have the same accelerations, bit for bit, and potentials
@@ -684,8 +777,14 @@ mod tests {
                 length: 4.0,
             },
         };
+        // P3M's cell list: 3 planes along x (isolated), 4 (periodic: every
+        // plane within reach of every other) and 9 (fine: slabs and halos)
+        let fine = MeshParams {
+            grid: 32,
+            ..periodic
+        };
         let threads = Threads::single();
-        for params in [isolated(16), periodic] {
+        for params in [isolated(16), periodic, fine] {
             let want_pm = pm(params, &m, &x, &threads);
             let mut p3m = P3m::new(law(), params, 1.25).unwrap();
             let want_p3m = run(&m, &x, |s, o| p3m.compute(s, o, &threads));
@@ -696,11 +795,32 @@ mod tests {
                 MeshBoundary::Isolated => 1e-14,
             };
             for ranks in [2, 3, 4] {
-                for (r, (got_pm, got_p3m)) in shared(params, &m, &x, ranks).iter().enumerate() {
-                    let what = format!("{params:?} rank {r} of {ranks}");
-                    same_field(got_pm, &want_pm, tolerance, &format!("pm {what}"));
-                    same_field(got_p3m, &want_p3m, tolerance, &format!("p3m {what}"));
-                }
+                let (got_pm, got_p3m) = shared(params, &m, &x, ranks);
+                let what = format!("{params:?} on {ranks} ranks");
+                same_field(&got_pm, &want_pm, tolerance, &format!("pm {what}"));
+                same_field(&got_p3m, &want_p3m, tolerance, &format!("p3m {what}"));
+            }
+        }
+    }
+
+    #[test]
+    fn ranks_without_particles_match_one_process() {
+        let threads = Threads::single();
+        // 3 particles on 4 ranks (one rank holds none), and 1 on 2 (no field)
+        for count in [3, 1] {
+            let (m, x) = cloud(count, 1.0, [0.3; 3], 5);
+            let want = pm(isolated(16), &m, &x, &threads);
+            for ranks in [2, 4] {
+                let parts = slab::testkit::Hub::run(ranks, |exchange| {
+                    let rank = Rank::of(exchange);
+                    let mut pm = ParticleMesh::on_rank(law(), isolated(16), rank).unwrap();
+                    let own = slab::part(count, rank.index, ranks);
+                    let (m, x) = (&m[own.clone()], &x[own]);
+                    run(m, x, |s, o| pm.compute_spread(s, o, &threads, exchange))
+                });
+                let acc: Vec<[f64; 3]> = parts.iter().flat_map(|p| p.0.clone()).collect();
+                let phi: Vec<f64> = parts.iter().flat_map(|p| p.1.clone()).collect();
+                same_field(&(acc, phi), &want, 1e-13, &format!("{count} on {ranks}"));
             }
         }
     }
