@@ -22,9 +22,9 @@
 #   tree:       Plummer sphere of 50000 bodies, Barnes-Hut (theta 0.5), 10
 #               steps, cellist -np 1, 2, 4
 #   pse:        512^2 particles in 2D, cell list, RK4, cellist -np 1, 2, 4
-#   mesh:       Plummer sphere of 200000 bodies, 10 steps, PM (grid 128,
-#               periodic box 20) and P3M (grid 64, the same box), the bodies
-#               divided, cellist -np 1, 2, 4
+#   mesh:       Plummer sphere, the bodies divided, cellist -np 1, 2, 4: PM
+#               (grid 128, periodic box 20), 200000 bodies, 10 steps; P3M
+#               (the same mesh), 20000 bodies, 5 steps
 # and prints one line per run: `case ranks loop_seconds peak_rss_MB` (cellist's
 # from the summary.json of the run: the largest peak of any rank), then the
 # medians.
@@ -89,7 +89,8 @@ sed -e 's/n = 20000/n = 200000/' \
     -e 's/kind = "direct"/kind = "pm", grid = 128, boundary = "periodic", box = 20.0/' \
     -e 's/^steps = 5/steps = 10/' -e 's/^thermo_every = 5/thermo_every = 10/' \
     "$work/gravity.toml" > "$work/pm.toml"
-sed -e 's/kind = "pm", grid = 128/kind = "p3m", grid = 64/' "$work/pm.toml" > "$work/p3m.toml"
+sed -e 's/kind = "direct"/kind = "p3m", grid = 128, boundary = "periodic", box = 20.0/' \
+    "$work/gravity.toml" > "$work/p3m.toml"
 cat > "$work/pse.toml" <<EOF
 model = "pse"
 dimension = 2

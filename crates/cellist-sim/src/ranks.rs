@@ -23,14 +23,15 @@ pub enum Ranks {
     #[default]
     One,
     /// Spread over the ranks of `world` (md and pse by domain decomposition,
-    /// gravity's direct sum by blocks of bodies): each rank steps its own
+    /// gravity's direct sum and meshes by blocks of bodies): each rank steps its own
     /// particles, and rank 0 pulls the state whenever an observer or a
     /// checkpoint is due.
     #[cfg(feature = "mpi")]
     Spread(SimpleCommunicator),
     /// Held whole on every rank of `world`, which advance it alike and divide
     /// its field sums (the vortex model's direct solver by the ring pass,
-    /// gravity's and the vortex model's trees by parts and meshes by slabs);
+    /// gravity's and the vortex model's trees by parts, the vortex model's
+    /// mesh by slabs);
     /// `figures` are what the solver measures.
     #[cfg(feature = "mpi")]
     Replicated {

@@ -88,29 +88,25 @@ impl SpreadField {
         world: &SimpleCommunicator,
         law: GravityLaw,
     ) -> Result<(Solver, Figures), String> {
-        let exchange = MpiExchange::routing(world.duplicate());
-        let rank = Rank::of(&exchange);
-        let mesh = match self {
-            SpreadField::Ring => None,
-            SpreadField::Pm(params) => {
-                Some(GravityMesh::Pm(ParticleMesh::on_rank(law, params, rank)?))
-            }
-            SpreadField::P3m(params, split) => {
-                Some(GravityMesh::P3m(P3m::on_rank(law, params, split, rank)?))
-            }
+        let rank = Rank {
+            index: world.rank() as usize,
+            count: world.size() as usize,
         };
-        Ok(match mesh {
-            None => {
+        let mesh = match self {
+            SpreadField::Ring => {
                 let solver = RingGravity::new(world.duplicate(), law);
                 let figures = solver.figures();
-                (Solver::External(Box::new(solver)), figures)
+                return Ok((Solver::External(Box::new(solver)), figures));
             }
-            Some(mesh) => {
-                let figures = exchange.figures();
-                let solver = SpreadMesh::new(mesh, exchange);
-                (Solver::External(Box::new(solver)), figures)
+            SpreadField::Pm(params) => GravityMesh::Pm(ParticleMesh::on_rank(law, params, rank)?),
+            SpreadField::P3m(params, split) => {
+                GravityMesh::P3m(P3m::on_rank(law, params, split, rank)?)
             }
-        })
+        };
+        let exchange = MpiExchange::routing(world.duplicate());
+        let figures = exchange.figures();
+        let solver = SpreadMesh::new(mesh, exchange);
+        Ok((Solver::External(Box::new(solver)), figures))
     }
 }
 

@@ -16,13 +16,13 @@
 //!
 //! What runs distributed, on the driver like every model (rank 0 writes the
 //! outputs): md and pse by domain decomposition ([`md::DistributedMd`],
-//! [`pse::DistributedPse`]); gravity's direct sum with the bodies divided
-//! among the ranks and summed by the ring pass
-//! ([`gravity::DistributedGravity`], [`ring`]); the vortex model's direct
-//! sum by the ring pass, and gravity's and the vortex model's Barnes-Hut
-//! trees by parts of the tree ([`tree`]) and mesh solvers (PM, P3M,
-//! vortex-in-cell) on a slab-decomposed mesh ([`mesh`]), their state
-//! replicated on every rank ([`replicated`]) and their field sums and
+//! [`pse::DistributedPse`]); gravity's direct sum and mesh solvers (PM,
+//! P3M) with the bodies divided among the ranks, summed by the ring pass or
+//! on a slab-decomposed mesh ([`gravity::DistributedGravity`], [`ring`],
+//! [`mesh`]); the vortex model's direct sum by the ring pass, gravity's and
+//! the vortex model's Barnes-Hut trees by parts of the tree ([`tree`]) and
+//! the vortex-in-cell velocity on a slab-decomposed mesh ([`mesh`]), their
+//! state replicated on every rank ([`replicated`]) and their field sums and
 //! transforms divided ([`parts`]). Whatever can fail on
 //! one rank only is agreed ([`agree`]): every rank stops with the message of
 //! the lowest rank that failed, none waits in an exchange.

@@ -22,8 +22,6 @@
 
 use super::mesh::green::{long_pair, Reach};
 use super::mesh::route::{Arrived, Place, Route};
-use super::mesh::slab::owner;
-use super::mesh::slab::part;
 use super::mesh::{Alone, Exchange, MeshBoundary, MeshParams, MeshSolver, Rank};
 use super::{FieldOut, Sources};
 use crate::interactions::GravityLaw;
@@ -250,11 +248,12 @@ impl P3m {
     /// among them: every rank calls it with its own part of them (`sources`),
     /// the parts following each other in rank order, and gets its own
     /// particles' results in `out`. The mesh as
-    /// [`super::ParticleMesh::compute_spread`]; the short range by slabs of
-    /// the cell list's planes along x: each particle travels to the ranks
-    /// whose planes lie within [`REACH`] planes of its own, so that every
-    /// rank holds every cell its planes' particles visit, whole and in input
-    /// order, and the rank of the particle's plane sums it and sends it back.
+    /// [`super::ParticleMesh::compute_spread`]; the short range by runs of
+    /// the cell list's rows (cells along z) cut by their pair work
+    /// ([`balanced_cuts`]): each particle travels to the ranks whose rows lie
+    /// within [`REACH`] rows of its own along x and y, so that every rank holds
+    /// every cell its rows' particles visit, whole and in input order, and
+    /// the rank of the particle's row sums it and sends it back.
     /// The accelerations of one process bit for bit, the potentials to
     /// rounding on an isolated mesh.
     pub fn compute_spread(
@@ -325,9 +324,9 @@ impl P3m {
     }
 
     /// The short range of this rank's own particles `sources` on several
-    /// ranks into `self.short`: the particles routed by the cell list's planes
+    /// ranks into `self.short`: the particles routed by the cell list's rows
     /// of `grid` (see [`P3m::compute_spread`]), sorted and summed for the
-    /// planes of this rank, the sums sent back. Collective.
+    /// rows of this rank, the sums sent back. Collective.
     fn short_range_spread(
         &mut self,
         sources: &Sources,
@@ -338,18 +337,40 @@ impl P3m {
         threads: &Threads,
     ) {
         let rank = self.mesh.rank();
-        let planes = grid.count[0];
+        let [n0, n1, n2] = grid.count;
+        let rows = n0 * n1;
+        // the row (along the last axis) of cells of x, and the rows within
+        // reach of a row, each once (every index of a periodic axis with fewer
+        // than 2 REACH + 1 cells, as `Grid::span`)
+        let row_of = |x: &[f64; 3]| {
+            let c = grid.coords(&wrap(x, periodic));
+            c[0] * n1 + c[1]
+        };
+        let near = |c: usize, n: usize| {
+            let every = periodic.is_some() && n < 2 * REACH + 1;
+            let (all, close) = if every {
+                (0..n, 0..0)
+            } else {
+                (0..0, 0..2 * REACH + 1)
+            };
+            all.chain(close.filter_map(move |k| {
+                let q = (c + k) as isize - REACH as isize;
+                match periodic {
+                    Some(_) => Some(q.rem_euclid(n as isize) as usize),
+                    None => (0..n as isize).contains(&q).then_some(q as usize),
+                }
+            }))
+        };
+        let reach = |row: usize| {
+            near(row / n1, n0).flat_map(move |q0| near(row % n1, n1).map(move |q1| q0 * n1 + q1))
+        };
+        let cuts = balanced_cuts(sources.position.iter().map(row_of), rows, reach, exchange);
+        let owner = |row: usize| cuts.partition_point(|&cut| cut <= row) - 1;
         let place = |x: &[f64; 3]| {
-            let c = grid.coords(&wrap(x, periodic))[0];
-            let mut place = Place::new([owner(c, planes, rank.count)]);
-            for d in -(REACH as isize)..=REACH as isize {
-                let q = c as isize + d;
-                let q = match periodic {
-                    Some(_) => q.rem_euclid(planes as isize),
-                    None if (0..planes as isize).contains(&q) => q,
-                    None => continue,
-                };
-                place.add(owner(q as usize, planes, rank.count));
+            let row = row_of(x);
+            let mut place = Place::new([owner(row)]);
+            for q in reach(row) {
+                place.add(owner(q));
             }
             place
         };
@@ -366,13 +387,11 @@ impl P3m {
             position: &arrived.position,
         };
         self.cells.sort(grid, &routed, periodic);
-        // this rank's planes: a run of the cells' row-major order
-        let mine = part(planes, rank.index, rank.count);
-        let row = |plane: usize| grid.index([plane, 0, 0]);
-        // (row(planes) is the cell count, whose start is the particle count)
+        // this rank's rows: a run of the cells' row-major order (the start
+        // of the cell after the last is the particle count)
         let (first, end) = (
-            self.cells.start[row(mine.start)],
-            self.cells.start[row(mine.end)],
+            self.cells.start[cuts[rank.index] * n2],
+            self.cells.start[cuts[rank.index + 1] * n2],
         );
         self.cells.sum(
             self.mesh.law(),
@@ -393,6 +412,55 @@ impl P3m {
         );
         self.arrived = arrived;
     }
+}
+
+/// The rows of a cell list (cells along its last axis) cut among the ranks
+/// of `exchange` by the work of their short-range sums: rank `r` sums the
+/// rows `cuts[r]..cuts[r + 1]`, a run of the cells' row-major order. Each
+/// rank passes the row of each of its own particles; a row's work is its
+/// particle count `n_c` times `1 +` the particles of the rows `reach(c)`
+/// within reach of it (its pairs), and the cuts split the summed work
+/// evenly. Every rank gets the same cuts (collective).
+fn balanced_cuts<R: Iterator<Item = usize>>(
+    own: impl Iterator<Item = usize>,
+    rows: usize,
+    reach: impl Fn(usize) -> R,
+    exchange: &dyn Exchange,
+) -> Vec<usize> {
+    let ranks = exchange.ranks();
+    let mut mine = vec![0.0; rows];
+    for c in own {
+        mine[c] += 1.0;
+    }
+    let mut all = vec![0.0; rows * ranks];
+    exchange.all_gather(&mine, &vec![rows; ranks], &mut all);
+    let mut count = vec![0.0; rows];
+    for part in all.chunks_exact(rows) {
+        for (n, p) in count.iter_mut().zip(part) {
+            *n += p;
+        }
+    }
+    let work: Vec<f64> = (0..rows)
+        .map(|c| {
+            if count[c] == 0.0 {
+                0.0
+            } else {
+                count[c] * (1.0 + reach(c).map(|q| count[q]).sum::<f64>())
+            }
+        })
+        .collect();
+    let total: f64 = work.iter().sum();
+    let mut cuts = vec![0; ranks + 1];
+    let (mut c, mut before) = (0, 0.0);
+    for (r, cut) in cuts.iter_mut().enumerate().skip(1) {
+        let goal = total * r as f64 / ranks as f64;
+        while c < rows && before + work[c] <= goal {
+            before += work[c];
+            c += 1;
+        }
+        *cut = if r == ranks { rows } else { c };
+    }
+    cuts
 }
 
 /// `x` wrapped into the box `(origin, length)` when periodic, as the cell
@@ -666,10 +734,51 @@ impl ShortPairs<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::longrange::mesh::slab;
     use crate::longrange::mesh::testkit::{cloud, direct, pair_error, rms_relative, run};
 
     fn law() -> GravityLaw {
         GravityLaw::new(1.3, 0.05, 0.0).unwrap()
+    }
+
+    #[test]
+    fn cuts_divide_the_pair_work_and_agree_on_every_rank() {
+        use crate::longrange::mesh::slab::testkit::Hub;
+        // 12 rows, not periodic; a dense run of rows 4..7 (a cluster)
+        let rows = 12;
+        let reach = |c: usize| c.saturating_sub(REACH)..(c + REACH + 1).min(rows);
+        let row_of = |i: usize| {
+            if i.is_multiple_of(4) {
+                i % rows
+            } else {
+                4 + i % 3
+            }
+        };
+        let n = 600;
+        let mut count = vec![0.0; rows];
+        (0..n).for_each(|i| count[row_of(i)] += 1.0);
+        let work: Vec<f64> = (0..rows)
+            .map(|c| count[c] * (1.0 + reach(c).map(|q| count[q]).sum::<f64>()))
+            .collect();
+        let heaviest = work.iter().fold(0.0f64, |a, &b| a.max(b));
+        for ranks in [1, 2, 3, 4] {
+            let cuts = Hub::run(ranks, |exchange| {
+                let own = slab::part(n, exchange.rank(), ranks).map(row_of);
+                balanced_cuts(own, rows, reach, exchange)
+            });
+            assert!(cuts.iter().all(|c| *c == cuts[0]), "{cuts:?}");
+            let cuts = &cuts[0];
+            assert_eq!((cuts[0], cuts[ranks]), (0, rows));
+            let total: f64 = work.iter().sum();
+            for r in 0..ranks {
+                let part: f64 = work[cuts[r]..cuts[r + 1]].iter().sum();
+                // within one row's work of an even share
+                assert!(
+                    (part - total / ranks as f64).abs() <= heaviest,
+                    "{ranks} ranks, {cuts:?}: {part} of {total}"
+                );
+            }
+        }
     }
 
     fn isolated(grid: usize) -> MeshParams {

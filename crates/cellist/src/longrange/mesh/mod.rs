@@ -806,22 +806,18 @@ mod tests {
     #[test]
     fn ranks_without_particles_match_one_process() {
         let threads = Threads::single();
-        // 3 particles on 4 ranks (one rank holds none), and 1 on 2 (no field)
-        for count in [3, 1] {
+        // 3 particles on 4 ranks (one rank holds none), 1 on 2 (no field), and
+        // 300 on 8 ranks of one plane each (a particle's clouds on 3 ranks)
+        for (count, ranks, grid) in [(3, 2, 16), (3, 4, 16), (1, 2, 16), (1, 4, 16), (300, 8, 8)] {
+            let params = isolated(grid);
             let (m, x) = cloud(count, 1.0, [0.3; 3], 5);
-            let want = pm(isolated(16), &m, &x, &threads);
-            for ranks in [2, 4] {
-                let parts = slab::testkit::Hub::run(ranks, |exchange| {
-                    let rank = Rank::of(exchange);
-                    let mut pm = ParticleMesh::on_rank(law(), isolated(16), rank).unwrap();
-                    let own = slab::part(count, rank.index, ranks);
-                    let (m, x) = (&m[own.clone()], &x[own]);
-                    run(m, x, |s, o| pm.compute_spread(s, o, &threads, exchange))
-                });
-                let acc: Vec<[f64; 3]> = parts.iter().flat_map(|p| p.0.clone()).collect();
-                let phi: Vec<f64> = parts.iter().flat_map(|p| p.1.clone()).collect();
-                same_field(&(acc, phi), &want, 1e-13, &format!("{count} on {ranks}"));
-            }
+            let want_pm = pm(params, &m, &x, &threads);
+            let mut p3m = P3m::new(law(), params, 1.25).unwrap();
+            let want_p3m = run(&m, &x, |s, o| p3m.compute(s, o, &threads));
+            let (got_pm, got_p3m) = shared(params, &m, &x, ranks);
+            let what = format!("{count} on {ranks} ranks, grid {grid}");
+            same_field(&got_pm, &want_pm, 1e-13, &format!("pm, {what}"));
+            same_field(&got_p3m, &want_p3m, 1e-13, &format!("p3m, {what}"));
         }
     }
 

@@ -11,8 +11,9 @@
 //! A node sums the masses of the particles whose stencils touch it in the
 //! particles' order, as one process does, and a particle's field is read from
 //! the same planes by the same arithmetic as in one process; so the fields
-//! have the bits of one process on any number of ranks. A particle travels
-//! to one rank, or two when its stencils straddle a cut between slabs.
+//! have the bits of one process on any number of ranks. A particle's two
+//! interlaced stencils span at most three planes, so it travels to one rank,
+//! or two or three when they straddle cuts between slabs.
 
 use super::cic::Geometry;
 use super::slab::{owner, Exchange};
@@ -22,12 +23,15 @@ use rayon::prelude::*;
 /// Numbers per routed particle besides its flags: `x y z m`.
 const BODY: usize = 4;
 
+/// The most ranks a particle goes to: P3M's 5 x 5 rows of cells.
+const PLACES: usize = 32;
+
 /// Where a particle must go: the ranks that need it (`count` of them first
 /// in `ranks`, ascending, no repeats) and, for each of `K` evaluations, the
 /// one rank that computes its value.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Place<const K: usize> {
-    pub(crate) ranks: [usize; 8],
+    pub(crate) ranks: [usize; PLACES],
     pub(crate) count: usize,
     pub(crate) lower: [usize; K],
 }
@@ -36,7 +40,7 @@ impl<const K: usize> Place<K> {
     /// No rank yet; `lower` computes the values.
     pub(crate) fn new(lower: [usize; K]) -> Self {
         Place {
-            ranks: [0; 8],
+            ranks: [0; PLACES],
             count: 0,
             lower,
         }
