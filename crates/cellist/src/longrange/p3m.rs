@@ -250,8 +250,8 @@ impl P3m {
     /// particles' results in `out`. The mesh as
     /// [`super::ParticleMesh::compute_spread`]; the short range by runs of
     /// the cell list's rows (cells along z) cut by their pair work
-    /// ([`balanced_cuts`]): each particle travels to the ranks whose rows lie
-    /// within [`REACH`] rows of its own along x and y, so that every rank holds
+    /// (`balanced_cuts`): each particle travels to the ranks whose rows lie
+    /// within `REACH` (2) rows of its own along x and y, so that every rank holds
     /// every cell its rows' particles visit, whole and in input order, and
     /// the rank of the particle's row sums it and sends it back.
     /// The accelerations of one process bit for bit, the potentials to
