@@ -23,12 +23,13 @@ use rayon::prelude::*;
 /// Numbers per routed particle besides its flags: `x y z m`.
 const BODY: usize = 4;
 
-/// The most ranks a particle goes to: P3M's 5 x 5 rows of cells.
+/// Room for the ranks a particle goes to: at most 3 for a mesh's stencils,
+/// 25 for P3M's 5 x 5 rows of cells.
 const PLACES: usize = 32;
 
 /// Where a particle must go: the ranks that need it (`count` of them first
-/// in `ranks`, ascending, no repeats) and, for each of `K` evaluations, the
-/// one rank that computes its value.
+/// in `ranks`, no repeats) and, for each of `K` evaluations, the one rank
+/// that computes its value.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Place<const K: usize> {
     pub(crate) ranks: [usize; PLACES],
@@ -52,12 +53,6 @@ impl<const K: usize> Place<K> {
             self.ranks[self.count] = r;
             self.count += 1;
         }
-    }
-
-    /// The ranks, ascending.
-    fn sorted(mut self) -> Self {
-        self.ranks[..self.count].sort_unstable();
-        self
     }
 }
 
@@ -157,7 +152,7 @@ impl<const K: usize> Route<K> {
         self.send.clear();
         self.send.resize(to.iter().sum(), 0.0);
         for (x, &m) in position.iter().zip(mass) {
-            let p = place(x).sorted();
+            let p = place(x);
             for &r in &p.ranks[..p.count] {
                 let flags: u32 = (0..K).map(|k| u32::from(p.lower[k] == r) << k).sum();
                 let row = &mut self.send[at[r]..at[r] + sent];
