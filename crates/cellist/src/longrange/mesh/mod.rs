@@ -158,14 +158,12 @@ pub(crate) fn apply_kernels(out: &mut [Complex<f64>], terms: &[Term], derivative
 /// The bounding box `(lo, hi)` of every rank's `positions` (collective on
 /// several ranks), and their count.
 fn extent(positions: &[[f64; 3]], exchange: &dyn Exchange) -> (([f64; 3], [f64; 3]), usize) {
-    let mut lo = [f64::INFINITY; 3];
-    let mut hi = [f64::NEG_INFINITY; 3];
-    for x in positions {
-        for a in 0..3 {
-            lo[a] = lo[a].min(x[a]);
-            hi[a] = hi[a].max(x[a]);
-        }
-    }
+    // a rank without particles adds nothing to the minimum and the maximum
+    let (mut lo, mut hi) = if positions.is_empty() {
+        ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3])
+    } else {
+        crate::geometry::bounding_box(positions)
+    };
     let ranks = exchange.ranks();
     if ranks == 1 {
         return ((lo, hi), positions.len());

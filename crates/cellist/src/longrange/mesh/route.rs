@@ -17,6 +17,7 @@
 
 use super::cic::Geometry;
 use super::slab::{owner, Exchange};
+use crate::threads::exclusive_sums;
 use crate::Threads;
 use rayon::prelude::*;
 
@@ -71,24 +72,13 @@ pub(crate) struct Arrived<const K: usize> {
 }
 
 /// The routing's bookkeeping and message buffers (kept from call to call).
-#[derive(Debug)]
+#[derive(Debug, Default)]
 pub(crate) struct Route<const K: usize> {
     /// The rank that computes each own particle's value in each evaluation.
     owners: Vec<[u32; K]>,
     send: Vec<f64>,
     receive: Vec<f64>,
     values: Vec<[f64; 4]>,
-}
-
-impl<const K: usize> Default for Route<K> {
-    fn default() -> Self {
-        Route {
-            owners: Vec::new(),
-            send: Vec::new(),
-            receive: Vec::new(),
-            values: Vec::new(),
-        }
-    }
 }
 
 /// Where the stencils of `x` on the two interlaced `geometries` lie among
@@ -102,18 +92,6 @@ pub(crate) fn mesh_place(x: &[f64; 3], geometries: &[Geometry; 2], ranks: usize)
         place.add(owner(plane, n, ranks));
     }
     place
-}
-
-/// Where each of the blocks of `counts` numbers starts in their concatenation.
-fn starts(counts: &[usize]) -> Vec<usize> {
-    counts
-        .iter()
-        .scan(0, |sum, &c| {
-            let start = *sum;
-            *sum += c;
-            Some(start)
-        })
-        .collect()
 }
 
 /// `counts` as the numbers of an exchange.
@@ -148,7 +126,7 @@ impl<const K: usize> Route<K> {
             }
             self.owners.push(p.lower.map(|r| r as u32));
         }
-        let mut at = starts(&to);
+        let mut at = exclusive_sums(&to);
         self.send.clear();
         self.send.resize(to.iter().sum(), 0.0);
         for (x, &m) in position.iter().zip(mass) {
@@ -232,7 +210,7 @@ impl<const K: usize> Route<K> {
             &receive_counts,
         );
         // rank r's values follow the ranks before it, in the own order
-        let mut cursor = starts(&receive_counts);
+        let mut cursor = exclusive_sums(&receive_counts);
         for (g, o) in got.iter_mut().zip(owners.iter()) {
             let at = &mut cursor[o[k] as usize];
             g.copy_from_slice(&receive[*at..*at + 4]);
