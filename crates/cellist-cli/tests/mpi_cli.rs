@@ -12,7 +12,9 @@
 //! Barnes-Hut trees of gravity and of the vortex model on 1 to 4 ranks give
 //! the bytes of the plain run; gravity's PM and P3M and the vortex-in-cell
 //! velocity on a slab-decomposed mesh on 1 to 4 ranks give the plain run's
-//! dumps and fields within 1e-10; md, pse and gravity (ring and tree) on 2
+//! dumps and fields within 1e-10; the 3D vortex model's vortex-in-cell and
+//! tree on 1 to 4 ranks give the bytes of the plain run's fields, its direct
+//! sum (block pairs dealt out) the fields within 1e-10; md, pse and gravity (ring and tree) on 2
 //! ranks write `summary.json` with the MPI figures; bad input, a thin
 //! subdomain, more ranks than mesh planes and a blow-up (md's, and gravity's
 //! with its bodies divided among the ranks) stop every rank with one message
@@ -265,6 +267,34 @@ integrator = "rk4"
 [output]
 thermo_every = 10
 field = {{ every = 20, file = "vorticity.csv" }}
+"#
+        ),
+    )
+    .expect("write the scenario");
+    path.display().to_string()
+}
+
+/// A small viscous 3D vortex ring under the `velocity` solver, remeshed, 3
+/// RK2 steps, written as `dir/NAME.toml`.
+fn vortex3_scenario(dir: &Path, name: &str, velocity: &str) -> String {
+    let path = dir.join(format!("{name}.toml"));
+    std::fs::write(
+        &path,
+        format!(
+            r#"model = "vortex"
+dimension = 3
+[system]
+initial = {{ kind = "ring", radius = 0.5, circulation = 1.0, core = 0.2, spacing = 0.1, center = [0.0, 0.0, 0.0], axis = [0.0, 0.0, 1.0] }}
+nu = 0.001
+velocity = {velocity}
+remesh_every = 2
+[run]
+steps = 3
+dt = 0.05
+integrator = "rk2"
+[output]
+thermo_every = 1
+field = {{ every = 3, file = "vorticity.csv" }}
 "#
         ),
     )
@@ -712,6 +742,13 @@ fn main() {
         "vortex-tree",
         r#"{ kind = "barnes-hut", theta = 0.5 }"#,
     );
+    let vic3 = vortex3_scenario(dir.path(), "vic3", r#"{ kind = "mesh", grid = 16 }"#);
+    let vortex3_tree = vortex3_scenario(
+        dir.path(),
+        "vortex3-tree",
+        r#"{ kind = "barnes-hut", theta = 0.5 }"#,
+    );
+    let vortex3 = vortex3_scenario(dir.path(), "vortex3", r#"{ kind = "direct" }"#);
     let cases: Vec<(&str, Result<(), String>)> = vec![
         (
             "-np 1 writes the bytes of the plain run",
@@ -750,7 +787,7 @@ fn main() {
             distributed_runs_match_the_plain_run(dir.path(), "gravity-5000", &five_thousand, "stars.dump", false),
         ),
         (
-            "vortex direct by the ring on 1 to 4 ranks: the fields of the plain run within 1e-10",
+            "vortex direct with its block pairs dealt out on 1 to 4 ranks: the fields of the plain run within 1e-10",
             distributed_runs_match_the_plain_run(dir.path(), "vortex", &vortex, "vorticity_20.csv", false),
         ),
         (
@@ -784,6 +821,18 @@ fn main() {
         (
             "vortex barnes-hut on 1 to 4 ranks: the bytes of the plain run's fields",
             runs_have_the_plain_bytes(dir.path(), "vortex", &vortex_tree, "vorticity_20.csv"),
+        ),
+        (
+            "3D vortex mesh (vortex-in-cell) on a slab-decomposed mesh on 1 to 4 ranks: the bytes of the plain run's fields",
+            runs_have_the_plain_bytes(dir.path(), "vortex3", &vic3, "vorticity_3.csv"),
+        ),
+        (
+            "3D vortex direct with its block pairs dealt out on 1 to 4 ranks: the fields of the plain run within 1e-10",
+            distributed_runs_match_the_plain_run(dir.path(), "vortex3-direct", &vortex3, "vorticity_3.csv", false),
+        ),
+        (
+            "3D vortex barnes-hut on 1 to 4 ranks: the bytes of the plain run's fields",
+            runs_have_the_plain_bytes(dir.path(), "vortex3", &vortex3_tree, "vorticity_3.csv"),
         ),
         (
             "gravity: a 4-rank checkpoint continues in one process and on 2 ranks",
@@ -851,6 +900,22 @@ fn main() {
                 2,
                 &["run", &vortex, "--set", "system.velocity={ kind = \"fmm\" }"],
                 "the fmm runs on one process (not yet distributed)",
+            ),
+        ),
+        (
+            "-np 2: the 3D vortex fmm, not distributed, one message",
+            refused_once(
+                2,
+                &["run", &vic3, "--set", "system.velocity={ kind = \"fmm\" }"],
+                "the fmm runs on one process (not yet distributed)",
+            ),
+        ),
+        (
+            "-np 9: a 3D vortex mesh of 16 planes for 9 ranks, one message",
+            refused_once(
+                9,
+                &["run", &vic3],
+                "9 ranks share a mesh of only 16 planes (grid 16): its slabs need at least 2",
             ),
         ),
         (

@@ -29,9 +29,9 @@ pub enum Ranks {
     #[cfg(feature = "mpi")]
     Spread(SimpleCommunicator),
     /// Held whole on every rank of `world`, which advance it alike and divide
-    /// its field sums (the vortex model's direct solver by the ring pass,
-    /// gravity's and the vortex model's trees by parts, the vortex model's
-    /// mesh by slabs);
+    /// its field sums (the vortex model's direct solver by block pairs dealt
+    /// out, gravity's and the vortex model's trees by parts, the vortex
+    /// model's meshes by slabs);
     /// `figures` are what the solver measures.
     #[cfg(feature = "mpi")]
     Replicated {

@@ -1,7 +1,8 @@
 //! MPI test (feature `mpi`, its own binary: MPI initialises once per process):
-//! the ring-pass direct gravity against the single-process direct sum, and
-//! the slab-decomposed mesh solvers (PM, P3M, vortex-in-cell over
-//! `MpiExchange`) against the same solvers in one process.
+//! the ring-pass direct gravity against the single-process direct sum, the
+//! slab-decomposed mesh solvers (PM, P3M, the 2D and 3D vortex-in-cell over
+//! `MpiExchange`) and the 3D vortex direct sum with its block pairs dealt out
+//! against the same solvers in one process.
 //!
 //! ```text
 //! cargo build --release -p cellist-sim --features mpi --tests
@@ -13,8 +14,9 @@
 
 use cellist::interactions::GravityLaw;
 use cellist::longrange::{
-    BlobKernel, DirectSum, FieldOut, MeshBoundary, MeshParams, P3m, ParticleMesh, Rank, Sources,
-    VicBoundary, VicParams, VortexInCell,
+    BlobKernel, BlobKernel3, DirectBiotSavart3, DirectSum, FieldOut, MeshBoundary, MeshParams, P3m,
+    ParticleMesh, Rank, Sources, Vic3Boundary, Vic3Params, VicBoundary, VicParams, VortexInCell,
+    VortexInCell3,
 };
 use cellist::models::gravity::plummer;
 use cellist::Threads;
@@ -173,6 +175,73 @@ fn vic_error(world: &SimpleCommunicator, params: VicParams, threads: &Threads) -
     largest(world, relative(got.as_flattened(), want.as_flattened()))
 }
 
+/// A deterministic scatter of `n` 3D blobs in `[-1, 1)^3` with strengths.
+fn blobs3(n: usize) -> (Vec<[f64; 3]>, Vec<[f64; 3]>) {
+    let x = (0..n)
+        .map(|i| {
+            let t = i as f64;
+            [0.618_034, 0.414_214, 0.732_051].map(|f| (t * f).fract() * 2.0 - 1.0)
+        })
+        .collect();
+    let alpha = (0..n)
+        .map(|i| [7919, 104_729, 1_299_709].map(|p| ((i * p) % 101) as f64 / 101.0 - 0.45))
+        .collect();
+    (x, alpha)
+}
+
+/// The largest relative difference of the 3D velocities and gradients
+/// between a solver on the ranks of `world`, each holding every particle
+/// (`shared`), and in one process (`alone`).
+fn field3_error(
+    world: &SimpleCommunicator,
+    n: usize,
+    alone: impl FnOnce(&[[f64; 3]], &[[f64; 3]], &mut [[f64; 3]], &mut [[f64; 9]]),
+    shared: impl FnOnce(&[[f64; 3]], &[[f64; 3]], &mut [[f64; 3]], &mut [[f64; 9]]),
+) -> f64 {
+    let (x, alpha) = blobs3(n);
+    let (mut u, mut g) = (vec![[0.0; 3]; n], vec![[0.0; 9]; n]);
+    alone(&x, &alpha, &mut u, &mut g);
+    let (mut u2, mut g2) = (vec![[0.0; 3]; n], vec![[0.0; 9]; n]);
+    shared(&x, &alpha, &mut u2, &mut g2);
+    let worst = relative(u2.as_flattened(), u.as_flattened())
+        .max(relative(g2.as_flattened(), g.as_flattened()));
+    largest(world, worst)
+}
+
+/// [`field3_error`] of the 3D vortex-in-cell on a slab-decomposed mesh.
+fn vic3_error(world: &SimpleCommunicator, params: Vic3Params, threads: &Threads) -> f64 {
+    let sigma = 0.12;
+    let exchange = MpiExchange::new(world.duplicate());
+    field3_error(
+        world,
+        2000,
+        |x, a, u, g| {
+            VortexInCell3::new(params, sigma)
+                .expect("a valid VIC")
+                .compute(x, a, u, g, threads)
+        },
+        |x, a, u, g| {
+            VortexInCell3::on_rank(params, sigma, Rank::of(&exchange))
+                .expect("a valid VIC")
+                .compute_shared(x, a, u, g, threads, &exchange)
+        },
+    )
+}
+
+/// [`field3_error`] of the 3D direct sum with its block pairs dealt out.
+fn pairs3_error(world: &SimpleCommunicator, n: usize, threads: &Threads) -> f64 {
+    let kernel = BlobKernel3::new(0.1);
+    let exchange = MpiExchange::summing(world.duplicate());
+    field3_error(
+        world,
+        n,
+        |x, a, u, g| DirectBiotSavart3::new(kernel, n).compute(x, a, u, g, threads),
+        |x, a, u, g| {
+            DirectBiotSavart3::new(kernel, n).compute_shared(x, a, u, g, threads, &exchange)
+        },
+    )
+}
+
 fn main() {
     let universe = mpi::initialize().expect("MPI initialises once");
     let world = universe.world();
@@ -239,6 +308,17 @@ fn main() {
         grid: 32,
         boundary: VicBoundary::Unbounded,
     };
+    let cube = Vic3Params {
+        grid: 16,
+        boundary: Vic3Boundary::Periodic {
+            origin: [-1.0; 3],
+            length: 2.0,
+        },
+    };
+    let open = Vic3Params {
+        grid: 16,
+        boundary: Vic3Boundary::Unbounded,
+    };
     let meshes = [
         (
             "PM, isolated",
@@ -264,6 +344,14 @@ fn main() {
             "vortex-in-cell, periodic",
             vic_error(&world, square, &threads),
         ),
+        (
+            "3D vortex-in-cell, unbounded",
+            vic3_error(&world, open, &threads),
+        ),
+        (
+            "3D vortex-in-cell, periodic",
+            vic3_error(&world, cube, &threads),
+        ),
     ];
     for (name, worst) in meshes {
         // the accelerations have the same bits; an isolated mesh's potentials
@@ -278,6 +366,25 @@ fn main() {
             println!(
                 "{} slab-decomposed mesh on {} ranks, {name}: largest relative difference from one \
                  process {worst:.2e} (at most 1e-13)",
+                if ok { "ok  " } else { "FAIL" },
+                world.size()
+            );
+        }
+    }
+    for n in [1000, 3] {
+        // each pair once on one rank, each particle's partials added in rank order
+        let worst = pairs3_error(&world, n, &threads);
+        let ok = worst <= 1e-13;
+        if ok {
+            passed += 1;
+        } else {
+            failed += 1;
+        }
+        if world.rank() == 0 {
+            println!(
+                "{} 3D vortex direct sum with its block pairs dealt out on {} ranks, {n} \
+                 particles: largest relative difference from one process {worst:.2e} (at most \
+                 1e-13)",
                 if ok { "ok  " } else { "FAIL" },
                 world.size()
             );

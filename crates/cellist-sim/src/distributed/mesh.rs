@@ -11,9 +11,10 @@
 use super::layout;
 use super::parts::Figures;
 use cellist::longrange::{
-    Exchange, FieldOut, FieldSolver, P3m, ParticleMesh, Sources, VortexInCell,
+    Exchange, FieldOut, FieldSolver, P3m, ParticleMesh, Sources, VortexInCell, VortexInCell3,
 };
 use cellist::models::vortex::VelocityField;
+use cellist::models::vortex3::VelocityField3;
 use cellist::Threads;
 use mpi::datatype::{Partition, PartitionMut};
 use mpi::topology::SimpleCommunicator;
@@ -46,6 +47,15 @@ impl MpiExchange {
                 "Slab-decomposed mesh",
                 "in the transposes and the bodies' routes",
             ),
+        }
+    }
+
+    /// The exchange on the ranks of `world` for pair sums dealt out among
+    /// them, whose partial sums it adds and gathers.
+    pub fn summing(world: SimpleCommunicator) -> Self {
+        MpiExchange {
+            world,
+            figures: Figures::new("Shared pair sums", "adding and gathering the partial sums"),
         }
     }
 
@@ -169,5 +179,46 @@ impl VelocityField for MeshVortex {
     ) {
         self.solver
             .compute_shared(positions, gamma, velocity, threads, &self.exchange);
+    }
+}
+
+/// The 3D vortex model's vortex-in-cell on a slab-decomposed mesh: the
+/// engine's [`VelocityField3`] for a run whose particles every rank holds,
+/// with the velocities and gradients of one process to the bit.
+pub struct MeshVortex3 {
+    solver: VortexInCell3,
+    exchange: MpiExchange,
+}
+
+impl MeshVortex3 {
+    /// `solver` (built for this rank's slab) with the exchange among its ranks.
+    pub fn new(solver: VortexInCell3, exchange: MpiExchange) -> Self {
+        MeshVortex3 { solver, exchange }
+    }
+}
+
+impl std::fmt::Debug for MeshVortex3 {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{:?} on {} ranks", self.solver, self.exchange.ranks())
+    }
+}
+
+impl VelocityField3 for MeshVortex3 {
+    fn compute(
+        &mut self,
+        positions: &[[f64; 3]],
+        alpha: &[[f64; 3]],
+        velocity: &mut [[f64; 3]],
+        gradient: &mut [[f64; 9]],
+        threads: &Threads,
+    ) {
+        self.solver.compute_shared(
+            positions,
+            alpha,
+            velocity,
+            gradient,
+            threads,
+            &self.exchange,
+        );
     }
 }

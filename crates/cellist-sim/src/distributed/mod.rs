@@ -30,6 +30,7 @@
 pub mod gravity;
 pub mod md;
 pub mod mesh;
+pub mod pairs;
 pub mod parts;
 pub mod pse;
 pub mod pull;

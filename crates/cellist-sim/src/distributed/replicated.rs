@@ -1,21 +1,24 @@
 //! Models whose state every rank holds in full and advances alike, their
-//! field sums divided among the ranks: the vortex model with its direct
-//! solver by the ring pass ([`super::ring`]), gravity and the vortex model
-//! with their Barnes-Hut trees by parts of the tree ([`super::tree`]), and
-//! the vortex model's vortex-in-cell on a mesh cut into slabs of planes
-//! ([`super::mesh`]). (Gravity's direct sum and mesh solvers divide the
+//! field sums divided among the ranks: the vortex model (2D and 3D) with its
+//! direct solver by block pairs dealt out ([`super::pairs`]), gravity and the
+//! vortex model with their Barnes-Hut trees by parts of the tree
+//! ([`super::tree`]), and the vortex model's vortex-in-cell on a mesh cut
+//! into slabs of planes ([`super::mesh`]). (Gravity's direct sum and mesh solvers divide the
 //! bodies among the ranks instead: [`super::gravity`].) Every rank takes the same
 //! steps on the same bits, so the checks agree without messages; rank 0 writes
 //! the outputs ([`Ranks::Replicated`]).
 
-use super::mesh::{MeshVortex, MpiExchange};
-use super::ring::RingVortex;
-use super::tree::{TreeGravity, TreeVortex};
+use super::mesh::{MeshVortex, MeshVortex3, MpiExchange};
+use super::pairs::{PairsVortex, PairsVortex3};
+use super::tree::{TreeGravity, TreeVortex, TreeVortex3};
 use crate::ranks::Ranks;
 use cellist::interactions::GravityLaw;
-use cellist::longrange::{BlobKernel, Rank, TreeParams, VortexInCell};
+use cellist::longrange::{
+    BlobKernel, BlobKernel3, Rank, TreeParams, Vic3Params, VortexInCell, VortexInCell3,
+};
 use cellist::models::gravity::Solver;
 use cellist::models::vortex::{VelocityEngine, VelocitySolver};
+use cellist::models::vortex3::Velocity3Engine;
 use mpi::traits::Communicator;
 
 /// On several ranks, gravity's Barnes-Hut tree divided among them for `law`
@@ -36,17 +39,25 @@ pub fn gravity_tree(
     )
 }
 
-/// On several ranks, the vortex model's direct solver by the ring pass for
-/// blobs of `kernel`, and its ranks; `None` in one process.
-pub fn vortex_ring(kernel: BlobKernel) -> Option<(VelocityEngine, Ranks)> {
+/// On several ranks, the vortex model's direct sum of `n` blobs of `kernel`
+/// with its block pairs dealt out among them, its ranks and the run's `mpi:`
+/// line; `None` in one process.
+pub fn vortex_pairs(n: usize, kernel: BlobKernel) -> Option<(VelocityEngine, Ranks, String)> {
     let world = super::world_of_many()?;
-    let solver = RingVortex::new(world.duplicate(), kernel);
+    let solver = PairsVortex::new(kernel, n, MpiExchange::summing(world.duplicate()));
     let figures = solver.figures();
+    let line = format!("mpi: {} ranks; {PAIRS_LINE}", world.size());
     Some((
         VelocityEngine::External(Box::new(solver)),
         Ranks::Replicated { world, figures },
+        line,
     ))
 }
+
+/// How the direct sums' pairs are dealt out, for the run's `mpi:` line.
+const PAIRS_LINE: &str = "the direct velocity with the pairs of particle blocks dealt out among \
+     the ranks (each pair once), each particle's partial sums added in rank order and gathered \
+     (the particles held by every rank)";
 
 /// On several ranks, the vortex model's Barnes-Hut tree divided among them
 /// for blobs of `kernel` with `params`, and its ranks; `None` in one process.
@@ -64,6 +75,76 @@ pub fn vortex_tree(
             )
         }),
     )
+}
+
+/// On several ranks, the 3D vortex model's direct sum of `n` blobs of
+/// `kernel` with its block pairs dealt out among them, its ranks and the
+/// run's `mpi:` line; `None` in one process.
+pub fn vortex3_pairs(n: usize, kernel: BlobKernel3) -> Option<(Velocity3Engine, Ranks, String)> {
+    let world = super::world_of_many()?;
+    let solver = PairsVortex3::new(kernel, n, MpiExchange::summing(world.duplicate()));
+    let figures = solver.figures();
+    let line = format!("mpi: {} ranks; {PAIRS_LINE}", world.size());
+    Some((
+        Velocity3Engine::External(Box::new(solver)),
+        Ranks::Replicated { world, figures },
+        line,
+    ))
+}
+
+/// On several ranks, the 3D vortex model's Barnes-Hut tree divided among
+/// them for blobs of `kernel` with `params`, its ranks and the run's `mpi:`
+/// line; `None` in one process.
+pub fn vortex3_tree(
+    params: TreeParams,
+    kernel: BlobKernel3,
+) -> Option<Result<(Velocity3Engine, Ranks, String), String>> {
+    let world = super::world_of_many()?;
+    Some(
+        TreeVortex3::new(world.duplicate(), params, kernel).map(|solver| {
+            let figures = solver.figures();
+            let line = format!(
+                "mpi: {} ranks; the Barnes-Hut tree of all the particles built alike on every \
+                 rank (the particles held by every rank), each rank walking a run of its groups \
+                 balanced by interactions, the results all-gathered: one process's velocities \
+                 and gradients to the bit",
+                world.size()
+            );
+            (
+                Velocity3Engine::External(Box::new(solver)),
+                Ranks::Replicated { world, figures },
+                line,
+            )
+        }),
+    )
+}
+
+/// On several ranks, the 3D vortex model's vortex-in-cell with `params` for
+/// blobs of core `sigma` on a slab-decomposed mesh, its ranks and the run's
+/// `mpi:` line; `None` in one process; the error of a mesh with too few
+/// planes for the ranks.
+pub fn vortex3_mesh(
+    params: Vic3Params,
+    sigma: f64,
+) -> Option<Result<(Velocity3Engine, Ranks, String), String>> {
+    let world = super::world_of_many()?;
+    let exchange = MpiExchange::new(world.duplicate());
+    let rank = Rank::of(&exchange);
+    Some(VortexInCell3::on_rank(params, sigma, rank).map(|solver| {
+        let line = format!(
+            "mpi: {} ranks; the vortex-in-cell velocity and gradient on a slab-decomposed \
+             mesh: {} (every rank holds every particle)",
+            rank.count,
+            slabs(params.grid, rank.count)
+        );
+        let figures = exchange.figures();
+        let solver = MeshVortex3::new(solver, exchange);
+        (
+            Velocity3Engine::External(Box::new(solver)),
+            Ranks::Replicated { world, figures },
+            line,
+        )
+    }))
 }
 
 /// The planes of a mesh of `grid` planes along x that the slab decomposition

@@ -6,19 +6,15 @@
 //! `t_comp ~ gamma n^2` against `t_comm ~ alpha + beta n`: the communication is
 //! hidden once `gamma n^2 > alpha + beta n`.
 //!
-//! [`RingGravity`] and [`RingVortex`] are the engine's direct solvers made
-//! distributed. Gravity's bodies are divided among the ranks
-//! ([`super::gravity`]): each rank sums the field at its own bodies over every
-//! rank's by the ring. The vortex model's particles every rank holds (the
-//! state is replicated): each rank sums the velocity at a block of them over
-//! all blocks by the ring, and the blocks' results are gathered on every rank.
+//! [`RingGravity`] is the engine's direct gravity made distributed. Gravity's
+//! bodies are divided among the ranks ([`super::gravity`]): each rank sums the
+//! field at its own bodies over every rank's by the ring. (The vortex model,
+//! whose particles every rank holds, deals its direct sum's pairs out among
+//! the ranks instead: [`super::pairs`].)
 
-use super::parts::{all_gather_parts, Figures};
+use super::parts::Figures;
 use cellist::interactions::GravityLaw;
-use cellist::longrange::{
-    add_velocity_at, BlobKernel, FieldOut, FieldSolver, PartialField, Sources,
-};
-use cellist::models::vortex::VelocityField;
+use cellist::longrange::{FieldOut, FieldSolver, PartialField, Sources};
 use cellist::Threads;
 use mpi::topology::SimpleCommunicator;
 use mpi::traits::*;
@@ -132,11 +128,6 @@ pub(super) fn blocks(n: usize, world: &SimpleCommunicator) -> (Vec<usize>, std::
     (bounds, mine)
 }
 
-/// The figures of a ring pass.
-fn ring_figures() -> Figures {
-    Figures::new("Ring pass", "waiting for blocks and gathering the results")
-}
-
 /// Gravity's direct sum by the ring pass: the engine's [`FieldSolver`] for a
 /// run whose bodies are divided among the ranks. Each rank computes with its
 /// own bodies as the sources it is given, and gets their field due to every
@@ -182,69 +173,5 @@ impl FieldSolver for RingGravity {
         out.acc.copy_from_slice(&acc);
         out.phi.copy_from_slice(&phi);
         self.figures.add_wait(waited);
-    }
-}
-
-/// The vortex model's direct Biot-Savart sum by the ring pass: the engine's
-/// [`VelocityField`] for a run whose particles every rank holds.
-pub struct RingVortex {
-    world: SimpleCommunicator,
-    kernel: BlobKernel,
-    figures: Figures,
-}
-
-impl RingVortex {
-    /// The solver for blobs of `kernel` on the ranks of `world`.
-    pub fn new(world: SimpleCommunicator, kernel: BlobKernel) -> Self {
-        RingVortex {
-            world,
-            kernel,
-            figures: ring_figures(),
-        }
-    }
-
-    /// The figures, shared.
-    pub fn figures(&self) -> Figures {
-        self.figures.clone()
-    }
-}
-
-impl std::fmt::Debug for RingVortex {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "RingVortex on {} ranks", self.world.size())
-    }
-}
-
-impl VelocityField for RingVortex {
-    fn compute(
-        &mut self,
-        positions: &[[f64; 2]],
-        gamma: &[f64],
-        velocity: &mut [[f64; 2]],
-        threads: &Threads,
-    ) {
-        let n = positions.len();
-        let (bounds, mine) = blocks(n, &self.world);
-        let targets = &positions[mine.clone()];
-        let own: Vec<f64> = targets
-            .iter()
-            .zip(&gamma[mine])
-            .flat_map(|(x, &g)| [x[0], x[1], g])
-            .collect();
-        let mut u = vec![[0.0; 2]; targets.len()];
-        let (mut held_x, mut held_gamma) = (Vec::new(), Vec::new());
-        let waited = ring_pass(&self.world, &own, |held, _| {
-            held_x.clear();
-            held_gamma.clear();
-            for p in held.chunks_exact(3) {
-                held_x.push([p[0], p[1]]);
-                held_gamma.push(p[2]);
-            }
-            add_velocity_at(&self.kernel, targets, &held_x, &held_gamma, &mut u, threads);
-        });
-        let t = Instant::now();
-        let velocity = velocity.as_flattened_mut();
-        all_gather_parts(&self.world, u.as_flattened(), 2, &bounds, velocity);
-        self.figures.add(waited + t.elapsed(), &bounds);
     }
 }

@@ -12,9 +12,11 @@
 use super::parts::{all_gather_parts, Figures};
 use cellist::interactions::GravityLaw;
 use cellist::longrange::{
-    BarnesHut, BlobKernel, FieldOut, FieldSolver, Share, Sources, TreeParams, VortexTree,
+    BarnesHut, BlobKernel, BlobKernel3, FieldOut, FieldSolver, Share, Sources, TreeParams,
+    VortexTree, VortexTree3,
 };
 use cellist::models::vortex::VelocityField;
+use cellist::models::vortex3::VelocityField3;
 use cellist::Threads;
 use mpi::topology::SimpleCommunicator;
 use mpi::traits::*;
@@ -154,6 +156,58 @@ impl VelocityField for TreeVortex {
         let mut ranks = RankShare::new(&self.world);
         self.tree
             .compute_shared(positions, gamma, velocity, threads, &mut ranks);
+        self.figures.add(ranks.waited, &ranks.bounds);
+    }
+}
+
+/// The 3D vortex model's Barnes-Hut tree divided among the ranks: the
+/// engine's [`VelocityField3`] for a run whose particles every rank holds,
+/// with the velocities and gradients of [`VortexTree3`] to the bit.
+pub struct TreeVortex3 {
+    world: SimpleCommunicator,
+    tree: VortexTree3,
+    figures: Figures,
+}
+
+impl TreeVortex3 {
+    /// The tree for blobs of `kernel` with `params` (checked) on the ranks of
+    /// `world`.
+    pub fn new(
+        world: SimpleCommunicator,
+        params: TreeParams,
+        kernel: BlobKernel3,
+    ) -> Result<Self, String> {
+        Ok(TreeVortex3 {
+            world,
+            tree: VortexTree3::new(params, kernel)?,
+            figures: tree_figures(),
+        })
+    }
+
+    /// The figures, shared.
+    pub fn figures(&self) -> Figures {
+        self.figures.clone()
+    }
+}
+
+impl std::fmt::Debug for TreeVortex3 {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "TreeVortex3 on {} ranks", self.world.size())
+    }
+}
+
+impl VelocityField3 for TreeVortex3 {
+    fn compute(
+        &mut self,
+        positions: &[[f64; 3]],
+        alpha: &[[f64; 3]],
+        velocity: &mut [[f64; 3]],
+        gradient: &mut [[f64; 9]],
+        threads: &Threads,
+    ) {
+        let mut ranks = RankShare::new(&self.world);
+        self.tree
+            .compute_shared(positions, alpha, velocity, gradient, threads, &mut ranks);
         self.figures.add(ranks.waited, &ranks.bounds);
     }
 }

@@ -339,7 +339,7 @@ pub fn run<L: Launch>(
     if keys.decomposition.is_some() {
         return Err(err(
             "[decomposition] applies to md and pse (domain decomposition); the vortex model \
-             runs on several MPI ranks by the ring pass"
+             runs on several MPI ranks with every rank holding every particle"
                 .into(),
         ));
     }
@@ -388,7 +388,7 @@ pub fn run<L: Launch>(
     };
     #[cfg(feature = "mpi")]
     let distributed = {
-        use crate::distributed::replicated::{vortex_mesh, vortex_ring, vortex_tree};
+        use crate::distributed::replicated::{vortex_mesh, vortex_pairs, vortex_tree};
         let kernel = BlobKernel::new(params.sigma);
         let p = crate::distributed::world_of_many()
             .map_or(1, |w| mpi::traits::Communicator::size(&w) as usize);
@@ -415,14 +415,7 @@ pub fn run<L: Launch>(
                 )),
                 None => None,
             },
-            VelocitySolver::Direct => vortex_ring(kernel).map(|(engine, ranks)| {
-                let line = format!(
-                    "mpi: {p} ranks; the direct velocity by the ring pass, each rank summing \
-                    for a block of about {} particles (the particles held by every rank)",
-                    n / p
-                );
-                (engine, ranks, line)
-            }),
+            VelocitySolver::Direct => vortex_pairs(n, kernel),
         }
     };
     #[cfg(feature = "mpi")]

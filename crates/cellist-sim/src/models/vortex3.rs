@@ -19,8 +19,8 @@ use crate::scenario::keys::choice;
 use crate::scenario::Scenario;
 use cellist::longrange::{ErrorFit, Vic3Boundary, Vic3Params};
 use cellist::models::vortex3::{
-    seed3, Abc, Extras3, InitialVorticity3, Relaxation, Ring, Stretching, Velocity3Solver, View3,
-    Vortex3Model, Vortex3Params, Vortex3System, RING_CUT,
+    seed3, Abc, Extras3, InitialVorticity3, Relaxation, Ring, Stretching, Velocity3Engine,
+    Velocity3Solver, View3, Vortex3Model, Vortex3Params, Vortex3System, RING_CUT,
 };
 use cellist::models::Model;
 use cellist_io::read_field_columns;
@@ -452,6 +452,51 @@ fn default_tree() -> cellist::longrange::TreeParams {
     cellist::longrange::VortexTree3::default_params()
 }
 
+/// On several MPI ranks, the velocity solver `solver` for `n` blobs of core
+/// `sigma` shared by the ranks (each holding every particle) and the ranks,
+/// the run's `mpi:` line said; `(None, Ranks::One)` in one process. The fmm
+/// is not distributed yet: refused on several ranks.
+fn distributed_engine(
+    scenario: &Scenario,
+    context: &RunContext,
+    solver: Velocity3Solver,
+    n: usize,
+    sigma: f64,
+) -> SimResult<(Option<Velocity3Engine>, Ranks)> {
+    #[cfg(feature = "mpi")]
+    {
+        use crate::distributed::replicated::{vortex3_mesh, vortex3_pairs, vortex3_tree};
+        let err = |m: String| scenario.error(format!("system: {m}"));
+        let shared = match solver {
+            Velocity3Solver::Mesh(p) => vortex3_mesh(p, sigma),
+            Velocity3Solver::BarnesHut(p) => {
+                vortex3_tree(p, cellist::longrange::BlobKernel3::new(sigma))
+            }
+            Velocity3Solver::Direct => {
+                vortex3_pairs(n, cellist::longrange::BlobKernel3::new(sigma)).map(Ok)
+            }
+            Velocity3Solver::Fmm(_) => {
+                if crate::distributed::world_of_many().is_some() {
+                    return Err(scenario.error(
+                        "system.velocity: the fmm runs on one process (not yet distributed); on \
+                         several ranks use direct, barnes-hut or mesh"
+                            .to_string(),
+                    ));
+                }
+                None
+            }
+        };
+        if let Some(shared) = shared {
+            let (engine, ranks, line) = shared.map_err(err)?;
+            context.say(line);
+            return Ok((Some(engine), ranks));
+        }
+    }
+    #[cfg(not(feature = "mpi"))]
+    let _ = (scenario, context, solver, n, sigma);
+    Ok((None, Ranks::One))
+}
+
 /// Runs a 3D vortex scenario, from the checkpoint `restart` if given.
 pub fn run<L: Launch>(
     scenario: &Scenario,
@@ -461,13 +506,6 @@ pub fn run<L: Launch>(
     let keys: Vortex3Scenario = scenario.parse()?;
     let (threads, out_dir) = (context.threads, &context.out_dir);
     let err = |m: String| scenario.error(m);
-    #[cfg(feature = "mpi")]
-    if crate::distributed::world_of_many().is_some() {
-        return Err(err(
-            "the 3D vortex model runs on one process; run it without mpirun (threads: --threads)"
-                .into(),
-        ));
-    }
     let started = Instant::now();
     let sys = &keys.system;
     check_blob_keys(scenario, context, sys.nu, sys.sigma_over_h, &sys.kernel)?;
@@ -539,8 +577,14 @@ pub fn run<L: Launch>(
     out.check().map_err(err)?;
     let snapshots = out.snapshots(steps, ["vorticity.csv", "vorticity.png", "vorticity.gif"]);
     let n = seeded.positions.len();
-    let system = Vortex3System::new(params, seeded.positions, seeded.alpha, threads)
-        .map_err(|e| err(format!("system: {e}")))?;
+    let (engine, ranks) = distributed_engine(scenario, context, solver, n, sigma)?;
+    let system = match engine {
+        Some(engine) => {
+            Vortex3System::with_engine(params, seeded.positions, seeded.alpha, engine, threads)
+        }
+        None => Vortex3System::new(params, seeded.positions, seeded.alpha, threads),
+    }
+    .map_err(|e| err(format!("system: {e}")))?;
     let solver_name = match solver {
         Velocity3Solver::Direct => "direct (all pairs)".to_string(),
         Velocity3Solver::BarnesHut(p) => format!("barnes-hut (theta {})", p.theta),
@@ -646,7 +690,7 @@ pub fn run<L: Launch>(
         physics: scenario.physics_keys()?,
         last_frame: LastFrame::Field { file: "last.csv" },
     };
-    launch.launch(spec.with(model).on(Ranks::One), &plan, context, started)
+    launch.launch(spec.with(model).on(ranks), &plan, context, started)
 }
 
 /// The plotted series of the first rings: (legend, thermo column, log scale).

@@ -12,6 +12,8 @@
 //! pairs, each once (`K_sigma` is odd), in parallel without atomics and with
 //! every particle's sum in an order fixed by the data.
 
+use crate::longrange::dealt::{self, Partials};
+use crate::longrange::{Alone, Exchange};
 use crate::models::pse::exp_nonpositive;
 use crate::simd::{F64x4, Real};
 use crate::threads::{tournament, DisjointSlice, Threads};
@@ -219,6 +221,10 @@ const LANES: usize = 4;
 
 /// All pairs of particles, each once: blocks of `BLOCK` particles meet in the
 /// rounds of a round-robin tournament, the block pairs of a round in parallel.
+/// On several ranks that each hold every particle
+/// ([`DirectBiotSavart::compute_shared`]) the block pairs are dealt out among
+/// the ranks and each particle's partial sums added in rank order (module
+/// `dealt`).
 #[derive(Clone, Debug)]
 pub struct DirectBiotSavart {
     kernel: BlobKernel,
@@ -227,6 +233,8 @@ pub struct DirectBiotSavart {
     x: [Vec<f64>; 2],
     gamma: Vec<f64>,
     sums: [Vec<f64>; 2],
+    /// Several ranks: every particle's sums over the ranks.
+    partials: Partials,
 }
 
 impl DirectBiotSavart {
@@ -239,6 +247,7 @@ impl DirectBiotSavart {
             x: [Vec::new(), Vec::new()],
             gamma: Vec::new(),
             sums: [Vec::new(), Vec::new()],
+            partials: Partials::default(),
         };
         solver.resize(n);
         solver
@@ -270,6 +279,24 @@ impl DirectBiotSavart {
         velocity: &mut [[f64; 2]],
         threads: &Threads,
     ) {
+        self.compute_shared(positions, gamma, velocity, threads, &Alone);
+    }
+
+    /// [`compute`](Self::compute) on the ranks of `exchange`, every rank
+    /// calling it with every particle: the tournament's block pairs, counted
+    /// round after round, go to the ranks in turn (pair `k` to rank `k mod
+    /// P`); each rank runs its pairs into partial sums, and every particle's
+    /// velocity is the sum of the ranks' partials in rank order. Every rank
+    /// gets the same velocities, within rounding of one process's (the bits
+    /// of one process on one rank).
+    pub fn compute_shared(
+        &mut self,
+        positions: &[[f64; 2]],
+        gamma: &[f64],
+        velocity: &mut [[f64; 2]],
+        threads: &Threads,
+        exchange: &dyn Exchange,
+    ) {
         assert_lengths(positions, gamma, velocity);
         self.resize(positions.len());
         for (i, p) in positions.iter().enumerate() {
@@ -281,62 +308,64 @@ impl DirectBiotSavart {
             s.fill(0.0);
         }
         let n = self.n;
+        let ranks = exchange.ranks();
         let block = |b: usize| b * BLOCK..((b + 1) * BLOCK).min(n);
         let (kernel, x, g) = (&self.kernel, &self.x, &self.gamma[..]);
         let [su, sv] = &mut self.sums;
         let shared = [DisjointSlice::new(su), DisjointSlice::new(sv)];
-        let rounds = &self.rounds;
-        threads.install(|| {
-            for round in rounds {
-                round.par_iter().for_each(|&(a, b)| {
-                    let (ra, rb) = (block(a), block(b));
-                    if a == b {
-                        // SAFETY: each block occurs once in round 0.
-                        let (u, v) =
-                            unsafe { (shared[0].range(ra.clone()), shared[1].range(ra.clone())) };
-                        for (local, i) in ra.clone().enumerate() {
-                            let (u_own, u_later) = u.split_at_mut(local + 1);
-                            let (v_own, v_later) = v.split_at_mut(local + 1);
-                            let partners = i + 1..ra.end;
-                            let got = row::<_, true>(
-                                kernel,
-                                [x[0][i], x[1][i]],
-                                g[i],
-                                [&x[0][partners.clone()], &x[1][partners.clone()]],
-                                &g[partners],
-                                [u_later, v_later],
-                            );
-                            u_own[local] += got[0];
-                            v_own[local] += got[1];
-                        }
-                    } else {
-                        // SAFETY: the block pairs of one round are disjoint.
-                        let (ua, va, ub, vb) = unsafe {
-                            (
-                                shared[0].range(ra.clone()),
-                                shared[1].range(ra.clone()),
-                                shared[0].range(rb.clone()),
-                                shared[1].range(rb.clone()),
-                            )
-                        };
-                        for (local, i) in ra.clone().enumerate() {
-                            let got = row::<_, true>(
-                                kernel,
-                                [x[0][i], x[1][i]],
-                                g[i],
-                                [&x[0][rb.clone()], &x[1][rb.clone()]],
-                                &g[rb.clone()],
-                                [&mut *ub, &mut *vb],
-                            );
-                            ua[local] += got[0];
-                            va[local] += got[1];
-                        }
-                    }
-                });
+        dealt::play(&self.rounds, (exchange.rank(), ranks), threads, |a, b| {
+            let (ra, rb) = (block(a), block(b));
+            if a == b {
+                // SAFETY: each block occurs once in round 0.
+                let (u, v) = unsafe { (shared[0].range(ra.clone()), shared[1].range(ra.clone())) };
+                for (local, i) in ra.clone().enumerate() {
+                    let (u_own, u_later) = u.split_at_mut(local + 1);
+                    let (v_own, v_later) = v.split_at_mut(local + 1);
+                    let partners = i + 1..ra.end;
+                    let got = row::<_, true>(
+                        kernel,
+                        [x[0][i], x[1][i]],
+                        g[i],
+                        [&x[0][partners.clone()], &x[1][partners.clone()]],
+                        &g[partners],
+                        [u_later, v_later],
+                    );
+                    u_own[local] += got[0];
+                    v_own[local] += got[1];
+                }
+            } else {
+                // SAFETY: the block pairs of one round are disjoint.
+                let (ua, va, ub, vb) = unsafe {
+                    (
+                        shared[0].range(ra.clone()),
+                        shared[1].range(ra.clone()),
+                        shared[0].range(rb.clone()),
+                        shared[1].range(rb.clone()),
+                    )
+                };
+                for (local, i) in ra.clone().enumerate() {
+                    let got = row::<_, true>(
+                        kernel,
+                        [x[0][i], x[1][i]],
+                        g[i],
+                        [&x[0][rb.clone()], &x[1][rb.clone()]],
+                        &g[rb.clone()],
+                        [&mut *ub, &mut *vb],
+                    );
+                    ua[local] += got[0];
+                    va[local] += got[1];
+                }
             }
         });
+        if ranks > 1 {
+            self.partials.add(&self.sums, exchange);
+        }
         for (i, out) in velocity.iter_mut().enumerate() {
-            *out = [self.sums[0][i], self.sums[1][i]];
+            *out = if ranks > 1 {
+                self.partials.total(i)
+            } else {
+                [self.sums[0][i], self.sums[1][i]]
+            };
         }
     }
 }
@@ -499,6 +528,40 @@ mod tests {
             .fold(0.0, f64::max);
         for (a, b) in one.iter().zip(&reference) {
             assert!((a[0] - b[0]).abs() + (a[1] - b[1]).abs() < 1e-12 * scale);
+        }
+    }
+
+    /// The block pairs dealt out among thread-ranks (3 blocks on 2 and 4
+    /// ranks; 2 particles on 3 ranks: ranks without pairs, and a part with no
+    /// particle): every rank gets the same velocities, those of one process
+    /// within rounding.
+    #[test]
+    fn ranks_sharing_the_pairs_match_one_process() {
+        for (n, ranks) in [(3 * BLOCK - 11, 2), (3 * BLOCK - 11, 4), (2, 3)] {
+            let mut rng = Rng::new(9);
+            let x: Vec<[f64; 2]> = (0..n).map(|_| [rng.normal(), rng.normal()]).collect();
+            let g: Vec<f64> = (0..n).map(|_| rng.uniform() - 0.3).collect();
+            let kernel = BlobKernel::new(0.05);
+            let mut want = vec![[0.0; 2]; n];
+            DirectBiotSavart::new(kernel, n).compute(&x, &g, &mut want, &Threads::single());
+            let scale = want.iter().map(|u| u[0].hypot(u[1])).fold(0.0, f64::max);
+            let got = crate::longrange::mesh::slab::testkit::Hub::run(ranks, |exchange| {
+                let mut v = vec![[0.0; 2]; n];
+                DirectBiotSavart::new(kernel, n).compute_shared(
+                    &x,
+                    &g,
+                    &mut v,
+                    &Threads::single(),
+                    exchange,
+                );
+                v
+            });
+            for (r, v) in got.iter().enumerate() {
+                assert_eq!(v, &got[0], "rank {r} of {ranks}");
+                for (a, b) in v.iter().zip(&want) {
+                    assert!((a[0] - b[0]).abs() + (a[1] - b[1]).abs() <= 1e-14 * scale);
+                }
+            }
         }
     }
 }

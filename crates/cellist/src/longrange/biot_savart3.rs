@@ -25,6 +25,8 @@
 //! is odd in `r`, the gradient's pair terms even), in parallel without atomics
 //! and with every particle's sum in an order fixed by the data.
 
+use crate::longrange::dealt::{self, Partials};
+use crate::longrange::{Alone, Exchange};
 use crate::models::pse::exp_nonpositive;
 use crate::simd::{F64x4, Real};
 use crate::threads::{tournament, DisjointSlice, Threads};
@@ -429,7 +431,10 @@ const LANES: usize = 4;
 /// All pairs of particles, each once: blocks of `BLOCK` particles meet in the
 /// rounds of a round-robin tournament, the block pairs of a round in parallel,
 /// each pair adding its terms to both particles' running sums of `u`,
-/// `S` and `T`.
+/// `S` and `T`. On several ranks that each hold every particle
+/// ([`DirectBiotSavart3::compute_shared`]) the block pairs are dealt out
+/// among the ranks and each particle's partial sums added in rank order
+/// (module `dealt`).
 #[derive(Clone, Debug)]
 pub struct DirectBiotSavart3 {
     kernel: BlobKernel3,
@@ -438,6 +443,8 @@ pub struct DirectBiotSavart3 {
     x: [Vec<f64>; 3],
     alpha: [Vec<f64>; 3],
     sums: [Vec<f64>; SUMS],
+    /// Several ranks: every particle's sums over the ranks.
+    partials: Partials,
 }
 
 impl DirectBiotSavart3 {
@@ -450,6 +457,7 @@ impl DirectBiotSavart3 {
             x: Default::default(),
             alpha: Default::default(),
             sums: std::array::from_fn(|_| Vec::new()),
+            partials: Partials::default(),
         };
         solver.resize(n);
         solver
@@ -488,6 +496,25 @@ impl DirectBiotSavart3 {
         gradient: &mut [[f64; 9]],
         threads: &Threads,
     ) {
+        self.compute_shared(positions, alpha, velocity, gradient, threads, &Alone);
+    }
+
+    /// [`compute`](Self::compute) on the ranks of `exchange`, every rank
+    /// calling it with every particle: the tournament's block pairs, counted
+    /// round after round, go to the ranks in turn (pair `k` to rank `k mod
+    /// P`); each rank runs its pairs into partial sums, and every particle's
+    /// total is the sum of the ranks' partials in rank order. Every rank gets
+    /// the same velocities and gradients, within rounding of one process's
+    /// (the bits of one process on one rank).
+    pub fn compute_shared(
+        &mut self,
+        positions: &[[f64; 3]],
+        alpha: &[[f64; 3]],
+        velocity: &mut [[f64; 3]],
+        gradient: &mut [[f64; 9]],
+        threads: &Threads,
+        exchange: &dyn Exchange,
+    ) {
         assert_lengths(positions, alpha, velocity, gradient);
         self.resize(positions.len());
         for (i, (p, a)) in positions.iter().zip(alpha).enumerate() {
@@ -500,6 +527,7 @@ impl DirectBiotSavart3 {
             s.fill(0.0);
         }
         let n = self.n;
+        let ranks = exchange.ranks();
         let block = |b: usize| b * BLOCK..((b + 1) * BLOCK).min(n);
         let (kernel, x, a) = (&self.kernel, &self.x, &self.alpha);
         let shared = self.sums.each_mut().map(|s| DisjointSlice::new(s));
@@ -509,53 +537,57 @@ impl DirectBiotSavart3 {
             std::array::from_fn::<_, SUMS, _>(|k| shared[k].range(range.clone()))
         };
         let at = |i: usize| ([x[0][i], x[1][i], x[2][i]], [a[0][i], a[1][i], a[2][i]]);
-        threads.install(|| {
-            for round in &self.rounds {
-                round.par_iter().for_each(|&(p, q)| {
-                    let (rp, rq) = (block(p), block(q));
-                    // each block occurs once in a round: its sums are this task's
-                    let mut own = sums_of(rp.clone());
-                    if p == q {
-                        for (local, i) in rp.clone().enumerate() {
-                            let mut split = own.each_mut().map(|s| s.split_at_mut(local + 1));
-                            let mut later = split.each_mut().map(|(_, l)| &mut **l);
-                            let partners = i + 1..rp.end;
-                            let (xi, ai) = at(i);
-                            let got = row::<true>(
-                                kernel,
-                                xi,
-                                ai,
-                                columns(x, partners.clone()),
-                                columns(a, partners),
-                                &mut later,
-                            );
-                            for ((s, _), g) in split.iter_mut().zip(got) {
-                                s[local] += g;
-                            }
-                        }
-                    } else {
-                        let mut other = sums_of(rq.clone());
-                        for (local, i) in rp.clone().enumerate() {
-                            let (xi, ai) = at(i);
-                            let got = row::<true>(
-                                kernel,
-                                xi,
-                                ai,
-                                columns(x, rq.clone()),
-                                columns(a, rq.clone()),
-                                &mut other,
-                            );
-                            for (s, g) in own.iter_mut().zip(got) {
-                                s[local] += g;
-                            }
-                        }
+        let part = (exchange.rank(), ranks);
+        dealt::play(&self.rounds, part, threads, |p, q| {
+            let (rp, rq) = (block(p), block(q));
+            // each block occurs once in a round: its sums are this task's
+            let mut own = sums_of(rp.clone());
+            if p == q {
+                for (local, i) in rp.clone().enumerate() {
+                    let mut split = own.each_mut().map(|s| s.split_at_mut(local + 1));
+                    let mut later = split.each_mut().map(|(_, l)| &mut **l);
+                    let partners = i + 1..rp.end;
+                    let (xi, ai) = at(i);
+                    let got = row::<true>(
+                        kernel,
+                        xi,
+                        ai,
+                        columns(x, partners.clone()),
+                        columns(a, partners),
+                        &mut later,
+                    );
+                    for ((s, _), g) in split.iter_mut().zip(got) {
+                        s[local] += g;
                     }
-                });
+                }
+            } else {
+                let mut other = sums_of(rq.clone());
+                for (local, i) in rp.clone().enumerate() {
+                    let (xi, ai) = at(i);
+                    let got = row::<true>(
+                        kernel,
+                        xi,
+                        ai,
+                        columns(x, rq.clone()),
+                        columns(a, rq.clone()),
+                        &mut other,
+                    );
+                    for (s, g) in own.iter_mut().zip(got) {
+                        s[local] += g;
+                    }
+                }
             }
         });
+        if ranks > 1 {
+            self.partials.add(&self.sums, exchange);
+        }
         let g0 = self.kernel.radial(0.0)[0];
         for (i, (u, grad)) in velocity.iter_mut().zip(gradient.iter_mut()).enumerate() {
-            let mut sums: [f64; SUMS] = std::array::from_fn(|k| self.sums[k][i]);
+            let mut sums: [f64; SUMS] = if ranks > 1 {
+                self.partials.total(i)
+            } else {
+                std::array::from_fn(|k| self.sums[k][i])
+            };
             for c in 0..3 {
                 sums[3 + c] += self.alpha[c][i] * g0;
             }
@@ -839,6 +871,51 @@ mod tests {
         solver.compute(&x, &alpha, &mut u2, &mut g2, &Threads::new(2).unwrap());
         assert_eq!(u.concat(), u2.concat());
         assert_eq!(g.concat(), g2.concat());
+    }
+
+    /// The block pairs dealt out among 2 to 5 thread-ranks (4 blocks, 10
+    /// pairs; one block on 3 ranks: ranks without pairs; 3 particles on 4
+    /// ranks: a rank whose part holds no particle): every rank gets
+    /// the same fields, those of one process within rounding, and two
+    /// evaluations give the same bits.
+    #[test]
+    fn ranks_sharing_the_pairs_match_one_process() {
+        for (n, ranks) in [
+            (4 * BLOCK - 37, 2),
+            (4 * BLOCK - 37, 3),
+            (4 * BLOCK - 37, 5),
+            (100, 3),
+            (3, 4),
+        ] {
+            let (x, alpha) = cloud(11, n, 1.0);
+            let mut solver = DirectBiotSavart3::new(BlobKernel3::new(0.3), n);
+            let (mut u, mut g) = (vec![[0.0; 3]; n], vec![[0.0; 9]; n]);
+            solver.compute(&x, &alpha, &mut u, &mut g, &Threads::single());
+            let got = crate::longrange::mesh::slab::testkit::Hub::run(ranks, |exchange| {
+                let mut solver = DirectBiotSavart3::new(BlobKernel3::new(0.3), n);
+                let mut fields = Vec::new();
+                for _ in 0..2 {
+                    let (mut u, mut g) = (vec![[0.0; 3]; n], vec![[0.0; 9]; n]);
+                    solver.compute_shared(&x, &alpha, &mut u, &mut g, &Threads::single(), exchange);
+                    fields.push((u, g));
+                }
+                assert!(fields[0] == fields[1], "two evaluations");
+                fields.pop().unwrap()
+            });
+            for (r, (ur, gr)) in got.iter().enumerate() {
+                assert!((ur, gr) == (&got[0].0, &got[0].1), "rank {r} of {ranks}");
+                assert!(
+                    relative(ur, &u) < 1e-14,
+                    "{ranks} ranks: {}",
+                    relative(ur, &u)
+                );
+                assert!(
+                    relative(gr, &g) < 1e-14,
+                    "{ranks} ranks: {}",
+                    relative(gr, &g)
+                );
+            }
+        }
     }
 
     /// The gradient at particles (self term included) against central

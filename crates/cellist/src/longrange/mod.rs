@@ -10,6 +10,7 @@ pub mod biot_savart;
 pub mod biot_savart3;
 #[cfg(test)]
 pub(crate) mod blobs3_testkit;
+mod dealt;
 pub mod direct;
 pub mod mesh;
 pub mod p3m;

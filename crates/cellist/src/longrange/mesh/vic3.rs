@@ -57,7 +57,7 @@ use super::apply_kernels;
 use super::fft::Fft3;
 use super::green::{mode, signed};
 use super::m4::{Lattice, Sorted};
-use super::slab::{Alone, Rank, Slab, Window};
+use super::slab::{part, Alone, Exchange, Rank, Slab};
 use super::vic::check_mesh;
 use crate::threads::Threads;
 use rayon::prelude::*;
@@ -171,8 +171,9 @@ impl Vic3Params {
 /// The vortex-in-cell velocity and velocity gradient of 3D Gaussian vortex
 /// blobs: M4' assignment of the strengths, three Poisson solves by FFT
 /// (periodic, or zero-padded unbounded) differentiated on the Green's function,
-/// M4' interpolation; see the [module](self) for the equations. One process
-/// (the slab transform on [`Alone`]).
+/// M4' interpolation; see the [module](self) for the equations. One process,
+/// or several ranks that each hold every particle and share the mesh in slabs
+/// of planes ([`VortexInCell3::compute_shared`]).
 ///
 /// Measured errors (tests of this module; `rms` relative to the RMS, `max` the
 /// largest error relative to the peak, of the velocity and of the gradient
@@ -213,6 +214,8 @@ pub struct VortexInCell3 {
     sorted: Sorted<6>,
     /// The fields at the sorted particles.
     got: Vec<[f64; FIELDS]>,
+    /// This rank's block of `got`, sent to the others (several ranks).
+    own: Vec<[f64; FIELDS]>,
 }
 
 impl std::fmt::Debug for VortexInCell3 {
@@ -230,7 +233,16 @@ impl VortexInCell3 {
     /// is not a power of two in `MIN_VIC3_GRID..=MAX_VIC3_GRID`, a bad periodic
     /// box, a `sigma` that is not finite and `> 0`.
     pub fn new(params: Vic3Params, sigma: f64) -> Result<Self, String> {
+        Self::on_rank(params, sigma, Rank::ALONE)
+    }
+
+    /// The solver on `rank`'s slab of planes of a mesh shared by several
+    /// ranks, each of which holds every particle; refuses what
+    /// [`VortexInCell3::new`] refuses and more ranks than half the grid's
+    /// planes (or the columns of a plane's half spectrum).
+    pub fn on_rank(params: Vic3Params, sigma: f64, rank: Rank) -> Result<Self, String> {
         params.check()?;
+        rank.check(params.grid)?;
         if !(sigma.is_finite() && sigma > 0.0) {
             return Err(format!("sigma must be finite and > 0, got {sigma}"));
         }
@@ -255,10 +267,12 @@ impl VortexInCell3 {
                 },
             ),
         };
-        let slab = Slab::new(Fft3::new(side), Rank::ALONE);
+        let slab = Slab::new(Fft3::new(side), rank);
+        // the M4' stencil reads two planes above a slab from the next rank alone
+        rank.check_slabs(n, 2, slab.plane_len())?;
         let len = slab.lines_len();
         let spectrum = || vec![0.0; len];
-        let nodes = n * n * n;
+        let (owned, window) = (slab.owned(n).len(), slab.window(n, 1, 2).count());
         Ok(VortexInCell3 {
             params,
             blob: Blob3::new(sigma),
@@ -267,12 +281,13 @@ impl VortexInCell3 {
             slab,
             first: std::array::from_fn(|_| spectrum()),
             second: std::array::from_fn(|_| spectrum()),
-            strength: vec![0.0; 3 * nodes],
+            strength: vec![0.0; 3 * owned * n * n],
             hat: std::array::from_fn(|_| vec![Complex::default(); len]),
             work: vec![Complex::default(); len],
-            fields: std::array::from_fn(|_| vec![0.0; nodes]),
+            fields: std::array::from_fn(|_| vec![0.0; window * n * n]),
             sorted: Sorted::new(n),
             got: Vec::new(),
+            own: Vec::new(),
         })
     }
 
@@ -298,6 +313,24 @@ impl VortexInCell3 {
         gradient: &mut [[f64; 9]],
         threads: &Threads,
     ) {
+        self.compute_shared(positions, alpha, velocity, gradient, threads, &Alone);
+    }
+
+    /// [`VortexInCell3::compute`] on the ranks of `exchange`, every rank
+    /// calling it with every particle: each assigns to and transforms its slab
+    /// of planes and interpolates the particles of its planes, and every rank
+    /// gets every particle's velocity and gradient, the same bits as one
+    /// process's.
+    pub fn compute_shared(
+        &mut self,
+        positions: &[[f64; 3]],
+        alpha: &[[f64; 3]],
+        velocity: &mut [[f64; 3]],
+        gradient: &mut [[f64; 9]],
+        threads: &Threads,
+        exchange: &dyn Exchange,
+    ) {
+        assert_eq!(Rank::of(exchange), self.slab.rank(), "the exchange's ranks");
         let n = positions.len();
         assert!(
             alpha.len() == n && velocity.len() == n && gradient.len() == n,
@@ -314,7 +347,7 @@ impl VortexInCell3 {
             Vic3Boundary::Unbounded => {
                 let rung = self.lattice.cover(positions, self.blob.sigma, threads);
                 if self.rung != Some(rung) {
-                    self.unbounded_kernels(threads);
+                    self.unbounded_kernels(threads, exchange);
                     self.rung = Some(rung);
                 }
             }
@@ -325,22 +358,24 @@ impl VortexInCell3 {
                 }
             }
         }
+        let first = self.slab.owned(self.lattice.grid).start;
         threads.install(|| {
             let entry = |i: usize| {
                 let (x, a) = (positions[i], alpha[i]);
                 [x[0], x[1], x[2], a[0], a[1], a[2]]
             };
             self.sorted.sort(&self.lattice, positions, entry);
-            self.sorted.assign(&self.lattice, 0, &mut self.strength);
+            self.sorted.assign(&self.lattice, first, &mut self.strength);
         });
-        self.solve(threads);
-        self.interpolate(velocity, gradient, threads);
+        self.solve(threads, exchange);
+        self.interpolate(velocity, gradient, threads, exchange);
     }
 
     /// The periodic kernels at every mode of the half spectrum (module docs).
     fn periodic_kernels(&mut self, length: f64) {
         let n = self.params.grid;
-        let width = self.slab.plane_len();
+        let columns = self.slab.columns();
+        let width = columns.len();
         let (sigma2, volume) = (self.blob.sigma.powi(2), length.powi(3));
         let [f0, f1, f2] = &mut self.first;
         let [s0, s1, s2, s3, s4, s5] = &mut self.second;
@@ -358,8 +393,8 @@ impl VortexInCell3 {
             .for_each(|(q0, ((((((((f0, f1), f2), s0), s1), s2), s3), s4), s5))| {
                 let mut first = [f0, f1, f2];
                 let mut second = [s0, s1, s2, s3, s4, s5];
-                for c in 0..width {
-                    let q = mode(q0, c, n);
+                for (c, column) in columns.clone().enumerate() {
+                    let q = mode(q0, column, n);
                     let k = q.map(|qa| 2.0 * PI * signed(qa, n) / length);
                     let k2 = k[0] * k[0] + k[1] * k[1] + k[2] * k[2];
                     let green = if k2 == 0.0 {
@@ -387,7 +422,7 @@ impl VortexInCell3 {
     /// (zero on the `o_a = M/2` planes), divided by `M^3`: `G_b` is real and
     /// odd, so its transform is `i M^3 first_b`; `G_bc` real and even. `g` and
     /// `f` are tabulated once per integer `|o|^2`.
-    fn unbounded_kernels(&mut self, threads: &Threads) {
+    fn unbounded_kernels(&mut self, threads: &Threads, exchange: &dyn Exchange) {
         let m = self.slab.size();
         let cell = self.lattice.cell;
         let half = m / 2;
@@ -420,7 +455,7 @@ impl VortexInCell3 {
                 }
             };
             self.slab
-                .forward(m, &mut self.work, sample, &Alone, threads);
+                .forward(m, &mut self.work, sample, exchange, threads);
             let (out, imaginary) = if kernel < 3 {
                 (&mut self.first[kernel], true)
             } else {
@@ -439,20 +474,21 @@ impl VortexInCell3 {
         }
     }
 
-    /// The eleven mesh fields from the node strengths: three forward
-    /// transforms, then per field a sum of two kernel products and an inverse
-    /// transform.
-    fn solve(&mut self, threads: &Threads) {
+    /// The eleven mesh fields on this rank's window of planes from the node
+    /// strengths of its planes: three forward transforms, then per field a sum
+    /// of two kernel products and an inverse transform.
+    fn solve(&mut self, threads: &Threads, exchange: &dyn Exchange) {
         let n = self.lattice.grid;
+        let first = self.slab.owned(n).start;
         for (c, hat) in self.hat.iter_mut().enumerate() {
             let strength = &self.strength;
             let row = |i: usize, j: usize, out: &mut [f64]| {
-                let at = (i * n + j) * n;
+                let at = ((i - first) * n + j) * n;
                 for (l, o) in out.iter_mut().enumerate() {
                     *o = strength[3 * (at + l) + c];
                 }
             };
-            self.slab.forward(n, hat, row, &Alone, threads);
+            self.slab.forward(n, hat, row, exchange, threads);
         }
         for (f, field) in self.fields.iter_mut().enumerate() {
             // field f: u_a (f < 3) or d u_a / d x_b (3 a + b = f - 3)
@@ -476,35 +512,57 @@ impl VortexInCell3 {
             ];
             threads.install(|| apply_kernels(&mut self.work, &terms, b == 3));
             self.slab
-                .inverse(n, &mut self.work, field, (0, 0), &Alone, threads);
+                .inverse(n, &mut self.work, field, (1, 2), exchange, threads);
         }
     }
 
     /// Interpolates the fields to the particles in sorted order (neighbours
-    /// read neighbouring nodes) and writes them in input order.
+    /// read neighbouring nodes) and writes them in input order. On several
+    /// ranks each interpolates the particles of its planes, which are
+    /// contiguous in sorted order, and the ranks' blocks are gathered.
     fn interpolate(
         &mut self,
         velocity: &mut [[f64; 3]],
         gradient: &mut [[f64; 9]],
         threads: &Threads,
+        exchange: &dyn Exchange,
     ) {
         let lattice = self.lattice;
         let n = lattice.grid;
-        let window = Window::whole(n, self.slab.size());
+        let rank = self.slab.rank();
+        let window = self.slab.window(n, 1, 2);
+        let starts = &self.sorted.starts;
+        let block = |r: usize| {
+            let planes = part(n, r, rank.count);
+            starts[planes.start]..starts[planes.end]
+        };
+        let mine = block(rank.index);
         let fields: [&[f64]; FIELDS] = std::array::from_fn(|f| &self.fields[f][..]);
         let entries = &self.sorted.entries;
         self.got.resize(entries.len(), [0.0; FIELDS]);
-        let order = &self.sorted.rank;
-        let got = &mut self.got;
         threads.install(|| {
-            got.par_chunks_mut(1024)
-                .zip(entries.par_chunks(1024))
+            self.got[mine.clone()]
+                .par_chunks_mut(1024)
+                .zip(entries[mine.clone()].par_chunks(1024))
                 .for_each(|(out, chunk)| {
                     for (o, p) in out.iter_mut().zip(chunk) {
                         let s = lattice.stencil(&[p[0], p[1], p[2]]);
                         *o = lattice.gather(&s, window, fields);
                     }
-                });
+                })
+        });
+        if rank.count > 1 {
+            let counts: Vec<usize> = (0..rank.count).map(|r| FIELDS * block(r).len()).collect();
+            self.own.clear();
+            self.own.extend_from_slice(&self.got[mine]);
+            exchange.all_gather(
+                self.own.as_flattened(),
+                &counts,
+                self.got.as_flattened_mut(),
+            );
+        }
+        let (got, order) = (&self.got, &self.sorted.rank);
+        threads.install(|| {
             velocity
                 .par_iter_mut()
                 .zip(gradient.par_iter_mut())
@@ -820,6 +878,46 @@ mod tests {
             let two = run(&mut vic, &x, &alpha, &Threads::new(2).unwrap());
             assert_eq!(one, two, "{params:?}");
         }
+    }
+
+    #[test]
+    fn ranks_sharing_the_mesh_match_one_process() {
+        let (x, alpha) = cloud(2000, 1.0, 9);
+        let periodic = Vic3Params {
+            grid: 16,
+            boundary: Vic3Boundary::Periodic {
+                origin: [-2.0, -1.5, -2.5],
+                length: 4.5,
+            },
+        };
+        for params in [unbounded(16), periodic] {
+            let mut vic = VortexInCell3::new(params, 0.2).unwrap();
+            let want = run(&mut vic, &x, &alpha, &Threads::single());
+            for ranks in [2, 3, 4] {
+                let got = super::super::slab::testkit::Hub::run(ranks, |exchange| {
+                    let mut vic = VortexInCell3::on_rank(params, 0.2, Rank::of(exchange)).unwrap();
+                    let mut v = vec![[0.0; 3]; x.len()];
+                    let mut g = vec![[0.0; 9]; x.len()];
+                    for _ in 0..2 {
+                        vic.compute_shared(
+                            &x,
+                            &alpha,
+                            &mut v,
+                            &mut g,
+                            &Threads::single(),
+                            exchange,
+                        );
+                    }
+                    (v, g)
+                });
+                for (r, field) in got.iter().enumerate() {
+                    assert!(field == &want, "{params:?}: rank {r} of {ranks}");
+                }
+            }
+        }
+        let many = Rank { index: 0, count: 9 };
+        let error = VortexInCell3::on_rank(unbounded(16), 0.2, many).unwrap_err();
+        assert!(error.contains("9 ranks"), "{error}");
     }
 
     #[test]

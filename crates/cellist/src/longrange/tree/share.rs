@@ -105,10 +105,10 @@ impl Split {
 #[cfg(test)]
 mod tests {
     use super::super::build::Sizes;
-    use super::super::{BarnesHut, TreeParams, VortexTree};
+    use super::super::{BarnesHut, TreeParams, VortexTree, VortexTree3};
     use super::*;
     use crate::interactions::GravityLaw;
-    use crate::longrange::{BlobKernel, FieldOut, Sources};
+    use crate::longrange::{BlobKernel, BlobKernel3, FieldOut, Sources};
     use crate::random::Rng;
     use crate::threads::Threads;
     use std::sync::{Barrier, Mutex};
@@ -366,6 +366,46 @@ mod tests {
                     // two threads: the parts need not run on one
                     tree.compute_shared(&x, &gamma, &mut u, &Threads::new(2).unwrap(), share);
                     let bits = u.as_flattened().iter().map(|v| v.to_bits()).collect();
+                    (bits, tree.interactions())
+                },
+            );
+        }
+    }
+
+    #[test]
+    fn divided_3d_vortex_tree_has_the_bits_of_one_evaluation() {
+        let n = 4000;
+        let kernel = BlobKernel3::new(0.02);
+        let alpha: Vec<[f64; 3]> = (0..n)
+            .map(|i| {
+                [
+                    0.1 * (i % 5) as f64 - 0.2,
+                    0.05,
+                    0.1 - 0.03 * (i % 7) as f64,
+                ]
+            })
+            .collect();
+        let params = TreeParams {
+            theta: 0.5,
+            group_size: 32,
+            ..VortexTree3::default_params()
+        };
+        for parts in [2, 3] {
+            divided_equals_whole(
+                parts,
+                2,
+                || VortexTree3::new(params, kernel).unwrap(),
+                |tree, step, share| {
+                    let x = clusters(n, step);
+                    let (mut u, mut g) = (vec![[0.0; 3]; n], vec![[0.0; 9]; n]);
+                    let threads = Threads::new(2).unwrap();
+                    tree.compute_shared(&x, &alpha, &mut u, &mut g, &threads, share);
+                    let bits = u
+                        .as_flattened()
+                        .iter()
+                        .chain(g.as_flattened())
+                        .map(|v| v.to_bits())
+                        .collect();
                     (bits, tree.interactions())
                 },
             );

@@ -5,7 +5,7 @@
 //! expansion for accepted nodes).
 
 use super::build::Node;
-use super::share::Whole;
+use super::share::{Share, Whole};
 use super::walk::{Group, Lists, Solver, Target, Walk, LANES};
 use super::TreeParams;
 use crate::longrange::biot_savart3::{assemble, assert_lengths, terms, BlobKernel3, RADIAL, SUMS};
@@ -114,7 +114,8 @@ impl VortexTree3 {
         })
     }
 
-    /// `(node, particle)` interactions of the last evaluation.
+    /// `(node, particle)` interactions of the last evaluation (of this
+    /// process's part, for [`compute_shared`](Self::compute_shared)).
     pub fn interactions(&self) -> (u64, u64) {
         self.solver.interactions
     }
@@ -130,6 +131,22 @@ impl VortexTree3 {
         gradient: &mut [[f64; 9]],
         threads: &Threads,
     ) {
+        self.compute_shared(positions, alpha, velocity, gradient, threads, &mut Whole);
+    }
+
+    /// [`compute`](Self::compute) divided among processes that each hold every
+    /// particle (see [`Share`]): this one walks and sums only the groups of its
+    /// part, `share` brings the others' sums, and every particle's velocity and
+    /// gradient have the bits of the undivided evaluation.
+    pub fn compute_shared(
+        &mut self,
+        positions: &[[f64; 3]],
+        alpha: &[[f64; 3]],
+        velocity: &mut [[f64; 3]],
+        gradient: &mut [[f64; 9]],
+        threads: &Threads,
+        share: &mut dyn Share,
+    ) {
         assert_lengths(positions, alpha, velocity, gradient);
         self.size.clear();
         self.size.extend(alpha.iter().map(|a| norm(*a)));
@@ -143,7 +160,7 @@ impl VortexTree3 {
         self.solver.evaluate_arranged(
             CLEARANCE * kernel.sigma(),
             threads,
-            &mut Whole,
+            share,
             |node, walk| of_node(node, walk, sorted),
             |lists: &mut VortexLists3, group, target| {
                 lists.gather(&group, sorted);

@@ -48,6 +48,7 @@ use crate::longrange::{
 };
 use crate::memory::{as_arrays, as_arrays_mut};
 use crate::threads::Threads;
+use std::fmt;
 use std::time::{Duration, Instant};
 
 /// How the stretching term is discretised.
@@ -160,6 +161,25 @@ pub enum Velocity3Engine {
     Mesh(Box<VortexInCell3>),
     /// The fast multipole method.
     Fmm(Box<VortexFmm3>),
+    /// A solver from outside the engine (the shared mesh or tree of a
+    /// distributed run).
+    External(Box<dyn VelocityField3>),
+}
+
+/// A 3D velocity solver supplied from outside the engine: `u(x_i) = sum_j
+/// K_sigma(x_i - x_j) x alpha_j` and its gradient for every particle, called
+/// once per evaluation.
+pub trait VelocityField3: fmt::Debug {
+    /// Fills `velocity` and `gradient` (`gradient[i][3 a + b] = d u_a / d
+    /// x_b`), one of each per position.
+    fn compute(
+        &mut self,
+        positions: &[[f64; 3]],
+        alpha: &[[f64; 3]],
+        velocity: &mut [[f64; 3]],
+        gradient: &mut [[f64; 9]],
+        threads: &Threads,
+    );
 }
 
 impl Velocity3Engine {
@@ -197,6 +217,9 @@ impl Velocity3Engine {
             Velocity3Engine::Tree(s) => s.compute(positions, alpha, velocity, gradient, threads),
             Velocity3Engine::Mesh(s) => s.compute(positions, alpha, velocity, gradient, threads),
             Velocity3Engine::Fmm(s) => s.compute(positions, alpha, velocity, gradient, threads),
+            Velocity3Engine::External(s) => {
+                s.compute(positions, alpha, velocity, gradient, threads)
+            }
         }
     }
 }
@@ -347,6 +370,19 @@ impl Vortex3System {
         params.check().map_err(VortexError::Parameter)?;
         let solver = Velocity3Engine::new(params.solver, params.sigma, positions.len())
             .map_err(VortexError::Parameter)?;
+        Self::with_engine(params, positions, alpha, solver, threads)
+    }
+
+    /// [`Vortex3System::new`] with the velocity solver `solver` (built for
+    /// `params.solver`, e.g. one shared by the ranks of a distributed run).
+    pub fn with_engine(
+        params: Vortex3Params,
+        positions: Vec<[f64; 3]>,
+        alpha: Vec<[f64; 3]>,
+        solver: Velocity3Engine,
+        threads: &Threads,
+    ) -> Result<Self, VortexError> {
+        params.check().map_err(VortexError::Parameter)?;
         let mut system = Vortex3System {
             rater: Rater {
                 params,
