@@ -27,7 +27,7 @@
 #               (the same mesh), 20000 bodies, 5 steps
 #   vortex:     every rank holding every particle, cellist -np 1, 2, 4: the
 #               2D vortex pair of examples/vortex-pair.toml with the direct
-#               sum, 5 RK4 steps; the 3D vortex ring of
+#               sum, 20 RK4 steps; the 3D vortex ring of
 #               examples/vortex-ring.toml (12368 particles): mesh (grid 64),
 #               10 RK2 steps; barnes-hut and direct, 2 RK2 steps
 # and prints one line per run: `case ranks loop_seconds peak_rss_MB` (cellist's
@@ -96,7 +96,7 @@ sed -e 's/n = 20000/n = 200000/' \
     "$work/gravity.toml" > "$work/pm.toml"
 sed -e 's/kind = "direct"/kind = "p3m", grid = 128, boundary = "periodic", box = 20.0/' \
     "$work/gravity.toml" > "$work/p3m.toml"
-sed -e '/^gif/d' -e '/^png/d' -e 's/^steps = 800/steps = 5/' -e 's/^thermo_every = 20/thermo_every = 5/' \
+sed -e '/^gif/d' -e '/^png/d' -e 's/^steps = 800/steps = 20/' \
     -e 's/^velocity = .*/velocity = { kind = "direct" }/' "$here/examples/vortex-pair.toml" > "$work/vortex-direct.toml"
 ring() {  # file steps velocity
     sed -e '/^gif/d' -e '/^field/d' -e "s/^steps = 100/steps = $2/" \

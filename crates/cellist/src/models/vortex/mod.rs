@@ -222,7 +222,7 @@ impl std::error::Error for VortexError {}
 #[derive(Debug)]
 pub enum VelocityEngine {
     /// All pairs.
-    Direct(DirectBiotSavart),
+    Direct(Box<DirectBiotSavart>),
     /// The Barnes-Hut tree.
     Tree(Box<VortexTree>),
     /// Vortex-in-cell.
@@ -250,7 +250,9 @@ impl VelocityEngine {
     /// The solver `kind` for `n` particles with blobs of `kernel`.
     pub fn new(kind: VelocitySolver, kernel: BlobKernel, n: usize) -> Result<Self, String> {
         Ok(match kind {
-            VelocitySolver::Direct => VelocityEngine::Direct(DirectBiotSavart::new(kernel, n)),
+            VelocitySolver::Direct => {
+                VelocityEngine::Direct(Box::new(DirectBiotSavart::new(kernel, n)))
+            }
             VelocitySolver::BarnesHut(p) => {
                 VelocityEngine::Tree(Box::new(VortexTree::new(p, kernel)?))
             }
