@@ -16,8 +16,9 @@
 //! tree on 1 to 4 ranks give the bytes of the plain run's fields, its direct
 //! sum (block pairs dealt out) the fields within 1e-10; md, pse and gravity (ring and tree) on 2
 //! ranks write `summary.json` with the MPI figures; bad input, a thin
-//! subdomain, more ranks than mesh planes and a blow-up (md's, and gravity's
-//! with its bodies divided among the ranks) stop every rank with one message
+//! subdomain, more ranks than mesh planes and a blow-up (md's, gravity's
+//! with its bodies divided among the ranks, and the 3D vortex model's with
+//! every particle on every rank) stop every rank with one message
 //! from rank 0 and a non-zero status, never a hang. Ends with `N passed, N
 //! failed`.
 //!
@@ -675,6 +676,40 @@ fn summary_on_two_ranks(
     Ok(())
 }
 
+/// A 3D vortex ring (`scenario`, every rank holding every particle) whose
+/// strengths overflow in the first step, on 2 ranks: every rank stops with
+/// one message naming the last good state, whose field file rank 0 writes
+/// with the plain run's bytes (the ranks restore it together: its velocity
+/// is a shared sum).
+fn vortex3_blowup_on_two_ranks(dir: &Path, scenario: &str) -> Result<(), String> {
+    let huge = ["--set", "system.initial.circulation=1e150"];
+    let (out, alone) = (dir.join("vortex3-blowup"), dir.join("vortex3-blowup-plain"));
+    let mut args = vec!["run", scenario, "--out", out.to_str().unwrap()];
+    args.extend(huge);
+    let o = mpirun(2, &args)?;
+    let err = String::from_utf8_lossy(&o.stderr);
+    let lines = err.lines().filter(|l| l.starts_with("error: ")).count();
+    if o.status.success() || lines != 1 || !err.contains("last good state") {
+        return Err(format!(
+            "expected one `error: ... last good state ...` line:\n{err}"
+        ));
+    }
+    let o = Command::new(env!("CARGO_BIN_EXE_cellist"))
+        .args(["run", scenario, "--out"])
+        .arg(&alone)
+        .args(huge)
+        .output()
+        .map_err(|e| e.to_string())?;
+    if o.status.success() {
+        return Err("the plain run with strengths of 1e150 did not blow up".into());
+    }
+    let read = |d: &Path| std::fs::read(d.join("last.csv")).map_err(|e| e.to_string());
+    if read(&out)? != read(&alone)? {
+        return Err("last.csv of 2 ranks is not the plain run's".into());
+    }
+    Ok(())
+}
+
 /// Several ranks: a non-zero status and `expected` once on standard error.
 fn refused_once(ranks: usize, args: &[&str], expected: &str) -> Result<(), String> {
     let o = mpirun(ranks, args)?;
@@ -869,6 +904,10 @@ fn main() {
         (
             "-np 2: gravity's bodies meet, every rank stops with one message, the plain run's last state",
             gravity_blowup_on_two_ranks(dir.path()),
+        ),
+        (
+            "-np 2: a 3D vortex blow-up (the mesh shared) stops every rank with one message, the plain run's last state",
+            vortex3_blowup_on_two_ranks(dir.path(), &vic3),
         ),
         (
             "-np 3: a subdomain thinner than cutoff + skin, one message",

@@ -508,10 +508,12 @@ impl<M: Hosted> Job<M> {
         }
         let mut written = Vec::new();
         if !self.ranks.writes_output() {
-            // a spread model's ranks restore their parts and serve rank 0's
-            // last frame and checkpoint
+            // the other ranks restore with rank 0: a spread model's ranks their
+            // parts, then they serve rank 0's last frame and checkpoint; a
+            // replicated model's ranks the whole state, whose field sums they
+            // share with rank 0
+            let _ = self.model.restore(&good.state, threads);
             if self.ranks.observe_when_due() {
-                let _ = self.model.restore(&good.state, threads);
                 self.model.serve_outputs();
             }
             return SimError::BlowUp(format!("{blowup}"));

@@ -84,10 +84,15 @@ fn largest<C: Communicator>(world: &C, worst: f64) -> f64 {
 /// The largest `|a - b| / max |b|` over the numbers of `a` and `b`.
 fn relative(a: &[f64], b: &[f64]) -> f64 {
     let scale = b.iter().fold(0.0f64, |s, v| s.max(v.abs()));
-    let worst = a
-        .iter()
-        .zip(b)
-        .fold(0.0f64, |w, (x, y)| w.max((x - y).abs()));
+    // a value that is not finite is infinitely wrong (`max` would skip a NaN)
+    let worst = a.iter().zip(b).fold(0.0f64, |w, (x, y)| {
+        let d = (x - y).abs();
+        if d.is_finite() {
+            w.max(d)
+        } else {
+            f64::INFINITY
+        }
+    });
     worst / scale
 }
 

@@ -19,9 +19,10 @@
 //! [`pse::DistributedPse`]); gravity's direct sum and mesh solvers (PM,
 //! P3M) with the bodies divided among the ranks, summed by the ring pass or
 //! on a slab-decomposed mesh ([`gravity::DistributedGravity`], [`ring`],
-//! [`mesh`]); the vortex model's direct sum by the ring pass, gravity's and
-//! the vortex model's Barnes-Hut trees by parts of the tree ([`tree`]) and
-//! the vortex-in-cell velocity on a slab-decomposed mesh ([`mesh`]), their
+//! [`mesh`]); the vortex model's direct sums by block pairs dealt out
+//! ([`pairs`]), gravity's and the vortex model's Barnes-Hut trees by parts of
+//! the tree ([`tree`]) and the vortex-in-cell velocity (2D and 3D) on a
+//! slab-decomposed mesh ([`mesh`]), their
 //! state replicated on every rank ([`replicated`]) and their field sums and
 //! transforms divided ([`parts`]). Whatever can fail on
 //! one rank only is agreed ([`agree`]): every rank stops with the message of

@@ -168,38 +168,6 @@ pub fn velocity_at(
     })
 }
 
-/// `u_i += sum_j Gamma_j K_sigma(x_i - x_j)` at every target `i` over the
-/// sources given (positions and circulations; a source at the target's
-/// position adds nothing), one side of each pair only, in `LANES` SIMD
-/// lanes with the far-field shortcut of the direct solver: what a rank of a
-/// distributed direct sum adds up while the other ranks' particles pass by in
-/// a ring. Each target's sum runs in an order fixed by the sources, so the
-/// result does not depend on the thread count.
-pub fn add_velocity_at(
-    kernel: &BlobKernel,
-    targets: &[[f64; 2]],
-    positions: &[[f64; 2]],
-    gamma: &[f64],
-    u: &mut [[f64; 2]],
-    threads: &Threads,
-) {
-    assert_eq!(targets.len(), u.len(), "one velocity per target");
-    assert_eq!(positions.len(), gamma.len(), "one circulation per source");
-    let xs: Vec<f64> = positions.iter().map(|p| p[0]).collect();
-    let ys: Vec<f64> = positions.iter().map(|p| p[1]).collect();
-    threads.install(|| {
-        u.par_iter_mut()
-            .zip(targets)
-            .with_min_len(16)
-            .for_each(|(u, x)| {
-                let none: [&mut [f64]; 2] = [&mut [], &mut []];
-                let sums = row::<_, false>(kernel, *x, 0.0, [&xs, &ys], gamma, none);
-                u[0] += sums[0];
-                u[1] += sums[1];
-            })
-    });
-}
-
 /// Panics unless there is one circulation and one velocity per position: the
 /// contract of every vortex solver's `compute`.
 pub(crate) fn assert_lengths(positions: &[[f64; 2]], gamma: &[f64], velocity: &[[f64; 2]]) {
@@ -433,37 +401,6 @@ pub(crate) fn row<K: VortexLaw, const SYMMETRIC: bool>(
 mod tests {
     use super::*;
     use crate::random::Rng;
-
-    /// The one-sided SIMD sums against the scalar reference, added in two
-    /// parts, and the same bits on 1 and 2 threads.
-    #[test]
-    fn one_sided_sums_match_the_reference() {
-        let mut rng = Rng::new(5);
-        let k = BlobKernel::new(0.05);
-        let points: Vec<[f64; 2]> = (0..203).map(|_| [rng.uniform(), rng.uniform()]).collect();
-        let gamma: Vec<f64> = (0..203).map(|_| rng.uniform() - 0.5).collect();
-        let halves = |threads: &Threads| {
-            let mut u = vec![[0.0; 2]; 50];
-            for (lo, hi) in [(0, 101), (101, 203)] {
-                let (p, g) = (&points[lo..hi], &gamma[lo..hi]);
-                add_velocity_at(&k, &points[..50], p, g, &mut u, threads);
-            }
-            u
-        };
-        let one = Threads::new(1).unwrap();
-        let reference = velocity_at(&k, &points[..50], &points, &gamma, &one);
-        let u = halves(&one);
-        for (a, b) in u.iter().zip(&reference) {
-            for c in 0..2 {
-                assert!(
-                    (a[c] - b[c]).abs() <= 1e-12 * (1.0 + b[c].abs()),
-                    "{a:?} {b:?}"
-                );
-            }
-        }
-        let two = halves(&Threads::new(2).unwrap());
-        assert_eq!(u, two);
-    }
 
     #[test]
     fn the_factor_is_smooth_through_the_series_switch() {

@@ -16,7 +16,7 @@ pub mod mesh;
 pub mod p3m;
 pub mod tree;
 
-pub use biot_savart::{add_velocity_at, BlobKernel, DirectBiotSavart, PointVortex, VortexLaw};
+pub use biot_savart::{BlobKernel, DirectBiotSavart, PointVortex, VortexLaw};
 pub use biot_savart3::{velocity_and_gradient_at, BlobKernel3, DirectBiotSavart3};
 pub use direct::{DirectSum, PartialField};
 pub use mesh::{

@@ -220,7 +220,6 @@ impl VortexInCell {
     /// half spectrum).
     pub fn on_rank(params: VicParams, kernel: BlobKernel, rank: Rank) -> Result<Self, String> {
         params.check()?;
-        rank.check(params.grid)?;
         let sigma = kernel.sigma();
         if !(sigma.is_finite() && sigma > 0.0) {
             return Err(format!("sigma must be finite and > 0, got {sigma}"));
@@ -249,6 +248,7 @@ impl VortexInCell {
         let slab = Slab::new(Fft2::new(side), rank);
         // the M4' stencil reads two rows above a slab from the next rank alone
         rank.check_slabs(n, 2, slab.plane_len())?;
+        rank.check(n)?;
         let len = slab.lines_len();
         let (owned, window) = (slab.owned(n).len(), slab.window(n, 1, 2).count());
         Ok(VortexInCell {

@@ -203,12 +203,14 @@ pub struct VortexInCell3 {
     /// the inverse transform's `1 / M^3` included.
     first: [Vec<f64>; 3],
     second: [Vec<f64>; 6],
-    /// The node strengths `a_g`, three per node, interleaved.
+    /// The node strengths `a_g` of this rank's planes, three per node,
+    /// interleaved.
     strength: Vec<f64>,
     /// Their transforms, and a product being inverted.
     hat: [Vec<Complex<f64>>; 3],
     work: Vec<Complex<f64>>,
-    /// The mesh fields (module docs, step 3), `grid^3` each.
+    /// The mesh fields (module docs, step 3) on this rank's window of planes
+    /// (`grid^2` nodes per plane; every plane in one process).
     fields: [Vec<f64>; FIELDS],
     /// `(x, y, z, alpha)` counting-sorted by stencil plane.
     sorted: Sorted<6>,
@@ -242,7 +244,6 @@ impl VortexInCell3 {
     /// planes (or the columns of a plane's half spectrum).
     pub fn on_rank(params: Vic3Params, sigma: f64, rank: Rank) -> Result<Self, String> {
         params.check()?;
-        rank.check(params.grid)?;
         if !(sigma.is_finite() && sigma > 0.0) {
             return Err(format!("sigma must be finite and > 0, got {sigma}"));
         }
@@ -270,6 +271,7 @@ impl VortexInCell3 {
         let slab = Slab::new(Fft3::new(side), rank);
         // the M4' stencil reads two planes above a slab from the next rank alone
         rank.check_slabs(n, 2, slab.plane_len())?;
+        rank.check(n)?;
         let len = slab.lines_len();
         let spectrum = || vec![0.0; len];
         let (owned, window) = (slab.owned(n).len(), slab.window(n, 1, 2).count());
@@ -304,7 +306,8 @@ impl VortexInCell3 {
 
     /// `velocity[i] = u(x_i)`, `gradient[i][3 * a + b] = d u_a / d x_b` at `x_i`, of
     /// the blobs at `positions` with strengths `alpha`. Panics if the slices'
-    /// lengths differ or a position is not finite.
+    /// lengths differ, a position is not finite, or the solver was built for
+    /// one of several ranks ([`VortexInCell3::on_rank`]).
     pub fn compute(
         &mut self,
         positions: &[[f64; 3]],

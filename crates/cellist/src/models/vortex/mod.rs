@@ -229,7 +229,8 @@ pub enum VelocityEngine {
     Mesh(Box<VortexInCell>),
     /// The fast multipole method.
     Fmm(Box<VortexFmm<BlobKernel>>),
-    /// A solver from outside the engine (the ring pass of a distributed run).
+    /// A solver from outside the engine (the direct sum, tree or mesh shared
+    /// by the ranks of a distributed run).
     External(Box<dyn VelocityField>),
 }
 

@@ -161,8 +161,8 @@ pub enum Velocity3Engine {
     Mesh(Box<VortexInCell3>),
     /// The fast multipole method.
     Fmm(Box<VortexFmm3>),
-    /// A solver from outside the engine (the shared mesh or tree of a
-    /// distributed run).
+    /// A solver from outside the engine (the direct sum, tree or mesh shared
+    /// by the ranks of a distributed run).
     External(Box<dyn VelocityField3>),
 }
 
