@@ -1,8 +1,9 @@
 //! MPI test (feature `mpi`, its own binary: MPI initialises once per process):
 //! the ring-pass direct gravity against the single-process direct sum, the
 //! slab-decomposed mesh solvers (PM, P3M, the 2D and 3D vortex-in-cell over
-//! `MpiExchange`) and the 3D vortex direct sum with its block pairs dealt out
-//! against the same solvers in one process.
+//! `MpiExchange`), gravity's Barnes-Hut tree by locally essential trees and
+//! the 3D vortex direct sum with its block pairs dealt out against the same
+//! solvers in one process.
 //!
 //! ```text
 //! cargo build --release -p cellist-sim --features mpi --tests
@@ -14,9 +15,9 @@
 
 use cellist::interactions::GravityLaw;
 use cellist::longrange::{
-    BlobKernel, BlobKernel3, DirectBiotSavart3, DirectSum, FieldOut, MeshBoundary, MeshParams, P3m,
-    ParticleMesh, Rank, Sources, Vic3Boundary, Vic3Params, VicBoundary, VicParams, VortexInCell,
-    VortexInCell3,
+    BarnesHut, BlobKernel, BlobKernel3, DirectBiotSavart3, DirectSum, FieldOut, MeshBoundary,
+    MeshParams, P3m, ParticleMesh, Rank, Sources, TreeParams, Vic3Boundary, Vic3Params,
+    VicBoundary, VicParams, VortexInCell, VortexInCell3,
 };
 use cellist::models::gravity::plummer;
 use cellist::Threads;
@@ -149,6 +150,54 @@ fn mesh_error(world: &SimpleCommunicator, params: MeshParams, p3m: bool, threads
     largest(world, worst)
 }
 
+/// The largest relative difference of the accelerations and potentials
+/// between gravity's Barnes-Hut tree on the ranks of `world`, the bodies
+/// divided among them (locally essential trees), and the same tree in one
+/// process, on `n` bodies of a Plummer sphere.
+fn tree_error(world: &SimpleCommunicator, n: usize, threads: &Threads) -> f64 {
+    let law = GravityLaw::new(1.0, 0.01, 0.0).expect("a valid law");
+    let bodies = plummer(n, 7, &law, threads);
+    let params = TreeParams {
+        leaf_size: 8,
+        group_size: 32,
+        ..TreeParams::default()
+    };
+    let exchange = MpiExchange::essential(world.duplicate());
+    let own = block(n, world.rank() as usize, world.size() as usize);
+    let (mut acc, mut phi) = (vec![[0.0; 3]; n], vec![0.0; n]);
+    let (mut got_acc, mut got_phi) = (vec![[0.0; 3]; own.len()], vec![0.0; own.len()]);
+    let sources = Sources {
+        mass: &bodies.mass,
+        position: &bodies.position,
+    };
+    let whole = FieldOut {
+        acc: &mut acc,
+        phi: &mut phi,
+    };
+    BarnesHut::new(law, params)
+        .expect("a valid tree")
+        .compute(&sources, whole, threads);
+    let mine = Sources {
+        mass: &bodies.mass[own.clone()],
+        position: &bodies.position[own.clone()],
+    };
+    let part = FieldOut {
+        acc: &mut got_acc,
+        phi: &mut got_phi,
+    };
+    BarnesHut::new(law, params)
+        .expect("a valid tree")
+        .compute_spread(&mine, part, threads, &exchange);
+    // a rank without bodies has nothing to compare
+    let worst = if own.is_empty() {
+        0.0
+    } else {
+        relative(got_acc.as_flattened(), acc[own.clone()].as_flattened())
+            .max(relative(&got_phi, &phi[own]))
+    };
+    largest(world, worst)
+}
+
 /// The largest relative difference of the velocities between the
 /// vortex-in-cell solver on the ranks of `world`, each holding every
 /// particle, and in one process.
@@ -247,6 +296,42 @@ fn pairs3_error(world: &SimpleCommunicator, n: usize, threads: &Threads) -> f64 
     )
 }
 
+/// The cases' outcomes: rank 0 prints one line per case.
+struct Tally {
+    passed: usize,
+    failed: usize,
+    prints: bool,
+}
+
+impl Tally {
+    fn new(prints: bool) -> Self {
+        Tally {
+            passed: 0,
+            failed: 0,
+            prints,
+        }
+    }
+
+    /// Counts a case and prints its line, marked `ok` or `FAIL`.
+    fn add(&mut self, ok: bool, line: String) {
+        if ok {
+            self.passed += 1;
+        } else {
+            self.failed += 1;
+        }
+        if self.prints {
+            println!("{} {line}", if ok { "ok  " } else { "FAIL" });
+        }
+    }
+
+    /// Prints `N passed, N failed` (rank 0).
+    fn report(&self) {
+        if self.prints {
+            println!("{} passed, {} failed", self.passed, self.failed);
+        }
+    }
+}
+
 fn main() {
     let universe = mpi::initialize().expect("MPI initialises once");
     let world = universe.world();
@@ -273,23 +358,18 @@ fn main() {
             3,
         ),
     ];
-    let (mut passed, mut failed) = (0, 0);
+    let mut tally = Tally::new(world.rank() == 0);
     for (name, law, n) in cases {
         let law = law.expect("a valid law");
         let worst = worst_error(&world, law, n, &threads);
         let ok = worst <= 1e-13;
-        if ok {
-            passed += 1;
-        } else {
-            failed += 1;
-        }
-        if world.rank() == 0 {
-            println!(
-                "{} ring pass on {} ranks, {name}: largest relative difference {worst:.2e} (at most 1e-13)",
-                if ok { "ok  " } else { "FAIL" },
+        tally.add(
+            ok,
+            format!(
+                "ring pass on {} ranks, {name}: largest relative difference {worst:.2e} (at most 1e-13)",
                 world.size()
-            );
-        }
+            ),
+        );
     }
     let periodic = MeshParams {
         grid: 16,
@@ -362,43 +442,44 @@ fn main() {
         // the accelerations have the same bits; an isolated mesh's potentials
         // differ by rounding (its own-cloud sum over the modes is split)
         let ok = worst <= 1e-13;
-        if ok {
-            passed += 1;
-        } else {
-            failed += 1;
-        }
-        if world.rank() == 0 {
-            println!(
-                "{} slab-decomposed mesh on {} ranks, {name}: largest relative difference from one \
+        tally.add(
+            ok,
+            format!(
+                "slab-decomposed mesh on {} ranks, {name}: largest relative difference from one \
                  process {worst:.2e} (at most 1e-13)",
-                if ok { "ok  " } else { "FAIL" },
                 world.size()
-            );
-        }
+            ),
+        );
+    }
+    for n in [3000, 3] {
+        // the tree's lists and moments are one process's: the same bits
+        let worst = tree_error(&world, n, &threads);
+        let ok = worst == 0.0;
+        tally.add(
+            ok,
+            format!(
+                "Barnes-Hut gravity by locally essential trees on {} ranks, {n} bodies: \
+                 largest relative difference from one process {worst:.2e} (must be 0)",
+                world.size()
+            ),
+        );
     }
     for n in [1000, 3] {
         // each pair once on one rank, each particle's partials added in rank order
         let worst = pairs3_error(&world, n, &threads);
         let ok = worst <= 1e-13;
-        if ok {
-            passed += 1;
-        } else {
-            failed += 1;
-        }
-        if world.rank() == 0 {
-            println!(
-                "{} 3D vortex direct sum with its block pairs dealt out on {} ranks, {n} \
+        tally.add(
+            ok,
+            format!(
+                "3D vortex direct sum with its block pairs dealt out on {} ranks, {n} \
                  particles: largest relative difference from one process {worst:.2e} (at most \
                  1e-13)",
-                if ok { "ok  " } else { "FAIL" },
                 world.size()
-            );
-        }
+            ),
+        );
     }
-    if world.rank() == 0 {
-        println!("{passed} passed, {failed} failed");
-    }
-    if failed > 0 {
+    tally.report();
+    if tally.failed > 0 {
         std::process::exit(1);
     }
 }

@@ -1,11 +1,15 @@
-//! Gravity's direct sum and mesh solvers on several ranks with the bodies
-//! divided among them: rank `r` owns the bodies `N r / P .. N (r + 1) / P` of
-//! the input order for the whole run (no solver cares which rank holds a
-//! body), steps them, and sums their field over every rank's bodies: the
-//! direct sum by seed 003's ring pass ([`RingGravity`]), particle-mesh and
-//! P3M on a slab-decomposed mesh to whose slabs (and P3M's slabs of cells)
-//! the bodies travel ([`SpreadMesh`]). Through the steps a rank holds its `N / P` bodies and the
-//! block in flight on the ring, or the bodies routed to its slabs. The whole
+//! Gravity's direct sum, mesh solvers and Barnes-Hut tree on several ranks
+//! with the bodies divided among them: rank `r` owns the bodies
+//! `N r / P .. N (r + 1) / P` of the input order for the whole run (no
+//! solver cares which rank holds a body), steps them, and sums their field
+//! over every rank's bodies: the direct sum by seed 003's ring pass
+//! ([`RingGravity`]), particle-mesh and P3M on a slab-decomposed mesh to
+//! whose slabs (and P3M's slabs of cells) the bodies travel, and the tree by
+//! locally essential trees, the bodies travelling to the ranks of their
+//! parts of the tree ([`SpreadGravity`]). Through the steps a rank holds its
+//! `N / P` bodies and the block in flight on the ring, or the bodies routed
+//! to its slabs, or those routed to its part of the tree and the nodes and
+//! bodies of the other parts that its walks reach. The whole
 //! system is held at set-up (every rank builds every body before it keeps its
 //! block, and decodes a whole checkpoint file at a restart), and by rank 0
 //! for a checkpoint file, a picture or a trajectory frame (dumps and thermo
@@ -13,7 +17,7 @@
 //!
 //! ```text
 //! step:  kick + drift of the own bodies (the integrator's first part)
-//!        the field at the own bodies (the ring pass, or the mesh)
+//!        the field at the own bodies (the ring pass, the mesh or the tree)
 //!        kick (leapfrog's second half); check the own bodies
 //!        all-reduces: a blow-up on any rank (the lowest one's message), then
 //!          observed?; observed: the box of all bodies (two more)
@@ -27,16 +31,20 @@
 //! in id order as one process sums them. The ring's forces follow its order
 //! (each body's sum over the blocks, its own first), so a run agrees with
 //! one process to rounding; the meshes' accelerations are those of one
-//! process to the bit, their potentials to rounding.
+//! process to the bit, their potentials to rounding; the tree's fields are
+//! those of one process to the bit.
 
-use super::mesh::{GravityMesh, MpiExchange, SpreadMesh};
+use super::mesh::MpiExchange;
 use super::parts::{imbalance, Figures};
 use super::pull::{self, IdSpan, OwnRows};
 use super::ring::{blocks, RingGravity};
 use super::{agree, agree_blowup, is_own_part, mark_part};
 use crate::hosted::{Distribution, Hosted};
 use cellist::interactions::GravityLaw;
-use cellist::longrange::{MeshParams, P3m, ParticleMesh, Rank};
+use cellist::longrange::Exchange;
+use cellist::longrange::{
+    BarnesHut, FieldOut, FieldSolver, MeshParams, P3m, ParticleMesh, Rank, Sources, TreeParams,
+};
 use cellist::models::gravity::{
     body_particles, check_bodies, checked_bodies, load_bodies, save_bodies, thermo_row, Bodies,
     GravityError, GravitySystem, Integrator, Observables, SavedBodies, Solver, INFO as GRAVITY,
@@ -78,6 +86,8 @@ pub enum SpreadField {
     /// P3M on a slab-decomposed mesh with these settings and its splitting
     /// radius in mesh cells.
     P3m(MeshParams, f64),
+    /// The Barnes-Hut tree with these settings, by locally essential trees.
+    Tree(TreeParams),
 }
 
 impl SpreadField {
@@ -92,21 +102,68 @@ impl SpreadField {
             index: world.rank() as usize,
             count: world.size() as usize,
         };
-        let mesh = match self {
+        let (solver, exchange) = match self {
             SpreadField::Ring => {
                 let solver = RingGravity::new(world.duplicate(), law);
                 let figures = solver.figures();
                 return Ok((Solver::External(Box::new(solver)), figures));
             }
-            SpreadField::Pm(params) => GravityMesh::Pm(ParticleMesh::on_rank(law, params, rank)?),
-            SpreadField::P3m(params, split) => {
-                GravityMesh::P3m(P3m::on_rank(law, params, split, rank)?)
-            }
+            SpreadField::Pm(params) => (
+                SpreadSolver::Pm(ParticleMesh::on_rank(law, params, rank)?),
+                MpiExchange::routing(world.duplicate()),
+            ),
+            SpreadField::P3m(params, split) => (
+                SpreadSolver::P3m(P3m::on_rank(law, params, split, rank)?),
+                MpiExchange::routing(world.duplicate()),
+            ),
+            SpreadField::Tree(params) => (
+                SpreadSolver::Tree(BarnesHut::new(law, params)?),
+                MpiExchange::essential(world.duplicate()),
+            ),
         };
-        let exchange = MpiExchange::routing(world.duplicate());
         let figures = exchange.figures();
-        let solver = SpreadMesh::new(mesh, exchange);
+        let solver = SpreadGravity { solver, exchange };
         Ok((Solver::External(Box::new(solver)), figures))
+    }
+}
+
+/// Gravity's solvers whose bodies travel among the ranks.
+#[derive(Debug)]
+// built once per run and matched once per step: its size does not matter
+#[allow(clippy::large_enum_variant)]
+pub enum SpreadSolver {
+    /// Particle-mesh.
+    Pm(ParticleMesh),
+    /// P3M.
+    P3m(P3m),
+    /// The Barnes-Hut tree.
+    Tree(BarnesHut),
+}
+
+/// Gravity's mesh or tree solver on several ranks, the bodies divided among
+/// them: the engine's [`FieldSolver`] over a rank's own bodies, the ranks'
+/// bodies following each other in rank order
+/// ([`ParticleMesh::compute_spread`], [`P3m::compute_spread`],
+/// [`BarnesHut::compute_spread`]).
+pub struct SpreadGravity {
+    solver: SpreadSolver,
+    exchange: MpiExchange,
+}
+
+impl std::fmt::Debug for SpreadGravity {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{:?} on {} ranks", self.solver, self.exchange.ranks())
+    }
+}
+
+impl FieldSolver for SpreadGravity {
+    fn compute(&mut self, sources: &Sources, out: FieldOut, threads: &Threads) {
+        let exchange = &self.exchange;
+        match &mut self.solver {
+            SpreadSolver::Pm(s) => s.compute_spread(sources, out, threads, exchange),
+            SpreadSolver::P3m(s) => s.compute_spread(sources, out, threads, exchange),
+            SpreadSolver::Tree(s) => s.compute_spread(sources, out, threads, exchange),
+        }
     }
 }
 

@@ -1,6 +1,6 @@
 //! The mesh solvers on several ranks, each rank holding a slab of the mesh's
 //! planes: gravity's particle-mesh and P3M with the bodies divided among the
-//! ranks ([`SpreadMesh`], for [`super::gravity`]), and the vortex model's
+//! ranks ([`super::gravity`]), and the vortex model's
 //! vortex-in-cell velocity with every particle on each rank (the state is
 //! replicated, [`super::replicated`]). The engine does the physics, the slab
 //! FFT ([`cellist::longrange::mesh::slab`]) and the bodies' routes to the
@@ -10,9 +10,7 @@
 
 use super::layout;
 use super::parts::Figures;
-use cellist::longrange::{
-    Exchange, FieldOut, FieldSolver, P3m, ParticleMesh, Sources, VortexInCell, VortexInCell3,
-};
+use cellist::longrange::{Exchange, VortexInCell, VortexInCell3};
 use cellist::models::vortex::VelocityField;
 use cellist::models::vortex3::VelocityField3;
 use cellist::Threads;
@@ -46,6 +44,18 @@ impl MpiExchange {
             figures: Figures::new(
                 "Slab-decomposed mesh",
                 "in the transposes and the bodies' routes",
+            ),
+        }
+    }
+
+    /// The exchange on the ranks of `world`, for a Barnes-Hut tree whose
+    /// bodies are divided among them.
+    pub fn essential(world: SimpleCommunicator) -> Self {
+        MpiExchange {
+            world,
+            figures: Figures::new(
+                "Locally essential trees",
+                "in the bodies' routes, the top of the tree and the essential parts",
             ),
         }
     }
@@ -103,49 +113,6 @@ impl Exchange for MpiExchange {
             self.world
                 .all_gather_varcount_into(mine, &mut PartitionMut::new(out, c, d))
         });
-    }
-}
-
-/// Gravity's mesh solvers, particle-mesh and P3M.
-#[derive(Debug)]
-// built once per run and matched once per step: its size does not matter
-#[allow(clippy::large_enum_variant)]
-pub enum GravityMesh {
-    /// Particle-mesh.
-    Pm(ParticleMesh),
-    /// P3M.
-    P3m(P3m),
-}
-
-/// Gravity's mesh solver on several ranks, the bodies divided among them:
-/// the engine's [`FieldSolver`] over a rank's own bodies, the ranks' bodies
-/// following each other in rank order ([`ParticleMesh::compute_spread`],
-/// [`P3m::compute_spread`]).
-pub struct SpreadMesh {
-    solver: GravityMesh,
-    exchange: MpiExchange,
-}
-
-impl SpreadMesh {
-    /// `solver`, built for this rank's slab of `exchange`'s ranks.
-    pub fn new(solver: GravityMesh, exchange: MpiExchange) -> Self {
-        SpreadMesh { solver, exchange }
-    }
-}
-
-impl std::fmt::Debug for SpreadMesh {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "{:?} on {} ranks", self.solver, self.exchange.ranks())
-    }
-}
-
-impl FieldSolver for SpreadMesh {
-    fn compute(&mut self, sources: &Sources, out: FieldOut, threads: &Threads) {
-        let exchange = &self.exchange;
-        match &mut self.solver {
-            GravityMesh::Pm(s) => s.compute_spread(sources, out, threads, exchange),
-            GravityMesh::P3m(s) => s.compute_spread(sources, out, threads, exchange),
-        }
     }
 }
 

@@ -1,43 +1,22 @@
 //! Models whose state every rank holds in full and advances alike, their
 //! field sums divided among the ranks: the vortex model (2D and 3D) with its
-//! direct solver by block pairs dealt out ([`super::pairs`]), gravity and the
-//! vortex model with their Barnes-Hut trees by parts of the tree
-//! ([`super::tree`]), and the vortex model's vortex-in-cell on a mesh cut
-//! into slabs of planes ([`super::mesh`]). (Gravity's direct sum and mesh solvers divide the
-//! bodies among the ranks instead: [`super::gravity`].) Every rank takes the same
+//! direct solver by block pairs dealt out ([`super::pairs`]), its
+//! Barnes-Hut trees by parts of the tree ([`super::tree`]), and its
+//! vortex-in-cell on a mesh cut into slabs of planes ([`super::mesh`]).
+//! (Gravity divides its bodies among the ranks instead: [`super::gravity`].) Every rank takes the same
 //! steps on the same bits, so the checks agree without messages; rank 0 writes
 //! the outputs ([`Ranks::Replicated`]).
 
 use super::mesh::{MeshVortex, MeshVortex3, MpiExchange};
 use super::pairs::{PairsVortex, PairsVortex3};
-use super::tree::{TreeGravity, TreeVortex, TreeVortex3};
+use super::tree::{TreeVortex, TreeVortex3};
 use crate::ranks::Ranks;
-use cellist::interactions::GravityLaw;
 use cellist::longrange::{
     BlobKernel, BlobKernel3, Rank, TreeParams, Vic3Params, VortexInCell, VortexInCell3,
 };
-use cellist::models::gravity::Solver;
 use cellist::models::vortex::{VelocityEngine, VelocitySolver};
 use cellist::models::vortex3::Velocity3Engine;
 use mpi::traits::Communicator;
-
-/// On several ranks, gravity's Barnes-Hut tree divided among them for `law`
-/// with `params`, and its ranks; `None` in one process.
-pub fn gravity_tree(
-    law: GravityLaw,
-    params: TreeParams,
-) -> Option<Result<(Solver, Ranks), String>> {
-    let world = super::world_of_many()?;
-    Some(
-        TreeGravity::new(world.duplicate(), law, params).map(|solver| {
-            let figures = solver.figures();
-            (
-                Solver::External(Box::new(solver)),
-                Ranks::Replicated { world, figures },
-            )
-        }),
-    )
-}
 
 /// On several ranks, the vortex model's direct sum of `n` blobs of `kernel`
 /// with its block pairs dealt out among them, its ranks and the run's `mpi:`

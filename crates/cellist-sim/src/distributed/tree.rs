@@ -1,4 +1,4 @@
-//! The Barnes-Hut trees of gravity and of the vortex model on ranks that each
+//! The Barnes-Hut trees of the vortex model (2D and 3D) on ranks that each
 //! hold every particle (a replicated run): every rank builds the same tree
 //! over all particles (the same octree, moments and opening decisions as one
 //! process), walks and sums only its part of the walk groups (a contiguous
@@ -10,11 +10,7 @@
 //! only the walks and the sums are divided.
 
 use super::parts::{all_gather_parts, Figures};
-use cellist::interactions::GravityLaw;
-use cellist::longrange::{
-    BarnesHut, BlobKernel, BlobKernel3, FieldOut, FieldSolver, Share, Sources, TreeParams,
-    VortexTree, VortexTree3,
-};
+use cellist::longrange::{BlobKernel, BlobKernel3, Share, TreeParams, VortexTree, VortexTree3};
 use cellist::models::vortex::VelocityField;
 use cellist::models::vortex3::VelocityField3;
 use cellist::Threads;
@@ -64,49 +60,6 @@ impl Share for RankShare<'_> {
 /// The figures of a shared tree.
 fn tree_figures() -> Figures {
     Figures::new("Shared tree", "gathering the results")
-}
-
-/// Gravity's Barnes-Hut tree divided among the ranks: the engine's
-/// [`FieldSolver`] for a run whose bodies every rank holds, with the field of
-/// [`BarnesHut`] to the bit.
-pub struct TreeGravity {
-    world: SimpleCommunicator,
-    tree: BarnesHut,
-    figures: Figures,
-}
-
-impl TreeGravity {
-    /// The tree for `law` with `params` (checked) on the ranks of `world`.
-    pub fn new(
-        world: SimpleCommunicator,
-        law: GravityLaw,
-        params: TreeParams,
-    ) -> Result<Self, String> {
-        Ok(TreeGravity {
-            world,
-            tree: BarnesHut::new(law, params)?,
-            figures: tree_figures(),
-        })
-    }
-
-    /// The figures, shared.
-    pub fn figures(&self) -> Figures {
-        self.figures.clone()
-    }
-}
-
-impl std::fmt::Debug for TreeGravity {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "TreeGravity on {} ranks", self.world.size())
-    }
-}
-
-impl FieldSolver for TreeGravity {
-    fn compute(&mut self, sources: &Sources, out: FieldOut, threads: &Threads) {
-        let mut ranks = RankShare::new(&self.world);
-        self.tree.compute_shared(sources, out, threads, &mut ranks);
-        self.figures.add(ranks.waited, &ranks.bounds);
-    }
 }
 
 /// The vortex model's Barnes-Hut tree divided among the ranks: the engine's

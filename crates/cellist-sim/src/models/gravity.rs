@@ -541,70 +541,23 @@ fn run_setup<L: Launch>(
 ) -> SimResult<L::Output> {
     let (threads, out_dir) = (context.threads, &context.out_dir);
     let started = Instant::now();
-    // the solver of one process (a distributed mesh builds its own slab)
-    let single =
-        || Solver::new(&setup.choice, setup.law, setup.bodies.len()).map_err(|e| scenario.error(e));
     #[cfg(feature = "mpi")]
-    let distributed = {
+    if let Some(world) = crate::distributed::world_of_many() {
         use crate::distributed::gravity::SpreadField;
-        use crate::distributed::replicated::gravity_tree;
-        let (p, n) = (
-            crate::distributed::world_of_many()
-                .map_or(1, |w| mpi::traits::Communicator::size(&w) as usize),
-            setup.bodies.len(),
-        );
-        match setup.choice {
-            SolverChoice::Pm(mesh) => match crate::distributed::world_of_many() {
-                Some(world) => {
-                    let field = SpreadField::Pm(mesh);
-                    return run_spread(scenario, setup, context, launch, world, field, started);
-                }
-                None => None,
-            },
-            SolverChoice::P3m { mesh, split_cells } => match crate::distributed::world_of_many() {
-                Some(world) => {
-                    let field = SpreadField::P3m(mesh, split_cells);
-                    return run_spread(scenario, setup, context, launch, world, field, started);
-                }
-                None => None,
-            },
-            SolverChoice::BarnesHut(params) => gravity_tree(setup.law, params)
-                .transpose()
-                .map_err(|e| scenario.error(e))?
-                .map(|(solver, ranks)| {
-                    let line = format!(
-                        "mpi: {p} ranks; the Barnes-Hut tree of all {n} bodies built alike on \
-                         every rank (the bodies held by every rank), each rank walking a run of \
-                         its groups balanced by interactions, the results all-gathered: one \
-                         process's forces to the bit"
-                    );
-                    (solver, ranks, line)
-                }),
-            SolverChoice::Fmm(_) => match crate::distributed::world_of_many() {
-                Some(_) => return Err(scenario.error(
-                    "system.solver: the fmm runs on one process (not yet distributed); on several ranks use direct, barnes-hut, pm or p3m",
-                )),
-                None => None,
-            },
-            SolverChoice::Direct => match crate::distributed::world_of_many() {
-                Some(world) => {
-                    let field = SpreadField::Ring;
-                    return run_spread(scenario, setup, context, launch, world, field, started);
-                }
-                None => None,
-            },
-        }
-    };
-    #[cfg(feature = "mpi")]
-    let (solver, ranks) = match distributed {
-        Some((solver, ranks, line)) => {
-            context.say(line);
-            (solver, ranks)
-        }
-        None => (single()?, Ranks::One),
-    };
-    #[cfg(not(feature = "mpi"))]
-    let (solver, ranks) = (single()?, Ranks::One);
+        let field = match setup.choice {
+            SolverChoice::Pm(mesh) => SpreadField::Pm(mesh),
+            SolverChoice::P3m { mesh, split_cells } => SpreadField::P3m(mesh, split_cells),
+            SolverChoice::BarnesHut(params) => SpreadField::Tree(params),
+            SolverChoice::Direct => SpreadField::Ring,
+            SolverChoice::Fmm(_) => return Err(scenario.error(
+                "system.solver: the fmm runs on one process (not yet distributed); on several ranks use direct, barnes-hut, pm or p3m",
+            )),
+        };
+        return run_spread(scenario, setup, context, launch, world, field, started);
+    }
+    // the solver of one process (a distributed one builds its own part)
+    let solver =
+        Solver::new(&setup.choice, setup.law, setup.bodies.len()).map_err(|e| scenario.error(e))?;
     let plan = output_plan(&setup);
     let bodies = std::mem::take(&mut setup.bodies);
     let system =
@@ -618,7 +571,7 @@ fn run_setup<L: Launch>(
     let mut model = GravityModel::new(system, setup.integrator, setup.dt);
     model.dimension = setup.dimension;
     let spec = job_spec(scenario, &setup, out_dir)?;
-    launch.launch(spec.with(model).on(ranks), &plan, context, started)
+    launch.launch(spec.with(model).on(Ranks::One), &plan, context, started)
 }
 
 /// The run of `setup` into `dir`: its steps, checkpoints, physics keys and
@@ -664,6 +617,13 @@ fn run_spread<L: Launch>(
              the bodies sent to the slabs their clouds touch, their fields sent back",
             n / ranks,
             slab_planes(mesh.grid, ranks)
+        ),
+        SpreadField::Tree(_) => format!(
+            "mpi: {ranks} ranks; the Barnes-Hut tree by locally essential trees, each rank \
+             holding a block of about {} bodies; the bodies sent to the ranks of their parts \
+             of the tree (runs of its Morton order), each rank receiving the nodes and bodies \
+             of the other parts its walks reach: one process's forces to the bit",
+            n / ranks
         ),
         SpreadField::P3m(mesh, _) => format!(
             "mpi: {ranks} ranks; P3M on a slab-decomposed mesh, each rank holding a block of \

@@ -155,42 +155,6 @@ pub(crate) fn apply_kernels(out: &mut [Complex<f64>], terms: &[Term], derivative
         });
 }
 
-/// The bounding box `(lo, hi)` of every rank's `positions` (collective on
-/// several ranks), and their count.
-fn extent(positions: &[[f64; 3]], exchange: &dyn Exchange) -> (([f64; 3], [f64; 3]), usize) {
-    // a rank without particles adds nothing to the minimum and the maximum
-    let (mut lo, mut hi) = if positions.is_empty() {
-        ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3])
-    } else {
-        crate::geometry::bounding_box(positions)
-    };
-    let ranks = exchange.ranks();
-    if ranks == 1 {
-        return ((lo, hi), positions.len());
-    }
-    // lo, hi and the count of every rank
-    let mine = [
-        lo[0],
-        lo[1],
-        lo[2],
-        hi[0],
-        hi[1],
-        hi[2],
-        positions.len() as f64,
-    ];
-    let mut all = vec![0.0; 7 * ranks];
-    exchange.all_gather(&mine, &vec![7; ranks], &mut all);
-    let mut count = 0;
-    for r in all.chunks_exact(7) {
-        for a in 0..3 {
-            lo[a] = lo[a].min(r[a]);
-            hi[a] = hi[a].max(r[3 + a]);
-        }
-        count += r[6] as usize;
-    }
-    ((lo, hi), count)
-}
-
 /// The mesh machinery shared by [`ParticleMesh`] and [`super::P3m`]: its
 /// geometry, transforms, Green's function and buffers, on one rank's slab
 /// of planes along axis 0 (module `slab`; every plane in one process).
@@ -354,7 +318,7 @@ impl MeshSolver {
         threads: &Threads,
         exchange: &dyn Exchange,
     ) -> Option<([f64; 3], [f64; 3])> {
-        let (bounds, count) = extent(positions, exchange);
+        let (bounds, count) = slab::extent(positions, exchange);
         if count < 2 {
             return None;
         }

@@ -46,6 +46,45 @@ pub trait Exchange {
     fn all_gather(&self, mine: &[f64], counts: &[usize], out: &mut [f64]);
 }
 
+/// The bounding box `(lo, hi)` of every rank's `positions` (collective on
+/// several ranks), and their count.
+pub(crate) fn extent(
+    positions: &[[f64; 3]],
+    exchange: &dyn Exchange,
+) -> (([f64; 3], [f64; 3]), usize) {
+    // a rank without particles adds nothing to the minimum and the maximum
+    let (mut lo, mut hi) = if positions.is_empty() {
+        ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3])
+    } else {
+        crate::geometry::bounding_box(positions)
+    };
+    let ranks = exchange.ranks();
+    if ranks == 1 {
+        return ((lo, hi), positions.len());
+    }
+    // lo, hi and the count of every rank
+    let mine = [
+        lo[0],
+        lo[1],
+        lo[2],
+        hi[0],
+        hi[1],
+        hi[2],
+        positions.len() as f64,
+    ];
+    let mut all = vec![0.0; 7 * ranks];
+    exchange.all_gather(&mine, &vec![7; ranks], &mut all);
+    let mut count = 0;
+    for r in all.chunks_exact(7) {
+        for a in 0..3 {
+            lo[a] = lo[a].min(r[a]);
+            hi[a] = hi[a].max(r[3 + a]);
+        }
+        count += r[6] as usize;
+    }
+    ((lo, hi), count)
+}
+
 /// The one process: rank 0 of 1.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Alone;

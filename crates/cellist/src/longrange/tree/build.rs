@@ -6,7 +6,7 @@ use crate::threads::Threads;
 use rayon::prelude::*;
 
 /// Bits per axis in a Morton key (3 x 21 = 63 bits).
-const KEY_BITS: u32 = 21;
+pub(super) const KEY_BITS: u32 = 21;
 
 /// `v`'s low 21 bits spread to every third bit.
 #[inline]
@@ -57,7 +57,8 @@ pub(super) struct Node {
 pub(super) struct Octree {
     /// `order[s]`: the input index of sorted particle `s`.
     pub order: Vec<u32>,
-    keys: Vec<(u64, u32)>,
+    /// `(Morton key, input index)` of each sorted particle.
+    pub keys: Vec<(u64, u32)>,
     /// Depth-first nodes; node 0 is the root.
     pub nodes: Vec<Node>,
     /// The walk's groups, in order: the largest nodes of at most `group_size`
@@ -98,40 +99,23 @@ impl Octree {
         stretch: f64,
         threads: &Threads,
     ) {
-        assert!(
-            stretch >= 1.0,
-            "a root smaller than the bounding cube: {stretch}"
-        );
         let n = positions.len();
-        let (lower, fitted) = bounding_cube(positions);
-        let side = fitted * stretch;
-        let corner: [f64; 3] = std::array::from_fn(|a| lower[a] - 0.5 * (side - fitted));
-        let scale = (1u64 << KEY_BITS) as f64 / side;
-        let top = (1u64 << KEY_BITS) - 1;
-        threads.install(|| {
-            positions
-                .par_iter()
-                .enumerate()
-                .map(|(i, x)| {
-                    let q = std::array::from_fn(|a| (((x[a] - corner[a]) * scale) as u64).min(top));
-                    (morton(q), i as u32)
-                })
-                .collect_into_vec(&mut self.keys);
-            self.keys.par_sort_unstable();
-        });
+        let (lo, hi) = crate::geometry::bounding_box(positions);
+        let cube = Cube::stretched(lo, hi, n > 0, stretch);
+        cube.sorted_keys(positions, &mut self.keys, threads);
         self.order.clear();
         self.order.extend(self.keys.iter().map(|k| k.1));
         self.nodes.clear();
         self.groups.clear();
         if n > 0 {
-            self.cut(0, n, 0, corner, side, sizes, false);
+            self.cut(0, n, 0, cube.corner, cube.side, sizes, false);
         }
     }
 
     /// Appends the node of sorted particles `start..end` at `level` (its cube at
     /// `corner` with `side`) and its subtree; `grouped` when an ancestor is a group.
     #[allow(clippy::too_many_arguments)]
-    fn cut(
+    pub(super) fn cut(
         &mut self,
         start: usize,
         end: usize,
@@ -163,8 +147,7 @@ impl Octree {
                 let to =
                     from + self.keys[from..end].partition_point(|k| (k.0 >> shift) & 7 <= octant);
                 if to > from {
-                    let child =
-                        std::array::from_fn(|a| corner[a] + half * ((octant >> a) & 1) as f64);
+                    let child = child_corner(corner, half, octant);
                     self.cut(from, to, level + 1, child, half, sizes, grouped || group);
                 }
                 from = to;
@@ -174,21 +157,77 @@ impl Octree {
     }
 }
 
-/// The smallest axis-aligned cube holding `positions` (a unit cube if there are
-/// none), grown by a relative `1e-12` so that the largest coordinates fall inside.
-fn bounding_cube(positions: &[[f64; 3]]) -> ([f64; 3], f64) {
-    let (lo, hi) = crate::geometry::bounding_box(positions);
-    if positions.is_empty() {
-        return ([0.0; 3], 1.0);
+/// The lower corner of child `octant` (bit `a` set: the upper half along
+/// axis `a`) of the cube at `corner` with side `2 half`.
+#[inline]
+pub(super) fn child_corner(corner: [f64; 3], half: f64, octant: u64) -> [f64; 3] {
+    std::array::from_fn(|a| corner[a] + half * ((octant >> a) & 1) as f64)
+}
+
+/// The root's cube and the Morton keys of the positions in it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct Cube {
+    /// The lower corner.
+    pub corner: [f64; 3],
+    /// The side.
+    pub side: f64,
+}
+
+impl Cube {
+    /// The smallest axis-aligned cube holding the box `lo..hi` of some
+    /// positions (`any`: there are some; else a unit cube at the origin),
+    /// grown by a relative `1e-12` so that the largest coordinates fall
+    /// inside, then `stretch` times (at least 1) about its centre.
+    pub fn stretched(lo: [f64; 3], hi: [f64; 3], any: bool, stretch: f64) -> Self {
+        assert!(
+            stretch >= 1.0,
+            "a root smaller than the bounding cube: {stretch}"
+        );
+        let (lower, fitted) = if any {
+            let extent = (0..3).map(|a| hi[a] - lo[a]).fold(0.0, f64::max);
+            let magnitude = (0..3)
+                .map(|a| lo[a].abs().max(hi[a].abs()))
+                .fold(0.0, f64::max);
+            let side = (extent * (1.0 + 1e-12))
+                .max(magnitude * 1e-12)
+                .max(f64::MIN_POSITIVE);
+            (lo, side)
+        } else {
+            ([0.0; 3], 1.0)
+        };
+        let side = fitted * stretch;
+        let corner = std::array::from_fn(|a| lower[a] - 0.5 * (side - fitted));
+        Cube { corner, side }
     }
-    let extent = (0..3).map(|a| hi[a] - lo[a]).fold(0.0, f64::max);
-    let magnitude = (0..3)
-        .map(|a| lo[a].abs().max(hi[a].abs()))
-        .fold(0.0, f64::max);
-    let side = (extent * (1.0 + 1e-12))
-        .max(magnitude * 1e-12)
-        .max(f64::MIN_POSITIVE);
-    (lo, side)
+
+    /// `(key, index)` of every position in `positions`, sorted (keys, then
+    /// indices) into `keys`.
+    pub fn sorted_keys(
+        &self,
+        positions: &[[f64; 3]],
+        keys: &mut Vec<(u64, u32)>,
+        threads: &Threads,
+    ) {
+        threads.install(|| {
+            positions
+                .par_iter()
+                .enumerate()
+                .map(|(i, x)| (self.key(x), i as u32))
+                .collect_into_vec(keys);
+            keys.par_sort_unstable();
+        });
+    }
+
+    /// The Morton key of `x`: its cell among the `2^21` per axis of the cube,
+    /// clamped into the cube.
+    #[inline]
+    pub fn key(&self, x: &[f64; 3]) -> u64 {
+        let scale = (1u64 << KEY_BITS) as f64 / self.side;
+        let top = (1u64 << KEY_BITS) - 1;
+        morton(std::array::from_fn(|a| {
+            (((x[a] - self.corner[a]) * scale) as u64).min(top)
+        }))
+    }
 }
 
 #[cfg(test)]

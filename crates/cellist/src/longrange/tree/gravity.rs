@@ -3,13 +3,15 @@
 
 use super::build::Node;
 use super::share::{Share, Whole};
+use super::spread::Spread;
 use super::walk::{copy, Group, Lists, Solver, Target, Walk, LANES};
 use super::TreeParams;
 use crate::interactions::GravityLaw;
 use crate::longrange::direct::Kernel;
-use crate::longrange::{FieldOut, Sources};
+use crate::longrange::{Exchange, FieldOut, Sources};
 use crate::simd::F64x4;
 use crate::threads::Threads;
+use std::ops::Range;
 
 /// The Barnes-Hut solver of [`GravityLaw`]: the tree, its moments and the
 /// per-thread scratch, kept between evaluations. Its field at `x` of an accepted
@@ -24,21 +26,27 @@ use crate::threads::Threads;
 pub struct BarnesHut {
     law: GravityLaw,
     solver: Solver<Multipole, GravityLists, 4>,
+    /// What [`compute_spread`](Self::compute_spread) keeps.
+    spread: Spread,
 }
 
 /// A node's mass and traceless quadrupole `xx, xy, xz, yy, yz, zz` about its
 /// centre of mass.
 #[derive(Clone, Copy, Debug, Default)]
-struct Multipole {
-    mass: f64,
-    quad: [f64; 6],
+pub(super) struct Multipole {
+    pub mass: f64,
+    pub quad: [f64; 6],
 }
 
 impl BarnesHut {
     /// A solver for `law` with `params` (checked).
     pub fn new(law: GravityLaw, params: TreeParams) -> Result<Self, String> {
         let solver = Solver::new(params)?;
-        Ok(BarnesHut { law, solver })
+        Ok(BarnesHut {
+            law,
+            solver,
+            spread: Spread::default(),
+        })
     }
 
     /// `(node, particle)` interactions of the last evaluation (of this
@@ -64,10 +72,8 @@ impl BarnesHut {
         threads: &Threads,
         share: &mut dyn Share,
     ) {
-        let kernel = Kernel::new(&self.law);
-        let quadrupole = self.solver.params.quadrupole;
-        let repulsion = self.law.has_repulsion();
         let position = sources.position;
+        let sum_group = self.group_sums();
         self.solver.evaluate(
             position,
             position,
@@ -76,15 +82,7 @@ impl BarnesHut {
             threads,
             share,
             of_node,
-            |lists: &mut GravityLists, group, target| {
-                lists.gather(&group, quadrupole);
-                if repulsion {
-                    lists.evaluate::<true>(&kernel, &group, target);
-                } else {
-                    lists.evaluate::<false>(&kernel, &group, target);
-                }
-                lists.walk.counts(target.len())
-            },
+            sum_group,
         );
         let g = self.law.g();
         for (i, v) in self.solver.results() {
@@ -92,16 +90,121 @@ impl BarnesHut {
             out.phi[i] = -g * v[3];
         }
     }
+
+    /// [`compute`](Self::compute) on the ranks of `exchange`, the bodies
+    /// divided among them: every rank calls it with its own part of them
+    /// (`sources`), the parts following each other in rank order, and gets
+    /// its own bodies' fields in `out`, those of one process to the bit. The
+    /// bodies travel to the ranks that hold their parts of the tree, each
+    /// rank builds the subtrees of its bodies and receives from the others
+    /// the nodes and bodies its walks reach (locally essential trees; module
+    /// `spread`).
+    pub fn compute_spread(
+        &mut self,
+        sources: &Sources,
+        out: FieldOut,
+        threads: &Threads,
+        exchange: &dyn Exchange,
+    ) {
+        let sum_group = self.group_sums();
+        let mut sums = std::mem::take(&mut self.spread.sums);
+        sums.resize(sources.mass.len(), [0.0; 4]);
+        self.spread.evaluate(
+            sources.position,
+            sources.mass,
+            &mut self.solver,
+            exchange,
+            threads,
+            &mut sums,
+            |solver, threads| solver.sum_groups(0..solver.tree.groups.len(), threads, &sum_group),
+        );
+        let g = self.law.g();
+        for ((acc, phi), v) in out.acc.iter_mut().zip(out.phi.iter_mut()).zip(&sums) {
+            *acc = [g * v[0], g * v[1], g * v[2]];
+            *phi = -g * v[3];
+        }
+        self.spread.sums = sums;
+    }
+
+    /// A group's sums: its lists gathered, then summed for its bodies into
+    /// `[sum acc_x, acc_y, acc_z, pot]` (without the factors `G` and `-G`);
+    /// its interactions.
+    fn group_sums(
+        &self,
+    ) -> impl Fn(&mut GravityLists, Group<Multipole>, &mut [[f64; 4]]) -> (u64, u64) + Sync {
+        let kernel = Kernel::new(&self.law);
+        let quadrupole = self.solver.params.quadrupole;
+        let repulsion = self.law.has_repulsion();
+        move |lists: &mut GravityLists, group, target| {
+            lists.gather(&group, quadrupole);
+            if repulsion {
+                lists.evaluate::<true>(&kernel, &group, target);
+            } else {
+                lists.evaluate::<false>(&kernel, &group, target);
+            }
+            lists.walk.counts(target.len())
+        }
+    }
+}
+
+#[cfg(test)]
+impl BarnesHut {
+    /// The bodies of the last [`compute_spread`](Self::compute_spread) that
+    /// this rank walked for (its own after the route) and that its locally
+    /// essential tree held.
+    pub(super) fn held(&self) -> (usize, usize) {
+        let own = self.solver.tree.order.iter().filter(|&&i| i != u32::MAX);
+        (own.count(), self.solver.tree.order.len())
+    }
 }
 
 /// A node's centre of mass and multipole, from the sorted masses `walk.w`.
-fn of_node(node: &Node, walk: &Walk) -> ([f64; 3], Multipole) {
-    let (x, m) = (&walk.x, &walk.w);
+pub(super) fn of_node(node: &Node, walk: &Walk) -> ([f64; 3], Multipole) {
     let range = node.start as usize..node.end as usize;
-    let mass: f64 = m[range.clone()].iter().sum();
-    let com: [f64; 3] =
-        std::array::from_fn(|a| range.clone().map(|s| m[s] * x[a][s]).sum::<f64>() / mass);
-    let mut quad = [0.0; 6];
+    let sums = mass_sums(MASS_SUMS_START, walk, range.clone());
+    let com = centre_of_mass(&sums);
+    let quad = quadrupole_sums([0.0; 6], &com, walk, range);
+    (
+        com,
+        Multipole {
+            mass: sums[0],
+            quad,
+        },
+    )
+}
+
+/// Where [`mass_sums`] starts for a node (the start of `f64`'s `sum`).
+pub(super) const MASS_SUMS_START: [f64; 4] = [-0.0; 4];
+
+/// `sums` continued over the sorted particles `range` in order: `[sum m, sum
+/// m x, sum m y, sum m z]`, each a running sum (so that a node's sums may run
+/// over its particles in pieces, one after the other, to the same bits).
+pub(super) fn mass_sums(mut sums: [f64; 4], walk: &Walk, range: Range<usize>) -> [f64; 4] {
+    let (x, m) = (&walk.x, &walk.w);
+    for s in range {
+        sums[0] += m[s];
+        for a in 0..3 {
+            sums[a + 1] += m[s] * x[a][s];
+        }
+    }
+    sums
+}
+
+/// The centre of mass `sum m x / sum m` of [`mass_sums`]' sums.
+pub(super) fn centre_of_mass(sums: &[f64; 4]) -> [f64; 3] {
+    [sums[1] / sums[0], sums[2] / sums[0], sums[3] / sums[0]]
+}
+
+/// `quad` continued over the sorted particles `range` in order: the traceless
+/// quadrupole `sum m (3 y_a y_b - |y|^2 delta_ab)`, `y = x - com`, as `xx, xy,
+/// xz, yy, yz, zz` (running sums, as [`mass_sums`]).
+pub(super) fn quadrupole_sums(
+    mut quad: [f64; 6],
+    com: &[f64; 3],
+    walk: &Walk,
+    range: Range<usize>,
+) -> [f64; 6] {
+    let (x, m) = (&walk.x, &walk.w);
     for s in range {
         let y = [x[0][s] - com[0], x[1][s] - com[1], x[2][s] - com[2]];
         let y2 = y[0] * y[0] + y[1] * y[1] + y[2] * y[2];
@@ -113,7 +216,7 @@ fn of_node(node: &Node, walk: &Walk) -> ([f64; 3], Multipole) {
         quad[4] += w * 3.0 * y[1] * y[2];
         quad[5] += w * (3.0 * y[2] * y[2] - y2);
     }
-    (com, Multipole { mass, quad })
+    quad
 }
 
 /// One group's lists (the shared walk lists plus the accepted nodes' masses and

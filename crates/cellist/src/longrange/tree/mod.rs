@@ -42,6 +42,7 @@ mod build;
 mod fmm;
 mod gravity;
 mod share;
+mod spread;
 mod vortex;
 mod vortex3;
 mod walk;

@@ -64,6 +64,20 @@ struct WalkNode {
     leaf: bool,
 }
 
+impl WalkNode {
+    /// `node`'s entry with its expansion centre and squared opening distance.
+    fn new(node: &Node, centre: [f64; 3], open2: f64) -> Self {
+        WalkNode {
+            centre,
+            open2,
+            start: node.start,
+            end: node.end,
+            next: node.next,
+            leaf: node.leaf,
+        }
+    }
+}
+
 impl Walk {
     /// Copies `positions` (`D` = 2 or 3 axes; missing axes are 0) and `weights`
     /// into tree order.
@@ -90,12 +104,9 @@ impl Walk {
     }
 
     /// Every node's walk entry and kernel moments: `of_node` gives a node's
-    /// expansion centre and moments from the sorted particles; a node of side `l`
-    /// whose centre lies `delta` from its cube's centre opens within
-    /// `max(l / theta, sqrt(3)/2 l + clearance) + delta` of its centre (`sqrt(2)/2`
-    /// and the square's centre in 2D), so that an accepted node's particles lie
-    /// farther than `clearance` from the group's box.
-    fn nodes<M: Send>(
+    /// expansion centre and moments from the sorted particles, and the node
+    /// opens within [`open2`]'s distance of its centre.
+    pub fn nodes<M: Send>(
         &mut self,
         tree: &Octree,
         theta: f64,
@@ -104,10 +115,7 @@ impl Walk {
         threads: &Threads,
         of_node: impl Fn(&Node, &Self) -> ([f64; 3], M) + Sync,
     ) {
-        let (dims, half_diagonal) = match self.dims {
-            2 => (2, HALF_DIAGONAL_2D),
-            _ => (3, HALF_DIAGONAL),
-        };
+        let dims = self.dims;
         // the entries are rebuilt in the kept allocation
         let mut walk = std::mem::take(&mut self.nodes);
         let this = &*self;
@@ -116,26 +124,78 @@ impl Walk {
                 .par_iter()
                 .map(|node| {
                     let (centre, m) = of_node(node, this);
-                    let delta = (0..dims)
-                        .map(|a| (centre[a] - (node.corner[a] + 0.5 * node.side)).powi(2))
-                        .sum::<f64>()
-                        .sqrt();
-                    let open =
-                        (node.side / theta).max(half_diagonal * node.side + clearance) + delta;
-                    let entry = WalkNode {
-                        centre,
-                        open2: open * open,
-                        start: node.start,
-                        end: node.end,
-                        next: node.next,
-                        leaf: node.leaf,
-                    };
-                    (entry, m)
+                    let open2 = open2(node, &centre, theta, clearance, dims);
+                    (WalkNode::new(node, centre, open2), m)
                 })
                 .unzip_into_vecs(&mut walk, moments);
         });
         self.nodes = walk;
     }
+
+    /// The walk entries of `tree`'s nodes (the sorted particles and the axes
+    /// set), node `k`'s expansion centre and squared opening distance
+    /// `centres[k]`.
+    pub fn set_nodes(&mut self, tree: &Octree, centres: impl IntoIterator<Item = ([f64; 3], f64)>) {
+        self.nodes.clear();
+        for (node, (centre, open2)) in tree.nodes.iter().zip(centres) {
+            self.nodes.push(WalkNode::new(node, centre, open2));
+        }
+    }
+
+    /// Node `k`'s expansion centre and squared opening distance.
+    pub fn entry(&self, k: usize) -> ([f64; 3], f64) {
+        (self.nodes[k].centre, self.nodes[k].open2)
+    }
+
+    /// Sets the particles' axes: 3, or 2 when they lie in the plane `z = 0`.
+    pub fn set_dims(&mut self, dims: usize) {
+        self.dims = dims;
+    }
+}
+
+/// `(max(l / theta, sqrt(D)/2 l + clearance) + delta)^2` for `node`, of side
+/// `l`, whose expansion centre `centre` lies `delta` from its cube's centre
+/// (`sqrt(2)/2` and the square's centre for `dims = 2`): a node is accepted
+/// for a group whose bounding box lies farther than this from its centre, so
+/// that an accepted node's particles lie farther than `clearance` from the
+/// group's box.
+pub(super) fn open2(
+    node: &Node,
+    centre: &[f64; 3],
+    theta: f64,
+    clearance: f64,
+    dims: usize,
+) -> f64 {
+    let (dims, half_diagonal) = match dims {
+        2 => (2, HALF_DIAGONAL_2D),
+        _ => (3, HALF_DIAGONAL),
+    };
+    let delta = (0..dims)
+        .map(|a| (centre[a] - (node.corner[a] + 0.5 * node.side)).powi(2))
+        .sum::<f64>()
+        .sqrt();
+    let open = (node.side / theta).max(half_diagonal * node.side + clearance) + delta;
+    open * open
+}
+
+/// Whether the walk accepts node `k` (of `tree`, entries in `walk`) for a
+/// box `lo..hi` that holds none of its particles: its centre lies farther
+/// than its opening distance from the box, and it is not a leaf of at most
+/// [`SMALL_LEAF`] particles.
+pub(super) fn accepts(walk: &Walk, k: usize, lo: &[f64; 3], hi: &[f64; 3]) -> bool {
+    let node = &walk.nodes[k];
+    d2(&node.centre, lo, hi) > node.open2 && !(node.leaf && node.end - node.start <= SMALL_LEAF)
+}
+
+/// The squared distance from `c` to the box `lo..hi` (0 inside).
+#[inline]
+fn d2(c: &[f64; 3], lo: &[f64; 3], hi: &[f64; 3]) -> f64 {
+    let mut d2 = 0.0;
+    for a in 0..3 {
+        let gap = (lo[a] - c[a]).max(c[a] - hi[a]).max(0.0);
+        d2 += gap * gap;
+    }
+    d2
 }
 
 /// One group's interaction lists, padded to whole lanes: the accepted nodes'
@@ -180,12 +240,7 @@ impl Lists {
         let mut k = 0;
         while k < walk.nodes.len() {
             let node = &walk.nodes[k];
-            let mut d2 = 0.0;
-            for a in 0..3 {
-                let c = node.centre[a];
-                let gap = (lo[a] - c).max(c - hi[a]).max(0.0);
-                d2 += gap * gap;
-            }
+            let d2 = d2(&node.centre, &lo, &hi);
             // nodes that share particles with the group are always opened
             let shares = node.start < own.end && own.start < node.end;
             if !shares && d2 > node.open2 && !(node.leaf && node.end - node.start <= SMALL_LEAF) {
@@ -195,6 +250,12 @@ impl Lists {
                 self.opened.push((node.start, node.end));
                 k = node.next as usize;
             } else {
+                // a node without children was left unopened by the rank
+                // that sent it: every group of this rank accepts it
+                debug_assert!(
+                    node.next as usize > k + 1,
+                    "node {k} opened without children"
+                );
                 k += 1;
             }
         }
@@ -256,9 +317,9 @@ pub(super) fn copy(dst: &mut Vec<f64>, ids: &[u32], value: f64, of: impl Fn(usiz
 #[derive(Debug)]
 pub(super) struct Solver<M, L, const W: usize> {
     pub params: TreeParams,
-    tree: Octree,
-    walk: Walk,
-    moments: Vec<M>,
+    pub tree: Octree,
+    pub walk: Walk,
+    pub moments: Vec<M>,
     sorted: Vec<[f64; W]>,
     scratch: Vec<Mutex<L>>,
     /// `(node, particle)` interactions of the last evaluation's own groups.
@@ -392,18 +453,34 @@ impl<M: Send + Sync, L: Default + Send, const W: usize> Solver<M, L, W> {
             threads,
             of_node,
         );
+        let (part, parts) = share.part();
+        let split = Split::new(&self.tree, &self.cost, parts);
+        let own = split.groups[part]..split.groups[part + 1];
+        self.sum_groups(own.clone(), threads, per_group);
+        if parts > 1 {
+            self.gather_costs(own, &split, share);
+        }
+        share.all_gather(self.sorted.as_flattened_mut(), W, &split.particles);
+    }
+
+    /// `per_group` for the groups `own` of the tree (its walk entries and
+    /// moments set) in parallel, each writing the results of its own
+    /// particles (in [`Solver::sorted`]) and returning its interactions.
+    pub fn sum_groups(
+        &mut self,
+        own: Range<usize>,
+        threads: &Threads,
+        per_group: impl Fn(&mut L, Group<M>, &mut [[f64; W]]) -> (u64, u64) + Sync,
+    ) {
         self.sorted.resize(self.tree.order.len(), [0.0; W]);
         while self.scratch.len() < threads.count() {
             self.scratch.push(Mutex::new(L::default()));
         }
-        let (part, parts) = share.part();
-        let split = Split::new(&self.tree, &self.cost, parts);
-        let own = split.groups[part]..split.groups[part + 1];
         let (tree, walk, moments) = (&self.tree, &self.walk, &self.moments[..]);
         let shared = DisjointSlice::new(&mut self.sorted);
         let scratch = &self.scratch;
         threads.install(|| {
-            tree.groups[own.clone()]
+            tree.groups[own]
                 .par_iter()
                 .map(|&group| {
                     let thread = rayon::current_thread_index().unwrap_or(0);
@@ -426,10 +503,11 @@ impl<M: Send + Sync, L: Default + Send, const W: usize> Solver<M, L, W> {
             .counts
             .iter()
             .fold((0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
-        if parts > 1 {
-            self.gather_costs(own, &split, share);
-        }
-        share.all_gather(self.sorted.as_flattened_mut(), W, &split.particles);
+    }
+
+    /// The results of the last evaluation in tree order.
+    pub fn sorted(&self) -> &[[f64; W]] {
+        &self.sorted
     }
 
     /// Every particle's weight for the next split, `1 +` its group's
