@@ -167,11 +167,11 @@ impl FieldSolver for SpreadGravity {
     }
 }
 
-/// The gravity model of one rank of a distributed run (direct sum, PM or
-/// P3M).
+/// The gravity model of one rank of a distributed run (direct sum, PM, P3M
+/// or Barnes-Hut).
 pub struct DistributedGravity {
     world: SimpleCommunicator,
-    /// The own bodies, their field by the ring or the mesh.
+    /// The own bodies, their field by the ring, the mesh or the tree.
     system: GravitySystem,
     integrator: Integrator,
     dt: f64,

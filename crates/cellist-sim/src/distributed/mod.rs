@@ -16,12 +16,12 @@
 //!
 //! What runs distributed, on the driver like every model (rank 0 writes the
 //! outputs): md and pse by domain decomposition ([`md::DistributedMd`],
-//! [`pse::DistributedPse`]); gravity's direct sum and mesh solvers (PM,
-//! P3M) with the bodies divided among the ranks, summed by the ring pass or
-//! on a slab-decomposed mesh ([`gravity::DistributedGravity`], [`ring`],
-//! [`mesh`]); the vortex model's direct sums by block pairs dealt out
-//! ([`pairs`]), gravity's and the vortex model's Barnes-Hut trees by parts of
-//! the tree ([`tree`]) and the vortex-in-cell velocity (2D and 3D) on a
+//! [`pse::DistributedPse`]); gravity's direct sum, mesh solvers (PM, P3M)
+//! and Barnes-Hut tree with the bodies divided among the ranks, summed by
+//! the ring pass, on a slab-decomposed mesh or by locally essential trees
+//! ([`gravity::DistributedGravity`], [`ring`], [`mesh`]); the vortex model's
+//! direct sums by block pairs dealt out ([`pairs`]), its Barnes-Hut trees
+//! by parts of the tree ([`tree`]) and the vortex-in-cell velocity (2D and 3D) on a
 //! slab-decomposed mesh ([`mesh`]), their
 //! state replicated on every rank ([`replicated`]) and their field sums and
 //! transforms divided ([`parts`]). Whatever can fail on

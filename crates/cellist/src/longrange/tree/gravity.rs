@@ -50,7 +50,8 @@ impl BarnesHut {
     }
 
     /// `(node, particle)` interactions of the last evaluation (of this
-    /// process's part, for [`compute_shared`](Self::compute_shared)).
+    /// process's part, for [`compute_shared`](Self::compute_shared); of
+    /// this rank's groups, for [`compute_spread`](Self::compute_spread)).
     pub fn interactions(&self) -> (u64, u64) {
         self.solver.interactions
     }

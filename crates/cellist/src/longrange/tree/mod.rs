@@ -36,7 +36,9 @@
 //! the same bits. For the same reason an evaluation can be divided among
 //! processes that each hold every particle (`share`: each walks a contiguous
 //! run of the groups and receives the others' results) and still give every
-//! particle the bits of one process.
+//! particle the bits of one process; and gravity's tree can be divided among
+//! processes that each hold a run of the Morton order (`spread`: locally
+//! essential trees), with the same bits.
 
 mod build;
 mod fmm;

@@ -17,16 +17,19 @@
 //!                          rank over its bodies (two passes: mass and centre
 //!                          of mass, then the quadrupole)
 //! the essential parts      for every other rank, the nodes of the own
-//!                          subtrees that its walks may reach (opened for its
-//!                          box: children and leaf bodies follow; accepted:
-//!                          the node alone), by all-to-all
+//!                          subtrees that its groups' walks may reach, judged
+//!                          against its groups' boxes (all-gathered), by
+//!                          all-to-all
 //! the walks                over the top, the own subtrees and the parts
 //!                          received, for the own groups
 //! ```
 //!
-//! A group's box lies inside its rank's box, so a node accepted for the box
-//! is accepted for every group: the parts hold every node and body the
-//! walks reach. The tree's cuts depend only on the counts and the sorted
+//! A node goes to a rank with the boxes of that rank's groups whose walks
+//! reach it (every box at a unit's root, then those that opened its
+//! parent): if they all accept it, it goes alone, without children, and
+//! their walks accept it again; if some open it, its children follow for
+//! those boxes, or its bodies if it is a leaf. So the parts hold every node
+//! and body the walks reach. The tree's cuts depend only on the counts and the sorted
 //! order `(key, input index)` of one process (a rank's arrivals come in rank
 //! order, then each sender's order, which is the input order), and a node's
 //! sums run over its bodies in the sorted order, so every list, every
@@ -43,9 +46,10 @@ use crate::longrange::Exchange;
 use crate::threads::{exclusive_sums, Threads};
 use std::ops::Range;
 
-/// Numbers per node of an essential part: nodes in its subtree (itself
-/// included), bodies in its subtree, leaf (1) or not (0), centre of mass (3),
-/// squared opening distance, mass, quadrupole (6).
+/// Numbers per node of an essential part: the nodes sent under it (itself
+/// included: 1 for a node sent alone), the bodies sent under it, leaf (1)
+/// or not (0), centre of mass (3), squared opening distance, mass,
+/// quadrupole (6).
 const RECORD: usize = 14;
 
 /// Numbers per body of an essential part: `x y z m`.
@@ -118,6 +122,10 @@ pub(super) struct Spread {
     /// The nodes' expansion centres and squared opening distances as the
     /// locally essential tree is put together.
     centres: Vec<([f64; 3], f64)>,
+    /// The records and bodies of one essential part as it is made.
+    scratch: [Vec<f64>; 2],
+    /// The group boxes whose walks reach the nodes of a part being made.
+    open: Vec<u32>,
 }
 
 /// The top of the tree and how its units are dealt out.
@@ -128,7 +136,7 @@ struct Top {
     /// Rank `r` holds the sorted bodies `first[r]..first[r + 1]`.
     first: Vec<usize>,
     /// The top nodes' entries: centre of mass, squared opening distance,
-    /// moments.
+    /// moments (the units' left empty: their subtrees bring them).
     entries: Vec<([f64; 3], f64, Multipole)>,
 }
 
@@ -147,7 +155,7 @@ fn add_over_ranks(local: &[f64], exchange: &dyn Exchange) -> Vec<f64> {
     total
 }
 
-/// Every rank's `mine` (`width` numbers each), in rank order.
+/// Every rank's `mine` (as many numbers on every rank), in rank order.
 fn gather_each(mine: &[f64], exchange: &dyn Exchange) -> Vec<f64> {
     let ranks = exchange.ranks();
     let mut all = vec![0.0; mine.len() * ranks];
@@ -169,7 +177,8 @@ fn top_nodes(
     exchange: &dyn Exchange,
 ) -> Vec<TopNode> {
     let is_unit = |count: usize, level: u32| {
-        count <= sizes.leaf || level == KEY_BITS || count <= sizes.group || count <= most
+        // `most` is at least the group size: groups are units
+        count <= sizes.leaf || level == KEY_BITS || count <= most
     };
     // breadth first: the nodes, and each one's children
     let root = TopNode {
@@ -436,7 +445,7 @@ impl Spread {
         );
     }
 
-    /// Every top node's entry: its sums run over its bodies in order, each
+    /// Every top node's entry but the units': its sums run over its bodies in order, each
     /// rank continuing the running sums of the ranks before it over its own
     /// part of them (an all-gather per rank, twice: the mass and centre of
     /// mass, then the quadrupole about it).
@@ -460,32 +469,36 @@ impl Spread {
                 0..0
             }
         };
-        let n = top.nodes.len();
+        // the units' entries come with their subtrees
+        let inner: Vec<usize> = (0..top.nodes.len())
+            .filter(|&k| !top.nodes[k].unit)
+            .collect();
+        let n = inner.len();
         let mut sums: Vec<f64> = MASS_SUMS_START.repeat(n);
-        Self::pass_along(&mut sums, 4, &top.first, exchange, |k, s| {
+        Self::pass_along(&mut sums, 4, &top.first, exchange, |i, s| {
             let s: &mut [f64; 4] = s.try_into().expect("four sums");
-            *s = mass_sums(*s, &self.own, part(&top.nodes[k]));
+            *s = mass_sums(*s, &self.own, part(&top.nodes[inner[i]]));
         });
         let com: Vec<[f64; 3]> = sums
             .chunks_exact(4)
             .map(|s| centre_of_mass(s.try_into().expect("four sums")))
             .collect();
         let mut quad = vec![0.0; 6 * n];
-        Self::pass_along(&mut quad, 6, &top.first, exchange, |k, q| {
+        Self::pass_along(&mut quad, 6, &top.first, exchange, |i, q| {
             let q: &mut [f64; 6] = q.try_into().expect("six sums");
-            *q = quadrupole_sums(*q, &com[k], &self.own, part(&top.nodes[k]));
+            *q = quadrupole_sums(*q, &com[i], &self.own, part(&top.nodes[inner[i]]));
         });
-        (0..n)
-            .map(|k| {
-                let node = top.nodes[k].as_node();
-                let quad = quad[6 * k..6 * k + 6].try_into().expect("six sums");
-                let entry = Multipole {
-                    mass: sums[4 * k],
-                    quad,
-                };
-                (com[k], open2(&node, &com[k], theta, 0.0, 3), entry)
-            })
-            .collect()
+        let mut entries = vec![Default::default(); top.nodes.len()];
+        for (i, &k) in inner.iter().enumerate() {
+            let node = top.nodes[k].as_node();
+            let quad = quad[6 * i..6 * i + 6].try_into().expect("six sums");
+            let entry = Multipole {
+                mass: sums[4 * i],
+                quad,
+            };
+            entries[k] = (com[i], open2(&node, &com[i], theta, 0.0, 3), entry);
+        }
+        entries
     }
 
     /// Runs `continue_sums(k, sums of node k)` on each rank in turn, rank 0
@@ -563,7 +576,9 @@ impl Spread {
         let ranks = exchange.ranks();
         let mut counts = vec![0; ranks];
         self.send.clear();
-        let (mut records, mut bodies, mut open) = (Vec::new(), Vec::new(), Vec::new());
+        // the scratch of the parts, kept from call to call
+        let [mut records, mut bodies] = std::mem::take(&mut self.scratch);
+        let mut open = std::mem::take(&mut self.open);
         for (q, boxes) in boxes.iter().enumerate() {
             if q == rank || boxes.is_empty() {
                 continue;
@@ -580,6 +595,8 @@ impl Spread {
             self.send.extend_from_slice(&bodies);
             counts[q] = 1 + records.len() + bodies.len();
         }
+        self.scratch = [records, bodies];
+        self.open = open;
         let ones = vec![1; ranks];
         let sent: Vec<f64> = counts.iter().map(|&c| c as f64).collect();
         let mut got = vec![0.0; ranks];
@@ -677,6 +694,7 @@ impl Spread {
         tree.groups.clear();
         tree.order.clear();
         tree.keys.clear();
+        // this rank's slot of `from` is empty and never read
         let mut builder = Builder {
             spread: self,
             top,

@@ -250,8 +250,8 @@ impl Lists {
                 self.opened.push((node.start, node.end));
                 k = node.next as usize;
             } else {
-                // a node without children was left unopened by the rank
-                // that sent it: every group of this rank accepts it
+                // a node sent alone (without children) by another rank is
+                // accepted by every group whose walk reaches it, never opened
                 debug_assert!(
                     node.next as usize > k + 1,
                     "node {k} opened without children"
