@@ -45,6 +45,7 @@ mod fmm;
 mod gravity;
 mod share;
 mod spread;
+mod top;
 mod vortex;
 mod vortex3;
 mod walk;
