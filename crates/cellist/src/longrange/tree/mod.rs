@@ -43,6 +43,7 @@
 mod build;
 mod fmm;
 mod gravity;
+mod multipole;
 mod share;
 mod spread;
 mod top;

@@ -36,7 +36,7 @@
 //! moment and every sum is that of one process.
 
 use super::build::{Cube, Node, Octree, Sizes};
-use super::gravity::{
+use super::multipole::{
     centre_of_mass, mass_sums, of_node, quadrupole_sums, Multipole, MASS_SUMS_START,
 };
 use super::top::{deal, gather_each, top_nodes, TopNode};
