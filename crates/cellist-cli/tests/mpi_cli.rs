@@ -434,8 +434,9 @@ fn run_folder(dir: &Path, model: &str, same_bytes: bool, name: &str) -> PathBuf 
 }
 
 /// `scenario` of `model` on 1 to 4 ranks against the plain run (in a folder
-/// of its own): within 1e-10, and `file` the same bytes as the plain run's on
-/// every rank count. Barnes-Hut trees: each particle's tree sum runs as in
+/// of its own): within 1e-10, and each of `files` the same bytes as the plain
+/// run's on every rank count (the vortex runs' thermo too: its energy and
+/// enstrophy rows are dealt out among the ranks and added in row order). Barnes-Hut trees: each particle's tree sum runs as in
 /// one process, whichever rank computes it. Gravity's divided meshes: each
 /// node sums its bodies in their order, and each P3M short-range sum runs
 /// over the same cells in the same order, as in one process.
@@ -443,24 +444,26 @@ fn runs_have_the_plain_bytes(
     dir: &Path,
     model: &str,
     scenario: &str,
-    file: &str,
+    files: &[&str],
 ) -> Result<(), String> {
     let stem = Path::new(scenario)
         .file_stem()
         .map_or_else(String::new, |s| s.to_string_lossy().into_owned());
     let folder = dir.join(format!("{model}-{stem}-bytes"));
     std::fs::create_dir_all(&folder).map_err(|e| e.to_string())?;
-    distributed_runs_match_the_plain_run(&folder, model, scenario, file, false)?;
-    let read = |name: &str| {
-        let path = run_folder(&folder, model, false, name).join(file);
-        std::fs::read(&path).map_err(|e| format!("{}: {e}", path.display()))
-    };
-    let plain = read("plain")?;
-    for ranks in [1, 2, 3, 4] {
-        if read(&format!("np{ranks}"))? != plain {
-            return Err(format!(
-                "-np {ranks}: {file} is not the bytes of the plain run"
-            ));
+    distributed_runs_match_the_plain_run(&folder, model, scenario, files[0], false)?;
+    for file in files {
+        let read = |name: &str| {
+            let path = run_folder(&folder, model, false, name).join(file);
+            std::fs::read(&path).map_err(|e| format!("{}: {e}", path.display()))
+        };
+        let plain = read("plain")?;
+        for ranks in [1, 2, 3, 4] {
+            if read(&format!("np{ranks}"))? != plain {
+                return Err(format!(
+                    "-np {ranks}: {file} is not the bytes of the plain run"
+                ));
+            }
         }
     }
     Ok(())
@@ -831,7 +834,7 @@ fn main() {
         ),
         (
             "gravity pm, the bodies divided: on 1 to 4 ranks the bytes of the plain run's positions, velocities and accelerations",
-            runs_have_the_plain_bytes(dir.path(), "gravity", &pm_motion, "stars.dump"),
+            runs_have_the_plain_bytes(dir.path(), "gravity", &pm_motion, &["stars.dump"]),
         ),
         (
             "gravity pm, 2 bodies on 1 to 4 ranks (ranks with no body): the dumps of the plain run within 1e-10",
@@ -839,7 +842,7 @@ fn main() {
         ),
         (
             "gravity p3m (periodic), the bodies divided: on 1 to 4 ranks the bytes of the plain run's dumps",
-            runs_have_the_plain_bytes(dir.path(), "gravity", &p3m, "stars.dump"),
+            runs_have_the_plain_bytes(dir.path(), "gravity", &p3m, &["stars.dump"]),
         ),
         (
             "gravity p3m (periodic) on a slab-decomposed mesh on 1 to 4 ranks: the dumps of the plain run within 1e-10",
@@ -851,23 +854,23 @@ fn main() {
         ),
         (
             "gravity barnes-hut on 1 to 4 ranks: the bytes of the plain run's dumps",
-            runs_have_the_plain_bytes(dir.path(), "gravity", &gravity_tree, "stars.dump"),
+            runs_have_the_plain_bytes(dir.path(), "gravity", &gravity_tree, &["stars.dump"]),
         ),
         (
-            "vortex barnes-hut on 1 to 4 ranks: the bytes of the plain run's fields",
-            runs_have_the_plain_bytes(dir.path(), "vortex", &vortex_tree, "vorticity_20.csv"),
+            "vortex barnes-hut on 1 to 4 ranks: the bytes of the plain run's fields and thermo",
+            runs_have_the_plain_bytes(dir.path(), "vortex", &vortex_tree, &["vorticity_20.csv", "thermo.csv"]),
         ),
         (
-            "3D vortex mesh (vortex-in-cell) on a slab-decomposed mesh on 1 to 4 ranks: the bytes of the plain run's fields",
-            runs_have_the_plain_bytes(dir.path(), "vortex3", &vic3, "vorticity_3.csv"),
+            "3D vortex mesh (vortex-in-cell) on a slab-decomposed mesh on 1 to 4 ranks: the bytes of the plain run's fields and thermo",
+            runs_have_the_plain_bytes(dir.path(), "vortex3", &vic3, &["vorticity_3.csv", "thermo.csv"]),
         ),
         (
             "3D vortex direct with its block pairs dealt out on 1 to 4 ranks: the fields of the plain run within 1e-10",
             distributed_runs_match_the_plain_run(dir.path(), "vortex3-direct", &vortex3, "vorticity_3.csv", false),
         ),
         (
-            "3D vortex barnes-hut on 1 to 4 ranks: the bytes of the plain run's fields",
-            runs_have_the_plain_bytes(dir.path(), "vortex3", &vortex3_tree, "vorticity_3.csv"),
+            "3D vortex barnes-hut on 1 to 4 ranks: the bytes of the plain run's fields and thermo",
+            runs_have_the_plain_bytes(dir.path(), "vortex3", &vortex3_tree, &["vorticity_3.csv", "thermo.csv"]),
         ),
         (
             "gravity: a 4-rank checkpoint continues in one process and on 2 ranks",

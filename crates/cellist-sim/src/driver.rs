@@ -323,9 +323,11 @@ impl<M: Hosted> Live<M> {
                 .checkpoint
                 .as_ref()
                 .is_some_and(|c| step % c.every == 0 || step == last);
-            let observe = observers.iter().any(|o| o.needs_observables(step, last))
-                || (job.ranks.observe_when_due()
-                    && (checkpoint || observers.iter().any(|o| o.due(step, last))));
+            let observe = job.ranks.observe_together(
+                observers.iter().any(|o| o.needs_observables(step, last))
+                    || (job.ranks.observe_when_due()
+                        && (checkpoint || observers.iter().any(|o| o.due(step, last)))),
+            );
             let stepped = if observe {
                 let energies = observers
                     .iter()

@@ -86,6 +86,24 @@ impl Ranks {
         }
     }
 
+    /// Whether step's state is observed, `observe` as rank 0's observers
+    /// decide it, made one for every rank of a replicated run: its other ranks
+    /// have no observers, and its model observes collectively (the vortex
+    /// model's thermo pair sums are shared). Elsewhere `observe` itself.
+    pub fn observe_together(&self, observe: bool) -> bool {
+        match self {
+            #[cfg(feature = "mpi")]
+            Ranks::Replicated { world, .. } => {
+                all_reduce(
+                    world,
+                    [f64::from(u8::from(observe))],
+                    SystemOperation::max(),
+                )[0] > 0.0
+            }
+            _ => observe,
+        }
+    }
+
     /// The speed line `line` of the model completed with what the ranks
     /// cost: a replicated run's divided sums (their waiting time over the
     /// loop's `loop_seconds`).

@@ -69,6 +69,12 @@ impl MpiExchange {
         }
     }
 
+    /// The exchange on the ranks of `world` whose time counts in `figures`
+    /// (a replicated solver's): the vortex model's thermo pair sums.
+    pub fn counted_in(world: SimpleCommunicator, figures: Figures) -> Self {
+        MpiExchange { world, figures }
+    }
+
     /// The time spent in the collectives, shared.
     pub fn figures(&self) -> Figures {
         self.figures.clone()

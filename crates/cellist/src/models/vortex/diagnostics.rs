@@ -17,6 +17,7 @@
 //! its finite part, lengths in the scenario's unit. The pair sums cost `O(N^2)`
 //! and run only when a thermo row is due.
 
+use crate::longrange::Exchange;
 use crate::threads::Threads;
 use rayon::prelude::*;
 use std::f64::consts::PI;
@@ -124,13 +125,18 @@ impl Moments {
 }
 
 /// `(E, Z)`: the energy and enstrophy pair sums, each pair once (`j > i`) plus
-/// the diagonal, row by row in parallel and the rows added in order (the same
-/// bits for any thread count).
+/// the diagonal, row by row, the rows added in order: the same bits for any
+/// thread count and any number of ranks. On the ranks of `ranks` (every one
+/// holding every particle and calling this together) rank `r` of `P` sums the
+/// rows `i` with `i mod P = r` (row `i` holds `N - 1 - i` pairs, so the ranks'
+/// shares differ by at most `N` pairs) and the rows' sums are all-gathered;
+/// every rank then adds them in row order as one process does.
 pub fn energy_and_enstrophy(
     positions: &[[f64; 2]],
     gamma: &[f64],
     sigma: f64,
     threads: &Threads,
+    ranks: &dyn Exchange,
 ) -> (f64, f64) {
     let four_sigma2 = 4.0 * sigma * sigma;
     let ln4s2 = four_sigma2.ln();
@@ -142,35 +148,57 @@ pub fn energy_and_enstrophy(
         .filter(|(_, g)| **g != 0.0)
         .map(|(x, g)| (*x, *g))
         .unzip();
-    let rows: Vec<(f64, f64)> = threads.install(|| {
-        (0..positions.len())
+    let row = |i: usize| {
+        let (xi, gi) = (positions[i], gamma[i]);
+        let mut e = 0.5 * gi * gi * log_plus_e1(0.0, ln4s2);
+        let mut z = 0.5 * gi * gi;
+        for j in i + 1..positions.len() {
+            let d = [positions[j][0] - xi[0], positions[j][1] - xi[1]];
+            let x = (d[0] * d[0] + d[1] * d[1]) * inv;
+            let gg = gi * gamma[j];
+            e += gg * log_plus_e1(x, ln4s2);
+            if x <= FAR {
+                z += gg * (-x).exp();
+            }
+        }
+        [e, z]
+    };
+    let n = positions.len();
+    let (rank, count) = (ranks.rank(), ranks.ranks());
+    let mine: Vec<f64> = threads.install(|| {
+        (rank..n)
             .into_par_iter()
-            .map(|i| {
-                let (xi, gi) = (positions[i], gamma[i]);
-                let mut e = 0.5 * gi * gi * log_plus_e1(0.0, ln4s2);
-                let mut z = 0.5 * gi * gi;
-                for j in i + 1..positions.len() {
-                    let d = [positions[j][0] - xi[0], positions[j][1] - xi[1]];
-                    let x = (d[0] * d[0] + d[1] * d[1]) * inv;
-                    let gg = gi * gamma[j];
-                    e += gg * log_plus_e1(x, ln4s2);
-                    if x <= FAR {
-                        z += gg * (-x).exp();
-                    }
-                }
-                (e, z)
-            })
+            .step_by(count)
+            .flat_map_iter(row)
             .collect()
     });
-    let (e, z) = rows
+    // rank r's rows r, r + P, .., and where its block starts among the gathered
+    let counts: Vec<usize> = (0..count).map(|r| 2 * rank_rows(n, r, count)).collect();
+    let starts: Vec<usize> = counts
         .iter()
-        .fold((0.0, 0.0), |(e, z), &(re, rz)| (e + re, z + rz));
+        .scan(0, |start, &c| {
+            let s = *start;
+            *start += c;
+            Some(s)
+        })
+        .collect();
+    let mut rows = vec![0.0; 2 * n];
+    ranks.all_gather(&mine, &counts, &mut rows);
+    let (e, z) = (0..n)
+        .map(|i| &rows[starts[i % count] + 2 * (i / count)..][..2])
+        .fold((0.0, 0.0), |(e, z), r| (e + r[0], z + r[1]));
     (-e / (4.0 * PI), z * 2.0 / (PI * four_sigma2))
+}
+
+/// How many of the rows `0..n` are `r, r + P, ..` (rank `r` of `P`).
+fn rank_rows(n: usize, r: usize, ranks: usize) -> usize {
+    n.saturating_sub(r).div_ceil(ranks)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::longrange::Alone;
 
     #[test]
     fn log_plus_e1_is_continuous_and_matches_the_tail() {
@@ -189,8 +217,61 @@ mod tests {
     #[test]
     fn one_blob_has_the_enstrophy_of_its_gaussian() {
         // Z = Gamma^2 / (4 pi sigma^2) for one blob
-        let (_, z) = energy_and_enstrophy(&[[0.3, 0.1]], &[2.0], 0.5, &Threads::single());
+        let (_, z) = energy_and_enstrophy(&[[0.3, 0.1]], &[2.0], 0.5, &Threads::single(), &Alone);
         assert!((z - 4.0 / (4.0 * PI * 0.25)).abs() < 1e-14);
+    }
+
+    /// The pair sums over every ordered pair `i != j` halved, plus the
+    /// diagonal, one term at a time: the reference of the row sums.
+    fn every_ordered_pair(x: &[[f64; 2]], gamma: &[f64], sigma: f64) -> (f64, f64) {
+        let s2 = 4.0 * sigma * sigma;
+        let (mut e, mut z) = (0.0, 0.0);
+        for i in 0..x.len() {
+            for j in 0..x.len() {
+                let r2 = (x[i][0] - x[j][0]).powi(2) + (x[i][1] - x[j][1]).powi(2);
+                let gg = 0.5 * gamma[i] * gamma[j];
+                e += gg * log_plus_e1(r2 / s2, s2.ln());
+                z += gg * (-r2 / s2).exp();
+            }
+        }
+        (-e / (4.0 * PI), z * 2.0 / (PI * s2))
+    }
+
+    #[test]
+    fn the_rows_dealt_to_ranks_give_one_process_bits() {
+        use crate::longrange::mesh::slab::testkit::Hub;
+        use crate::random::Rng;
+        for n in [0, 1, 3, 157] {
+            let mut rng = Rng::new(n as u64 + 5);
+            let x: Vec<[f64; 2]> = (0..n).map(|_| [rng.uniform(), rng.uniform()]).collect();
+            // some particles without circulation, which the sums leave out
+            let gamma: Vec<f64> = (0..n)
+                .map(|i| if i % 7 == 3 { 0.0 } else { rng.normal() })
+                .collect();
+            let sigma = 0.05;
+            let alone = energy_and_enstrophy(&x, &gamma, sigma, &Threads::single(), &Alone);
+            let (e, z) = every_ordered_pair(&x, &gamma, sigma);
+            assert!(
+                (alone.0 - e).abs() <= 1e-12 * e.abs().max(1e-300),
+                "{alone:?} {e}"
+            );
+            assert!(
+                (alone.1 - z).abs() <= 1e-12 * z.abs().max(1e-300),
+                "{alone:?} {z}"
+            );
+            for ranks in 1..=4 {
+                for threads in [1, 2] {
+                    let got = Hub::run(ranks, |exchange| {
+                        let t = Threads::new(threads).unwrap();
+                        energy_and_enstrophy(&x, &gamma, sigma, &t, exchange)
+                    });
+                    for g in got {
+                        assert_eq!(g.0.to_bits(), alone.0.to_bits(), "n {n}, {ranks} ranks");
+                        assert_eq!(g.1.to_bits(), alone.1.to_bits(), "n {n}, {ranks} ranks");
+                    }
+                }
+            }
+        }
     }
 
     #[test]

@@ -1,6 +1,7 @@
 //! The vortex particle method behind the driver's [`Model`] interface.
 
 use super::{energy_and_enstrophy, lamb_oseen_vorticity, Moments, VortexError, VortexSystem};
+use crate::longrange::Exchange;
 use crate::models::pse::Integrator;
 use crate::models::{Blowup, Checked, CheckedArray, Field, Ids, Model, ModelInfo};
 use crate::state::{State, StateError};
@@ -81,6 +82,10 @@ pub struct VortexModel {
     angle: f64,
     /// The thermo values of the last observed state (without the time).
     observed: Vec<f64>,
+    /// The ranks that share the energy and enstrophy pair sums (every one
+    /// holding every particle and observing the same steps), or
+    /// [`Alone`](crate::longrange::Alone).
+    ranks: Box<dyn Exchange>,
     info: ModelInfo,
 }
 
@@ -90,14 +95,16 @@ const REMEDY: &str =
                       step, and nu dt / sigma^2 stay below about 0.5): use a smaller run.dt";
 
 impl VortexModel {
-    /// The model of `system`, its diagnostics computed for step 0; pictures show the
-    /// square `view` (lower corner, side).
+    /// The model of `system`, its diagnostics computed for step 0 (with their
+    /// pair sums shared by `ranks`); pictures show the square `view` (lower
+    /// corner, side).
     pub fn new(
         system: VortexSystem,
         integrator: Integrator,
         dt: f64,
         extras: Extras,
         view: ([f64; 2], f64),
+        ranks: Box<dyn Exchange>,
         threads: &Threads,
     ) -> Self {
         let h2 = system.params().spacing.powi(2);
@@ -122,6 +129,7 @@ impl VortexModel {
             scale,
             angle,
             observed: Vec::new(),
+            ranks,
         };
         model.observe(0, threads);
         model
@@ -141,6 +149,7 @@ impl VortexModel {
             system.gamma(),
             system.params().sigma,
             threads,
+            self.ranks.as_ref(),
         );
         let mut values = vec![
             m.circulation,
