@@ -294,6 +294,7 @@ fn ordered_rows_give_the_periodic_rate() {
 /// an all-pairs sum within the cutoff.
 #[test]
 fn the_vector_moving_rate_is_three_scalar_rates() {
+    use cellist::longrange::Alone;
     use cellist::models::pse::{moving_rate, PairWeight};
     use cellist::random::Rng;
     let mut rng = Rng::new(3);
@@ -312,14 +313,17 @@ fn the_vector_moving_rate_is_three_scalar_rates() {
         let mut rates = Vec::new();
         for threads in [&one, &two] {
             let mut out = vec![[0.0; 3]; n];
-            moving_rate(&domain, &weight, cutoff, &x, &alpha, &mut out, threads).unwrap();
+            moving_rate(
+                &domain, &weight, cutoff, &x, &alpha, &mut out, &Alone, threads,
+            )
+            .unwrap();
             rates.push(out);
         }
         assert!(same_bits(rates[0].as_flattened(), rates[1].as_flattened()));
         for c in 0..3 {
             let phi: Vec<[f64; 1]> = alpha.iter().map(|a| [a[c]]).collect();
             let mut out = vec![[0.0; 1]; n];
-            moving_rate(&domain, &weight, cutoff, &x, &phi, &mut out, &one).unwrap();
+            moving_rate(&domain, &weight, cutoff, &x, &phi, &mut out, &Alone, &one).unwrap();
             let column: Vec<f64> = rates[0].iter().map(|r| r[c]).collect();
             assert!(same_bits(&column, out.as_flattened()), "component {c}");
         }

@@ -12,7 +12,7 @@ use super::pairs::{PairsVortex, PairsVortex3};
 use super::tree::{TreeVortex, TreeVortex3};
 use crate::ranks::Ranks;
 use cellist::longrange::{
-    BlobKernel, BlobKernel3, Rank, TreeParams, Vic3Params, VortexInCell, VortexInCell3,
+    BlobKernel, BlobKernel3, Peers, Rank, TreeParams, Vic3Params, VortexInCell, VortexInCell3,
 };
 use cellist::models::vortex::{VelocityEngine, VelocitySolver};
 use cellist::models::vortex3::Velocity3Engine;
@@ -31,6 +31,18 @@ pub fn vortex_pairs(n: usize, kernel: BlobKernel) -> Option<(VelocityEngine, Ran
         Ranks::Replicated { world, figures },
         line,
     ))
+}
+
+/// The peers of a replicated run (`ranks`), among which the vortex model
+/// shares its PSE rates and thermo pair sums (their waiting counted with its
+/// solver's); `None` for another run.
+pub fn peers(ranks: &Ranks) -> Option<Peers> {
+    match ranks {
+        Ranks::Replicated { world, figures } => Some(Peers::new(Box::new(
+            MpiExchange::counted_in(world.duplicate(), figures.clone()),
+        ))),
+        _ => None,
+    }
 }
 
 /// How the direct sums' pairs are dealt out, for the run's `mpi:` line.

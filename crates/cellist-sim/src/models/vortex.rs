@@ -16,7 +16,7 @@ use crate::observers::{ChartLabels, FieldPlan, OutputPlan, PlotSpec, TableStyle}
 use crate::ranks::Ranks;
 use crate::scenario::keys::choice;
 use crate::scenario::Scenario;
-use cellist::longrange::{Alone, BlobKernel, ErrorFit, Exchange, VicBoundary, VicParams};
+use cellist::longrange::{BlobKernel, ErrorFit, VicBoundary, VicParams};
 use cellist::models::vortex::{
     seed, Extras, InitialVorticity, VelocityEngine, VelocitySolver, VortexModel, VortexParams,
     VortexSystem,
@@ -428,19 +428,14 @@ pub fn run<L: Launch>(
     };
     #[cfg(not(feature = "mpi"))]
     let (engine, ranks) = (single()?, Ranks::One);
-    // the ranks that share the thermo's pair sums
-    let sharing: Box<dyn Exchange> = match &ranks {
-        #[cfg(feature = "mpi")]
-        Ranks::Replicated { world, figures } => {
-            Box::new(crate::distributed::mesh::MpiExchange::counted_in(
-                mpi::traits::Communicator::duplicate(world),
-                figures.clone(),
-            ))
-        }
-        _ => Box::new(Alone),
-    };
-    let system = VortexSystem::with_engine(params, seeded.positions, seeded.gamma, engine, threads)
-        .map_err(|e| err(format!("system: {e}")))?;
+    #[cfg_attr(not(feature = "mpi"), allow(unused_mut))]
+    let mut system =
+        VortexSystem::with_engine(params, seeded.positions, seeded.gamma, engine, threads)
+            .map_err(|e| err(format!("system: {e}")))?;
+    #[cfg(feature = "mpi")]
+    if let Some(peers) = crate::distributed::replicated::peers(&ranks) {
+        system.share_with(peers);
+    }
     let solver_name = match velocity {
         VelocitySolver::Direct => "direct (all pairs)".to_string(),
         VelocitySolver::BarnesHut(p) => format!("barnes-hut (theta {})", p.theta),
@@ -519,15 +514,7 @@ pub fn run<L: Launch>(
         bodies: None,
         trajectories: out.trajectories().map_err(err)?,
     };
-    let model = VortexModel::new(
-        system,
-        integrator,
-        run.dt,
-        seeded.extras,
-        view,
-        sharing,
-        threads,
-    );
+    let model = VortexModel::new(system, integrator, run.dt, seeded.extras, view, threads);
     let spec = JobSpec {
         steps,
         dir: out_dir.to_path_buf(),

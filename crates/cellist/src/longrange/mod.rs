@@ -20,7 +20,7 @@ pub use biot_savart::{BlobKernel, DirectBiotSavart, PointVortex, VortexLaw};
 pub use biot_savart3::{velocity_and_gradient_at, BlobKernel3, DirectBiotSavart3};
 pub use direct::{DirectSum, PartialField};
 pub use mesh::{
-    Alone, Exchange, MeshBoundary, MeshParams, ParticleMesh, Rank, Vic3Boundary, Vic3Params,
+    Alone, Exchange, MeshBoundary, MeshParams, ParticleMesh, Peers, Rank, Vic3Boundary, Vic3Params,
     VicBoundary, VicParams, VortexInCell, VortexInCell3,
 };
 pub use p3m::P3m;

@@ -22,8 +22,8 @@ pub use grid::{
 pub use ordered::OrderedRows;
 pub use pairs::half_pairs;
 pub use parallel::{
-    gather_cells, gather_verlet, scatter_coloured, scatter_half_rows, scatter_verlet_serial,
-    LayerForces, LayerPlan, PairKernel, Summand,
+    gather_cells, gather_verlet, scatter_coloured, scatter_half_rows, scatter_half_rows_shared,
+    scatter_verlet_serial, LayerForces, LayerPlan, PairKernel, Summand,
 };
 pub use rebuild::{Rebuild, RebuildRule};
 pub use sorted::{half_list_as_found, sorted_half_list, PairArrays, PairQuantities, SkinList};

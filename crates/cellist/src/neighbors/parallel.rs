@@ -251,6 +251,24 @@ impl LayerPlan {
         }
     }
 
+    /// The tasks cut into `ranks` runs in task order (for
+    /// [`scatter_half_rows_shared`]), each starting at the first task whose
+    /// rows start at or past its share `rows r / ranks` of the rows (a run
+    /// may be empty).
+    pub fn task_runs(&self, ranks: usize) -> Vec<Range<usize>> {
+        let (rows, tasks) = (self.bounds[self.num_layers()], self.num_tasks());
+        let cuts: Vec<usize> = (0..=ranks)
+            .map(|r| match r {
+                0 => 0,
+                r if r == ranks => tasks,
+                r => (0..tasks)
+                    .find(|&t| self.task_rows(t).start * ranks >= rows * r)
+                    .unwrap_or(tasks),
+            })
+            .collect();
+        cuts.windows(2).map(|w| w[0]..w[1].max(w[0])).collect()
+    }
+
     /// The rows (slots, or the units of [`LayerPlan::over`]) of layer `z`.
     pub fn rows(&self, z: usize) -> Range<usize> {
         self.bounds[z]..self.bounds[z + 1]
@@ -419,68 +437,173 @@ pub fn scatter_half_rows<V: Summand, T: Send>(
     assert_eq!(tallies.len(), plan.num_tasks());
     let n = forces.len();
     assert_eq!(n, plan.bounds.last().copied().unwrap_or(0));
+    let (halo, cut) = halo_and_cut(plan, scratch, n);
+    threads.install(|| {
+        run_layer_tasks(plan, 0..plan.num_tasks(), forces, halo, cut, tallies, &work);
+        add_halo(plan, forces, halo, cut);
+    });
+}
+
+/// [`scatter_half_rows`] on one of several ranks that hold the same particles
+/// (and so the same `plan`): this rank runs only the tasks `parts[rank]`
+/// (`parts`: every rank's run of the tasks, in task order, together all of
+/// them), and `tallies` gets only theirs; `gather(mine, counts, all)` must
+/// put every rank's `mine` into `all` in rank order (`counts[r]` values from
+/// rank `r`): the sums of the slots each task wrote. Every rank then adds the
+/// halo as one process does, so `forces` gets the bits of
+/// [`scatter_half_rows`] on every rank.
+#[allow(clippy::too_many_arguments)]
+pub fn scatter_half_rows_shared<V: Summand, T: Send>(
+    plan: &LayerPlan,
+    (parts, rank): (&[Range<usize>], usize),
+    forces: &mut [V],
+    scratch: &mut Vec<V>,
+    tallies: &mut [T],
+    threads: &Threads,
+    gather: impl FnOnce(&[V], &[usize], &mut [V]),
+    work: impl Fn(Range<usize>, &LayerForces<V>, &mut T) + Sync,
+) {
+    assert_eq!(tallies.len(), plan.num_tasks());
+    let n = forces.len();
+    assert_eq!(n, plan.bounds.last().copied().unwrap_or(0));
+    let (halo, cut) = halo_and_cut(plan, scratch, n);
+    threads
+        .install(|| run_layer_tasks(plan, parts[rank].clone(), forces, halo, cut, tallies, &work));
+    // the slots each task wrote: its layer's sums, then its halo of the next
+    let written = |t: usize| {
+        let (z, second) = plan.task(t);
+        let (own, next) = plan.reach_runs(z);
+        (own, next, second)
+    };
+    let counts: Vec<usize> = parts
+        .iter()
+        .map(|p| {
+            p.clone()
+                .map(|t| {
+                    let (own, next, _) = written(t);
+                    own.len() + next.len()
+                })
+                .sum()
+        })
+        .collect();
+    let mut mine = Vec::with_capacity(counts[rank]);
+    for t in parts[rank].clone() {
+        let (own, next, second) = written(t);
+        let (sums, halo) = if second {
+            (&*cut, &*cut)
+        } else {
+            (&*forces, &*halo)
+        };
+        mine.extend_from_slice(&sums[own]);
+        mine.extend_from_slice(&halo[next]);
+    }
+    let mut all = vec![V::ZERO; counts.iter().sum()];
+    gather(&mine, &counts, &mut all);
+    let mut values = all.into_iter();
+    let mut fill = |slots: &mut [V]| {
+        for (slot, v) in slots.iter_mut().zip(&mut values) {
+            *slot = v;
+        }
+    };
+    for t in parts.iter().flat_map(|p| p.clone()) {
+        let (own, next, second) = written(t);
+        if second {
+            fill(&mut cut[own]);
+            fill(&mut cut[next]);
+        } else {
+            fill(&mut forces[own]);
+            fill(&mut halo[next]);
+        }
+    }
+    threads.install(|| add_halo(plan, forces, halo, cut));
+}
+
+/// The halo (`n` slots) and the cut layer's array (`n` more if a layer is
+/// cut) in `scratch`, resized when the slots changed.
+fn halo_and_cut<'a, V: Summand>(
+    plan: &LayerPlan,
+    scratch: &'a mut Vec<V>,
+    n: usize,
+) -> (&'a mut [V], &'a mut [V]) {
     // the cut layer's second part sums into an array of its own
     let extra = if plan.cut.is_some() { n } else { 0 };
     if scratch.len() != n + extra {
         scratch.clear();
         scratch.resize(n + extra, V::ZERO);
     }
-    let (halo, cut) = scratch.split_at_mut(n);
-    threads.install(|| {
-        {
-            let shared = DisjointSlice::new(forces);
-            let shared_halo = DisjointSlice::new(halo);
-            let tallies = DisjointSlice::new(tallies);
-            let cut = DisjointSlice::new(cut);
-            (0..plan.num_tasks()).into_par_iter().for_each(|t| {
-                let (z, second) = plan.task(t);
-                let (first, own, count) = plan.reach(z);
-                let (own_slots, next_slots) = plan.reach_runs(z);
-                // the layers' own ranges are disjoint, and so are their next-layer
-                // ranges (each layer is the next of one layer at most); the two
-                // ranges of a layer lie apart but for a single layer, whose next
-                // range is empty
-                let (forces, halo) = match second {
-                    false => (&shared, &shared_halo),
-                    true => (&cut, &cut),
-                };
-                // SAFETY: by the above, layer z's first task is the only one to
-                // touch either of its ranges in the sums and the halo, and its
-                // second task (of the cut layer) the only one to touch the
-                // cut layer's array
-                unsafe {
-                    forces.range(own_slots).fill(V::ZERO);
-                    halo.range(next_slots).fill(V::ZERO);
-                }
-                let access = LayerForces {
-                    forces: forces.base(),
-                    halo: halo.base(),
-                    _slices: std::marker::PhantomData,
-                    first,
-                    own,
-                    count,
-                    n,
-                    _one_thread: std::marker::PhantomData,
-                };
-                // SAFETY: each task index is visited once.
-                let tally = unsafe { tallies.get(t) };
-                work(plan.task_rows(t), &access, tally);
-            });
+    scratch.split_at_mut(n)
+}
+
+/// Runs `work` for the tasks `tasks` of `plan` in parallel (on the current
+/// pool), each on its layer's slots of `forces` and the next layer's of
+/// `halo` (or both in `cut`, for the cut layer's second part), which it zeroes
+/// first.
+#[inline(always)]
+fn run_layer_tasks<V: Summand, T: Send>(
+    plan: &LayerPlan,
+    tasks: Range<usize>,
+    forces: &mut [V],
+    halo: &mut [V],
+    cut: &mut [V],
+    tallies: &mut [T],
+    work: &(impl Fn(Range<usize>, &LayerForces<V>, &mut T) + Sync),
+) {
+    let n = forces.len();
+    let shared = DisjointSlice::new(forces);
+    let shared_halo = DisjointSlice::new(halo);
+    let tallies = DisjointSlice::new(tallies);
+    let cut = DisjointSlice::new(cut);
+    tasks.into_par_iter().for_each(|t| {
+        let (z, second) = plan.task(t);
+        let (first, own, count) = plan.reach(z);
+        let (own_slots, next_slots) = plan.reach_runs(z);
+        // the layers' own ranges are disjoint, and so are their next-layer
+        // ranges (each layer is the next of one layer at most); the two
+        // ranges of a layer lie apart but for a single layer, whose next
+        // range is empty
+        let (forces, halo) = match second {
+            false => (&shared, &shared_halo),
+            true => (&cut, &cut),
+        };
+        // SAFETY: by the above, layer z's first task is the only one to
+        // touch either of its ranges in the sums and the halo, and its
+        // second task (of the cut layer) the only one to touch the
+        // cut layer's array
+        unsafe {
+            forces.range(own_slots).fill(V::ZERO);
+            halo.range(next_slots).fill(V::ZERO);
         }
-        // slot by slot: own_0 + own_1, then + halo_0 + halo_1; the cut layer's
-        // own slots and its next layer's
-        let cut_slots = plan.cut.map(|m| plan.reach_runs(m));
-        if let Some((own, _)) = &cut_slots {
-            add_in_chunks(&mut forces[own.clone()], &cut[own.clone()]);
-        }
-        // the halo of every layer but the first, and of the first when the last
-        // layer wraps onto it: the slots some layer's task zeroed and wrote
-        let start = if plan.wraps { 0 } else { plan.rows(0).end };
-        add_in_chunks(&mut forces[start..], &halo[start..]);
-        if let Some((_, next)) = cut_slots {
-            add_in_chunks(&mut forces[next.clone()], &cut[next]);
-        }
+        let access = LayerForces {
+            forces: forces.base(),
+            halo: halo.base(),
+            _slices: std::marker::PhantomData,
+            first,
+            own,
+            count,
+            n,
+            _one_thread: std::marker::PhantomData,
+        };
+        // SAFETY: each task index is visited once.
+        let tally = unsafe { tallies.get(t) };
+        work(plan.task_rows(t), &access, tally);
     });
+}
+
+/// Adds the halo of [`run_layer_tasks`] to the sums, slot by slot: `own_0 +
+/// own_1`, then `+ halo_0 + halo_1`; the cut layer's own slots and its next
+/// layer's (on the current pool).
+fn add_halo<V: Summand>(plan: &LayerPlan, forces: &mut [V], halo: &[V], cut: &[V]) {
+    let cut_slots = plan.cut.map(|m| plan.reach_runs(m));
+    if let Some((own, _)) = &cut_slots {
+        add_in_chunks(&mut forces[own.clone()], &cut[own.clone()]);
+    }
+    // the halo of every layer but the first, and of the first when the last
+    // layer wraps onto it: the slots some layer's task zeroed and wrote
+    let start = if plan.wraps { 0 } else { plan.rows(0).end };
+    add_in_chunks(&mut forces[start..], &halo[start..]);
+    if let Some((_, next)) = cut_slots {
+        add_in_chunks(&mut forces[next.clone()], &cut[next]);
+    }
 }
 
 /// `sums[k] += deltas[k]` for every `k`, in chunks on the current pool. Kept

@@ -7,6 +7,7 @@ use super::pairs::{expected_pairs, rows_by_cells};
 use super::traverse::{for_each_row_in_cell, CutoffTest};
 use crate::geometry::norm2;
 use crate::threads::Threads;
+use std::ops::Range;
 
 /// A neighbour list in compressed-sparse-row form over the sorted slots of a
 /// [`CellList`].
@@ -78,6 +79,36 @@ impl<const D: usize> VerletList<D> {
     /// memory of the previous build (no allocation once the list has reached its
     /// size).
     pub fn rebuild(&mut self, cells: &CellList<D>, threads: &Threads) {
+        self.rebuild_rows(cells, 0..cells.len(), threads);
+    }
+
+    /// The list of `kind` for the particles of `cells` within `cutoff +
+    /// skin`, with the rows of the cells that hold some slot of `rows` (the
+    /// other rows empty): the part of the list whose rows one of several
+    /// ranks sums.
+    pub fn build_rows(
+        cells: &CellList<D>,
+        kind: StencilKind,
+        cutoff: f64,
+        rows: Range<usize>,
+        threads: &Threads,
+    ) -> Self {
+        let mut list = VerletList {
+            kind,
+            cutoff,
+            test: CutoffTest::new(cutoff),
+            skin: 0.0,
+            start: Vec::new(),
+            entries: Vec::new(),
+            image_shifts: Vec::new(),
+        };
+        list.rebuild_rows(cells, rows, threads);
+        list
+    }
+
+    /// [`VerletList::rebuild`] of the rows of the cells that hold some slot
+    /// of `rows`.
+    fn rebuild_rows(&mut self, cells: &CellList<D>, rows: Range<usize>, threads: &Threads) {
         let reach = self.cutoff + self.skin;
         assert!(
             reach <= cells.cutoff(),
@@ -91,6 +122,7 @@ impl<const D: usize> VerletList<D> {
         );
         let test = CutoffTest::new(reach);
         let kind = self.kind;
+        let cell_start = cells.cell_start();
         let grid = cells.grid();
         let entries = match kind {
             StencilKind::Half => 1,
@@ -104,6 +136,10 @@ impl<const D: usize> VerletList<D> {
             &mut self.start,
             &mut self.entries,
             |home, out, lengths, _: &mut ()| {
+                let (first, end) = (cell_start[home] as usize, cell_start[home + 1] as usize);
+                if first >= rows.end || end <= rows.start {
+                    return;
+                }
                 for_each_row_in_cell(cells, home, kind, &test, |i, j, image, _, _| {
                     // SAFETY: slot `i` is in cell `home`, which one task visits.
                     unsafe { *lengths.get_unchecked(i) += 1 };

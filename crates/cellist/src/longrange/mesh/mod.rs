@@ -30,7 +30,7 @@ pub(crate) mod testkit;
 pub mod vic;
 pub mod vic3;
 
-pub use slab::{Alone, Exchange, Rank};
+pub use slab::{Alone, Exchange, Peers, Rank};
 pub use vic::{VicBoundary, VicParams, VortexInCell, MAX_VIC_GRID, MIN_VIC_GRID};
 pub use vic3::{Vic3Boundary, Vic3Params, VortexInCell3, MAX_VIC3_GRID, MIN_VIC3_GRID};
 

@@ -107,6 +107,35 @@ impl Exchange for Alone {
     }
 }
 
+/// The ranks among which a system that every one of them holds whole divides
+/// its sums (the vortex model's PSE rates and thermo pair sums): a boxed
+/// [`Exchange`], [`Alone`] by default.
+pub struct Peers(Box<dyn Exchange>);
+
+impl Peers {
+    /// The ranks of `exchange`.
+    pub fn new(exchange: Box<dyn Exchange>) -> Self {
+        Peers(exchange)
+    }
+
+    /// The exchange among them.
+    pub fn exchange(&self) -> &dyn Exchange {
+        self.0.as_ref()
+    }
+}
+
+impl Default for Peers {
+    fn default() -> Self {
+        Peers(Box::new(Alone))
+    }
+}
+
+impl std::fmt::Debug for Peers {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "rank {} of {}", self.0.rank(), self.0.ranks())
+    }
+}
+
 /// This process's place among the ranks that share a mesh.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Rank {

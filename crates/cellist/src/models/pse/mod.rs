@@ -20,6 +20,7 @@ pub use model::{PseModel, INFO};
 
 use crate::geometry::norm2;
 use crate::geometry::{Domain, GeometryError};
+use crate::longrange::mesh::slab::Exchange;
 use crate::memory::{as_arrays, as_arrays_mut};
 use crate::neighbors::{CellList, OrderedRows};
 use crate::random::Rng;
@@ -538,6 +539,13 @@ pub fn row_weights<const D: usize>(
 /// The cell list and its half Verlet list are built for these positions on every
 /// call. `positions`, `phi` and `out` are in the caller's order; each particle's
 /// sum runs in an order fixed by the data.
+///
+/// On the ranks of `exchange` (each holding every particle and calling this
+/// with the same arguments) each rank builds and sums the Verlet rows of its
+/// run of the cell layers ([`LayerPlan::task_runs`](crate::neighbors::LayerPlan::task_runs)),
+/// the sums of the slots they wrote are all-gathered, and every rank adds
+/// them up as one process does: one process's bits on every rank.
+#[allow(clippy::too_many_arguments)]
 pub fn moving_rate<const D: usize, const W: usize>(
     domain: &Domain<D>,
     weight: &PairWeight,
@@ -545,10 +553,17 @@ pub fn moving_rate<const D: usize, const W: usize>(
     positions: &[[f64; D]],
     phi: &[[f64; W]],
     out: &mut [[f64; W]],
+    exchange: &dyn Exchange,
     threads: &Threads,
 ) -> Result<(), GeometryError> {
     let cells = CellList::build_in(domain, cutoff, positions, threads)?;
-    let mut pairs = ListPairs::new(&cells, cutoff, threads);
+    let (mut pairs, runs) = match exchange.ranks() {
+        1 => (ListPairs::new(&cells, cutoff, threads), None),
+        _ => {
+            let (pairs, runs) = ListPairs::of_rank(&cells, cutoff, exchange, threads);
+            (pairs, Some(runs))
+        }
+    };
     let mut slot_phi = Vec::with_capacity(phi.len());
     cells.permute(phi, &mut slot_phi);
     let mut slot_out = vec![[0.0; W]; phi.len()];
@@ -558,6 +573,7 @@ pub fn moving_rate<const D: usize, const W: usize>(
         cells.positions(),
         &slot_phi,
         &mut slot_out,
+        runs.as_deref().map(|runs| (runs, exchange)),
         threads,
     );
     for (slot, &k) in cells.order().iter().enumerate() {
@@ -580,7 +596,7 @@ impl<const D: usize> Pairs<D> {
             Pairs::Direct(p) => p.sum(weight, summed, positions, phi, out, threads),
             Pairs::CellList(p) => {
                 let (phi, out) = (as_arrays::<1>(phi), as_arrays_mut::<1>(out));
-                p.sum(weight, summed, positions, phi, out, threads)
+                p.sum(weight, summed, positions, phi, out, None, threads)
             }
         }
     }

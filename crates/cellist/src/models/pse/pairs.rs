@@ -11,7 +11,11 @@
 
 use super::kernel::PairWeight;
 use crate::geometry::Domain;
-use crate::neighbors::{scatter_half_rows, unpack, CellList, LayerPlan, StencilKind, VerletList};
+use crate::longrange::mesh::slab::Exchange;
+use crate::neighbors::{
+    scatter_half_rows, scatter_half_rows_shared, unpack, CellList, LayerForces, LayerPlan,
+    StencilKind, VerletList,
+};
 use crate::threads::{tournament, DisjointSlice, Threads};
 use rayon::prelude::*;
 use std::ops::Range;
@@ -225,12 +229,42 @@ impl<const D: usize, const W: usize> ListPairs<D, W> {
         }
     }
 
+    /// The part of the list that one of the ranks of `exchange` sums (each
+    /// holding every particle of `cells`): the rows of its run of the layer
+    /// tasks ([`LayerPlan::task_runs`]), for [`ListPairs::sum_shared`].
+    pub(super) fn of_rank(
+        cells: &CellList<D>,
+        cutoff: f64,
+        exchange: &dyn Exchange,
+        threads: &Threads,
+    ) -> (Self, Vec<Range<usize>>) {
+        let plan = LayerPlan::new(cells);
+        let runs = plan.task_runs(exchange.ranks());
+        let tasks = runs[exchange.rank()].clone();
+        let rows = match (tasks.clone().next(), tasks.clone().last()) {
+            (Some(first), Some(last)) => plan.task_rows(first).start..plan.task_rows(last).end,
+            _ => 0..0,
+        };
+        let list = ListPairs {
+            list: VerletList::build_rows(cells, StencilKind::Half, cutoff, rows, threads),
+            tallies: vec![(); plan.num_tasks()],
+            plan,
+            halo: Vec::new(),
+        };
+        (list, runs)
+    }
+
     /// Pairs evaluated per sum.
     pub(super) fn pairs(&self) -> u64 {
         self.list.num_entries() as u64
     }
 
     /// The pair sum over the list; `positions` in the cell list's slot order.
+    /// `shared`: the ranks that share it (every rank's run of the layer
+    /// tasks and the exchange among them, the list built by
+    /// [`ListPairs::of_rank`]), each summing the rows of its run, or `None`
+    /// in one process; the same bits either way.
+    #[allow(clippy::too_many_arguments)]
     pub(super) fn sum(
         &mut self,
         weight: &PairWeight,
@@ -238,44 +272,146 @@ impl<const D: usize, const W: usize> ListPairs<D, W> {
         positions: &[[f64; D]],
         phi: &[[f64; W]],
         out: &mut [[f64; W]],
+        shared: Option<(&[Range<usize>], &dyn Exchange)>,
         threads: &Threads,
     ) {
         let list = &self.list;
         let sign = partner_sign(summed);
-        scatter_half_rows(
-            &self.plan,
-            out,
-            &mut self.halo,
-            &mut self.tallies,
-            threads,
-            |rows, sums, _| {
-                let mut pb = PairBlock::<D, W>::default();
-                for i in rows {
-                    let (xi, phii) = (positions[i], phi[i]);
-                    let mut acc = [0.0; W];
-                    for block in list.row(i).chunks(BLOCK) {
-                        for (k, &entry) in block.iter().enumerate() {
-                            let (j, image) = unpack(entry);
-                            let (xj, s) = (&positions[j], list.image_shift(image));
-                            for a in 0..D {
-                                pb.d[a][k] = (xj[a] + s[a]) - xi[a];
-                            }
-                            for c in 0..W {
-                                pb.dphi[c][k] = phi[j][c] - phii[c];
-                            }
+        let rows = |rows: Range<usize>, sums: &LayerForces<[f64; W]>, _: &mut ()| {
+            let mut pb = PairBlock::<D, W>::default();
+            for i in rows {
+                let (xi, phii) = (positions[i], phi[i]);
+                let mut acc = [0.0; W];
+                for block in list.row(i).chunks(BLOCK) {
+                    for (k, &entry) in block.iter().enumerate() {
+                        let (j, image) = unpack(entry);
+                        let (xj, s) = (&positions[j], list.image_shift(image));
+                        for a in 0..D {
+                            pb.d[a][k] = (xj[a] + s[a]) - xi[a];
                         }
-                        pb.evaluate(weight, summed);
-                        for (k, &entry) in block.iter().enumerate() {
-                            let value: [f64; W] = std::array::from_fn(|c| pb.value[c][k]);
-                            for c in 0..W {
-                                acc[c] += value[c];
-                            }
-                            sums.add(unpack(entry).0, &value.map(|v| sign * v));
+                        for c in 0..W {
+                            pb.dphi[c][k] = phi[j][c] - phii[c];
                         }
                     }
-                    sums.add(i, &acc);
+                    pb.evaluate(weight, summed);
+                    for (k, &entry) in block.iter().enumerate() {
+                        let value: [f64; W] = std::array::from_fn(|c| pb.value[c][k]);
+                        for c in 0..W {
+                            acc[c] += value[c];
+                        }
+                        sums.add(unpack(entry).0, &value.map(|v| sign * v));
+                    }
                 }
-            },
-        );
+                sums.add(i, &acc);
+            }
+        };
+        match shared {
+            None => scatter_half_rows(
+                &self.plan,
+                out,
+                &mut self.halo,
+                &mut self.tallies,
+                threads,
+                rows,
+            ),
+            Some((runs, exchange)) => scatter_half_rows_shared(
+                &self.plan,
+                (runs, exchange.rank()),
+                out,
+                &mut self.halo,
+                &mut self.tallies,
+                threads,
+                |mine, counts, all| {
+                    let counts: Vec<usize> = counts.iter().map(|c| W * c).collect();
+                    exchange.all_gather(mine.as_flattened(), &counts, all.as_flattened_mut())
+                },
+                rows,
+            ),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::{moving_rate, PairWeight};
+    use crate::geometry::Domain;
+    use crate::longrange::mesh::slab::testkit::Hub;
+    use crate::longrange::Alone;
+    use crate::random::Rng;
+    use crate::threads::Threads;
+
+    /// `n` particles in the unit box of dimension `D` with `W` strengths each.
+    fn cloud<const D: usize, const W: usize>(
+        n: usize,
+        seed: u64,
+    ) -> (Vec<[f64; D]>, Vec<[f64; W]>) {
+        let mut rng = Rng::new(seed);
+        let x = (0..n)
+            .map(|_| std::array::from_fn(|_| rng.uniform()))
+            .collect();
+        let phi = (0..n)
+            .map(|_| std::array::from_fn(|_| rng.normal()))
+            .collect();
+        (x, phi)
+    }
+
+    /// The rate of every rank of `ranks` sharing it, against one process's.
+    fn shared_rates_have_one_process_bits<const D: usize, const W: usize>(
+        domain: Domain<D>,
+        cutoff: f64,
+        n: usize,
+    ) {
+        let (x, phi) = cloud::<D, W>(n, n as u64 + D as u64);
+        let weight = PairWeight::new(D, 0.01, cutoff / 3.0, 1.0 / n as f64);
+        let mut alone = vec![[0.0; W]; n];
+        moving_rate(
+            &domain,
+            &weight,
+            cutoff,
+            &x,
+            &phi,
+            &mut alone,
+            &Alone,
+            &Threads::single(),
+        )
+        .unwrap();
+        for ranks in 1..=4 {
+            for threads in [1, 2] {
+                let got = Hub::run(ranks, |exchange| {
+                    let mut out = vec![[0.0; W]; n];
+                    let t = Threads::new(threads).unwrap();
+                    moving_rate(&domain, &weight, cutoff, &x, &phi, &mut out, exchange, &t)
+                        .map(|()| out)
+                });
+                for (rank, out) in got.into_iter().enumerate() {
+                    let out = out.unwrap();
+                    let same = out
+                        .as_flattened()
+                        .iter()
+                        .zip(alone.as_flattened())
+                        .all(|(a, b)| a.to_bits() == b.to_bits());
+                    assert!(
+                        same,
+                        "{D}D, {n} particles, rank {rank} of {ranks}, {threads} threads"
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn rates_shared_by_ranks_have_one_process_bits() {
+        // 2D open: a few layers, one of them cut (an odd count below 16)
+        let open2 = |x: &[[f64; 2]]| Domain::open_around(x);
+        let (x2, _) = cloud::<2, 1>(700, 702);
+        shared_rates_have_one_process_bits::<2, 1>(open2(&x2), 0.2, 700);
+        // 2D periodic: layers that wrap, many of them
+        shared_rates_have_one_process_bits::<2, 1>(Domain::periodic([1.0; 2]).unwrap(), 0.05, 700);
+        // 3D, three strengths: periodic with an odd layer count, and open
+        shared_rates_have_one_process_bits::<3, 3>(Domain::periodic([1.0; 3]).unwrap(), 0.2, 900);
+        let (x3, _) = cloud::<3, 3>(900, 903);
+        shared_rates_have_one_process_bits::<3, 3>(Domain::open_around(&x3), 0.15, 900);
+        // fewer particles than ranks have layers
+        shared_rates_have_one_process_bits::<2, 1>(Domain::periodic([1.0; 2]).unwrap(), 0.3, 3);
     }
 }

@@ -35,7 +35,7 @@ use crate::geometry::{wrap_coordinate, Boundary};
 use crate::interpolation::{remesh, Lattice};
 use crate::longrange::mesh::{VicBoundary, VicParams, VortexInCell};
 use crate::longrange::tree::{FmmAccuracy, TreeParams, VortexFmm, VortexTree};
-use crate::longrange::{BlobKernel, DirectBiotSavart};
+use crate::longrange::{BlobKernel, DirectBiotSavart, Exchange, Peers};
 use crate::memory::{as_arrays, as_arrays_mut};
 use crate::threads::Threads;
 use std::fmt;
@@ -326,6 +326,8 @@ pub struct VortexSystem {
     trial_gamma: Vec<f64>,
     dropped: f64,
     times: StageTimes,
+    /// The ranks that share the PSE rates and the thermo pair sums.
+    peers: Peers,
 }
 
 impl VortexSystem {
@@ -392,6 +394,7 @@ impl VortexSystem {
             trial_gamma: Vec::new(),
             dropped: 0.0,
             times: StageTimes::default(),
+            peers: Peers::default(),
         };
         system.refresh(threads)?;
         Ok(system)
@@ -400,6 +403,18 @@ impl VortexSystem {
     /// The parameters.
     pub fn params(&self) -> &VortexParams {
         &self.params
+    }
+
+    /// Shares the PSE rates and the thermo's pair sums among `peers`, every
+    /// one of which holds this system and advances it alike (the results have
+    /// the bits of one process).
+    pub fn share_with(&mut self, peers: Peers) {
+        self.peers = peers;
+    }
+
+    /// The ranks that share the PSE rates and the thermo's pair sums.
+    pub fn peers(&self) -> &dyn Exchange {
+        self.peers.exchange()
     }
 
     /// The blob kernel.
@@ -476,6 +491,7 @@ impl VortexSystem {
             &mut self.solver,
             &self.params,
             &self.weight,
+            self.peers.exchange(),
             &mut self.times,
             &self.positions,
             &self.gamma,
@@ -510,6 +526,7 @@ impl VortexSystem {
             stages: [k2, k3, k4],
             trial_positions,
             trial_gamma,
+            peers,
             ..
         } = self;
         let k1 = &*current;
@@ -520,7 +537,17 @@ impl VortexSystem {
                     x[i], g[i]
                 )));
             }
-            evaluate(solver, params, weight, times, x, g, out, threads)
+            evaluate(
+                solver,
+                params,
+                weight,
+                peers.exchange(),
+                times,
+                x,
+                g,
+                out,
+                threads,
+            )
         };
         match integrator {
             Integrator::Euler => advance(positions, gamma, None, [(dt, k1)], threads),
@@ -625,12 +652,13 @@ fn advance<const N: usize>(
 
 /// The rate of `(positions, gamma)`: the solver's velocities and, with `nu > 0`,
 /// the PSE circulation rates over an open domain around the particles (or the
-/// periodic box).
+/// periodic box), shared by the ranks of `peers`.
 #[allow(clippy::too_many_arguments)]
 fn evaluate(
     solver: &mut VelocityEngine,
     params: &VortexParams,
     weight: &PairWeight,
+    peers: &dyn Exchange,
     times: &mut StageTimes,
     positions: &[[f64; 2]],
     gamma: &[f64],
@@ -658,6 +686,7 @@ fn evaluate(
             positions,
             as_arrays::<1>(gamma),
             as_arrays_mut::<1>(&mut out.gamma),
+            peers,
             threads,
         )
         .map_err(|e| VortexError::Step(format!("the PSE cell list: {e}")))?;

@@ -1,7 +1,6 @@
 //! The vortex particle method behind the driver's [`Model`] interface.
 
 use super::{energy_and_enstrophy, lamb_oseen_vorticity, Moments, VortexError, VortexSystem};
-use crate::longrange::Exchange;
 use crate::models::pse::Integrator;
 use crate::models::{Blowup, Checked, CheckedArray, Field, Ids, Model, ModelInfo};
 use crate::state::{State, StateError};
@@ -82,10 +81,6 @@ pub struct VortexModel {
     angle: f64,
     /// The thermo values of the last observed state (without the time).
     observed: Vec<f64>,
-    /// The ranks that share the energy and enstrophy pair sums (every one
-    /// holding every particle and observing the same steps), or
-    /// [`Alone`](crate::longrange::Alone).
-    ranks: Box<dyn Exchange>,
     info: ModelInfo,
 }
 
@@ -95,16 +90,15 @@ const REMEDY: &str =
                       step, and nu dt / sigma^2 stay below about 0.5): use a smaller run.dt";
 
 impl VortexModel {
-    /// The model of `system`, its diagnostics computed for step 0 (with their
-    /// pair sums shared by `ranks`); pictures show the square `view` (lower
-    /// corner, side).
+    /// The model of `system`, its diagnostics computed for step 0 (their
+    /// pair sums shared by the system's peers, which then observe the same
+    /// steps); pictures show the square `view` (lower corner, side).
     pub fn new(
         system: VortexSystem,
         integrator: Integrator,
         dt: f64,
         extras: Extras,
         view: ([f64; 2], f64),
-        ranks: Box<dyn Exchange>,
         threads: &Threads,
     ) -> Self {
         let h2 = system.params().spacing.powi(2);
@@ -129,7 +123,6 @@ impl VortexModel {
             scale,
             angle,
             observed: Vec::new(),
-            ranks,
         };
         model.observe(0, threads);
         model
@@ -149,7 +142,7 @@ impl VortexModel {
             system.gamma(),
             system.params().sigma,
             threads,
-            self.ranks.as_ref(),
+            system.peers(),
         );
         let mut values = vec![
             m.circulation,

@@ -43,8 +43,8 @@ use super::vortex::{check_blob_params, pse_reach, VortexError};
 use crate::geometry::{wrap_coordinate, Boundary, Domain};
 use crate::interpolation::{remesh, Lattice};
 use crate::longrange::{
-    BlobKernel3, DirectBiotSavart3, FmmAccuracy, TreeParams, Vic3Boundary, Vic3Params, VortexFmm3,
-    VortexInCell3, VortexTree3,
+    BlobKernel3, DirectBiotSavart3, FmmAccuracy, Peers, TreeParams, Vic3Boundary, Vic3Params,
+    VortexFmm3, VortexInCell3, VortexTree3,
 };
 use crate::memory::{as_arrays, as_arrays_mut};
 use crate::threads::Threads;
@@ -246,6 +246,8 @@ struct Rater {
     /// The PSE rates of the last evaluation.
     diffusion: Vec<[f64; 3]>,
     times: Stage3Times,
+    /// The ranks that share the PSE rates.
+    peers: Peers,
 }
 
 impl Rater {
@@ -295,6 +297,7 @@ impl Rater {
                 x,
                 alpha,
                 &mut self.diffusion,
+                self.peers.exchange(),
                 threads,
             )
             .map_err(|e| VortexError::Step(format!("the PSE cell list: {e}")))?;
@@ -391,6 +394,7 @@ impl Vortex3System {
                 gradient: Vec::new(),
                 diffusion: Vec::new(),
                 times: Stage3Times::default(),
+                peers: Peers::default(),
             },
             state: Vec::new(),
             current: Vec::new(),
@@ -406,6 +410,12 @@ impl Vortex3System {
     /// The parameters.
     pub fn params(&self) -> &Vortex3Params {
         &self.rater.params
+    }
+
+    /// Shares the PSE rates among `peers`, every one of which holds this
+    /// system and advances it alike (the rates have the bits of one process).
+    pub fn share_with(&mut self, peers: Peers) {
+        self.rater.peers = peers;
     }
 
     /// Number of particles.
