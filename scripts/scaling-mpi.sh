@@ -27,7 +27,7 @@
 #               (the same mesh), 20000 bodies, 5 steps
 #   vortex:     every rank holding every particle, cellist -np 1, 2, 4: the
 #               2D vortex pair of examples/vortex-pair.toml with the direct
-#               sum, 20 RK4 steps; the 3D vortex ring of
+#               sum and with its own tree, 20 RK4 steps; the 3D vortex ring of
 #               examples/vortex-ring.toml (12368 particles): mesh (grid 64),
 #               10 RK2 steps; barnes-hut and direct, 2 RK2 steps
 # and prints one line per run: `case ranks loop_seconds peak_rss_MB` (cellist's
@@ -98,6 +98,8 @@ sed -e 's/kind = "direct"/kind = "p3m", grid = 128, boundary = "periodic", box =
     "$work/gravity.toml" > "$work/p3m.toml"
 sed -e '/^gif/d' -e '/^png/d' -e 's/^steps = 800/steps = 20/' \
     -e 's/^velocity = .*/velocity = { kind = "direct" }/' "$here/examples/vortex-pair.toml" > "$work/vortex-direct.toml"
+sed -e '/^gif/d' -e '/^png/d' -e 's/^steps = 800/steps = 20/' \
+    "$here/examples/vortex-pair.toml" > "$work/vortex-tree.toml"
 ring() {  # file steps velocity
     sed -e '/^gif/d' -e '/^field/d' -e "s/^steps = 100/steps = $2/" \
         -e "s/^velocity = .*/velocity = $3/" "$here/examples/vortex-ring.toml" > "$1"
@@ -167,7 +169,9 @@ print(sys.argv[2], sys.argv[3], s["loop_seconds"], round(s["peak_rss_bytes"] / 2
             for n in 1 2 4; do ours gravity-p3m "$n" "$work/p3m.toml"; done
         fi
         if [[ " $CASES " == *" vortex "* ]]; then
-            for n in 1 2 4; do ours vortex-direct "$n" "$work/vortex-direct.toml"; done
+            for k in direct tree; do
+                for n in 1 2 4; do ours "vortex-$k" "$n" "$work/vortex-$k.toml"; done
+            done
             for k in mesh tree direct; do
                 for n in 1 2 4; do ours "vortex3-$k" "$n" "$work/vortex3-$k.toml"; done
             done
