@@ -8,14 +8,17 @@
 //!          -> observers created (growing files continued from the recorded lengths)
 //!          -> observe(step 0) on a new run
 //! loop:    observe = an observer needs thermo or energies at s
-//!                    (or, for a state spread over MPI ranks, any output is due)
+//!                    (or, for a state spread over MPI ranks, any output is due;
+//!                    the ranks of a replicated state agree on it and on which
+//!                    outputs are due, which only rank 0's observers know)
 //!          model.want_particle_energies(a dump with energies is due at s)
 //!          model.step_observed(s) if observe, else model.step(s)
 //!                                         # the model's own stages, timed by it
 //!          check(model)                   # finite values, walls, particle count
 //!                                         # (unless the model's step checks itself)
 //!          observers whose trigger fires  # thermo, dumps, fields, pictures
-//!          if an observer or a checkpoint fired: keep the state as the last good one
+//!          if an observer or a checkpoint fired (on any rank): keep the state as
+//!          the last good one
 //!          if s is a checkpoint step: write the checkpoint (atomically)
 //!          (on several ranks every failure is agreed, so that all stop together)
 //! finish:  observers finish (plots, animations), timers report
@@ -323,10 +326,11 @@ impl<M: Hosted> Live<M> {
                 .checkpoint
                 .as_ref()
                 .is_some_and(|c| step % c.every == 0 || step == last);
-            let observe = job.ranks.observe_together(
+            let due = observers.iter().any(|o| o.due(step, last));
+            let (observe, due) = job.ranks.agree_on_step(
                 observers.iter().any(|o| o.needs_observables(step, last))
-                    || (job.ranks.observe_when_due()
-                        && (checkpoint || observers.iter().any(|o| o.due(step, last)))),
+                    || (job.ranks.observe_when_due() && (checkpoint || due)),
+                due,
             );
             let stepped = if observe {
                 let energies = observers
@@ -352,7 +356,15 @@ impl<M: Hosted> Live<M> {
             }
             self.step = step;
             let t = Instant::now();
-            let written = job.output(step, last, checkpoint, observers, &self.bar, &mut self.good);
+            let written = job.output(
+                step,
+                last,
+                checkpoint || due,
+                checkpoint,
+                observers,
+                &self.bar,
+                &mut self.good,
+            );
             job.model.serve_outputs();
             agreed(&job.ranks, written)?;
             self.output_time += t.elapsed();
@@ -443,22 +455,24 @@ impl<M: Hosted> Job<M> {
     }
 
     /// Runs the observers due at `step`, keeps the state as the last good one if
-    /// one fired or a checkpoint is due, and writes the checkpoint.
+    /// `keep` (an observer or a checkpoint is due, on any rank of a replicated
+    /// run, so that its ranks keep the same steps) or the model was observed
+    /// everywhere, and writes the checkpoint.
+    #[allow(clippy::too_many_arguments)]
     fn output(
         &mut self,
         step: u64,
         last: u64,
+        keep: bool,
         checkpoint: bool,
         observers: &mut [Box<dyn Observer<M>>],
         bar: &ProgressBar,
         good: &mut Checkpoint,
     ) -> SimResult {
-        let mut fired = false;
         for o in observers.iter_mut().filter(|o| o.due(step, last)) {
             o.observe(&self.model, step, last, bar)?;
-            fired = true;
         }
-        if fired || checkpoint || self.model.observed_everywhere() {
+        if keep || self.model.observed_everywhere() {
             self.retake(good, step, observers)?;
         }
         if checkpoint && self.ranks.writes_output() {

@@ -86,21 +86,22 @@ impl Ranks {
         }
     }
 
-    /// Whether step's state is observed, `observe` as rank 0's observers
-    /// decide it, made one for every rank of a replicated run: its other ranks
-    /// have no observers, and its model observes collectively (the vortex
-    /// model's thermo pair sums are shared). Elsewhere `observe` itself.
-    pub fn observe_together(&self, observe: bool) -> bool {
+    /// `(observe, due)` for a step, as rank 0's observers decide them (its
+    /// state observed; an observer due, whose step every rank keeps as the
+    /// last good state), made one for every rank of a replicated run: its
+    /// other ranks have no observers, its model observes collectively (the
+    /// vortex model's thermo pair sums are shared), and a blow-up restores
+    /// the last good state on every rank collectively (its rates are shared).
+    /// Elsewhere the flags themselves.
+    pub fn agree_on_step(&self, observe: bool, due: bool) -> (bool, bool) {
         match self {
             #[cfg(feature = "mpi")]
             Ranks::Replicated { world, .. } => {
-                all_reduce(
-                    world,
-                    [f64::from(u8::from(observe))],
-                    SystemOperation::max(),
-                )[0] > 0.0
+                let flag = |b: bool| f64::from(u8::from(b));
+                let [o, d] = all_reduce(world, [flag(observe), flag(due)], SystemOperation::max());
+                (o > 0.0, d > 0.0)
             }
-            _ => observe,
+            _ => (observe, due),
         }
     }
 

@@ -12,7 +12,9 @@
 //!   writing its own particles directly and the next layer's into a halo buffer
 //!   that only it writes, added afterwards (Newton's third law, one pass); one
 //!   layer of an odd few may run as two tasks, the second with sums of its own
-//!   ([`LayerPlan`]).
+//!   ([`LayerPlan`]); processes that hold the same particles may share the
+//!   tasks, each running a run of them and gathering the slots the others
+//!   wrote before the halo is added ([`scatter_half_rows_shared`]).
 
 use super::cell_list::CellList;
 use super::clusters::CLUSTER;
@@ -266,7 +268,7 @@ impl LayerPlan {
                     .unwrap_or(tasks),
             })
             .collect();
-        cuts.windows(2).map(|w| w[0]..w[1].max(w[0])).collect()
+        cuts.windows(2).map(|w| w[0]..w[1]).collect()
     }
 
     /// The rows (slots, or the units of [`LayerPlan::over`]) of layer `z`.
@@ -515,6 +517,7 @@ pub fn scatter_half_rows_shared<V: Summand, T: Send>(
             fill(&mut halo[next]);
         }
     }
+    debug_assert!(values.next().is_none(), "every gathered value has its slot");
     threads.install(|| add_halo(plan, forces, halo, cut));
 }
 
@@ -628,6 +631,8 @@ const HALO_CHUNK: usize = 4096;
 mod tests {
     use super::*;
     use crate::geometry::{Boundary, Domain};
+    use crate::longrange::mesh::slab::testkit::Hub;
+    use crate::longrange::mesh::slab::Exchange;
 
     fn plan_for(layers: usize, periodic: bool) -> LayerPlan {
         let boundary = if periodic {
@@ -751,7 +756,65 @@ mod tests {
                     expected[target][1] -= plan.rows(z).len() as f64;
                 }
             }
-            for threads in [Threads::single(), Threads::new(2).unwrap()] {
+            let work = |rows: Range<usize>, f: &LayerForces<[f64; 2]>, seen: &mut usize| {
+                // (an empty task's layer does not matter)
+                let z = (0..layers)
+                    .find(|&z| plan.rows(z).contains(&rows.start))
+                    .unwrap_or(0);
+                for i in rows {
+                    f.add(i, &[1.0, 0.0]);
+                    if let Some(target) = next_first(z) {
+                        f.sub(target, &[0.0, 1.0]);
+                    }
+                    *seen += 1;
+                }
+            };
+            for count in [1, 2] {
+                // shared by ranks, each running its tasks alone: the same sums
+                // on every rank, over whatever its forces and halo held
+                for ranks in 1..=4 {
+                    let runs = plan.task_runs(ranks);
+                    assert_eq!(runs.len(), ranks);
+                    assert_eq!(
+                        runs.iter().map(|r| r.len()).sum::<usize>(),
+                        plan.num_tasks()
+                    );
+                    let got = Hub::run(ranks, |exchange| {
+                        let threads = Threads::new(count).unwrap();
+                        let mut forces = vec![[f64::NAN; 2]; n];
+                        let mut halo = vec![[f64::NAN; 2]; n];
+                        let mut tallies = vec![0; plan.num_tasks()];
+                        let mut sums = Vec::new();
+                        for _call in 0..2 {
+                            scatter_half_rows_shared(
+                                &plan,
+                                (&runs, exchange.rank()),
+                                &mut forces,
+                                &mut halo,
+                                &mut tallies,
+                                &threads,
+                                |mine, counts, all| {
+                                    let counts: Vec<usize> = counts.iter().map(|c| 2 * c).collect();
+                                    exchange.all_gather(
+                                        mine.as_flattened(),
+                                        &counts,
+                                        all.as_flattened_mut(),
+                                    )
+                                },
+                                work,
+                            );
+                            sums.push(forces.clone());
+                        }
+                        sums
+                    });
+                    for sums in got.into_iter().flatten() {
+                        assert_eq!(
+                            sums, expected,
+                            "{counts:?}, periodic {periodic}, {ranks} ranks"
+                        );
+                    }
+                }
+                let threads = Threads::new(count).unwrap();
                 // the sums overwrite whatever the forces and the halo held, on a
                 // first call and on the next
                 let mut forces = vec![[f64::NAN; 2]; n];
@@ -764,19 +827,7 @@ mod tests {
                         &mut halo,
                         &mut rows_seen,
                         &threads,
-                        |rows, f, seen| {
-                            // (an empty task's layer does not matter)
-                            let z = (0..layers)
-                                .find(|&z| plan.rows(z).contains(&rows.start))
-                                .unwrap_or(0);
-                            for i in rows {
-                                f.add(i, &[1.0, 0.0]);
-                                if let Some(target) = next_first(z) {
-                                    f.sub(target, &[0.0, 1.0]);
-                                }
-                                *seen += 1;
-                            }
-                        },
+                        work,
                     );
                     assert_eq!(forces, expected, "{counts:?}, periodic {periodic}");
                     // the cut layer's rows are shared by two tasks

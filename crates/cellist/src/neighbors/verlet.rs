@@ -82,9 +82,9 @@ impl<const D: usize> VerletList<D> {
         self.rebuild_rows(cells, 0..cells.len(), threads);
     }
 
-    /// The list of `kind` for the particles of `cells` within `cutoff +
-    /// skin`, with the rows of the cells that hold some slot of `rows` (the
-    /// other rows empty): the part of the list whose rows one of several
+    /// The list of `kind` for the particles of `cells` within `cutoff`
+    /// (no skin), with the rows of the cells that hold some slot of `rows`
+    /// (the other rows empty): the part of the list whose rows one of several
     /// ranks sums.
     pub fn build_rows(
         cells: &CellList<D>,

@@ -7,7 +7,9 @@
 //! - all pairs: blocks of particles met in a round-robin tournament, each round a
 //!   set of disjoint block pairs run in parallel;
 //! - cell list: a half Verlet list of the static particles, built once, summed
-//!   layer by layer with a halo ([`scatter_half_rows`]).
+//!   layer by layer with a halo ([`scatter_half_rows`]); ranks that each hold
+//!   every particle may share it, each building and summing the rows of its
+//!   run of the layers ([`ListPairs::of_rank`], [`scatter_half_rows_shared`]).
 
 use super::kernel::PairWeight;
 use crate::geometry::Domain;
@@ -241,9 +243,10 @@ impl<const D: usize, const W: usize> ListPairs<D, W> {
         let plan = LayerPlan::new(cells);
         let runs = plan.task_runs(exchange.ranks());
         let tasks = runs[exchange.rank()].clone();
-        let rows = match (tasks.clone().next(), tasks.clone().last()) {
-            (Some(first), Some(last)) => plan.task_rows(first).start..plan.task_rows(last).end,
-            _ => 0..0,
+        let rows = if tasks.is_empty() {
+            0..0
+        } else {
+            plan.task_rows(tasks.start).start..plan.task_rows(tasks.end - 1).end
         };
         let list = ListPairs {
             list: VerletList::build_rows(cells, StencilKind::Half, cutoff, rows, threads),

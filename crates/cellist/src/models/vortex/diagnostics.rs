@@ -126,7 +126,7 @@ impl Moments {
 
 /// `(E, Z)`: the energy and enstrophy pair sums, each pair once (`j > i`) plus
 /// the diagonal, row by row, the rows added in order: the same bits for any
-/// thread count and any number of ranks. On the ranks of `ranks` (every one
+/// thread count and any number of ranks. On the ranks of `peers` (every one
 /// holding every particle and calling this together) rank `r` of `P` sums the
 /// rows `i` with `i mod P = r` (row `i` holds `N - 1 - i` pairs, so the ranks'
 /// shares differ by at most `N` pairs) and the rows' sums are all-gathered;
@@ -136,7 +136,7 @@ pub fn energy_and_enstrophy(
     gamma: &[f64],
     sigma: f64,
     threads: &Threads,
-    ranks: &dyn Exchange,
+    peers: &dyn Exchange,
 ) -> (f64, f64) {
     let four_sigma2 = 4.0 * sigma * sigma;
     let ln4s2 = four_sigma2.ln();
@@ -164,7 +164,7 @@ pub fn energy_and_enstrophy(
         [e, z]
     };
     let n = positions.len();
-    let (rank, count) = (ranks.rank(), ranks.ranks());
+    let (rank, count) = (peers.rank(), peers.ranks());
     let mine: Vec<f64> = threads.install(|| {
         (rank..n)
             .into_par_iter()
@@ -183,7 +183,7 @@ pub fn energy_and_enstrophy(
         })
         .collect();
     let mut rows = vec![0.0; 2 * n];
-    ranks.all_gather(&mine, &counts, &mut rows);
+    peers.all_gather(&mine, &counts, &mut rows);
     let (e, z) = (0..n)
         .map(|i| &rows[starts[i % count] + 2 * (i / count)..][..2])
         .fold((0.0, 0.0), |(e, z), r| (e + r[0], z + r[1]));
