@@ -59,6 +59,24 @@ fn a_ring_run_writes_its_columns_fields_pictures_and_trajectories() {
 }
 
 #[test]
+fn strengths_that_overflow_stop_the_run_as_a_blow_up_with_its_last_good_state() {
+    // strengths of 1e50 stay finite for a step whose squares overflow (the
+    // rings' weighted position, which moves the pictures' view, is then not
+    // finite); the picture of that step is drawn and the next step blows up
+    let dir = tempfile::tempdir().unwrap();
+    let scenario = format!(
+        "{}gif = {{ every = 1 }}\n",
+        ring(0.3, 0.15, "{ kind = \"mesh\", grid = 16 }", 4, 0.05)
+            .replace("circulation = 1.0", "circulation = 1e50")
+    );
+    let (out, o) = run(dir.path(), "overflow", &scenario, &[]);
+    let err = text(&o.stderr);
+    assert_eq!(o.status.code(), Some(3), "{err}");
+    assert!(err.contains("last good state (step"), "{err}");
+    assert!(out.join("last.csv").is_file() && out.join("vorticity.gif").is_file());
+}
+
+#[test]
 fn threads_do_not_change_the_files_and_a_restart_is_bit_for_bit() {
     let dir = tempfile::tempdir().unwrap();
     // viscous, remeshed and relaxed, on the mesh, on all pairs and by the fmm

@@ -218,12 +218,17 @@ impl Vortex3Model {
 impl Vortex3Model {
     /// The pictures' corner: the seeded view's, moved along the rings' axis as
     /// far as the rings' weighted position has moved (a state's own, so that a
-    /// restart draws the same pictures).
+    /// restart draws the same pictures); the seeded view's itself where that
+    /// position is not finite (strengths whose squares overflow, in a state on
+    /// its way to a blow-up: its picture is drawn and the check of the next
+    /// step stops the run).
     fn view_origin(&self) -> [f64; 3] {
         let shift = ring_position(&self.extras, &self.system) - self.start;
         match self.extras.rings().first() {
-            Some(ring) => [0, 1, 2].map(|a| self.view.origin[a] + shift * ring.axis[a]),
-            None => self.view.origin,
+            Some(ring) if shift.is_finite() => {
+                [0, 1, 2].map(|a| self.view.origin[a] + shift * ring.axis[a])
+            }
+            _ => self.view.origin,
         }
     }
 }
