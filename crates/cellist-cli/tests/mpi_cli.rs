@@ -303,6 +303,15 @@ field = {{ every = 3, file = "vorticity.csv" }}
     path.display().to_string()
 }
 
+/// The scenario file `path` with `from` replaced by `to` (which must be in
+/// it), written back; its path.
+fn finer(path: &str, from: &str, to: &str) -> String {
+    let text = std::fs::read_to_string(path).expect("read the scenario");
+    assert!(text.contains(from), "{path} has no {from}");
+    std::fs::write(path, text.replace(from, to)).expect("write the scenario");
+    path.to_string()
+}
+
 /// `cellist run ARGS` in one process.
 fn plain(args: &[&str]) -> Result<(), String> {
     let o = Command::new(env!("CARGO_BIN_EXE_cellist"))
@@ -806,6 +815,21 @@ fn main() {
         r#"{ kind = "barnes-hut", theta = 0.5 }"#,
     );
     let vortex3 = vortex3_scenario(dir.path(), "vortex3", r#"{ kind = "direct" }"#);
+    // about 10^4 particles: three of the fmm's target groups of 4096
+    let vortex_fmm = finer(
+        &vortex_scenario(
+            dir.path(),
+            "vortex-fmm",
+            r#"{ kind = "fmm", tolerance = 1e-8 }"#,
+        ),
+        "spacing = 0.025",
+        "spacing = 0.008",
+    );
+    let vortex3_fmm = vortex3_scenario(
+        dir.path(),
+        "vortex3-fmm",
+        r#"{ kind = "fmm", tolerance = 1e-4 }"#,
+    );
     let cases: Vec<(&str, Result<(), String>)> = vec![
         (
             "-np 1 writes the bytes of the plain run",
@@ -892,6 +916,14 @@ fn main() {
             runs_have_the_plain_bytes(dir.path(), "vortex3", &vortex3_tree, &["vorticity_3.csv", "thermo.csv"]),
         ),
         (
+            "vortex fmm on 1 to 4 ranks (its target groups dealt out): the bytes of the plain run's fields and thermo",
+            runs_have_the_plain_bytes(dir.path(), "vortex", &vortex_fmm, &["vorticity_20.csv", "thermo.csv"]),
+        ),
+        (
+            "3D vortex fmm on 1 to 4 ranks (its blob rest's cell layers dealt out): the bytes of the plain run's fields and thermo",
+            runs_have_the_plain_bytes(dir.path(), "vortex3", &vortex3_fmm, &["vorticity_3.csv", "thermo.csv"]),
+        ),
+        (
             "gravity: a 4-rank checkpoint continues in one process and on 2 ranks",
             four_rank_checkpoint_continues(dir.path(), "gravity", &gravity, "stars.dump"),
         ),
@@ -953,22 +985,6 @@ fn main() {
                 9,
                 &["run", &vic, "--set", "system.velocity.grid=16"],
                 "9 ranks share a mesh of only 16 planes (grid 16): its slabs need at least 2",
-            ),
-        ),
-        (
-            "-np 2: the vortex fmm, not distributed, one message",
-            refused_once(
-                2,
-                &["run", &vortex, "--set", "system.velocity={ kind = \"fmm\" }"],
-                "the fmm runs on one process (not yet distributed)",
-            ),
-        ),
-        (
-            "-np 2: the 3D vortex fmm, not distributed, one message",
-            refused_once(
-                2,
-                &["run", &vic3, "--set", "system.velocity={ kind = \"fmm\" }"],
-                "the fmm runs on one process (not yet distributed)",
             ),
         ),
         (

@@ -7,7 +7,8 @@ use crate::study::median;
 use cellist::longrange::biot_savart::velocity_at;
 use cellist::longrange::mesh::MAX_VIC_GRID;
 use cellist::longrange::{
-    BlobKernel, ErrorFit, FmmAccuracy, PointVortex, TreeParams, VicBoundary, VicParams, VortexFmm,
+    Alone, BlobKernel, ErrorFit, FmmAccuracy, PointVortex, TreeParams, VicBoundary, VicParams,
+    VortexFmm,
 };
 use cellist::models::vortex::{seed, InitialVorticity, VelocityEngine, VelocitySolver};
 use cellist::Threads;
@@ -258,7 +259,8 @@ fn evaluator<'a>(
         (Some(sigma), _) => {
             let mut engine =
                 VelocityEngine::new(kind, BlobKernel::new(sigma), n).map_err(SimError::Input)?;
-            let evaluate: Evaluate = Box::new(move |x, g, u| engine.compute(x, g, u, threads));
+            let evaluate: Evaluate =
+                Box::new(move |x, g, u| engine.compute(x, g, u, &Alone, threads));
             Ok((name, evaluate))
         }
         (None, VelocitySolver::Fmm(accuracy)) => {

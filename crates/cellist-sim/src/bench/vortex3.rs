@@ -9,7 +9,7 @@ use crate::error::{SimError, SimResult};
 use crate::models::fmm_name;
 use cellist::longrange::biot_savart3::velocity_and_gradient_at;
 use cellist::longrange::{
-    BlobKernel3, ErrorFit, TreeParams, Vic3Boundary, Vic3Params, VortexTree3,
+    Alone, BlobKernel3, ErrorFit, TreeParams, Vic3Boundary, Vic3Params, VortexTree3,
 };
 use cellist::models::vortex3::{seed3, InitialVorticity3, Ring, Velocity3Engine, Velocity3Solver};
 use cellist::Threads;
@@ -86,7 +86,14 @@ pub fn vortex3(
     let mut velocity = vec![[0.0; 3]; n];
     let mut gradient = vec![[0.0; 9]; n];
     let seconds = median_seconds(repeat, || {
-        engine.compute(&positions, &alpha, &mut velocity, &mut gradient, threads)
+        engine.compute(
+            &positions,
+            &alpha,
+            &mut velocity,
+            &mut gradient,
+            &Alone,
+            threads,
+        )
     });
     // the errors on evenly spread targets against the direct sum
     let targets = spread_targets(n, sample);

@@ -21,7 +21,8 @@
 //! the ring pass, on a slab-decomposed mesh or by locally essential trees
 //! ([`gravity::DistributedGravity`], [`ring`], [`mesh`]); the vortex model's
 //! direct sums by block pairs dealt out ([`pairs`]), its Barnes-Hut trees
-//! by parts of the tree ([`tree`]) and the vortex-in-cell velocity (2D and 3D) on a
+//! by parts of the tree ([`tree`]), its fmm by runs of its target groups
+//! ([`replicated::vortex_fmm`]) and the vortex-in-cell velocity (2D and 3D) on a
 //! slab-decomposed mesh ([`mesh`]), their
 //! state replicated on every rank ([`replicated`]) and their field sums and
 //! transforms divided ([`parts`]). Whatever can fail on

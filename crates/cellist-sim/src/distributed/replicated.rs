@@ -1,14 +1,17 @@
 //! Models whose state every rank holds in full and advances alike, their
 //! field sums divided among the ranks: the vortex model (2D and 3D) with its
 //! direct solver by block pairs dealt out ([`super::pairs`]), its
-//! Barnes-Hut trees by parts of the tree ([`super::tree`]), and its
-//! vortex-in-cell on a mesh cut into slabs of planes ([`super::mesh`]).
+//! Barnes-Hut trees by parts of the tree ([`super::tree`]), its fmm by
+//! runs of its target groups (the engine's, through the system's peers:
+//! [`vortex_fmm`]), and its vortex-in-cell on a mesh cut into slabs of
+//! planes ([`super::mesh`]).
 //! (Gravity divides its bodies among the ranks instead: [`super::gravity`].) Every rank takes the same
 //! steps on the same bits, so the checks agree without messages; rank 0 writes
 //! the outputs ([`Ranks::Replicated`]).
 
 use super::mesh::{MeshVortex, MeshVortex3, MpiExchange};
 use super::pairs::{PairsVortex, PairsVortex3};
+use super::parts::Figures;
 use super::tree::{TreeVortex, TreeVortex3};
 use crate::ranks::Ranks;
 use cellist::longrange::{
@@ -43,6 +46,23 @@ pub fn peers(ranks: &Ranks) -> Option<Peers> {
         ))),
         _ => None,
     }
+}
+
+/// On several ranks, the ranks of a vortex run (2D or 3D) whose fmm divides
+/// its sums among them (the engine's [`cellist::longrange::AmongPeers`],
+/// through the system's [`peers`]) and the run's `mpi:` line; `None` in one
+/// process.
+pub fn vortex_fmm() -> Option<(Ranks, String)> {
+    let world = super::world_of_many()?;
+    let line = format!(
+        "mpi: {} ranks; the fmm's tree and upward pass made alike on every rank (the particles \
+         held by every rank), each rank summing a run of its target groups balanced by their \
+         last seconds (in 3D also a run of the blob rest's cell layers), the results \
+         all-gathered: one process's velocities to the bit",
+        world.size()
+    );
+    let figures = Figures::new("Shared fmm", "gathering the results");
+    Some((Ranks::Replicated { world, figures }, line))
 }
 
 /// How the direct sums' pairs are dealt out, for the run's `mpi:` line.

@@ -408,13 +408,9 @@ pub fn run<L: Launch>(
                     );
                     (engine, ranks, line)
                 }),
-            VelocitySolver::Fmm(_) => match crate::distributed::world_of_many() {
-                Some(_) => return Err(err(
-                    "system.velocity: the fmm runs on one process (not yet distributed); on several ranks use direct, barnes-hut or mesh"
-                        .into(),
-                )),
-                None => None,
-            },
+            VelocitySolver::Fmm(_) => crate::distributed::replicated::vortex_fmm()
+                .map(|(ranks, line)| single().map(|engine| (engine, ranks, line)))
+                .transpose()?,
             VelocitySolver::Direct => vortex_pairs(n, kernel),
         }
     };

@@ -454,8 +454,9 @@ fn default_tree() -> cellist::longrange::TreeParams {
 
 /// On several MPI ranks, the velocity solver `solver` for `n` blobs of core
 /// `sigma` shared by the ranks (each holding every particle) and the ranks,
-/// the run's `mpi:` line said; `(None, Ranks::One)` in one process. The fmm
-/// is not distributed yet: refused on several ranks.
+/// the run's `mpi:` line said, or for the fmm no solver (the engine of one
+/// process, which divides its sums among the system's peers) and the
+/// ranks; `(None, Ranks::One)` in one process.
 fn distributed_engine(
     scenario: &Scenario,
     context: &RunContext,
@@ -476,12 +477,10 @@ fn distributed_engine(
                 vortex3_pairs(n, cellist::longrange::BlobKernel3::new(sigma)).map(Ok)
             }
             Velocity3Solver::Fmm(_) => {
-                if crate::distributed::world_of_many().is_some() {
-                    return Err(scenario.error(
-                        "system.velocity: the fmm runs on one process (not yet distributed); on \
-                         several ranks use direct, barnes-hut or mesh"
-                            .to_string(),
-                    ));
+                // the engine of one process, its sums divided among the peers
+                if let Some((ranks, line)) = crate::distributed::replicated::vortex_fmm() {
+                    context.say(line);
+                    return Ok((None, ranks));
                 }
                 None
             }

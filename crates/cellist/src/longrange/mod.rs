@@ -25,8 +25,8 @@ pub use mesh::{
 };
 pub use p3m::P3m;
 pub use tree::{
-    BarnesHut, ErrorFit, FmmAccuracy, GravityFmm, Share, TreeParams, VortexFmm, VortexFmm3,
-    VortexTree, VortexTree3,
+    AmongPeers, BarnesHut, ErrorFit, FmmAccuracy, GravityFmm, Share, TreeParams, VortexFmm,
+    VortexFmm3, VortexTree, VortexTree3,
 };
 
 use crate::interactions::GravityLaw;

@@ -258,13 +258,31 @@ impl LayerPlan {
     /// rows start at or past its share `rows r / ranks` of the rows (a run
     /// may be empty).
     pub fn task_runs(&self, ranks: usize) -> Vec<Range<usize>> {
-        let (rows, tasks) = (self.bounds[self.num_layers()], self.num_tasks());
+        self.task_runs_weighted(ranks, |_| 1)
+    }
+
+    /// [`task_runs`](Self::task_runs) with row `i` weighing `weight(i)`:
+    /// each run starts at the first task whose rows start at or past its
+    /// share `W r / ranks` of the total weight `W`.
+    pub fn task_runs_weighted(
+        &self,
+        ranks: usize,
+        weight: impl Fn(usize) -> usize,
+    ) -> Vec<Range<usize>> {
+        let tasks = self.num_tasks();
+        // the weight of the rows before each task's, and of all
+        let mut before = Vec::with_capacity(tasks + 1);
+        let mut sum = 0;
+        for t in 0..tasks {
+            before.push(sum);
+            sum += self.task_rows(t).map(&weight).sum::<usize>();
+        }
         let cuts: Vec<usize> = (0..=ranks)
             .map(|r| match r {
                 0 => 0,
                 r if r == ranks => tasks,
                 r => (0..tasks)
-                    .find(|&t| self.task_rows(t).start * ranks >= rows * r)
+                    .find(|&t| before[t] * ranks >= sum * r)
                     .unwrap_or(tasks),
             })
             .collect();
@@ -675,6 +693,30 @@ mod tests {
                 assert!(halo.iter().all(|&c| c <= 1), "{layers} {periodic}");
             }
         }
+    }
+
+    #[test]
+    fn weighted_runs_share_out_the_weight() {
+        // 8 layers of 4 rows
+        let plan = plan_for(8, true);
+        assert_eq!(plan.num_tasks(), 8);
+        // equal weights: the runs of task_runs
+        for ranks in 1..=5 {
+            assert_eq!(plan.task_runs_weighted(ranks, |_| 7), plan.task_runs(ranks));
+        }
+        // the first layer's rows weigh as much as all the others: it is one
+        // rank's run, the other layers the other's
+        let heavy = |i: usize| if i < 4 { 7 } else { 1 };
+        assert_eq!(plan.task_runs_weighted(2, heavy), vec![0..1, 1..8]);
+        // the last layer's rows weigh as much as the others: two runs, the
+        // second holding only the last layer
+        let heavy_last = |i: usize| if i >= 28 { 7 } else { 1 };
+        assert_eq!(plan.task_runs_weighted(2, heavy_last), vec![0..7, 7..8]);
+        // more ranks than tasks: empty runs, every task in one
+        let runs = plan.task_runs_weighted(11, heavy);
+        assert_eq!(runs.len(), 11);
+        assert_eq!(runs.iter().map(|r| r.len()).sum::<usize>(), 8);
+        assert!(runs.windows(2).all(|w| w[0].end == w[1].start));
     }
 
     #[test]

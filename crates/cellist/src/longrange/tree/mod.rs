@@ -55,7 +55,7 @@ pub use fmm::{
     ErrorFit, FmmAccuracy, GravityFmm, VortexFmm, VortexFmm3, ORDER_RANGE, TOLERANCE_RANGE,
 };
 pub use gravity::BarnesHut;
-pub use share::Share;
+pub use share::{AmongPeers, Share};
 pub use vortex::VortexTree;
 pub use vortex3::VortexTree3;
 

@@ -12,6 +12,7 @@
 //! evaluation, or when the particle count changed, every particle weighs 1).
 
 use super::build::Octree;
+use crate::longrange::mesh::slab::Exchange;
 
 /// How a tree evaluation is divided: this process evaluates part `part` of
 /// `parts` and receives the others. Every process of the division must see the
@@ -39,6 +40,86 @@ impl Share for Whole {
     }
 
     fn all_gather(&mut self, _values: &mut [f64], _width: usize, _bounds: &[usize]) {}
+}
+
+/// The ranks of `peers` as the parts of a divided evaluation: rank `r`
+/// evaluates part `r`, and the parts are all-gathered through `peers` (one
+/// rank: nothing to gather).
+pub struct AmongPeers<'a> {
+    peers: &'a dyn Exchange,
+    /// A copy of this rank's part, sent while `values` receives the others.
+    own: Vec<f64>,
+}
+
+impl<'a> AmongPeers<'a> {
+    /// The division among `peers`.
+    pub fn new(peers: &'a dyn Exchange) -> Self {
+        AmongPeers {
+            peers,
+            own: Vec::new(),
+        }
+    }
+}
+
+impl Share for AmongPeers<'_> {
+    fn part(&self) -> (usize, usize) {
+        (self.peers.rank(), self.peers.ranks())
+    }
+
+    fn all_gather(&mut self, values: &mut [f64], width: usize, bounds: &[usize]) {
+        let (rank, ranks) = self.part();
+        if ranks == 1 {
+            return;
+        }
+        self.own.clear();
+        self.own
+            .extend_from_slice(&values[bounds[rank] * width..bounds[rank + 1] * width]);
+        let counts: Vec<usize> = bounds.windows(2).map(|w| (w[1] - w[0]) * width).collect();
+        self.peers
+            .all_gather(&self.own, &counts, &mut values[..bounds[ranks] * width]);
+    }
+}
+
+/// Every particle's weight for the next [`Split`] of a divided evaluation,
+/// in input order (empty before the first: every particle weighs 1).
+#[derive(Clone, Debug, Default)]
+pub(super) struct Costs {
+    input: Vec<f64>,
+    /// The weights in tree order, this process's part written, the others'
+    /// gathered.
+    sorted: Vec<f64>,
+}
+
+impl Costs {
+    /// The weights, input order.
+    pub fn input(&self) -> &[f64] {
+        &self.input
+    }
+
+    /// The weights of the last evaluation: `weights` gives one per particle
+    /// of each group of this process's part `part` of `split` (in order), and
+    /// `share` brings the other parts'.
+    pub fn gather(
+        &mut self,
+        tree: &Octree,
+        split: &Split,
+        part: usize,
+        weights: impl Iterator<Item = f64>,
+        share: &mut dyn Share,
+    ) {
+        let n = tree.order.len();
+        self.sorted.resize(n, 0.0);
+        let own = &tree.groups[split.groups[part]..split.groups[part + 1]];
+        for (&group, weight) in own.iter().zip(weights) {
+            let node = &tree.nodes[group as usize];
+            self.sorted[node.start as usize..node.end as usize].fill(weight);
+        }
+        share.all_gather(&mut self.sorted, 1, &split.particles);
+        self.input.resize(n, 0.0);
+        for (&i, &c) in tree.order.iter().zip(&self.sorted) {
+            self.input[i as usize] = c;
+        }
+    }
 }
 
 /// The parts of a divided evaluation: part `k` walks the groups
@@ -105,7 +186,9 @@ impl Split {
 #[cfg(test)]
 mod tests {
     use super::super::build::Sizes;
-    use super::super::{BarnesHut, TreeParams, VortexTree, VortexTree3};
+    use super::super::{
+        BarnesHut, FmmAccuracy, TreeParams, VortexFmm, VortexFmm3, VortexTree, VortexTree3,
+    };
     use super::*;
     use crate::interactions::GravityLaw;
     use crate::longrange::{BlobKernel, BlobKernel3, FieldOut, Sources};
@@ -232,13 +315,31 @@ mod tests {
     /// results' bits and its interactions.
     type Evaluation = (Vec<u64>, (u64, u64));
 
+    /// How the gathers of one evaluation go: `per_step` gathers, of which
+    /// the results' cuts are gather `results` (the costs' come before it).
+    #[derive(Clone, Copy)]
+    struct Gathers {
+        per_step: usize,
+        results: usize,
+        /// Whether the results' cuts must move after the first evaluation.
+        moving: bool,
+    }
+
+    /// The trees' gathers: the costs, then the results, whose cuts move after
+    /// the first evaluation (the costs replace the counts).
+    const TREE_GATHERS: Gathers = Gathers {
+        per_step: 2,
+        results: 1,
+        moving: true,
+    };
+
     /// `steps` evaluations of a solver made by `new`, undivided and divided into
     /// `parts` (each part on a thread of its own with its own solver): every
     /// part holds the undivided results bit for bit, the parts' interactions add
-    /// up to the undivided ones, and the cuts move after the first evaluation
-    /// (the costs replace the counts).
+    /// up to the undivided ones, and the gathers go as `gathers` says.
     fn divided_equals_whole<S>(
         parts: usize,
+        gathers: Gathers,
         steps: usize,
         new: impl Fn() -> S + Sync,
         evaluate: impl Fn(&mut S, usize, &mut dyn Share) -> Evaluation + Sync,
@@ -281,10 +382,15 @@ mod tests {
             }
             assert_eq!(counts, want[step].1, "{parts} parts, step {step}");
         }
-        // two gathers (costs, results) per step; the cuts of the results
         let cuts = &got[0].1;
-        assert_eq!(cuts.len(), 2 * steps);
-        assert!(cuts[1] != cuts[3], "{parts} parts: the cuts never moved");
+        assert_eq!(cuts.len(), gathers.per_step * steps);
+        if gathers.moving {
+            let (first, second) = (gathers.results, gathers.per_step + gathers.results);
+            assert!(
+                cuts[first] != cuts[second],
+                "{parts} parts: the cuts never moved"
+            );
+        }
     }
 
     /// Four clusters of different widths (a deep, uneven tree), moved a little
@@ -319,6 +425,7 @@ mod tests {
         for parts in [2, 3, 4] {
             divided_equals_whole(
                 parts,
+                TREE_GATHERS,
                 3,
                 || BarnesHut::new(law, params).unwrap(),
                 |tree, step, share| {
@@ -358,6 +465,7 @@ mod tests {
         for parts in [2, 4] {
             divided_equals_whole(
                 parts,
+                TREE_GATHERS,
                 3,
                 || VortexTree::new(params, kernel).unwrap(),
                 |tree, step, share| {
@@ -393,6 +501,7 @@ mod tests {
         for parts in [2, 3] {
             divided_equals_whole(
                 parts,
+                TREE_GATHERS,
                 2,
                 || VortexTree3::new(params, kernel).unwrap(),
                 |tree, step, share| {
@@ -407,6 +516,77 @@ mod tests {
                         .map(|v| v.to_bits())
                         .collect();
                     (bits, tree.interactions())
+                },
+            );
+        }
+    }
+
+    /// The fmm's gathers: the costs (the seconds of the groups), then the
+    /// results (and in 3D the blob rest's), whose cuts need not move.
+    const FMM_GATHERS: Gathers = Gathers {
+        per_step: 2,
+        results: 1,
+        moving: false,
+    };
+
+    #[test]
+    fn divided_vortex_fmm_has_the_bits_of_one_evaluation() {
+        // about ten target groups
+        let n = 40_000;
+        let kernel = BlobKernel::new(0.01);
+        let gamma: Vec<f64> = (0..n).map(|i| ((i % 9) as f64 - 4.0) * 0.1).collect();
+        for parts in [2, 3] {
+            divided_equals_whole(
+                parts,
+                FMM_GATHERS,
+                2,
+                || VortexFmm::new(kernel, FmmAccuracy::Tolerance(1e-6)).unwrap(),
+                |fmm, step, share| {
+                    let x: Vec<[f64; 2]> = clusters(n, step).iter().map(|p| [p[0], p[1]]).collect();
+                    let mut u = vec![[0.0; 2]; n];
+                    fmm.compute_shared(&x, &gamma, &mut u, &Threads::new(2).unwrap(), share);
+                    let bits = u.as_flattened().iter().map(|v| v.to_bits()).collect();
+                    (bits, fmm.interactions())
+                },
+            );
+        }
+    }
+
+    #[test]
+    fn divided_3d_vortex_fmm_has_the_bits_of_one_evaluation() {
+        // a few target groups, and the blob rest's cell layers
+        let n = 30_000;
+        let kernel = BlobKernel3::new(0.03);
+        let alpha: Vec<[f64; 3]> = (0..n)
+            .map(|i| {
+                [
+                    0.1 * (i % 5) as f64 - 0.2,
+                    0.05,
+                    0.1 - 0.03 * (i % 7) as f64,
+                ]
+            })
+            .collect();
+        for parts in [2, 3] {
+            divided_equals_whole(
+                parts,
+                Gathers {
+                    per_step: 3,
+                    ..FMM_GATHERS
+                },
+                2,
+                || VortexFmm3::new(kernel, FmmAccuracy::Tolerance(1e-3)).unwrap(),
+                |fmm, step, share| {
+                    let x = clusters(n, step);
+                    let (mut u, mut g) = (vec![[0.0; 3]; n], vec![[0.0; 9]; n]);
+                    let threads = Threads::new(2).unwrap();
+                    fmm.compute_shared(&x, &alpha, &mut u, &mut g, &threads, share);
+                    let bits = u
+                        .as_flattened()
+                        .iter()
+                        .chain(g.as_flattened())
+                        .map(|v| v.to_bits())
+                        .collect();
+                    (bits, fmm.interactions())
                 },
             );
         }

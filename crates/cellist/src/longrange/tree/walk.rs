@@ -7,7 +7,7 @@
 //! node moments and its list sums.
 
 use super::build::{Node, Octree, Sizes};
-use super::share::{Share, Split};
+use super::share::{Costs, Share, Split};
 use super::TreeParams;
 use crate::simd::F64x4;
 use crate::threads::{DisjointSlice, Threads};
@@ -326,11 +326,9 @@ pub(super) struct Solver<M, L, const W: usize> {
     pub interactions: (u64, u64),
     /// Per own group of the last evaluation, its interactions.
     counts: Vec<(u64, u64)>,
-    /// Per particle (input order), its weight in the next [`Split`]: `1 +` its
-    /// interactions in the last divided evaluation.
-    cost: Vec<f64>,
-    /// The same in tree order, as gathered.
-    sorted_cost: Vec<f64>,
+    /// Per particle, its weight in the next [`Split`]: `1 +` its group's
+    /// interactions per particle in the last divided evaluation.
+    costs: Costs,
 }
 
 /// One walk group as a kernel sees it: the tree, the walk, the nodes' moments,
@@ -382,8 +380,7 @@ impl<M: Send + Sync, L: Default + Send, const W: usize> Solver<M, L, W> {
             scratch: Vec::new(),
             interactions: (0, 0),
             counts: Vec::new(),
-            cost: Vec::new(),
-            sorted_cost: Vec::new(),
+            costs: Costs::default(),
         })
     }
 
@@ -454,11 +451,17 @@ impl<M: Send + Sync, L: Default + Send, const W: usize> Solver<M, L, W> {
             of_node,
         );
         let (part, parts) = share.part();
-        let split = Split::new(&self.tree, &self.cost, parts);
+        let split = Split::new(&self.tree, self.costs.input(), parts);
         let own = split.groups[part]..split.groups[part + 1];
         self.sum_groups(own.clone(), threads, per_group);
         if parts > 1 {
-            self.gather_costs(own, &split, share);
+            let weights = self.tree.groups[own].iter().zip(&self.counts).map(
+                |(&group, &(nodes, particles))| {
+                    let node = &self.tree.nodes[group as usize];
+                    1.0 + (nodes + particles) as f64 / (node.end - node.start) as f64
+                },
+            );
+            self.costs.gather(&self.tree, &split, part, weights, share);
         }
         share.all_gather(self.sorted.as_flattened_mut(), W, &split.particles);
     }
@@ -508,25 +511,6 @@ impl<M: Send + Sync, L: Default + Send, const W: usize> Solver<M, L, W> {
     /// The results of the last evaluation in tree order.
     pub fn sorted(&self) -> &[[f64; W]] {
         &self.sorted
-    }
-
-    /// Every particle's weight for the next split, `1 +` its group's
-    /// interactions per particle: this process's groups (`own` of the tree's
-    /// groups) from their `counts`, the others' gathered by `share`.
-    fn gather_costs(&mut self, own: Range<usize>, split: &Split, share: &mut dyn Share) {
-        let n = self.tree.order.len();
-        self.sorted_cost.resize(n, 0.0);
-        for (&group, &(nodes, particles)) in self.tree.groups[own].iter().zip(&self.counts) {
-            let node = &self.tree.nodes[group as usize];
-            let range = node.start as usize..node.end as usize;
-            let per_particle = 1.0 + (nodes + particles) as f64 / range.len() as f64;
-            self.sorted_cost[range].fill(per_particle);
-        }
-        share.all_gather(&mut self.sorted_cost, 1, &split.particles);
-        self.cost.resize(n, 0.0);
-        for (&i, &c) in self.tree.order.iter().zip(&self.sorted_cost) {
-            self.cost[i as usize] = c;
-        }
     }
 
     /// `(input index, result)` of every particle of the last evaluation.

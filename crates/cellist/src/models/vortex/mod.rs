@@ -35,7 +35,7 @@ use crate::geometry::{wrap_coordinate, Boundary};
 use crate::interpolation::{remesh, Lattice};
 use crate::longrange::mesh::{VicBoundary, VicParams, VortexInCell};
 use crate::longrange::tree::{FmmAccuracy, TreeParams, VortexFmm, VortexTree};
-use crate::longrange::{BlobKernel, DirectBiotSavart, Exchange, Peers};
+use crate::longrange::{AmongPeers, BlobKernel, DirectBiotSavart, Exchange, Peers};
 use crate::memory::{as_arrays, as_arrays_mut};
 use crate::threads::Threads;
 use std::fmt;
@@ -266,19 +266,26 @@ impl VelocityEngine {
         })
     }
 
-    /// `velocity_i = sum_j Gamma_j K_sigma(x_i - x_j)`, exactly or approximately.
+    /// `velocity_i = sum_j Gamma_j K_sigma(x_i - x_j)`, exactly or
+    /// approximately; the fmm's target groups divided among `peers`, which
+    /// hold the same particles ([`AmongPeers`]; the other solvers divide
+    /// their sums as [`VelocityEngine::External`] solvers).
     pub fn compute(
         &mut self,
         positions: &[[f64; 2]],
         gamma: &[f64],
         velocity: &mut [[f64; 2]],
+        peers: &dyn Exchange,
         threads: &Threads,
     ) {
         match self {
             VelocityEngine::Direct(s) => s.compute(positions, gamma, velocity, threads),
             VelocityEngine::Tree(s) => s.compute(positions, gamma, velocity, threads),
             VelocityEngine::Mesh(s) => s.compute(positions, gamma, velocity, threads),
-            VelocityEngine::Fmm(s) => s.compute(positions, gamma, velocity, threads),
+            VelocityEngine::Fmm(s) => {
+                let mut share = AmongPeers::new(peers);
+                s.compute_shared(positions, gamma, velocity, threads, &mut share)
+            }
             VelocityEngine::External(s) => s.compute(positions, gamma, velocity, threads),
         }
     }
@@ -666,7 +673,7 @@ fn evaluate(
     threads: &Threads,
 ) -> Result<(), VortexError> {
     let t = Instant::now();
-    solver.compute(positions, gamma, &mut out.velocity, threads);
+    solver.compute(positions, gamma, &mut out.velocity, peers, threads);
     let t2 = Instant::now();
     times.velocity += t2 - t;
     if params.nu > 0.0 {

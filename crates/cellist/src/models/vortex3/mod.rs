@@ -43,8 +43,8 @@ use super::vortex::{check_blob_params, pse_reach, VortexError};
 use crate::geometry::{wrap_coordinate, Boundary, Domain};
 use crate::interpolation::{remesh, Lattice};
 use crate::longrange::{
-    BlobKernel3, DirectBiotSavart3, FmmAccuracy, Peers, TreeParams, Vic3Boundary, Vic3Params,
-    VortexFmm3, VortexInCell3, VortexTree3,
+    AmongPeers, BlobKernel3, DirectBiotSavart3, Exchange, FmmAccuracy, Peers, TreeParams,
+    Vic3Boundary, Vic3Params, VortexFmm3, VortexInCell3, VortexTree3,
 };
 use crate::memory::{as_arrays, as_arrays_mut};
 use crate::threads::Threads;
@@ -203,20 +203,27 @@ impl Velocity3Engine {
     }
 
     /// `u(x_i)` and `grad u(x_i)` (`gradient[i][3 a + b] = d u_a / d x_b`) of the
-    /// blobs `(positions, alpha)`, exactly or approximately.
+    /// blobs `(positions, alpha)`, exactly or approximately; the fmm's
+    /// target groups and blob rest divided among `peers`, which hold the same
+    /// blobs ([`AmongPeers`]; the other solvers divide their sums as
+    /// [`Velocity3Engine::External`] solvers).
     pub fn compute(
         &mut self,
         positions: &[[f64; 3]],
         alpha: &[[f64; 3]],
         velocity: &mut [[f64; 3]],
         gradient: &mut [[f64; 9]],
+        peers: &dyn Exchange,
         threads: &Threads,
     ) {
         match self {
             Velocity3Engine::Direct(s) => s.compute(positions, alpha, velocity, gradient, threads),
             Velocity3Engine::Tree(s) => s.compute(positions, alpha, velocity, gradient, threads),
             Velocity3Engine::Mesh(s) => s.compute(positions, alpha, velocity, gradient, threads),
-            Velocity3Engine::Fmm(s) => s.compute(positions, alpha, velocity, gradient, threads),
+            Velocity3Engine::Fmm(s) => {
+                let mut share = AmongPeers::new(peers);
+                s.compute_shared(positions, alpha, velocity, gradient, threads, &mut share)
+            }
             Velocity3Engine::External(s) => {
                 s.compute(positions, alpha, velocity, gradient, threads)
             }
@@ -271,8 +278,9 @@ impl Rater {
         let stretch = as_arrays_mut::<3>(stretch);
         self.gradient.resize(n, [0.0; 9]);
         let t = Instant::now();
+        let peers = self.peers.exchange();
         self.solver
-            .compute(x, alpha, velocity, &mut self.gradient, threads);
+            .compute(x, alpha, velocity, &mut self.gradient, peers, threads);
         let t2 = Instant::now();
         self.times.velocity += t2 - t;
         let transpose = self.params.stretching == Stretching::Transpose;

@@ -3,14 +3,16 @@
 //! list ([`ClusterList`]: `4 x 4` pairs at a time from lanes, as md's forces),
 //! each pair once and each particle's sum in an order fixed by the list.
 
+use super::super::share::Share;
 use crate::geometry::Domain;
 use crate::longrange::biot_savart3::{assemble, terms, BlobKernel3, SUMS};
 use crate::neighbors::{
-    scatter_half_rows, shifted, unpack, CellList, ClusterList, Lanes, LayerForces, LayerPlan,
-    CLUSTER,
+    scatter_half_rows, scatter_half_rows_shared, shifted, unpack, CellList, ClusterList, Lanes,
+    LayerForces, LayerPlan, CLUSTER,
 };
 use crate::simd::{axes, F64x4};
 use crate::threads::Threads;
+use std::ops::Range;
 
 /// The tail of the blob law beyond `rho = r / sigma`, relative to the point
 /// law, for the velocity and its gradient: with `Q` of
@@ -85,13 +87,18 @@ impl BlobRest {
     }
 
     /// The pairs of particles the list held at the last evaluation (the
-    /// lanes of its cluster pairs, each pair once).
+    /// lanes of its cluster pairs, each pair once; of this process's run of
+    /// the tasks, for a divided evaluation).
     pub(super) fn pairs(&self) -> u64 {
         self.pairs
     }
 
     /// Adds the rest to `velocity` and `gradient` of the blobs
-    /// `(positions, alpha)`.
+    /// `(positions, alpha)`, divided by `share` among processes that hold
+    /// the same blobs: each runs a run of the cell layers' tasks with about
+    /// the same cluster pairs ([`LayerPlan::task_runs_weighted`],
+    /// [`scatter_half_rows_shared`]) and receives
+    /// the others' sums, with the bits of the undivided rest.
     pub(super) fn add(
         &mut self,
         positions: &[[f64; 3]],
@@ -99,6 +106,7 @@ impl BlobRest {
         velocity: &mut [[f64; 3]],
         gradient: &mut [[f64; 9]],
         threads: &Threads,
+        share: &mut dyn Share,
     ) {
         let domain = Domain::open_around(positions);
         let side = ClusterList::cell_side(&domain, self.cutoff, positions.len());
@@ -111,7 +119,6 @@ impl BlobRest {
         cells.order_cells_in_columns(Some(threads));
         self.list.rebuild(&cells, threads, &mut self.positions);
         let list = &self.list;
-        self.pairs = (CLUSTER * CLUSTER * list.num_entries()) as u64;
         let plan = LayerPlan::over(&cells, list.cell_clusters());
         list.gather(cells.positions(), threads, &mut self.positions);
         let order = cells.order();
@@ -130,18 +137,41 @@ impl BlobRest {
             alpha: &self.alpha,
         };
         let mut tallies = vec![(); plan.num_tasks()];
-        scatter_half_rows(
-            &plan,
-            &mut self.sums,
-            &mut self.halo,
-            &mut tallies,
-            threads,
-            |clusters, sums, _| {
-                for c in clusters {
-                    rows.row(c, sums);
+        let work = |clusters: Range<usize>, sums: &LayerForces<Lanes<SUMS>>, _: &mut ()| {
+            for c in clusters {
+                rows.row(c, sums);
+            }
+        };
+        let (part, parts) = share.part();
+        self.pairs = (CLUSTER * CLUSTER * list.num_entries()) as u64;
+        if parts == 1 {
+            scatter_half_rows(
+                &plan,
+                &mut self.sums,
+                &mut self.halo,
+                &mut tallies,
+                threads,
+                work,
+            );
+        } else {
+            // each rank about the same cluster pairs (the ring's rows differ)
+            let runs = plan.task_runs_weighted(parts, |c| 1 + list.row(c).len());
+            let own_rows = runs[part].clone().flat_map(|t| plan.task_rows(t));
+            self.pairs =
+                (CLUSTER * CLUSTER * own_rows.map(|c| list.row(c).len()).sum::<usize>()) as u64;
+            let gather = |mine: &[Lanes<SUMS>], counts: &[usize], all: &mut [Lanes<SUMS>]| {
+                let mut bounds = vec![0];
+                for c in counts {
+                    bounds.push(bounds[bounds.len() - 1] + c);
                 }
-            },
-        );
+                all[bounds[part]..bounds[part + 1]].copy_from_slice(mine);
+                let width = CLUSTER * SUMS;
+                share.all_gather(all.as_flattened_mut().as_flattened_mut(), width, &bounds);
+            };
+            let (sums, halo) = (&mut self.sums, &mut self.halo);
+            let own = (&runs[..], part);
+            scatter_half_rows_shared(&plan, own, sums, halo, &mut tallies, threads, gather, work);
+        }
         for c in 0..list.num_clusters() {
             for (l, slot) in list.slots(c).enumerate() {
                 let (u, g) = assemble(&self.sums[c].map(|s| s[l]));

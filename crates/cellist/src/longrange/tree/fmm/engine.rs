@@ -5,6 +5,7 @@
 //! pair law come from an [`Expansions`] implementation.
 
 use super::super::build::{Node, Octree, Sizes};
+use super::super::share::{Costs, Share, Split};
 use crate::threads::{DisjointSlice, Threads};
 use rayon::prelude::*;
 use rustfft::num_complex::Complex64;
@@ -84,8 +85,10 @@ impl Pairs {
 /// The expansions and pair law of one kernel, on particles that it holds in
 /// the tree's order.
 pub(super) trait Expansions: Sync {
-    /// What a target particle's sum holds.
+    /// What a target particle's sum holds: [`WIDTH`](Self::WIDTH) numbers.
     type Sum: Copy + Default + Send + Sync;
+    /// Numbers in a [`Sum`](Self::Sum).
+    const WIDTH: usize;
     /// What a thread keeps for the expansions and the pair sums.
     type Scratch: Default + Send;
     /// Two boxes interact through their expansions when
@@ -162,6 +165,12 @@ pub(super) trait Expansions: Sync {
         out: &mut [Self::Sum],
         scratch: &mut Self::Scratch,
     );
+    /// What one M2L costs, in pair terms of the near field (measured for
+    /// each kernel): the weight that balances the parts of a divided
+    /// evaluation.
+    fn m2l_cost(&self) -> f64;
+    /// The numbers of `sums`, sum after sum.
+    fn numbers(sums: &mut [Self::Sum]) -> &mut [f64];
     /// The pair sums of the source particles at the target particles (sorted
     /// ranges), added to `out`, which holds the sums of the group's
     /// particles from sorted particle `first` on. Returns the pair terms
@@ -188,9 +197,14 @@ pub(super) struct Engine<E: Expansions> {
     /// The sums in tree order.
     pub sorted: Vec<E::Sum>,
     scratch: Vec<Mutex<Scratch<E>>>,
+    /// Per own group of the last evaluation, its `(M2L, pair)` counts.
     counts: Vec<(u64, u64)>,
-    /// `(M2L, particle pair)` interactions of the last evaluation.
+    /// `(M2L, particle pair)` interactions of the last evaluation (of this
+    /// process's part of the groups, for a divided evaluation).
     pub interactions: (u64, u64),
+    /// Per particle, its weight in the next divided evaluation's [`Split`]:
+    /// its group's cost ([`Expansions::m2l_cost`]) per particle.
+    costs: Costs,
 }
 
 impl<E: Expansions> Default for Engine<E> {
@@ -203,6 +217,7 @@ impl<E: Expansions> Default for Engine<E> {
             scratch: Vec::new(),
             counts: Vec::new(),
             interactions: (0, 0),
+            costs: Costs::default(),
         }
     }
 }
@@ -217,13 +232,19 @@ impl<E: Expansions> Engine<E> {
     }
 
     /// The sums of every particle, in tree order, into `sorted`: the upward
-    /// pass, then every target group in parallel.
-    pub fn evaluate(&mut self, kernel: &E, threads: &Threads) {
+    /// pass, then every target group in parallel. Divided by `share`
+    /// among processes that hold the same particles: each makes the whole
+    /// upward pass, then the groups of its part ([`Split`], balanced by the
+    /// last evaluation's pair terms and M2L), and receives the other
+    /// parts' sums. A group's sums depend only on the tree and the
+    /// multipoles, so every particle gets the bits of the undivided
+    /// evaluation.
+    pub fn evaluate(&mut self, kernel: &E, threads: &Threads, share: &mut dyn Share) {
         self.cubes.clear();
         self.cubes
             .extend(self.tree.nodes.iter().map(|node| kernel.cube(node)));
         self.upward(kernel, threads);
-        self.downward(kernel, threads);
+        self.downward(kernel, threads, share);
     }
 
     /// P2M at the leaves (in parallel), then M2M from the children up, last
@@ -272,12 +293,16 @@ impl<E: Expansions> Engine<E> {
         }
     }
 
-    /// Every target group in parallel: its traversal, then L2L and L2P within
-    /// it, writing its particles' sums.
-    fn downward(&mut self, kernel: &E, threads: &Threads) {
+    /// The target groups of this process's part in parallel: each one's
+    /// traversal, then L2L and L2P within it, writing its particles' sums;
+    /// then the other parts' sums (and the groups' costs) gathered.
+    fn downward(&mut self, kernel: &E, threads: &Threads, share: &mut dyn Share) {
         let n = self.tree.order.len();
         self.sorted.clear();
         self.sorted.resize(n, E::Sum::default());
+        let (part, parts) = share.part();
+        let split = Split::new(&self.tree, self.costs.input(), parts);
+        let own = split.groups[part]..split.groups[part + 1];
         let (mut sorted, mut counts) = (
             std::mem::take(&mut self.sorted),
             std::mem::take(&mut self.counts),
@@ -285,8 +310,7 @@ impl<E: Expansions> Engine<E> {
         let shared = DisjointSlice::new(&mut sorted);
         let this = &*self;
         threads.install(|| {
-            this.tree
-                .groups
+            this.tree.groups[own.clone()]
                 .par_iter()
                 .map(|&g| {
                     let mut scratch = lock(&this.scratch);
@@ -302,6 +326,18 @@ impl<E: Expansions> Engine<E> {
             .counts
             .iter()
             .fold((0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
+        if parts > 1 {
+            let (tree, m2l) = (&self.tree, kernel.m2l_cost());
+            let weights = tree.groups[own]
+                .iter()
+                .zip(&self.counts)
+                .map(|(&g, &(far, pairs))| {
+                    let node = &tree.nodes[g as usize];
+                    1.0 + (pairs as f64 + m2l * far as f64) / (node.end - node.start) as f64
+                });
+            self.costs.gather(tree, &split, part, weights, share);
+        }
+        share.all_gather(E::numbers(&mut self.sorted), E::WIDTH, &split.particles);
     }
 
     /// The sums of group `g`'s particles into `out`: the traversal of

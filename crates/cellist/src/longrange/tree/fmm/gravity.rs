@@ -4,6 +4,7 @@
 //! near field.
 
 use super::super::build::{Node, Sizes};
+use super::super::share::Whole;
 use super::engine::{shift_to_middle, Cube, Engine, Expansions, Pairs};
 use super::rotation::{m2l_by_direction, FarPairs, M2lLanes};
 use super::solid;
@@ -142,7 +143,7 @@ impl GravityFmm {
             }
             l.m.push(sources.mass[i]);
         }
-        self.engine.evaluate(&self.laplace, threads);
+        self.engine.evaluate(&self.laplace, threads, &mut Whole);
         let g = self.law.g();
         for (&i, f) in self.engine.tree.order.iter().zip(&self.engine.sorted) {
             let i = i as usize;
@@ -183,6 +184,7 @@ impl Expansions for Laplace {
     /// `[dPhi/dx, dPhi/dy, dPhi/dz, Phi]` of `Phi = sum m_j / r_j` (the
     /// law's factors in the near field).
     type Sum = [f64; 4];
+    const WIDTH: usize = 4;
     type Scratch = Scratch;
     const THETA: f64 = THETA;
     const SIZES: Sizes = Sizes {
@@ -190,6 +192,15 @@ impl Expansions for Laplace {
         group: GROUP,
     };
     const FILL: Option<usize> = Some(FILL);
+
+    /// Measured at order 14 on 10^5 uniform bodies (perf): 2800 pair terms, `0.8 (p + 1)^3`.
+    fn m2l_cost(&self) -> f64 {
+        0.8 * ((self.order + 1) as f64).powi(3)
+    }
+
+    fn numbers(sums: &mut [Self::Sum]) -> &mut [f64] {
+        sums.as_flattened_mut()
+    }
 
     fn terms(&self) -> usize {
         solid::terms(self.order)

@@ -4,6 +4,7 @@
 //! ([`super::engine`]), and the blob law in the near field.
 
 use super::super::build::{Node, Sizes};
+use super::super::share::{Share, Whole};
 use super::complex::{l2l, l2p, m2l, m2m, p2m, Binomials};
 use super::engine::{Cube, Engine, Expansions, Pairs};
 use super::{ErrorFit, FmmAccuracy};
@@ -108,7 +109,8 @@ impl<K: VortexLaw> VortexFmm<K> {
         self.cauchy.binomials.order()
     }
 
-    /// `(M2L, particle pair)` interactions of the last evaluation.
+    /// `(M2L, particle pair)` interactions of the last evaluation (of this
+    /// process's part, for [`compute_shared`](Self::compute_shared)).
     pub fn interactions(&self) -> (u64, u64) {
         self.engine.interactions
     }
@@ -121,6 +123,21 @@ impl<K: VortexLaw> VortexFmm<K> {
         gamma: &[f64],
         velocity: &mut [[f64; 2]],
         threads: &Threads,
+    ) {
+        self.compute_shared(positions, gamma, velocity, threads, &mut Whole);
+    }
+
+    /// [`compute`](Self::compute) divided among processes that each hold
+    /// every particle (see [`Share`]): each makes the upward pass, sums only
+    /// the target groups of its part, and receives the others' sums, which
+    /// have the bits of the undivided evaluation.
+    pub fn compute_shared(
+        &mut self,
+        positions: &[[f64; 2]],
+        gamma: &[f64],
+        velocity: &mut [[f64; 2]],
+        threads: &Threads,
+        share: &mut dyn Share,
     ) {
         assert_lengths(positions, gamma, velocity);
         self.lifted.clear();
@@ -137,7 +154,7 @@ impl<K: VortexLaw> VortexFmm<K> {
             c.y.push(positions[i][1]);
             c.gamma.push(gamma[i]);
         }
-        self.engine.evaluate(&self.cauchy, threads);
+        self.engine.evaluate(&self.cauchy, threads, share);
         for (&i, u) in self.engine.tree.order.iter().zip(&self.engine.sorted) {
             velocity[i as usize] = *u;
         }
@@ -163,6 +180,7 @@ fn complex(cube: Cube) -> Complex64 {
 
 impl<K: VortexLaw> Expansions for Cauchy<K> {
     type Sum = [f64; 2];
+    const WIDTH: usize = 2;
     /// A source leaf's reactions per axis.
     type Scratch = [Vec<f64>; 2];
     const THETA: f64 = THETA;
@@ -173,6 +191,15 @@ impl<K: VortexLaw> Expansions for Cauchy<K> {
     /// The particles lie in one plane: the octree is a quadtree there, and
     /// its leaves are left as the bounding cube cuts them.
     const FILL: Option<usize> = None;
+
+    /// Measured at order 20 on 10^5 particles (perf): 99 pair terms, `0.22 (p + 1)^2`.
+    fn m2l_cost(&self) -> f64 {
+        0.22 * (self.terms() as f64).powi(2)
+    }
+
+    fn numbers(sums: &mut [Self::Sum]) -> &mut [f64] {
+        sums.as_flattened_mut()
+    }
 
     fn terms(&self) -> usize {
         self.binomials.order() + 1
