@@ -27,9 +27,10 @@
 #               (the same mesh), 20000 bodies, 5 steps
 #   vortex:     every rank holding every particle, cellist -np 1, 2, 4: the
 #               2D vortex pair of examples/vortex-pair.toml with the direct
-#               sum and with its own tree, 20 RK4 steps; the 3D vortex ring of
-#               examples/vortex-ring.toml (12368 particles): mesh (grid 64),
-#               10 RK2 steps; barnes-hut and direct, 2 RK2 steps
+#               sum, with its own tree and with the fmm (tolerance 1e-8), 20
+#               RK4 steps; the 3D vortex ring of examples/vortex-ring.toml
+#               (12368 particles): mesh (grid 64), 10 RK2 steps; barnes-hut,
+#               direct and fmm (tolerance 1e-4), 2 RK2 steps
 # and prints one line per run: `case ranks loop_seconds peak_rss_MB` (cellist's
 # from the summary.json of the run: the largest peak of any rank), then the
 # medians.
@@ -100,6 +101,9 @@ sed -e '/^gif/d' -e '/^png/d' -e 's/^steps = 800/steps = 20/' \
     -e 's/^velocity = .*/velocity = { kind = "direct" }/' "$here/examples/vortex-pair.toml" > "$work/vortex-direct.toml"
 sed -e '/^gif/d' -e '/^png/d' -e 's/^steps = 800/steps = 20/' \
     "$here/examples/vortex-pair.toml" > "$work/vortex-tree.toml"
+sed -e '/^gif/d' -e '/^png/d' -e 's/^steps = 800/steps = 20/' \
+    -e 's/^velocity = .*/velocity = { kind = "fmm", tolerance = 1e-8 }/' \
+    "$here/examples/vortex-pair.toml" > "$work/vortex-fmm.toml"
 ring() {  # file steps velocity
     sed -e '/^gif/d' -e '/^field/d' -e "s/^steps = 100/steps = $2/" \
         -e "s/^velocity = .*/velocity = $3/" "$here/examples/vortex-ring.toml" > "$1"
@@ -107,6 +111,7 @@ ring() {  # file steps velocity
 ring "$work/vortex3-mesh.toml" 10 '{ kind = "mesh", grid = 64 }'
 ring "$work/vortex3-tree.toml" 2 '{ kind = "barnes-hut" }'
 ring "$work/vortex3-direct.toml" 2 '{ kind = "direct" }'
+ring "$work/vortex3-fmm.toml" 2 '{ kind = "fmm", tolerance = 1e-4 }'
 cat > "$work/pse.toml" <<EOF
 model = "pse"
 dimension = 2
@@ -169,10 +174,10 @@ print(sys.argv[2], sys.argv[3], s["loop_seconds"], round(s["peak_rss_bytes"] / 2
             for n in 1 2 4; do ours gravity-p3m "$n" "$work/p3m.toml"; done
         fi
         if [[ " $CASES " == *" vortex "* ]]; then
-            for k in direct tree; do
+            for k in direct tree fmm; do
                 for n in 1 2 4; do ours "vortex-$k" "$n" "$work/vortex-$k.toml"; done
             done
-            for k in mesh tree direct; do
+            for k in mesh tree direct fmm; do
                 for n in 1 2 4; do ours "vortex3-$k" "$n" "$work/vortex3-$k.toml"; done
             done
         fi

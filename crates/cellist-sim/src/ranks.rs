@@ -5,10 +5,13 @@
 //! spread state must be gathered.
 
 #[cfg(feature = "mpi")]
+use crate::distributed::mesh::MpiExchange;
+#[cfg(feature = "mpi")]
 use crate::distributed::parts::Figures;
 #[cfg(feature = "mpi")]
 use crate::distributed::{agree, all_reduce};
 use crate::hosted::{Distribution, Hosted};
+use cellist::longrange::Peers;
 #[cfg(feature = "mpi")]
 use mpi::collective::SystemOperation;
 #[cfg(feature = "mpi")]
@@ -30,8 +33,8 @@ pub enum Ranks {
     Spread(SimpleCommunicator),
     /// Held whole on every rank of `world`, which advance it alike and divide
     /// its field sums (the vortex model's direct solver by block pairs dealt
-    /// out, gravity's and the vortex model's trees by parts, the vortex
-    /// model's meshes by slabs);
+    /// out, its trees by parts, its fmm by runs of target groups, its meshes
+    /// by slabs);
     /// `figures` are what the solver measures.
     #[cfg(feature = "mpi")]
     Replicated {
@@ -43,6 +46,21 @@ pub enum Ranks {
 }
 
 impl Ranks {
+    /// The peers among which a model held whole on every rank divides the
+    /// sums it makes itself (the vortex model's PSE rates, thermo pair sums
+    /// and fmm), their waiting counted in the solver's figures; this process
+    /// alone for any other run.
+    pub fn peers(&self) -> Peers {
+        match self {
+            #[cfg(feature = "mpi")]
+            Ranks::Replicated { world, figures } => Peers::new(Box::new(MpiExchange::counted_in(
+                world.duplicate(),
+                figures.clone(),
+            ))),
+            _ => Peers::default(),
+        }
+    }
+
     /// The number of ranks.
     pub fn count(&self) -> i32 {
         match self {

@@ -15,7 +15,7 @@ use super::parts::Figures;
 use super::tree::{TreeVortex, TreeVortex3};
 use crate::ranks::Ranks;
 use cellist::longrange::{
-    BlobKernel, BlobKernel3, Peers, Rank, TreeParams, Vic3Params, VortexInCell, VortexInCell3,
+    BlobKernel, BlobKernel3, Rank, TreeParams, Vic3Params, VortexInCell, VortexInCell3,
 };
 use cellist::models::vortex::{VelocityEngine, VelocitySolver};
 use cellist::models::vortex3::Velocity3Engine;
@@ -36,22 +36,10 @@ pub fn vortex_pairs(n: usize, kernel: BlobKernel) -> Option<(VelocityEngine, Ran
     ))
 }
 
-/// The peers of a replicated run (`ranks`), among which the vortex model
-/// shares its PSE rates and thermo pair sums (their waiting counted with its
-/// solver's); `None` for another run.
-pub fn peers(ranks: &Ranks) -> Option<Peers> {
-    match ranks {
-        Ranks::Replicated { world, figures } => Some(Peers::new(Box::new(
-            MpiExchange::counted_in(world.duplicate(), figures.clone()),
-        ))),
-        _ => None,
-    }
-}
-
 /// On several ranks, the ranks of a vortex run (2D or 3D) whose fmm divides
 /// its sums among them (the engine's [`cellist::longrange::AmongPeers`],
-/// through the system's [`peers`]) and the run's `mpi:` line; `None` in one
-/// process.
+/// through the system's [`Ranks::peers`]) and the run's `mpi:` line; `None`
+/// in one process.
 pub fn vortex_fmm() -> Option<(Ranks, String)> {
     let world = super::world_of_many()?;
     let line = format!(

@@ -424,14 +424,15 @@ pub fn run<L: Launch>(
     };
     #[cfg(not(feature = "mpi"))]
     let (engine, ranks) = (single()?, Ranks::One);
-    #[cfg_attr(not(feature = "mpi"), allow(unused_mut))]
-    let mut system =
-        VortexSystem::with_engine(params, seeded.positions, seeded.gamma, engine, threads)
-            .map_err(|e| err(format!("system: {e}")))?;
-    #[cfg(feature = "mpi")]
-    if let Some(peers) = crate::distributed::replicated::peers(&ranks) {
-        system.share_with(peers);
-    }
+    let system = VortexSystem::with_engine(
+        params,
+        seeded.positions,
+        seeded.gamma,
+        engine,
+        ranks.peers(),
+        threads,
+    )
+    .map_err(|e| err(format!("system: {e}")))?;
     let solver_name = match velocity {
         VelocitySolver::Direct => "direct (all pairs)".to_string(),
         VelocitySolver::BarnesHut(p) => format!("barnes-hut (theta {})", p.theta),

@@ -577,18 +577,14 @@ pub fn run<L: Launch>(
     let snapshots = out.snapshots(steps, ["vorticity.csv", "vorticity.png", "vorticity.gif"]);
     let n = seeded.positions.len();
     let (engine, ranks) = distributed_engine(scenario, context, solver, n, sigma)?;
-    #[cfg_attr(not(feature = "mpi"), allow(unused_mut))]
-    let mut system = match engine {
+    let (positions, alpha, peers) = (seeded.positions, seeded.alpha, ranks.peers());
+    let system = match engine {
         Some(engine) => {
-            Vortex3System::with_engine(params, seeded.positions, seeded.alpha, engine, threads)
+            Vortex3System::with_engine(params, positions, alpha, engine, peers, threads)
         }
-        None => Vortex3System::new(params, seeded.positions, seeded.alpha, threads),
+        None => Vortex3System::among(params, positions, alpha, peers, threads),
     }
     .map_err(|e| err(format!("system: {e}")))?;
-    #[cfg(feature = "mpi")]
-    if let Some(peers) = crate::distributed::replicated::peers(&ranks) {
-        system.share_with(peers);
-    }
     let solver_name = match solver {
         Velocity3Solver::Direct => "direct (all pairs)".to_string(),
         Velocity3Solver::BarnesHut(p) => format!("barnes-hut (theta {})", p.theta),

@@ -350,16 +350,19 @@ impl VortexSystem {
         let kernel = BlobKernel::new(params.sigma);
         let solver = VelocityEngine::new(params.solver, kernel, positions.len())
             .map_err(VortexError::Parameter)?;
-        Self::with_engine(params, positions, gamma, solver, threads)
+        Self::with_engine(params, positions, gamma, solver, Peers::default(), threads)
     }
 
     /// The same with the velocity solver `solver` (of the kind `params.solver`
-    /// names, built elsewhere).
+    /// names, built elsewhere), the PSE rates, the thermo's pair sums and the
+    /// fmm's sums shared among `peers`, every one of which holds this system
+    /// and advances it alike (the results have the bits of one process).
     pub fn with_engine(
         params: VortexParams,
         positions: Vec<[f64; 2]>,
         gamma: Vec<f64>,
         solver: VelocityEngine,
+        peers: Peers,
         threads: &Threads,
     ) -> Result<Self, VortexError> {
         params.check().map_err(VortexError::Parameter)?;
@@ -401,7 +404,7 @@ impl VortexSystem {
             trial_gamma: Vec::new(),
             dropped: 0.0,
             times: StageTimes::default(),
-            peers: Peers::default(),
+            peers,
         };
         system.refresh(threads)?;
         Ok(system)
@@ -412,14 +415,8 @@ impl VortexSystem {
         &self.params
     }
 
-    /// Shares the PSE rates and the thermo's pair sums among `peers`, every
-    /// one of which holds this system and advances it alike (the results have
-    /// the bits of one process).
-    pub fn share_with(&mut self, peers: Peers) {
-        self.peers = peers;
-    }
-
-    /// The ranks that share the PSE rates and the thermo's pair sums.
+    /// The ranks that share the PSE rates, the thermo's pair sums and the
+    /// fmm's sums.
     pub fn peers(&self) -> &dyn Exchange {
         self.peers.exchange()
     }

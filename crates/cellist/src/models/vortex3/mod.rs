@@ -378,19 +378,33 @@ impl Vortex3System {
         alpha: Vec<[f64; 3]>,
         threads: &Threads,
     ) -> Result<Self, VortexError> {
+        Self::among(params, positions, alpha, Peers::default(), threads)
+    }
+
+    /// [`Vortex3System::new`] with the PSE rates and the fmm's sums shared
+    /// among `peers`, every one of which holds this system and advances it
+    /// alike (the rates have the bits of one process).
+    pub fn among(
+        params: Vortex3Params,
+        positions: Vec<[f64; 3]>,
+        alpha: Vec<[f64; 3]>,
+        peers: Peers,
+        threads: &Threads,
+    ) -> Result<Self, VortexError> {
         params.check().map_err(VortexError::Parameter)?;
         let solver = Velocity3Engine::new(params.solver, params.sigma, positions.len())
             .map_err(VortexError::Parameter)?;
-        Self::with_engine(params, positions, alpha, solver, threads)
+        Self::with_engine(params, positions, alpha, solver, peers, threads)
     }
 
-    /// [`Vortex3System::new`] with the velocity solver `solver` (built for
+    /// [`Vortex3System::among`] with the velocity solver `solver` (built for
     /// `params.solver`, e.g. one shared by the ranks of a distributed run).
     pub fn with_engine(
         params: Vortex3Params,
         positions: Vec<[f64; 3]>,
         alpha: Vec<[f64; 3]>,
         solver: Velocity3Engine,
+        peers: Peers,
         threads: &Threads,
     ) -> Result<Self, VortexError> {
         params.check().map_err(VortexError::Parameter)?;
@@ -402,7 +416,7 @@ impl Vortex3System {
                 gradient: Vec::new(),
                 diffusion: Vec::new(),
                 times: Stage3Times::default(),
-                peers: Peers::default(),
+                peers,
             },
             state: Vec::new(),
             current: Vec::new(),
@@ -418,12 +432,6 @@ impl Vortex3System {
     /// The parameters.
     pub fn params(&self) -> &Vortex3Params {
         &self.rater.params
-    }
-
-    /// Shares the PSE rates among `peers`, every one of which holds this
-    /// system and advances it alike (the rates have the bits of one process).
-    pub fn share_with(&mut self, peers: Peers) {
-        self.rater.peers = peers;
     }
 
     /// Number of particles.
