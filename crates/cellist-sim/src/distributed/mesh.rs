@@ -70,8 +70,8 @@ impl MpiExchange {
     }
 
     /// The exchange on the ranks of `world` whose time counts in `figures`
-    /// (a replicated solver's): the vortex model's PSE rates and thermo pair
-    /// sums.
+    /// (a replicated solver's): the vortex model's PSE rates, thermo pair
+    /// sums and fmm.
     pub fn counted_in(world: SimpleCommunicator, figures: Figures) -> Self {
         MpiExchange { world, figures }
     }

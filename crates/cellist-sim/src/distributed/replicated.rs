@@ -45,8 +45,8 @@ pub fn vortex_fmm() -> Option<(Ranks, String)> {
     let line = format!(
         "mpi: {} ranks; the fmm's tree and upward pass made alike on every rank (the particles \
          held by every rank), each rank summing a run of its target groups balanced by their \
-         last seconds (in 3D also a run of the blob rest's cell layers), the results \
-         all-gathered: one process's velocities to the bit",
+         last pair terms and M2L (in 3D also a run of the blob rest's cell layers balanced \
+         by cluster pairs), the results all-gathered: one process's velocities to the bit",
         world.size()
     );
     let figures = Figures::new("Shared fmm", "gathering the results");

@@ -697,13 +697,31 @@ mod tests {
 
     #[test]
     fn weighted_runs_share_out_the_weight() {
+        // equal weights: each run starts at the first task whose rows start
+        // at or past its share of the rows; 9 layers cut the middle one
+        for layers in [8, 9] {
+            let plan = plan_for(layers, true);
+            let (rows, tasks) = (4 * layers, plan.num_tasks());
+            for ranks in 1..=5 {
+                let starts: Vec<usize> = (0..=ranks)
+                    .map(|r| {
+                        (0..tasks)
+                            .find(|&t| plan.task_rows(t).start * ranks >= rows * r)
+                            .unwrap_or(tasks)
+                    })
+                    .collect();
+                let runs: Vec<Range<usize>> = starts.windows(2).map(|w| w[0]..w[1]).collect();
+                assert_eq!(
+                    plan.task_runs_weighted(ranks, |_| 7),
+                    runs,
+                    "{layers} {ranks}"
+                );
+                assert_eq!(plan.task_runs(ranks), runs);
+            }
+        }
         // 8 layers of 4 rows
         let plan = plan_for(8, true);
         assert_eq!(plan.num_tasks(), 8);
-        // equal weights: the runs of task_runs
-        for ranks in 1..=5 {
-            assert_eq!(plan.task_runs_weighted(ranks, |_| 7), plan.task_runs(ranks));
-        }
         // the first layer's rows weigh as much as all the others: it is one
         // rank's run, the other layers the other's
         let heavy = |i: usize| if i < 4 { 7 } else { 1 };

@@ -108,7 +108,7 @@ impl Exchange for Alone {
 }
 
 /// The ranks among which a system that every one of them holds whole divides
-/// its sums (the vortex model's PSE rates and thermo pair sums): a boxed
+/// its sums (the vortex model's PSE rates, thermo pair sums and fmm): a boxed
 /// [`Exchange`], [`Alone`] by default.
 pub struct Peers(Box<dyn Exchange>);
 

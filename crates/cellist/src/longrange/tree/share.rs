@@ -1,15 +1,17 @@
-//! A tree evaluation divided among processes that each hold every particle
-//! (MPI ranks of a replicated run): each builds the same tree, walks and sums
-//! only the groups of its own part, and receives the other parts' results.
+//! A tree evaluation (a Barnes-Hut walk or an fmm) divided among processes
+//! that each hold every particle (MPI ranks of a replicated run): each builds
+//! the same tree, walks and sums only the groups of its own part, and
+//! receives the other parts' results.
 //!
 //! A particle's result depends only on its group's lists, and a group's lists
 //! only on the tree, so a divided evaluation gives every particle the bits of
 //! the undivided one. The parts are contiguous runs of the groups in Morton
 //! order (each part's targets lie close together in space and in memory),
-//! balanced by the last evaluation's cost: a particle weighs one plus its
-//! interactions (its group's accepted nodes and listed particles, itself
-//! excluded), which every process learns with the results (at the first
-//! evaluation, or when the particle count changed, every particle weighs 1).
+//! balanced by the last evaluation's cost ([`Costs`]): a particle weighs one
+//! plus its group's work per particle (a walk's accepted nodes and listed
+//! particles; an fmm's pair terms and M2L), which every process learns before
+//! the results (at the first evaluation, or when the particle count changed,
+//! every particle weighs 1).
 
 use super::build::Octree;
 use crate::longrange::mesh::slab::Exchange;
@@ -23,10 +25,11 @@ pub trait Share {
     fn part(&self) -> (usize, usize);
 
     /// Fills every part of `values` but this process's own with what the other
-    /// processes evaluated (an all-gather): `width` numbers per particle in tree
-    /// order, part `k` the particles `bounds[k]..bounds[k + 1]` (`bounds` has
-    /// `parts + 1` entries, 0 first and the particle count last, the same on
-    /// every process). This process's part is filled on entry.
+    /// processes evaluated (an all-gather): `width` numbers per item (a
+    /// particle in tree order, or a slot of a divided cell-list sum), part `k`
+    /// the items `bounds[k]..bounds[k + 1]` (`bounds` has `parts + 1`
+    /// entries, 0 first and the item count last, the same on every process).
+    /// This process's part is filled on entry.
     fn all_gather(&mut self, values: &mut [f64], width: usize, bounds: &[usize]);
 }
 
@@ -96,23 +99,26 @@ impl Costs {
         &self.input
     }
 
-    /// The weights of the last evaluation: `weights` gives one per particle
-    /// of each group of this process's part `part` of `split` (in order), and
-    /// `share` brings the other parts'.
+    /// The weights of the last evaluation: `work` gives the work of each
+    /// group of this process's part `part` of `split` (in order), each of its
+    /// particles weighing `1 + work / particles`, and `share` brings the
+    /// other parts' weights.
     pub fn gather(
         &mut self,
         tree: &Octree,
         split: &Split,
         part: usize,
-        weights: impl Iterator<Item = f64>,
+        work: impl Iterator<Item = f64>,
         share: &mut dyn Share,
     ) {
         let n = tree.order.len();
         self.sorted.resize(n, 0.0);
         let own = &tree.groups[split.groups[part]..split.groups[part + 1]];
-        for (&group, weight) in own.iter().zip(weights) {
+        for (&group, work) in own.iter().zip(work) {
             let node = &tree.nodes[group as usize];
-            self.sorted[node.start as usize..node.end as usize].fill(weight);
+            let range = node.start as usize..node.end as usize;
+            let weight = 1.0 + work / range.len() as f64;
+            self.sorted[range].fill(weight);
         }
         share.all_gather(&mut self.sorted, 1, &split.particles);
         self.input.resize(n, 0.0);
@@ -191,6 +197,7 @@ mod tests {
     };
     use super::*;
     use crate::interactions::GravityLaw;
+    use crate::longrange::mesh::slab::testkit::Hub;
     use crate::longrange::{BlobKernel, BlobKernel3, FieldOut, Sources};
     use crate::random::Rng;
     use crate::threads::Threads;
@@ -316,21 +323,19 @@ mod tests {
     type Evaluation = (Vec<u64>, (u64, u64));
 
     /// How the gathers of one evaluation go: `per_step` gathers, of which
-    /// the results' cuts are gather `results` (the costs' come before it).
+    /// the results' cuts are gather `results` (the costs' come before it);
+    /// the results' cuts give every part some particles, and move after the
+    /// first evaluation (the costs replace the counts).
     #[derive(Clone, Copy)]
     struct Gathers {
         per_step: usize,
         results: usize,
-        /// Whether the results' cuts must move after the first evaluation.
-        moving: bool,
     }
 
-    /// The trees' gathers: the costs, then the results, whose cuts move after
-    /// the first evaluation (the costs replace the counts).
-    const TREE_GATHERS: Gathers = Gathers {
+    /// The gathers of a walk and of a 2D fmm: the costs, then the results.
+    const TWO_GATHERS: Gathers = Gathers {
         per_step: 2,
         results: 1,
-        moving: true,
     };
 
     /// `steps` evaluations of a solver made by `new`, undivided and divided into
@@ -384,13 +389,17 @@ mod tests {
         }
         let cuts = &got[0].1;
         assert_eq!(cuts.len(), gathers.per_step * steps);
-        if gathers.moving {
-            let (first, second) = (gathers.results, gathers.per_step + gathers.results);
+        let (first, second) = (gathers.results, gathers.per_step + gathers.results);
+        for bounds in [&cuts[first], &cuts[second]] {
             assert!(
-                cuts[first] != cuts[second],
-                "{parts} parts: the cuts never moved"
+                bounds.windows(2).all(|w| w[0] < w[1]),
+                "{parts} parts: {bounds:?}"
             );
         }
+        assert!(
+            cuts[first] != cuts[second],
+            "{parts} parts: the cuts never moved"
+        );
     }
 
     /// Four clusters of different widths (a deep, uneven tree), moved a little
@@ -425,7 +434,7 @@ mod tests {
         for parts in [2, 3, 4] {
             divided_equals_whole(
                 parts,
-                TREE_GATHERS,
+                TWO_GATHERS,
                 3,
                 || BarnesHut::new(law, params).unwrap(),
                 |tree, step, share| {
@@ -465,7 +474,7 @@ mod tests {
         for parts in [2, 4] {
             divided_equals_whole(
                 parts,
-                TREE_GATHERS,
+                TWO_GATHERS,
                 3,
                 || VortexTree::new(params, kernel).unwrap(),
                 |tree, step, share| {
@@ -501,7 +510,7 @@ mod tests {
         for parts in [2, 3] {
             divided_equals_whole(
                 parts,
-                TREE_GATHERS,
+                TWO_GATHERS,
                 2,
                 || VortexTree3::new(params, kernel).unwrap(),
                 |tree, step, share| {
@@ -521,14 +530,6 @@ mod tests {
         }
     }
 
-    /// The fmm's gathers: the costs (the seconds of the groups), then the
-    /// results (and in 3D the blob rest's), whose cuts need not move.
-    const FMM_GATHERS: Gathers = Gathers {
-        per_step: 2,
-        results: 1,
-        moving: false,
-    };
-
     #[test]
     fn divided_vortex_fmm_has_the_bits_of_one_evaluation() {
         // about ten target groups
@@ -538,7 +539,7 @@ mod tests {
         for parts in [2, 3] {
             divided_equals_whole(
                 parts,
-                FMM_GATHERS,
+                TWO_GATHERS,
                 2,
                 || VortexFmm::new(kernel, FmmAccuracy::Tolerance(1e-6)).unwrap(),
                 |fmm, step, share| {
@@ -569,9 +570,10 @@ mod tests {
         for parts in [2, 3] {
             divided_equals_whole(
                 parts,
+                // the costs, the results, the blob rest's sums
                 Gathers {
                     per_step: 3,
-                    ..FMM_GATHERS
+                    results: 1,
                 },
                 2,
                 || VortexFmm3::new(kernel, FmmAccuracy::Tolerance(1e-3)).unwrap(),
@@ -589,6 +591,41 @@ mod tests {
                     (bits, fmm.interactions())
                 },
             );
+        }
+    }
+
+    /// The 2D fmm divided through [`AmongPeers`] over thread-ranks (the
+    /// engine's exchange, as in an MPI run): every rank gets the bits of one
+    /// evaluation, at the first evaluation and after the costs moved the cuts.
+    #[test]
+    fn an_fmm_among_peers_has_the_bits_of_one_evaluation() {
+        let n = 20_000;
+        let kernel = BlobKernel::new(0.01);
+        let gamma: Vec<f64> = (0..n).map(|i| ((i % 7) as f64 - 3.0) * 0.1).collect();
+        let new = || VortexFmm::new(kernel, FmmAccuracy::Tolerance(1e-6)).unwrap();
+        let evaluate = |fmm: &mut VortexFmm<BlobKernel>, share: &mut dyn Share, step| {
+            let x: Vec<[f64; 2]> = clusters(n, step).iter().map(|p| [p[0], p[1]]).collect();
+            let mut u = vec![[0.0; 2]; n];
+            fmm.compute_shared(&x, &gamma, &mut u, &Threads::new(2).unwrap(), share);
+            u.as_flattened()
+                .iter()
+                .map(|v| v.to_bits())
+                .collect::<Vec<u64>>()
+        };
+        let mut whole = new();
+        let want: Vec<Vec<u64>> = (0..2)
+            .map(|step| evaluate(&mut whole, &mut Whole, step))
+            .collect();
+        for ranks in [2, 3] {
+            let got = Hub::run(ranks, |exchange| {
+                let (mut fmm, mut share) = (new(), AmongPeers::new(exchange));
+                (0..2)
+                    .map(|step| evaluate(&mut fmm, &mut share, step))
+                    .collect::<Vec<_>>()
+            });
+            for (rank, bits) in got.iter().enumerate() {
+                assert!(*bits == want, "rank {rank} of {ranks}");
+            }
         }
     }
 }

@@ -453,15 +453,13 @@ impl<M: Send + Sync, L: Default + Send, const W: usize> Solver<M, L, W> {
         let (part, parts) = share.part();
         let split = Split::new(&self.tree, self.costs.input(), parts);
         let own = split.groups[part]..split.groups[part + 1];
-        self.sum_groups(own.clone(), threads, per_group);
+        self.sum_groups(own, threads, per_group);
         if parts > 1 {
-            let weights = self.tree.groups[own].iter().zip(&self.counts).map(
-                |(&group, &(nodes, particles))| {
-                    let node = &self.tree.nodes[group as usize];
-                    1.0 + (nodes + particles) as f64 / (node.end - node.start) as f64
-                },
-            );
-            self.costs.gather(&self.tree, &split, part, weights, share);
+            let work = self
+                .counts
+                .iter()
+                .map(|&(nodes, particles)| (nodes + particles) as f64);
+            self.costs.gather(&self.tree, &split, part, work, share);
         }
         share.all_gather(self.sorted.as_flattened_mut(), W, &split.particles);
     }

@@ -333,7 +333,8 @@ pub struct VortexSystem {
     trial_gamma: Vec<f64>,
     dropped: f64,
     times: StageTimes,
-    /// The ranks that share the PSE rates and the thermo pair sums.
+    /// The ranks that share the PSE rates, the thermo pair sums and the
+    /// fmm's sums.
     peers: Peers,
 }
 

@@ -253,7 +253,7 @@ struct Rater {
     /// The PSE rates of the last evaluation.
     diffusion: Vec<[f64; 3]>,
     times: Stage3Times,
-    /// The ranks that share the PSE rates.
+    /// The ranks that share the PSE rates and the fmm's sums.
     peers: Peers,
 }
 

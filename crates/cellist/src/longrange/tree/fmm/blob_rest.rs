@@ -143,8 +143,8 @@ impl BlobRest {
             }
         };
         let (part, parts) = share.part();
-        self.pairs = (CLUSTER * CLUSTER * list.num_entries()) as u64;
         if parts == 1 {
+            self.pairs = (CLUSTER * CLUSTER * list.num_entries()) as u64;
             scatter_half_rows(
                 &plan,
                 &mut self.sums,

@@ -310,7 +310,7 @@ impl<E: Expansions> Engine<E> {
         let shared = DisjointSlice::new(&mut sorted);
         let this = &*self;
         threads.install(|| {
-            this.tree.groups[own.clone()]
+            this.tree.groups[own]
                 .par_iter()
                 .map(|&g| {
                     let mut scratch = lock(&this.scratch);
@@ -327,17 +327,16 @@ impl<E: Expansions> Engine<E> {
             .iter()
             .fold((0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
         if parts > 1 {
-            let (tree, m2l) = (&self.tree, kernel.m2l_cost());
-            let weights = tree.groups[own]
+            let m2l = kernel.m2l_cost();
+            let work = self
+                .counts
                 .iter()
-                .zip(&self.counts)
-                .map(|(&g, &(far, pairs))| {
-                    let node = &tree.nodes[g as usize];
-                    1.0 + (pairs as f64 + m2l * far as f64) / (node.end - node.start) as f64
-                });
-            self.costs.gather(tree, &split, part, weights, share);
+                .map(|&(far, pairs)| pairs as f64 + m2l * far as f64);
+            self.costs.gather(&self.tree, &split, part, work, share);
         }
-        share.all_gather(E::numbers(&mut self.sorted), E::WIDTH, &split.particles);
+        let numbers = E::numbers(&mut self.sorted);
+        debug_assert_eq!(numbers.len(), n * E::WIDTH);
+        share.all_gather(numbers, E::WIDTH, &split.particles);
     }
 
     /// The sums of group `g`'s particles into `out`: the traversal of

@@ -193,7 +193,9 @@ impl Expansions for Laplace {
     };
     const FILL: Option<usize> = Some(FILL);
 
-    /// Measured at order 14 on 10^5 uniform bodies (perf): 2800 pair terms, `0.8 (p + 1)^3`.
+    /// Measured at order 14 on 10^5 uniform bodies (perf of one evaluation:
+    /// M2L and the pairs): 2800 pair terms, `0.8 (p + 1)^3`. (Gravity's fmm
+    /// is not divided yet: its runs on several ranks are refused.)
     fn m2l_cost(&self) -> f64 {
         0.8 * ((self.order + 1) as f64).powi(3)
     }

@@ -219,8 +219,9 @@ impl Expansions for CurlLaplace {
     };
     const FILL: Option<usize> = Some(FILL);
 
-    /// Three expansions, one per component of `alpha`.
-    /// Measured at order 13 on the 10^5-particle ring (perf): 1640 pair terms, `0.6 (p + 1)^3`.
+    /// Measured at order 13 on the 10^5-particle ring (perf of one
+    /// evaluation: M2L and the point law's pairs): 1640 pair terms,
+    /// `0.6 (p + 1)^3`.
     fn m2l_cost(&self) -> f64 {
         0.6 * ((self.order + 1) as f64).powi(3)
     }
@@ -229,6 +230,7 @@ impl Expansions for CurlLaplace {
         sums.as_flattened_mut()
     }
 
+    /// Three expansions, one per component of `alpha`.
     fn terms(&self) -> usize {
         3 * solid::terms(self.order)
     }
