@@ -804,6 +804,11 @@ fn main() {
         "gravity-tree",
         r#"{ kind = "barnes-hut", theta = 0.6 }"#,
     );
+    let gravity_fmm = gravity_scenario(
+        dir.path(),
+        "gravity-fmm",
+        r#"{ kind = "fmm", tolerance = 1e-6 }"#,
+    );
     let vortex = vortex_scenario(dir.path(), "vortex", r#"{ kind = "direct" }"#);
     let vic = vortex_scenario(dir.path(), "vic", r#"{ kind = "mesh", grid = 32 }"#);
     let vortex_tree = vortex_scenario(
@@ -910,6 +915,10 @@ fn main() {
             runs_have_the_plain_bytes(dir.path(), "gravity", &gravity_tree, &["stars.dump"]),
         ),
         (
+            "gravity fmm on 1 to 4 ranks (every body gathered, the target groups dealt out): the bytes of the plain run's dumps",
+            runs_have_the_plain_bytes(dir.path(), "gravity", &gravity_fmm, &["stars.dump"]),
+        ),
+        (
             "vortex barnes-hut on 1 to 4 ranks: the bytes of the plain run's fields and thermo",
             runs_have_the_plain_bytes(dir.path(), "vortex", &vortex_tree, &["vorticity_20.csv", "thermo.csv"]),
         ),
@@ -1003,14 +1012,6 @@ fn main() {
                 9,
                 &["run", &vic3],
                 "9 ranks share a mesh of only 16 planes (grid 16): its slabs need at least 2",
-            ),
-        ),
-        (
-            "-np 2: the gravity fmm, not distributed, one message",
-            refused_once(
-                2,
-                &["run", &gravity, "--set", "system.solver={ kind = \"fmm\" }"],
-                "the fmm runs on one process (not yet distributed)",
             ),
         ),
         (

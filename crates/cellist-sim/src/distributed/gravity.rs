@@ -1,4 +1,4 @@
-//! Gravity's direct sum, mesh solvers and Barnes-Hut tree on several ranks
+//! Gravity's direct sum, mesh solvers, Barnes-Hut tree and fmm on several ranks
 //! with the bodies divided among them: rank `r` owns the bodies
 //! `N r / P .. N (r + 1) / P` of the input order for the whole run (no
 //! solver cares which rank holds a body), steps them, and sums their field
@@ -6,10 +6,12 @@
 //! ([`RingGravity`]), particle-mesh and P3M on a slab-decomposed mesh to
 //! whose slabs (and P3M's slabs of cells) the bodies travel, and the tree by
 //! locally essential trees, the bodies travelling to the ranks of their
-//! parts of the tree ([`SpreadGravity`]). Through the steps a rank holds its
-//! `N / P` bodies and the block in flight on the ring, or the bodies routed
-//! to its slabs, or those routed to its part of the tree and the nodes and
-//! bodies of the other parts that its walks reach. The whole
+//! parts of the tree, and the fmm with every body gathered on every rank at
+//! each evaluation and the target groups dealt out ([`SpreadGravity`]).
+//! Through the steps a rank holds its `N / P` bodies and the block in flight
+//! on the ring, or the bodies routed to its slabs, or those routed to its
+//! part of the tree and the nodes and bodies of the other parts that its
+//! walks reach, or (the fmm) every body during an evaluation. The whole
 //! system is held at set-up (every rank builds every body before it keeps its
 //! block, and decodes a whole checkpoint file at a restart), and by rank 0
 //! for a checkpoint file, a picture or a trajectory frame (dumps and thermo
@@ -43,7 +45,8 @@ use crate::hosted::{Distribution, Hosted};
 use cellist::interactions::GravityLaw;
 use cellist::longrange::Exchange;
 use cellist::longrange::{
-    BarnesHut, FieldOut, FieldSolver, MeshParams, P3m, ParticleMesh, Rank, Sources, TreeParams,
+    BarnesHut, FieldOut, FieldSolver, FmmAccuracy, GravityFmm, MeshParams, P3m, ParticleMesh, Rank,
+    Sources, TreeParams,
 };
 use cellist::models::gravity::{
     body_particles, check_bodies, checked_bodies, load_bodies, save_bodies, thermo_row, Bodies,
@@ -88,6 +91,9 @@ pub enum SpreadField {
     P3m(MeshParams, f64),
     /// The Barnes-Hut tree with these settings, by locally essential trees.
     Tree(TreeParams),
+    /// The fmm at this accuracy, every rank gathering every body and summing
+    /// a run of the target groups.
+    Fmm(FmmAccuracy),
 }
 
 impl SpreadField {
@@ -120,6 +126,10 @@ impl SpreadField {
                 SpreadSolver::Tree(BarnesHut::new(law, params)?),
                 MpiExchange::essential(world.duplicate()),
             ),
+            SpreadField::Fmm(accuracy) => (
+                SpreadSolver::Fmm(GravityFmm::new(law, accuracy)?),
+                MpiExchange::gathering(world.duplicate()),
+            ),
         };
         let figures = exchange.figures();
         let solver = SpreadGravity { solver, exchange };
@@ -138,13 +148,15 @@ pub enum SpreadSolver {
     P3m(P3m),
     /// The Barnes-Hut tree.
     Tree(BarnesHut),
+    /// The fmm.
+    Fmm(GravityFmm),
 }
 
-/// Gravity's mesh or tree solver on several ranks, the bodies divided among
+/// Gravity's mesh, tree or fmm solver on several ranks, the bodies divided among
 /// them: the engine's [`FieldSolver`] over a rank's own bodies, the ranks'
 /// bodies following each other in rank order
 /// ([`ParticleMesh::compute_spread`], [`P3m::compute_spread`],
-/// [`BarnesHut::compute_spread`]).
+/// [`BarnesHut::compute_spread`], [`GravityFmm::compute_spread`]).
 pub struct SpreadGravity {
     solver: SpreadSolver,
     exchange: MpiExchange,
@@ -163,6 +175,7 @@ impl FieldSolver for SpreadGravity {
             SpreadSolver::Pm(s) => s.compute_spread(sources, out, threads, exchange),
             SpreadSolver::P3m(s) => s.compute_spread(sources, out, threads, exchange),
             SpreadSolver::Tree(s) => s.compute_spread(sources, out, threads, exchange),
+            SpreadSolver::Fmm(s) => s.compute_spread(sources, out, threads, exchange),
         }
     }
 }

@@ -60,6 +60,15 @@ impl MpiExchange {
         }
     }
 
+    /// The exchange on the ranks of `world` for gravity's fmm, which gathers
+    /// every rank's bodies and the target groups' results.
+    pub fn gathering(world: SimpleCommunicator) -> Self {
+        MpiExchange {
+            world,
+            figures: Figures::new("Shared fmm", "gathering the bodies and the results"),
+        }
+    }
+
     /// The exchange on the ranks of `world` for pair sums dealt out among
     /// them, whose partial sums it adds and gathers.
     pub fn summing(world: SimpleCommunicator) -> Self {

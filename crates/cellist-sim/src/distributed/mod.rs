@@ -16,9 +16,10 @@
 //!
 //! What runs distributed, on the driver like every model (rank 0 writes the
 //! outputs): md and pse by domain decomposition ([`md::DistributedMd`],
-//! [`pse::DistributedPse`]); gravity's direct sum, mesh solvers (PM, P3M)
-//! and Barnes-Hut tree with the bodies divided among the ranks, summed by
-//! the ring pass, on a slab-decomposed mesh or by locally essential trees
+//! [`pse::DistributedPse`]); gravity's direct sum, mesh solvers (PM, P3M),
+//! Barnes-Hut tree and fmm with the bodies divided among the ranks, summed
+//! by the ring pass, on a slab-decomposed mesh, by locally essential trees
+//! or by runs of the fmm's target groups over every body gathered
 //! ([`gravity::DistributedGravity`], [`ring`], [`mesh`]); the vortex model's
 //! direct sums by block pairs dealt out ([`pairs`]), its Barnes-Hut trees
 //! by parts of the tree ([`tree`]), its fmm by runs of its target groups

@@ -549,9 +549,7 @@ fn run_setup<L: Launch>(
             SolverChoice::P3m { mesh, split_cells } => SpreadField::P3m(mesh, split_cells),
             SolverChoice::BarnesHut(params) => SpreadField::Tree(params),
             SolverChoice::Direct => SpreadField::Ring,
-            SolverChoice::Fmm(_) => return Err(scenario.error(
-                "system.solver: the fmm runs on one process (not yet distributed); on several ranks use direct, barnes-hut, pm or p3m",
-            )),
+            SolverChoice::Fmm(accuracy) => SpreadField::Fmm(accuracy),
         };
         return run_spread(scenario, setup, context, launch, world, field, started);
     }
@@ -632,6 +630,13 @@ fn run_spread<L: Launch>(
              reach of theirs, their fields sent back",
             n / ranks,
             slab_planes(mesh.grid, ranks)
+        ),
+        SpreadField::Fmm(_) => format!(
+            "mpi: {ranks} ranks; the fmm, each rank stepping a block of about {} bodies and \
+             gathering every body at each evaluation (the same tree and upward pass on every \
+             rank), summing a run of the target groups (balanced by their last pair terms and \
+             M2L): one process's forces to the bit",
+            n / ranks
         ),
     });
     let plan = output_plan(&setup);

@@ -203,7 +203,8 @@ pub(super) struct Engine<E: Expansions> {
     /// process's part of the groups, for a divided evaluation).
     pub interactions: (u64, u64),
     /// Per particle, its weight in the next divided evaluation's [`Split`]:
-    /// its group's cost ([`Expansions::m2l_cost`]) per particle.
+    /// `1 +` its group's pair terms and M2L (each [`Expansions::m2l_cost`]
+    /// pair terms) per particle.
     costs: Costs,
 }
 

@@ -4,7 +4,7 @@
 //! near field.
 
 use super::super::build::{Node, Sizes};
-use super::super::share::Whole;
+use super::super::share::{AmongPeers, Share, Whole};
 use super::engine::{shift_to_middle, Cube, Engine, Expansions, Pairs};
 use super::rotation::{m2l_by_direction, FarPairs, M2lLanes};
 use super::solid;
@@ -12,6 +12,7 @@ use super::solid::{harmonics, lanes, LANES};
 use super::{ErrorFit, FmmAccuracy};
 use crate::interactions::GravityLaw;
 use crate::longrange::direct::{Block, Kernel};
+use crate::longrange::mesh::slab::Exchange;
 use crate::longrange::{FieldOut, Sources};
 use crate::simd::{F64x8, Register};
 use crate::threads::Threads;
@@ -81,6 +82,20 @@ pub struct GravityFmm {
     engine: Engine<Laplace>,
     /// The bodies relative to the middle of their bounding box.
     shifted: Vec<[f64; 3]>,
+    /// Every rank's bodies of a spread evaluation ([`GravityFmm::compute_spread`]).
+    gathered: Gathered,
+}
+
+/// Every rank's bodies and their field, for [`GravityFmm::compute_spread`]:
+/// `x y z m` per body as gathered, then as arrays.
+#[derive(Debug, Default)]
+struct Gathered {
+    rows: Vec<f64>,
+    mine: Vec<f64>,
+    position: Vec<[f64; 3]>,
+    mass: Vec<f64>,
+    acc: Vec<[f64; 3]>,
+    phi: Vec<f64>,
 }
 
 impl GravityFmm {
@@ -103,6 +118,7 @@ impl GravityFmm {
             },
             engine: Engine::default(),
             shifted: Vec::new(),
+            gathered: Gathered::default(),
         })
     }
 
@@ -116,7 +132,8 @@ impl GravityFmm {
         self.laplace.order
     }
 
-    /// `(M2L, particle pair)` interactions of the last evaluation.
+    /// `(M2L, particle pair)` interactions of the last evaluation (of this
+    /// rank's target groups, for [`compute_spread`](Self::compute_spread)).
     pub fn interactions(&self) -> (u64, u64) {
         self.engine.interactions
     }
@@ -127,6 +144,70 @@ impl GravityFmm {
     /// The bodies are taken relative to the middle of their bounding box
     /// (`engine::shift_to_middle`).
     pub fn compute(&mut self, sources: &Sources, out: FieldOut, threads: &Threads) {
+        self.compute_shared(sources, out, threads, &mut Whole);
+    }
+
+    /// [`compute`](Self::compute) on the ranks of `exchange`, each holding a
+    /// block of the bodies (`sources`), the blocks in rank order making the
+    /// input order: every rank gathers every body (`x y z m`), builds the
+    /// same tree and makes the same upward pass, sums its run of the target
+    /// groups ([`AmongPeers`]) and keeps the field of its own block, which
+    /// has one process's bits. Each rank holds every body during the
+    /// evaluation.
+    pub fn compute_spread(
+        &mut self,
+        sources: &Sources,
+        out: FieldOut,
+        threads: &Threads,
+        exchange: &dyn Exchange,
+    ) {
+        let (rank, ranks) = (exchange.rank(), exchange.ranks());
+        let n = sources.mass.len();
+        assert_eq!(sources.position.len(), n);
+        let mut counts = vec![0.0; ranks];
+        exchange.all_gather(&[n as f64], &vec![1; ranks], &mut counts);
+        let counts: Vec<usize> = counts.iter().map(|&c| 4 * c as usize).collect();
+        let g = &mut self.gathered;
+        g.mine.clear();
+        for (x, &m) in sources.position.iter().zip(sources.mass) {
+            g.mine.extend_from_slice(&[x[0], x[1], x[2], m]);
+        }
+        g.rows.clear();
+        g.rows.resize(counts.iter().sum(), 0.0);
+        exchange.all_gather(&g.mine, &counts, &mut g.rows);
+        g.position.clear();
+        g.position
+            .extend(g.rows.chunks_exact(4).map(|b| [b[0], b[1], b[2]]));
+        g.mass.clear();
+        g.mass.extend(g.rows.chunks_exact(4).map(|b| b[3]));
+        let total = g.mass.len();
+        g.acc.resize(total, [0.0; 3]);
+        g.phi.resize(total, 0.0);
+        let mut g = std::mem::take(&mut self.gathered);
+        let everyone = Sources {
+            mass: &g.mass,
+            position: &g.position,
+        };
+        let field = FieldOut {
+            acc: &mut g.acc,
+            phi: &mut g.phi,
+        };
+        self.compute_shared(&everyone, field, threads, &mut AmongPeers::new(exchange));
+        let first = counts[..rank].iter().sum::<usize>() / 4;
+        out.acc.copy_from_slice(&g.acc[first..first + n]);
+        out.phi.copy_from_slice(&g.phi[first..first + n]);
+        self.gathered = g;
+    }
+
+    /// [`compute`](Self::compute) divided by `share` among processes that
+    /// hold the same bodies.
+    fn compute_shared(
+        &mut self,
+        sources: &Sources,
+        out: FieldOut,
+        threads: &Threads,
+        share: &mut dyn Share,
+    ) {
         let position = sources.position;
         assert_eq!(position.len(), sources.mass.len());
         shift_to_middle(position, &mut self.shifted);
@@ -143,7 +224,7 @@ impl GravityFmm {
             }
             l.m.push(sources.mass[i]);
         }
-        self.engine.evaluate(&self.laplace, threads, &mut Whole);
+        self.engine.evaluate(&self.laplace, threads, share);
         let g = self.law.g();
         for (&i, f) in self.engine.tree.order.iter().zip(&self.engine.sorted) {
             let i = i as usize;
@@ -194,8 +275,7 @@ impl Expansions for Laplace {
     const FILL: Option<usize> = Some(FILL);
 
     /// Measured at order 14 on 10^5 uniform bodies (perf of one evaluation:
-    /// M2L and the pairs): 2800 pair terms, `0.8 (p + 1)^3`. (Gravity's fmm
-    /// is not divided yet: its runs on several ranks are refused.)
+    /// M2L and the pairs): 2800 pair terms, `0.8 (p + 1)^3`.
     fn m2l_cost(&self) -> f64 {
         0.8 * ((self.order + 1) as f64).powi(3)
     }
@@ -626,5 +706,50 @@ mod tests {
             .zip(&a2)
             .all(|(a, b)| a.map(f64::to_bits) == b.map(f64::to_bits)));
         assert!(p1.iter().zip(&p2).all(|(a, b)| a.to_bits() == b.to_bits()));
+    }
+
+    /// Bodies divided among 1 to 4 thread-ranks in blocks of the input order
+    /// (uneven, and empty for 3 bodies on 4 ranks): every rank's block gets
+    /// the bits of one process's evaluation, twice (the second with the
+    /// parts weighed by the first's work).
+    #[test]
+    fn spread_bodies_get_one_process_bits() {
+        use crate::longrange::mesh::slab::testkit::Hub;
+        let law = GravityLaw::new(1.0, 0.01, 0.0).unwrap();
+        let accuracy = FmmAccuracy::Tolerance(1e-6);
+        let threads = Threads::new(2).unwrap();
+        for (n, clustered) in [(3000, true), (3, false)] {
+            let (x, m) = bodies(5, n, clustered);
+            let mut whole = GravityFmm::new(law, accuracy).unwrap();
+            let want = field(&mut |s, o| whole.compute(s, o, &threads), &x, &m);
+            for ranks in 1..=4 {
+                // rank r holds the bodies from n r^2 / ranks^2 on
+                let start = |r: usize| n * r * r / (ranks * ranks);
+                let got = Hub::run(ranks, |exchange| {
+                    let r = exchange.rank();
+                    let own = start(r)..start(r + 1);
+                    let mut fmm = GravityFmm::new(law, accuracy).unwrap();
+                    let (x, m) = (&x[own.clone()], &m[own]);
+                    let mut spread =
+                        |s: &Sources, o: FieldOut| fmm.compute_spread(s, o, &threads, exchange);
+                    [field(&mut spread, x, m), field(&mut spread, x, m)]
+                });
+                for (r, evaluations) in got.iter().enumerate() {
+                    let own = start(r)..start(r + 1);
+                    for (acc, phi) in evaluations {
+                        let bits = |v: &[f64]| v.iter().map(|c| c.to_bits()).collect::<Vec<_>>();
+                        assert_eq!(
+                            bits(acc.as_flattened()),
+                            bits(want.0[own.clone()].as_flattened())
+                        );
+                        assert_eq!(
+                            bits(phi),
+                            bits(&want.1[own.clone()]),
+                            "{n} bodies, rank {r} of {ranks}"
+                        );
+                    }
+                }
+            }
+        }
     }
 }
