@@ -11,7 +11,8 @@
 //! Through the steps a rank holds its `N / P` bodies and the block in flight
 //! on the ring, or the bodies routed to its slabs, or those routed to its
 //! part of the tree and the nodes and bodies of the other parts that its
-//! walks reach, or (the fmm) every body during an evaluation. The whole
+//! walks reach, or (the fmm) every body, in buffers kept from step to
+//! step. The whole
 //! system is held at set-up (every rank builds every body before it keeps its
 //! block, and decodes a whole checkpoint file at a restart), and by rank 0
 //! for a checkpoint file, a picture or a trajectory frame (dumps and thermo
@@ -19,7 +20,8 @@
 //!
 //! ```text
 //! step:  kick + drift of the own bodies (the integrator's first part)
-//!        the field at the own bodies (the ring pass, the mesh or the tree)
+//!        the field at the own bodies (the ring pass, the mesh, the tree or
+//!          the fmm)
 //!        kick (leapfrog's second half); check the own bodies
 //!        all-reduces: a blow-up on any rank (the lowest one's message), then
 //!          observed?; observed: the box of all bodies (two more)
@@ -33,8 +35,8 @@
 //! in id order as one process sums them. The ring's forces follow its order
 //! (each body's sum over the blocks, its own first), so a run agrees with
 //! one process to rounding; the meshes' accelerations are those of one
-//! process to the bit, their potentials to rounding; the tree's fields are
-//! those of one process to the bit.
+//! process to the bit, their potentials to rounding; the tree's and the
+//! fmm's fields are those of one process to the bit.
 
 use super::mesh::MpiExchange;
 use super::parts::{imbalance, Figures};
@@ -137,7 +139,8 @@ impl SpreadField {
     }
 }
 
-/// Gravity's solvers whose bodies travel among the ranks.
+/// Gravity's solvers whose bodies travel among the ranks (to the slabs or
+/// the tree's parts, or to every rank for the fmm).
 #[derive(Debug)]
 // built once per run and matched once per step: its size does not matter
 #[allow(clippy::large_enum_variant)]
@@ -180,11 +183,11 @@ impl FieldSolver for SpreadGravity {
     }
 }
 
-/// The gravity model of one rank of a distributed run (direct sum, PM, P3M
-/// or Barnes-Hut).
+/// The gravity model of one rank of a distributed run (direct sum, PM, P3M,
+/// Barnes-Hut or fmm).
 pub struct DistributedGravity {
     world: SimpleCommunicator,
-    /// The own bodies, their field by the ring, the mesh or the tree.
+    /// The own bodies, their field by the ring, the mesh, the tree or the fmm.
     system: GravitySystem,
     integrator: Integrator,
     dt: f64,
@@ -203,8 +206,8 @@ pub struct DistributedGravity {
     observed: bool,
     /// Largest over mean bodies per rank.
     imbalance: f64,
-    /// The field solver's time in messages (the ring's waiting, or the
-    /// mesh's transposes and routes).
+    /// The field solver's time in messages (the ring's waiting, the mesh's
+    /// transposes and routes, the tree's or the fmm's gathers).
     field: Figures,
     /// The field solver's time in messages at set-up (the first forces),
     /// not the loop's.
@@ -527,8 +530,8 @@ impl Model for DistributedGravity {
 
 impl Hosted for DistributedGravity {
     /// Seconds per step, the field solver's time in messages (the ring's
-    /// waiting, or the mesh's transposes and routes), the other messages' and
-    /// the balance of the blocks.
+    /// waiting, the mesh's transposes and routes, the tree's or the fmm's
+    /// gathers), the other messages' and the balance of the blocks.
     fn speed(&self, loop_seconds: f64, steps: u64, threads: usize) -> String {
         let waited = self.field_wait().as_secs_f64();
         let share = |s: f64| 100.0 * s / loop_seconds.max(1e-300);

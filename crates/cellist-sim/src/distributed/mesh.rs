@@ -6,7 +6,8 @@
 //! FFT ([`cellist::longrange::mesh::slab`]) and the bodies' routes to the
 //! slabs; this module gives it MPI's collectives ([`MpiExchange`]): the
 //! all-to-all transposes of the FFT and routes of the bodies, and the
-//! all-gathers of the particles' results.
+//! all-gathers of the particles' results (also the exchange of the trees'
+//! and the fmm's gathers).
 
 use super::layout;
 use super::parts::Figures;

@@ -87,9 +87,13 @@ pub struct GravityFmm {
 }
 
 /// Every rank's bodies and their field, for [`GravityFmm::compute_spread`]:
-/// `x y z m` per body as gathered, then as arrays.
+/// the ranks' body counts, `x y z m` per body as gathered, then as arrays
+/// (kept from call to call).
 #[derive(Debug, Default)]
 struct Gathered {
+    /// Per rank: its bodies, then the numbers it sends (`4` per body).
+    counts: Vec<f64>,
+    sizes: Vec<usize>,
     rows: Vec<f64>,
     mine: Vec<f64>,
     position: Vec<[f64; 3]>,
@@ -152,8 +156,8 @@ impl GravityFmm {
     /// input order: every rank gathers every body (`x y z m`), builds the
     /// same tree and makes the same upward pass, sums its run of the target
     /// groups ([`AmongPeers`]) and keeps the field of its own block, which
-    /// has one process's bits. Each rank holds every body during the
-    /// evaluation.
+    /// has one process's bits. Each rank holds every body (in buffers kept
+    /// from call to call).
     pub fn compute_spread(
         &mut self,
         sources: &Sources,
@@ -164,17 +168,21 @@ impl GravityFmm {
         let (rank, ranks) = (exchange.rank(), exchange.ranks());
         let n = sources.mass.len();
         assert_eq!(sources.position.len(), n);
-        let mut counts = vec![0.0; ranks];
-        exchange.all_gather(&[n as f64], &vec![1; ranks], &mut counts);
-        let counts: Vec<usize> = counts.iter().map(|&c| 4 * c as usize).collect();
         let g = &mut self.gathered;
+        g.sizes.clear();
+        g.sizes.resize(ranks, 1);
+        g.counts.clear();
+        g.counts.resize(ranks, 0.0);
+        exchange.all_gather(&[n as f64], &g.sizes, &mut g.counts);
+        g.sizes.clear();
+        g.sizes.extend(g.counts.iter().map(|&c| 4 * c as usize));
         g.mine.clear();
         for (x, &m) in sources.position.iter().zip(sources.mass) {
             g.mine.extend_from_slice(&[x[0], x[1], x[2], m]);
         }
         g.rows.clear();
-        g.rows.resize(counts.iter().sum(), 0.0);
-        exchange.all_gather(&g.mine, &counts, &mut g.rows);
+        g.rows.resize(g.sizes.iter().sum(), 0.0);
+        exchange.all_gather(&g.mine, &g.sizes, &mut g.rows);
         g.position.clear();
         g.position
             .extend(g.rows.chunks_exact(4).map(|b| [b[0], b[1], b[2]]));
@@ -193,7 +201,7 @@ impl GravityFmm {
             phi: &mut g.phi,
         };
         self.compute_shared(&everyone, field, threads, &mut AmongPeers::new(exchange));
-        let first = counts[..rank].iter().sum::<usize>() / 4;
+        let first = g.sizes[..rank].iter().sum::<usize>() / 4;
         out.acc.copy_from_slice(&g.acc[first..first + n]);
         out.phi.copy_from_slice(&g.phi[first..first + n]);
         self.gathered = g;
@@ -710,8 +718,9 @@ mod tests {
 
     /// Bodies divided among 1 to 4 thread-ranks in blocks of the input order
     /// (uneven, and empty for 3 bodies on 4 ranks): every rank's block gets
-    /// the bits of one process's evaluation, twice (the second with the
-    /// parts weighed by the first's work).
+    /// the bits of one process's evaluation, twice, and the ranks' target
+    /// groups are the whole run's (one group here: the division of several
+    /// among ranks is the vortex fmm's test in `tree/share.rs`).
     #[test]
     fn spread_bodies_get_one_process_bits() {
         use crate::longrange::mesh::slab::testkit::Hub;
@@ -732,9 +741,13 @@ mod tests {
                     let (x, m) = (&x[own.clone()], &m[own]);
                     let mut spread =
                         |s: &Sources, o: FieldOut| fmm.compute_spread(s, o, &threads, exchange);
-                    [field(&mut spread, x, m), field(&mut spread, x, m)]
+                    let fields = [field(&mut spread, x, m), field(&mut spread, x, m)];
+                    (fields, fmm.interactions())
                 });
-                for (r, evaluations) in got.iter().enumerate() {
+                // the ranks' groups are the whole run's
+                let sum = got.iter().fold((0, 0), |a, (_, c)| (a.0 + c.0, a.1 + c.1));
+                assert_eq!(sum, whole.interactions(), "{n} bodies on {ranks} ranks");
+                for (r, (evaluations, _)) in got.iter().enumerate() {
                     let own = start(r)..start(r + 1);
                     for (acc, phi) in evaluations {
                         let bits = |v: &[f64]| v.iter().map(|c| c.to_bits()).collect::<Vec<_>>();
