@@ -209,3 +209,44 @@ fn a_blow_up_writes_what_was_done_and_says_so() {
     assert!(json["loop_seconds"].as_f64().unwrap() > 0.0);
     assert!(json["peak_rss_bytes"].as_u64().unwrap() > 0);
 }
+
+const VORTEX3: &str = "model = \"vortex\"\ndimension = 3\n[system]\n\
+initial = { kind = \"ring\", radius = 1.0, circulation = 1.0, core = 0.4, spacing = 0.2 }\n\
+velocity = { kind = \"direct\" }\nremesh_every = 1\n[run]\nsteps = 2\ndt = 0.05\n\
+integrator = \"rk2\"\n[output]\nthermo_every = 1\npicture_size = 32\n";
+
+/// The seconds of every stage of `json`.
+fn stage_seconds(json: &Value) -> Vec<(String, f64)> {
+    let stages = json["stage_seconds"].as_object().unwrap();
+    stages
+        .iter()
+        .map(|(name, s)| (name.clone(), s.as_f64().unwrap()))
+        .collect()
+}
+
+#[test]
+fn the_vortex_stages_count_the_steps_only() {
+    // the rate of the set-up (and of a restored state) is not a step's: a
+    // run of no steps spent nothing in them, and a run's stages add up to
+    // its loop (before, the set-up's velocity evaluation was counted in)
+    let dir = tempfile::tempdir().unwrap();
+    for (name, scenario) in [("vortex2", VORTEX), ("vortex3", VORTEX3)] {
+        let (out, run) = run_scenario(dir.path(), name, scenario, &["--set", "run.steps=0"]);
+        ok(&run);
+        let json = summary(&out);
+        for (stage, seconds) in stage_seconds(&json) {
+            if stage != "Other" {
+                assert_eq!(seconds, 0.0, "{name}: {stage}: {json}");
+            }
+        }
+        let (out, run) = run_scenario(dir.path(), name, scenario, &[]);
+        ok(&run);
+        let json = summary(&out);
+        let loop_seconds = json["loop_seconds"].as_f64().unwrap();
+        let stages = stage_seconds(&json);
+        let sum: f64 = stages.iter().map(|(_, s)| s).sum();
+        let known = sum - stages.iter().find(|(n, _)| n == "Other").unwrap().1;
+        assert!(known <= loop_seconds, "{name}: {json}");
+        assert!((sum - loop_seconds).abs() <= 1e-6, "{name}: {json}");
+    }
+}

@@ -408,6 +408,8 @@ impl VortexSystem {
             peers,
         };
         system.refresh(threads)?;
+        // the set-up's rate is not a step's
+        system.times = StageTimes::default();
         Ok(system)
     }
 
@@ -462,8 +464,24 @@ impl VortexSystem {
         self.times
     }
 
-    /// Replaces the particles (a saved state, or a remeshing) and computes their rate.
+    /// Replaces the particles (a saved state) and computes their rate, which
+    /// is not a step's: [`times`](Self::times) does not count it.
     pub fn set_particles(
+        &mut self,
+        positions: Vec<[f64; 2]>,
+        gamma: Vec<f64>,
+        dropped: f64,
+        threads: &Threads,
+    ) -> Result<(), VortexError> {
+        let steps = self.times;
+        let replaced = self.replace_particles(positions, gamma, dropped, threads);
+        self.times = steps;
+        replaced
+    }
+
+    /// Replaces the particles (a saved state, or a remeshing) and computes
+    /// their rate, timed.
+    fn replace_particles(
         &mut self,
         positions: Vec<[f64; 2]>,
         gamma: Vec<f64>,
@@ -623,7 +641,7 @@ impl VortexSystem {
             }
             let dropped = self.dropped + r.dropped[0];
             let gamma = r.strength.into_flattened();
-            return self.set_particles(r.positions, gamma, dropped, threads);
+            return self.replace_particles(r.positions, gamma, dropped, threads);
         }
         self.refresh(threads)
     }

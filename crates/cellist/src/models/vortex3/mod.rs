@@ -480,9 +480,25 @@ impl Vortex3System {
         self.rater.times
     }
 
-    /// Replaces the particles (a saved state, or a remeshing) and computes their
-    /// rate.
+    /// Replaces the particles (the set-up's, or a saved state) and computes
+    /// their rate, which is not a step's: [`times`](Self::times) does not
+    /// count it.
     pub fn set_particles(
+        &mut self,
+        positions: &[[f64; 3]],
+        alpha: &[[f64; 3]],
+        dropped: [f64; 3],
+        threads: &Threads,
+    ) -> Result<(), VortexError> {
+        let steps = self.rater.times;
+        let replaced = self.replace_particles(positions, alpha, dropped, threads);
+        self.rater.times = steps;
+        replaced
+    }
+
+    /// Replaces the particles (the set-up's, a saved state, or a
+    /// remeshing) and computes their rate, timed.
+    fn replace_particles(
         &mut self,
         positions: &[[f64; 3]],
         alpha: &[[f64; 3]],
@@ -587,7 +603,7 @@ impl Vortex3System {
                 ));
             }
             let dropped = [0, 1, 2].map(|c| self.dropped[c] + r.dropped[c]);
-            self.set_particles(&r.positions, &r.strength, dropped, threads)?;
+            self.replace_particles(&r.positions, &r.strength, dropped, threads)?;
         } else {
             self.refresh(threads)?;
         }
