@@ -332,9 +332,16 @@ mod tests {
         results: usize,
     }
 
-    /// The gathers of a walk and of a 2D fmm: the costs, then the results.
+    /// The gathers of a walk: the costs, then the results.
     const TWO_GATHERS: Gathers = Gathers {
         per_step: 2,
+        results: 1,
+    };
+
+    /// The gathers of a 2D fmm: the costs, the results, then the reactions'
+    /// counts and the reactions of the pairs across groups.
+    const FMM_GATHERS: Gathers = Gathers {
+        per_step: 4,
         results: 1,
     };
 
@@ -539,7 +546,7 @@ mod tests {
         for parts in [2, 3] {
             divided_equals_whole(
                 parts,
-                TWO_GATHERS,
+                FMM_GATHERS,
                 2,
                 || VortexFmm::new(kernel, FmmAccuracy::Tolerance(1e-6)).unwrap(),
                 |fmm, step, share| {
@@ -570,9 +577,9 @@ mod tests {
         for parts in [2, 3] {
             divided_equals_whole(
                 parts,
-                // the costs, the results, the blob rest's sums
+                // the fmm's gathers, then the blob rest's sums
                 Gathers {
-                    per_step: 3,
+                    per_step: FMM_GATHERS.per_step + 1,
                     results: 1,
                 },
                 2,

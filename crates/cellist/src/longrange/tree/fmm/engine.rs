@@ -58,10 +58,8 @@ pub(super) fn shift_to_middle(positions: &[[f64; 3]], shifted: &mut Vec<[f64; 3]
 /// How two leaves meet pair by pair.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(super) enum Pairs {
-    /// The source leaf's particles at the target leaf's only.
-    OneSided,
-    /// Two different leaves of the target group: each pair once, its sum
-    /// added to both particles.
+    /// Two different leaves: each pair once, its sum added to both
+    /// particles.
     Both,
     /// A leaf with itself.
     Within,
@@ -75,7 +73,6 @@ impl Pairs {
     pub fn terms(self, targets: usize, sources: usize) -> u64 {
         let n = (targets * sources) as u64;
         match self {
-            Pairs::OneSided => n,
             Pairs::Both => 2 * n,
             Pairs::Within => n - sources as u64,
         }
@@ -95,8 +92,11 @@ pub(super) trait Expansions: Sync {
     /// `2 max(s_T, s_S) <= THETA d` (and their gap is at least
     /// [`reach`](Self::reach)).
     const THETA: f64;
-    /// The tree's sizes: most particles in a leaf and in a target group.
-    const SIZES: Sizes;
+    /// The tree's sizes for `n` particles: most particles in a leaf and in
+    /// a target group (the groups are summed in parallel, and each
+    /// particle's sums do not depend on how they are grouped up to
+    /// rounding, nor on the threads).
+    fn sizes(n: usize) -> Sizes;
     /// How many particles the leaves of a uniform cloud should hold, if the
     /// root is to be grown for it (see [`stretch`]); `None` keeps the
     /// bounding cube.
@@ -172,16 +172,18 @@ pub(super) trait Expansions: Sync {
     /// The numbers of `sums`, sum after sum.
     fn numbers(sums: &mut [Self::Sum]) -> &mut [f64];
     /// The pair sums of the source particles at the target particles (sorted
-    /// ranges), added to `out`, which holds the sums of the group's
-    /// particles from sorted particle `first` on. Returns the pair terms
-    /// computed (a pair summed at both its particles counts twice).
+    /// ranges), each pair once: added to `mine`, the targets' sums in
+    /// order, and the reactions to `theirs`, the sources' sums in order
+    /// (for [`Pairs::Within`], where the two are one leaf, to `mine`;
+    /// `theirs` is then empty). Returns the pair terms computed (a pair
+    /// summed at both its particles counts twice).
     fn pairs(
         &self,
         how: Pairs,
         targets: Range<usize>,
         sources: Range<usize>,
-        first: usize,
-        out: &mut [Self::Sum],
+        mine: &mut [Self::Sum],
+        theirs: &mut [Self::Sum],
         scratch: &mut Self::Scratch,
     ) -> u64;
 }
@@ -199,6 +201,13 @@ pub(super) struct Engine<E: Expansions> {
     scratch: Vec<Mutex<Scratch<E>>>,
     /// Per own group of the last evaluation, its `(M2L, pair)` counts.
     counts: Vec<(u64, u64)>,
+    /// Per own group, the reactions of its pairs with later groups' leaves.
+    crossings: Vec<Crossing<E>>,
+    /// The reactions of every part's groups, part after part: per leaf
+    /// of a [`Crossing`], its node and its particles' sums.
+    records: Vec<f64>,
+    /// This process's part of `records`, while they are gathered.
+    own_records: Vec<f64>,
     /// `(M2L, particle pair)` interactions of the last evaluation (of this
     /// process's part of the groups, for a divided evaluation).
     pub interactions: (u64, u64),
@@ -217,6 +226,9 @@ impl<E: Expansions> Default for Engine<E> {
             sorted: Vec::new(),
             scratch: Vec::new(),
             counts: Vec::new(),
+            crossings: Vec::new(),
+            records: Vec::new(),
+            own_records: Vec::new(),
             interactions: (0, 0),
             costs: Costs::default(),
         }
@@ -228,8 +240,9 @@ impl<E: Expansions> Engine<E> {
     /// arranges its particles by).
     pub fn build(&mut self, positions: &[[f64; 3]], threads: &Threads) {
         let stretch = E::FILL.map_or(1.0, |fill| stretch(positions.len(), fill));
+        let sizes = E::sizes(positions.len());
         self.tree
-            .build_stretched(positions, E::SIZES, stretch, threads);
+            .build_stretched(positions, sizes, stretch, threads);
     }
 
     /// The sums of every particle, in tree order, into `sorted`: the upward
@@ -295,8 +308,10 @@ impl<E: Expansions> Engine<E> {
     }
 
     /// The target groups of this process's part in parallel: each one's
-    /// traversal, then L2L and L2P within it, writing its particles' sums;
-    /// then the other parts' sums (and the groups' costs) gathered.
+    /// traversal, then L2L and L2P within it, writing its particles' sums
+    /// and keeping the reactions of its pairs with later groups' leaves;
+    /// then the other parts' sums (and the groups' costs) gathered, and
+    /// every group's reactions added, group after group.
     fn downward(&mut self, kernel: &E, threads: &Threads, share: &mut dyn Share) {
         let n = self.tree.order.len();
         self.sorted.clear();
@@ -304,25 +319,37 @@ impl<E: Expansions> Engine<E> {
         let (part, parts) = share.part();
         let split = Split::new(&self.tree, self.costs.input(), parts);
         let own = split.groups[part]..split.groups[part + 1];
-        let (mut sorted, mut counts) = (
+        if self.crossings.len() < own.len() {
+            self.crossings.resize_with(own.len(), Crossing::default);
+        }
+        let (mut sorted, mut counts, mut crossings) = (
             std::mem::take(&mut self.sorted),
             std::mem::take(&mut self.counts),
+            std::mem::take(&mut self.crossings),
         );
         let shared = DisjointSlice::new(&mut sorted);
+        let kept = DisjointSlice::new(&mut crossings);
         let this = &*self;
         threads.install(|| {
-            this.tree.groups[own]
+            this.tree.groups[own.clone()]
                 .par_iter()
-                .map(|&g| {
+                .enumerate()
+                .map(|(k, &g)| {
                     let mut scratch = lock(&this.scratch);
                     let node = &this.tree.nodes[g as usize];
-                    // SAFETY: groups hold disjoint ranges of the sorted particles.
-                    let out = unsafe { shared.range(node.start as usize..node.end as usize) };
-                    this.group(kernel, g as usize, &mut scratch, out)
+                    // SAFETY: groups hold disjoint ranges of the sorted
+                    // particles, and each its own crossing.
+                    let (out, crossing) = unsafe {
+                        (
+                            shared.range(node.start as usize..node.end as usize),
+                            kept.get(k),
+                        )
+                    };
+                    this.group(kernel, g as usize, &mut scratch, out, crossing)
                 })
                 .collect_into_vec(&mut counts)
         });
-        (self.sorted, self.counts) = (sorted, counts);
+        (self.sorted, self.counts, self.crossings) = (sorted, counts, crossings);
         self.interactions = self
             .counts
             .iter()
@@ -338,18 +365,62 @@ impl<E: Expansions> Engine<E> {
         let numbers = E::numbers(&mut self.sorted);
         debug_assert_eq!(numbers.len(), n * E::WIDTH);
         share.all_gather(numbers, E::WIDTH, &split.particles);
+        self.gather_records(own.len(), share);
+        add_records::<E>(&self.records, &self.tree, &mut self.sorted);
     }
 
-    /// The sums of group `g`'s particles into `out`: the traversal of
-    /// `(g, root)`, the M2L of each of the group's boxes (its sources in the
-    /// order the traversal met them), then the locals down the group's
-    /// subtree and out at its leaves. Returns its `(M2L, pair)` counts.
+    /// Into `records`, the reactions of the first `own` crossings (this
+    /// process's groups), and with several parts every other part's too,
+    /// part after part.
+    fn gather_records(&mut self, own: usize, share: &mut dyn Share) {
+        let (part, parts) = share.part();
+        let mine = if parts == 1 {
+            &mut self.records
+        } else {
+            &mut self.own_records
+        };
+        mine.clear();
+        for crossing in &mut self.crossings[..own] {
+            let sums = E::numbers(&mut crossing.sums);
+            for &(leaf, at) in &crossing.leaves {
+                let node = &self.tree.nodes[leaf as usize];
+                let len = (node.end - node.start) as usize * E::WIDTH;
+                mine.push(leaf as f64);
+                mine.extend_from_slice(&sums[at * E::WIDTH..][..len]);
+            }
+        }
+        if parts == 1 {
+            return;
+        }
+        // each part's count, then the records themselves
+        let mut bounds: Vec<usize> = (0..=parts).collect();
+        self.records.clear();
+        self.records.resize(parts, 0.0);
+        self.records[part] = self.own_records.len() as f64;
+        share.all_gather(&mut self.records, 1, &bounds);
+        let counts: Vec<usize> = self.records.iter().map(|&c| c as usize).collect();
+        for k in 0..parts {
+            bounds[k + 1] = bounds[k] + counts[k];
+        }
+        self.records.clear();
+        self.records.resize(bounds[parts], 0.0);
+        self.records[bounds[part]..bounds[part + 1]].copy_from_slice(&self.own_records);
+        share.all_gather(&mut self.records, 1, &bounds);
+    }
+
+    /// The sums of group `g`'s particles into `out`: the traversal of the
+    /// tree from `(root, root)` along the boxes that hold the group, the M2L
+    /// of each of the group's boxes (its sources in the order the traversal
+    /// met them), then the locals down the group's subtree and out at its
+    /// leaves; the reactions of its pairs with later groups' leaves into
+    /// `crossing`. Returns its `(M2L, pair)` counts.
     fn group(
         &self,
         kernel: &E,
         g: usize,
         scratch: &mut Scratch<E>,
         out: &mut [E::Sum],
+        crossing: &mut Crossing<E>,
     ) -> (u64, u64) {
         let terms = kernel.terms();
         let nodes = &self.tree.nodes;
@@ -360,9 +431,13 @@ impl<E: Expansions> Engine<E> {
             sources,
             starts,
             next,
+            slots,
             kernel: own,
         } = scratch;
         far.clear();
+        crossing.leaves.clear();
+        crossing.sums.clear();
+        slots.resize(nodes.len(), NO_SLOT);
         let mut walk = Traversal {
             engine: self,
             kernel,
@@ -372,10 +447,15 @@ impl<E: Expansions> Engine<E> {
             far: &mut *far,
             scratch: &mut *own,
             out: &mut *out,
+            crossing: &mut *crossing,
+            slots: &mut *slots,
             pairs: 0,
         };
-        walk.interact(g, 0);
+        walk.interact(0, 0);
         let pair_count = walk.pairs;
+        for &(leaf, _) in &crossing.leaves {
+            slots[leaf as usize] = NO_SLOT;
+        }
         // the far pairs bucketed by target box, in the order they were met
         starts.clear();
         starts.resize(end - g + 1, 0);
@@ -436,6 +516,51 @@ fn stretch(n: usize, fill: usize) -> f64 {
     (cells * fill as f64 / n as f64).cbrt()
 }
 
+/// Adds `records` (per leaf its node, then its particles' sums) to the
+/// sums `sorted`, record after record.
+fn add_records<E: Expansions>(records: &[f64], tree: &Octree, sorted: &mut [E::Sum]) {
+    let numbers = E::numbers(sorted);
+    let mut at = 0;
+    while at < records.len() {
+        let node = &tree.nodes[records[at] as usize];
+        let range = node.start as usize * E::WIDTH..node.end as usize * E::WIDTH;
+        at += 1;
+        for (sum, r) in numbers[range.clone()].iter_mut().zip(&records[at..]) {
+            *sum += r;
+        }
+        at += range.len();
+    }
+}
+
+/// A leaf without a slot in the running group's [`Crossing`].
+const NO_SLOT: u32 = u32::MAX;
+
+/// The reactions of one group's pairs with the leaves of later groups: per
+/// such leaf (in the order the traversal first met it) its node and where
+/// its particles' sums start in `sums`, each summed over the group's
+/// leaves in the traversal's order.
+struct Crossing<E: Expansions> {
+    leaves: Vec<(u32, usize)>,
+    sums: Vec<E::Sum>,
+}
+
+impl<E: Expansions> Default for Crossing<E> {
+    fn default() -> Self {
+        Crossing {
+            leaves: Vec::new(),
+            sums: Vec::new(),
+        }
+    }
+}
+
+impl<E: Expansions> std::fmt::Debug for Crossing<E> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Crossing")
+            .field("leaves", &self.leaves.len())
+            .finish()
+    }
+}
+
 /// The scratch of the running thread.
 fn lock<E: Expansions>(scratch: &[Mutex<Scratch<E>>]) -> std::sync::MutexGuard<'_, Scratch<E>> {
     let thread = rayon::current_thread_index().unwrap_or(0);
@@ -454,6 +579,9 @@ struct Scratch<E: Expansions> {
     starts: Vec<usize>,
     /// The next free slot of each target box while bucketing.
     next: Vec<usize>,
+    /// Per node, its index in the running group's [`Crossing`] leaves (or
+    /// [`NO_SLOT`]).
+    slots: Vec<u32>,
     kernel: E::Scratch,
 }
 
@@ -465,6 +593,7 @@ impl<E: Expansions> Default for Scratch<E> {
             sources: Vec::new(),
             starts: Vec::new(),
             next: Vec::new(),
+            slots: Vec::new(),
             kernel: E::Scratch::default(),
         }
     }
@@ -479,8 +608,8 @@ impl<E: Expansions> std::fmt::Debug for Scratch<E> {
     }
 }
 
-/// One group's traversal: the far pairs it finds and its particles' pair
-/// sums.
+/// One group's traversal: the far pairs it finds, its particles' pair sums
+/// and the reactions of its pairs with later groups' leaves.
 struct Traversal<'a, E: Expansions> {
     engine: &'a Engine<E>,
     kernel: &'a E,
@@ -491,44 +620,43 @@ struct Traversal<'a, E: Expansions> {
     far: &'a mut Vec<(u32, u32)>,
     scratch: &'a mut E::Scratch,
     out: &'a mut [E::Sum],
+    crossing: &'a mut Crossing<E>,
+    slots: &'a mut Vec<u32>,
     pairs: u64,
 }
 
 impl<E: Expansions> Traversal<'_, E> {
-    /// Target box `t` (in the group) against source box `s`: a far pair when
-    /// they are apart, pair sums when both are leaves, else the larger one
-    /// split (a leaf is never split; two boxes of one size are split both).
-    /// The rule is the same with the roles swapped, so that of two leaves of
-    /// the group `(t, s)` meet when `(s, t)` do: the first of them takes both
-    /// sides.
+    /// Box `t` (in the group, or one of the boxes that hold it) against
+    /// source box `s`, as the traversal of the whole tree from `(root,
+    /// root)` meets them: a far pair when they are apart, pair sums when
+    /// both are leaves, else the larger one split (a leaf is never split;
+    /// two boxes of one size are split both), a box that holds the group
+    /// into its child that holds it. The rule is the same with the roles
+    /// swapped, so that leaves `t` and `s` meet when `s` and `t` do,
+    /// whichever groups they are in: the first of two leaves of the group
+    /// takes both sides, and of two groups the earlier one. A far pair of a
+    /// box that holds the group is the group's: the group's box is no
+    /// larger and no nearer to the source's edge, so its expansions
+    /// converge at least as fast.
     fn interact(&mut self, t: usize, s: usize) {
         let nodes = &self.engine.tree.nodes;
         let (target, source) = (&nodes[t], &nodes[s]);
         let overlap = target.start < source.end && source.start < target.end;
         if !overlap && self.apart(t, s) {
-            self.far.push((t as u32, s as u32));
+            self.far.push((t.max(self.group) as u32, s as u32));
             return;
         }
         match (target.leaf, source.leaf) {
-            (true, true) => {
-                let inside = (self.group..self.end).contains(&s);
-                match t.cmp(&s) {
-                    std::cmp::Ordering::Equal => self.leaf_pairs(Pairs::Within, t, s),
-                    std::cmp::Ordering::Less if inside => self.leaf_pairs(Pairs::Both, t, s),
-                    // the pair `(s, t)` took both sides
-                    std::cmp::Ordering::Greater if inside => {}
-                    _ => self.leaf_pairs(Pairs::OneSided, t, s),
-                }
-            }
+            (true, true) => self.leaves(t, s),
             (true, false) => self.each_child(s, |walk, c| walk.interact(t, c)),
-            (false, true) => self.each_child(t, |walk, c| walk.interact(c, s)),
+            (false, true) => self.each_target(t, |walk, c| walk.interact(c, s)),
             (false, false) => {
                 if source.side > target.side {
                     self.each_child(s, |walk, c| walk.interact(t, c))
                 } else if target.side > source.side {
-                    self.each_child(t, |walk, c| walk.interact(c, s))
+                    self.each_target(t, |walk, c| walk.interact(c, s))
                 } else {
-                    self.each_child(t, |walk, ct| {
+                    self.each_target(t, |walk, ct| {
                         walk.each_child(s, |walk, cs| walk.interact(ct, cs))
                     })
                 }
@@ -542,6 +670,22 @@ impl<E: Expansions> Traversal<'_, E> {
         for child in engine.tree.children(k) {
             visit(self, child);
         }
+    }
+
+    /// [`each_child`](Self::each_child) of target box `k`: of a box that
+    /// holds the group, only the child that holds it.
+    fn each_target(&mut self, k: usize, mut visit: impl FnMut(&mut Self, usize)) {
+        if k >= self.group {
+            return self.each_child(k, visit);
+        }
+        let nodes = &self.engine.tree.nodes;
+        let towards = self
+            .engine
+            .tree
+            .children(k)
+            .find(|&c| c <= self.group && self.group < nodes[c].next as usize)
+            .expect("a box above the group holds it in a child");
+        visit(self, towards);
     }
 
     /// Whether boxes `t` and `s` are well apart: `2 max(s_T, s_S) <= THETA d`
@@ -560,16 +704,43 @@ impl<E: Expansions> Traversal<'_, E> {
             && d2.sqrt() - (a.radius + b.radius) >= self.reach
     }
 
-    /// Leaf `t`'s particles against leaf `s`'s.
-    fn leaf_pairs(&mut self, how: Pairs, t: usize, s: usize) {
+    /// Leaf `t` of the group against leaf `s`: each pair once, by the
+    /// first of two leaves of the group, or by the earlier of two groups
+    /// (the reactions at a later group's leaf kept in the crossing).
+    fn leaves(&mut self, t: usize, s: usize) {
         let nodes = &self.engine.tree.nodes;
-        let (target, source) = (&nodes[t], &nodes[s]);
-        let targets = target.start as usize..target.end as usize;
-        let sources = source.start as usize..source.end as usize;
         let first = nodes[self.group].start as usize;
+        let targets = nodes[t].start as usize..nodes[t].end as usize;
+        let sources = nodes[s].start as usize..nodes[s].end as usize;
+        let mine = targets.start - first..targets.end - first;
+        let (how, mine, theirs) = if s < self.group || (s < self.end && s < t) {
+            // an earlier group, or the earlier leaf of this one, took both sides
+            return;
+        } else if s >= self.end {
+            let slot = self.slots[s] as usize;
+            let at = if slot == NO_SLOT as usize {
+                let at = self.crossing.sums.len();
+                self.slots[s] = self.crossing.leaves.len() as u32;
+                self.crossing.leaves.push((s as u32, at));
+                self.crossing
+                    .sums
+                    .resize(at + sources.len(), E::Sum::default());
+                at
+            } else {
+                self.crossing.leaves[slot].1
+            };
+            let theirs = &mut self.crossing.sums[at..at + sources.len()];
+            (Pairs::Both, &mut self.out[mine], theirs)
+        } else if s == t {
+            (Pairs::Within, &mut self.out[mine], &mut [][..])
+        } else {
+            // t < s: the target's particles come first
+            let (low, high) = self.out.split_at_mut(sources.start - first);
+            (Pairs::Both, &mut low[mine], &mut high[..sources.len()])
+        };
         self.pairs += self
             .kernel
-            .pairs(how, targets, sources, first, self.out, self.scratch);
+            .pairs(how, targets, sources, mine, theirs, self.scratch);
     }
 }
 

@@ -55,9 +55,12 @@ const LEAF: usize = 256;
 const FILL: usize = 200;
 
 /// Most particles in a target group (each traverses the tree on its own, in
-/// parallel with the others). Leaf pairs inside a group are computed once
-/// for both sides, across groups once per side: 262,144 (8 groups at 10^6
-/// uniform bodies) took 12.7 s at order 15 where 32,768 took 13.7 s.
+/// parallel with the others; the leaf pairs of two groups are summed once,
+/// by the earlier). Groups of at most `n / 4` bodies make 8 groups (the
+/// root's children) below 10^6 uniform bodies, for the threads and the
+/// ranks to share (1 group of 10^5 bodies took 0.952 s on 1 thread and
+/// 2, 8 groups 0.922 s and 0.549 s); at 10^6 the 8 groups of 262,144
+/// took 12.43 s, 64 groups of 32,768 12.76 s.
 const GROUP: usize = 262144;
 
 /// The fast multipole method for gravity,
@@ -276,10 +279,14 @@ impl Expansions for Laplace {
     const WIDTH: usize = 4;
     type Scratch = Scratch;
     const THETA: f64 = THETA;
-    const SIZES: Sizes = Sizes {
-        leaf: LEAF,
-        group: GROUP,
-    };
+    /// Target groups of at most `n / 4` bodies (8 groups, the root's
+    /// children, up to 10^6 uniform bodies) and at most [`GROUP`].
+    fn sizes(n: usize) -> Sizes {
+        Sizes {
+            leaf: LEAF,
+            group: (n / 4).clamp(LEAF, GROUP),
+        }
+    }
     const FILL: Option<usize> = Some(FILL);
 
     /// Measured at order 14 on 10^5 uniform bodies (perf of one evaluation:
@@ -433,14 +440,15 @@ impl Expansions for Laplace {
         how: Pairs,
         targets: Range<usize>,
         sources: Range<usize>,
-        first: usize,
-        out: &mut [[f64; 4]],
+        mine: &mut [[f64; 4]],
+        theirs: &mut [[f64; 4]],
         scratch: &mut Scratch,
     ) -> u64 {
+        let reactions = &mut scratch.reactions;
         if self.repulsion {
-            self.leaf_pairs::<true>(how, targets, sources, first, out, &mut scratch.reactions)
+            self.leaf_pairs::<true>(how, targets, sources, mine, theirs, reactions)
         } else {
-            self.leaf_pairs::<false>(how, targets, sources, first, out, &mut scratch.reactions)
+            self.leaf_pairs::<false>(how, targets, sources, mine, theirs, reactions)
         }
     }
 }
@@ -465,7 +473,7 @@ impl Laplace {
 
     /// The rows of the targets `ids` against the source leaf `sources` (for
     /// [`Pairs::Within`], one target against the leaf's later particles),
-    /// the reactions added to `reactions` unless [`Pairs::OneSided`].
+    /// the reactions added to `reactions`.
     fn target_rows<const REPULSION: bool, const T: usize>(
         &self,
         how: Pairs,
@@ -478,20 +486,11 @@ impl Laplace {
         let mi = ids.map(|i| self.m[i]);
         let partners = match how {
             Pairs::Within => ids[0] + 1..sources.end,
-            _ => sources.clone(),
+            Pairs::Both => sources.clone(),
         };
         let from = partners.start - sources.start;
         let px = self.x.each_ref().map(|c| &c[partners.clone()]);
         let pm = &self.m[partners];
-        if how == Pairs::OneSided {
-            return self.kernel.rows::<F64x8, REPULSION, false, true, T>(
-                xi,
-                mi,
-                px,
-                pm,
-                Block::none(),
-            );
-        }
         let theirs = Block::new(reactions.each_mut().map(|r| &mut r[from..]));
         self.kernel
             .rows::<F64x8, REPULSION, true, true, T>(xi, mi, px, pm, theirs)
@@ -499,23 +498,23 @@ impl Laplace {
 
     /// [`Expansions::pairs`]: two targets at a time against the source leaf
     /// (the direct sum's rows; a leaf with itself one at a time, against
-    /// its later particles only); for [`Pairs::Both`] and [`Pairs::Within`]
-    /// each pair once, its reaction summed per source and added after the
-    /// target loop.
+    /// its later particles only), each pair once, its reaction summed per
+    /// source and added after the target loop.
     fn leaf_pairs<const REPULSION: bool>(
         &self,
         how: Pairs,
         targets: Range<usize>,
         sources: Range<usize>,
-        first: usize,
-        out: &mut [[f64; 4]],
+        mine: &mut [[f64; 4]],
+        theirs: &mut [[f64; 4]],
         reactions: &mut [Vec<f64>; 4],
     ) -> u64 {
         let len = sources.len();
         for r in reactions.iter_mut() {
             r.clear();
-            r.resize(if how == Pairs::OneSided { 0 } else { len }, 0.0);
+            r.resize(len, 0.0);
         }
+        let first = targets.start;
         // two targets at a time against the same partners (a leaf with itself:
         // one, as each has its own later partners)
         let mut i = targets.start;
@@ -523,20 +522,19 @@ impl Laplace {
             let next = if how != Pairs::Within && i + 1 < targets.end {
                 let got = self.target_rows::<REPULSION, 2>(how, [i, i + 1], &sources, reactions);
                 for (t, g) in [i, i + 1].into_iter().zip(got) {
-                    add(&mut out[t - first], g);
+                    add(&mut mine[t - first], g);
                 }
                 i + 2
             } else {
                 let [got] = self.target_rows::<REPULSION, 1>(how, [i], &sources, reactions);
-                add(&mut out[i - first], got);
+                add(&mut mine[i - first], got);
                 i + 1
             };
             i = next;
         }
-        if how != Pairs::OneSided {
-            for (k, j) in sources.clone().enumerate() {
-                add(&mut out[j - first], reactions.each_ref().map(|r| r[k]));
-            }
+        let at_sources = if how == Pairs::Within { mine } else { theirs };
+        for (k, sum) in at_sources[..len].iter_mut().enumerate() {
+            add(sum, reactions.each_ref().map(|r| r[k]));
         }
         how.terms(targets.len(), len)
     }

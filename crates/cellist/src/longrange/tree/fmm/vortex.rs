@@ -184,10 +184,12 @@ impl<K: VortexLaw> Expansions for Cauchy<K> {
     /// A source leaf's reactions per axis.
     type Scratch = [Vec<f64>; 2];
     const THETA: f64 = THETA;
-    const SIZES: Sizes = Sizes {
-        leaf: LEAF,
-        group: GROUP,
-    };
+    fn sizes(_: usize) -> Sizes {
+        Sizes {
+            leaf: LEAF,
+            group: GROUP,
+        }
+    }
     /// The particles lie in one plane: the octree is a quadtree there, and
     /// its leaves are left as the bounding cube cuts them.
     const FILL: Option<usize> = None;
@@ -315,14 +317,13 @@ impl<K: VortexLaw> Expansions for Cauchy<K> {
         how: Pairs,
         targets: Range<usize>,
         sources: Range<usize>,
-        first: usize,
-        out: &mut [[f64; 2]],
+        mine: &mut [[f64; 2]],
+        theirs: &mut [[f64; 2]],
         scratch: &mut [Vec<f64>; 2],
     ) -> u64 {
-        if how == Pairs::Both {
-            self.leaf_pairs::<true>(targets, sources, first, out, scratch)
-        } else {
-            self.leaf_pairs::<false>(targets, sources, first, out, scratch)
+        match how {
+            Pairs::Both => self.leaf_pairs::<true>(targets, sources, mine, theirs, scratch),
+            Pairs::Within => self.leaf_pairs::<false>(targets, sources, mine, theirs, scratch),
         }
     }
 }
@@ -333,10 +334,11 @@ impl<K: VortexLaw> Cauchy<K> {
         &self,
         targets: Range<usize>,
         sources: Range<usize>,
-        first: usize,
-        out: &mut [[f64; 2]],
+        mine: &mut [[f64; 2]],
+        theirs: &mut [[f64; 2]],
         [ru, rv]: &mut [Vec<f64>; 2],
     ) -> u64 {
+        let first = targets.start;
         let partners = [&self.x[sources.clone()], &self.y[sources.clone()]];
         let gamma = &self.gamma[sources.clone()];
         let len = if BOTH { sources.len() } else { 0 };
@@ -348,12 +350,11 @@ impl<K: VortexLaw> Cauchy<K> {
             let xi = [self.x[i], self.y[i]];
             let reactions = [&mut ru[..], &mut rv[..]];
             let u = row::<K, BOTH>(&self.law, xi, self.gamma[i], partners, gamma, reactions);
-            let o = &mut out[i - first];
+            let o = &mut mine[i - first];
             o[0] += u[0];
             o[1] += u[1];
         }
-        for (j, (a, b)) in sources.clone().zip(ru.iter().zip(rv.iter())) {
-            let o = &mut out[j - first];
+        for (o, (a, b)) in theirs.iter_mut().zip(ru.iter().zip(rv.iter())) {
             o[0] += a;
             o[1] += b;
         }

@@ -39,8 +39,8 @@ const LEAF: usize = 256;
 /// The particles a uniform cloud's leaves hold (the root grown for it).
 const FILL: usize = 200;
 
-/// Most particles in a target group (groups run in parallel; leaf pairs
-/// inside one are computed once for both sides).
+/// Most particles in a target group (groups run in parallel; each leaf
+/// pair is computed once for both sides, across groups by the earlier).
 const GROUP: usize = 8192;
 
 /// Numbers per particle's sum: `u` (3), then `d u_a / d x_e` at `3 + 3 a + e`.
@@ -213,10 +213,12 @@ impl Expansions for CurlLaplace {
     const WIDTH: usize = SUM;
     type Scratch = Scratch;
     const THETA: f64 = THETA;
-    const SIZES: Sizes = Sizes {
-        leaf: LEAF,
-        group: GROUP,
-    };
+    fn sizes(_: usize) -> Sizes {
+        Sizes {
+            leaf: LEAF,
+            group: GROUP,
+        }
+    }
     const FILL: Option<usize> = Some(FILL);
 
     /// Measured at order 13 on the 10^5-particle ring (perf of one
@@ -371,14 +373,11 @@ impl Expansions for CurlLaplace {
         how: Pairs,
         targets: Range<usize>,
         sources: Range<usize>,
-        first: usize,
-        out: &mut [[f64; SUM]],
+        mine: &mut [[f64; SUM]],
+        theirs: &mut [[f64; SUM]],
         scratch: &mut Scratch,
     ) -> u64 {
-        match how {
-            Pairs::OneSided => self.leaf_pairs::<false>(how, targets, sources, first, out, scratch),
-            _ => self.leaf_pairs::<true>(how, targets, sources, first, out, scratch),
-        }
+        self.leaf_pairs(how, targets, sources, mine, theirs, scratch)
     }
 }
 
@@ -414,49 +413,47 @@ fn derivative_locals(p: usize, local: &[Complex64], inv: f64, out: &mut [Complex
 impl CurlLaplace {
     /// [`Expansions::pairs`] by the point law, one target at a time against
     /// the source leaf's particles in lanes (a leaf with itself: against
-    /// its later particles); `SYMMETRIC`: each pair once, its reaction summed
-    /// per source and added after the targets.
-    fn leaf_pairs<const SYMMETRIC: bool>(
+    /// its later particles), each pair once, its reaction summed per source
+    /// and added after the targets.
+    fn leaf_pairs(
         &self,
         how: Pairs,
         targets: Range<usize>,
         sources: Range<usize>,
-        first: usize,
-        out: &mut [[f64; SUM]],
+        mine: &mut [[f64; SUM]],
+        theirs: &mut [[f64; SUM]],
         scratch: &mut Scratch,
     ) -> u64 {
         let len = sources.len();
         let reactions = &mut scratch.reactions;
         reactions.resize(SUM, Vec::new());
-        if SYMMETRIC {
-            for r in reactions.iter_mut() {
-                r.clear();
-                r.resize(len + LANES, 0.0);
-            }
+        for r in reactions.iter_mut() {
+            r.clear();
+            r.resize(len + LANES, 0.0);
         }
+        let first = targets.start;
         for i in targets.clone() {
             let partners = match how {
                 Pairs::Within => i + 1..sources.end,
-                _ => sources.clone(),
+                Pairs::Both => sources.clone(),
             };
             let from = partners.start - sources.start;
-            let got = self.row::<SYMMETRIC>(i, partners, &mut reactions[..], from);
-            for (o, g) in out[i - first].iter_mut().zip(got) {
+            let got = self.row(i, partners, &mut reactions[..], from);
+            for (o, g) in mine[i - first].iter_mut().zip(got) {
                 *o += g;
             }
         }
-        if SYMMETRIC {
-            for (k, j) in sources.clone().enumerate() {
-                for (o, r) in out[j - first].iter_mut().zip(reactions.iter()) {
-                    *o += r[k];
-                }
+        let at_sources = if how == Pairs::Within { mine } else { theirs };
+        for (k, sum) in at_sources[..len].iter_mut().enumerate() {
+            for (o, r) in sum.iter_mut().zip(reactions.iter()) {
+                *o += r[k];
             }
         }
         how.terms(targets.len(), len)
     }
 
     /// Target `i`'s point-law sums over `partners` (their reactions added
-    /// to `reactions` from slot `from` on if `SYMMETRIC`):
+    /// to `reactions` from slot `from` on):
     ///
     /// `u += (alpha_j x r) g`, `d_e u_a += eps_abe alpha_jb g + (alpha_j x r)_a r_e g_2`,
     ///
@@ -464,7 +461,7 @@ impl CurlLaplace {
     /// partner receives the same with `alpha_i` and `u` negated. Lanes past
     /// the partners, and partners closer than `sqrt(close2)`, add nothing.
     #[inline(always)]
-    fn row<const SYMMETRIC: bool>(
+    fn row(
         &self,
         i: usize,
         partners: Range<usize>,
@@ -514,13 +511,11 @@ impl CurlLaplace {
                 acc[10] = acc[10] + s[0];
             };
             terms(aj, &mut acc, one);
-            if SYMMETRIC {
-                let slot = from + k * LANES;
-                let mut theirs = [zero; SUM];
-                terms(ai, &mut theirs, F64x8::splat(-1.0));
-                for (r, t) in reactions.iter_mut().zip(theirs) {
-                    (F64x8::load(&r[slot..]) + t).store(&mut r[slot..]);
-                }
+            let slot = from + k * LANES;
+            let mut theirs = [zero; SUM];
+            terms(ai, &mut theirs, F64x8::splat(-1.0));
+            for (r, t) in reactions.iter_mut().zip(theirs) {
+                (F64x8::load(&r[slot..]) + t).store(&mut r[slot..]);
             }
         }
         acc.map(|a| a.sum())

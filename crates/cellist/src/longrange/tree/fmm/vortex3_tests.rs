@@ -97,8 +97,8 @@ fn derivative_locals_differentiate() {
     }
 }
 
-/// More particles than a target group holds: groups in parallel, leaves
-/// met one-sided across groups.
+/// More particles than a target group holds: groups in parallel, the leaf
+/// pairs of two groups summed once, by the earlier.
 #[test]
 fn threads_give_the_same_bits() {
     let (x, alpha, kernel) = cloud(9, 3 * GROUP);
