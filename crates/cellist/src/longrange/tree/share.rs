@@ -3,9 +3,10 @@
 //! the same tree, walks and sums only the groups of its own part, and
 //! receives the other parts' results.
 //!
-//! A particle's result depends only on its group's lists, and a group's lists
-//! only on the tree, so a divided evaluation gives every particle the bits of
-//! the undivided one. The parts are contiguous runs of the groups in Morton
+//! A particle's result depends only on its group's lists (and, in an fmm, on
+//! the reactions of earlier groups' pairs with its leaves, gathered and added
+//! group after group), and a group's lists only on the tree, so a divided
+//! evaluation gives every particle the bits of the undivided one. The parts are contiguous runs of the groups in Morton
 //! order (each part's targets lie close together in space and in memory),
 //! balanced by the last evaluation's cost ([`Costs`]): a particle weighs one
 //! plus its group's work per particle (a walk's accepted nodes and listed

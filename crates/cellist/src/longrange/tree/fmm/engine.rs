@@ -203,8 +203,9 @@ pub(super) struct Engine<E: Expansions> {
     counts: Vec<(u64, u64)>,
     /// Per own group, the reactions of its pairs with later groups' leaves.
     crossings: Vec<Crossing<E>>,
-    /// The reactions of every part's groups, part after part: per leaf
-    /// of a [`Crossing`], its node and its particles' sums.
+    /// In a divided evaluation, the reactions of every part's groups, part
+    /// after part: per leaf of a [`Crossing`], its node and its particles'
+    /// sums (one process adds its crossings' directly).
     records: Vec<f64>,
     /// This process's part of `records`, while they are gathered.
     own_records: Vec<f64>,
@@ -250,9 +251,10 @@ impl<E: Expansions> Engine<E> {
     /// among processes that hold the same particles: each makes the whole
     /// upward pass, then the groups of its part ([`Split`], balanced by the
     /// last evaluation's pair terms and M2L), and receives the other
-    /// parts' sums. A group's sums depend only on the tree and the
-    /// multipoles, so every particle gets the bits of the undivided
-    /// evaluation.
+    /// parts' sums and reactions. A group's sums and its reactions at later
+    /// groups' leaves depend only on the tree and the multipoles, and the
+    /// reactions are added group after group, so every particle gets the
+    /// bits of the undivided evaluation.
     pub fn evaluate(&mut self, kernel: &E, threads: &Threads, share: &mut dyn Share) {
         self.cubes.clear();
         self.cubes
@@ -365,20 +367,32 @@ impl<E: Expansions> Engine<E> {
         let numbers = E::numbers(&mut self.sorted);
         debug_assert_eq!(numbers.len(), n * E::WIDTH);
         share.all_gather(numbers, E::WIDTH, &split.particles);
-        self.gather_records(own.len(), share);
-        add_records::<E>(&self.records, &self.tree, &mut self.sorted);
+        if parts == 1 {
+            let numbers = E::numbers(&mut self.sorted);
+            for crossing in &mut self.crossings[..own.len()] {
+                let sums = E::numbers(&mut crossing.sums);
+                for &(leaf, at) in &crossing.leaves {
+                    add_reactions::<E>(&self.tree, leaf as usize, &sums[at * E::WIDTH..], numbers);
+                }
+            }
+        } else {
+            self.gather_records(own.len(), share);
+            let numbers = E::numbers(&mut self.sorted);
+            let mut at = 0;
+            while at < self.records.len() {
+                let leaf = self.records[at] as usize;
+                let values = &self.records[at + 1..];
+                at += 1 + add_reactions::<E>(&self.tree, leaf, values, numbers);
+            }
+        }
     }
 
-    /// Into `records`, the reactions of the first `own` crossings (this
-    /// process's groups), and with several parts every other part's too,
-    /// part after part.
+    /// Into `records`, the reactions of every part's groups, part after
+    /// part (this process's: its first `own` crossings): per leaf of a
+    /// [`Crossing`], its node and its particles' sums.
     fn gather_records(&mut self, own: usize, share: &mut dyn Share) {
         let (part, parts) = share.part();
-        let mine = if parts == 1 {
-            &mut self.records
-        } else {
-            &mut self.own_records
-        };
+        let mine = &mut self.own_records;
         mine.clear();
         for crossing in &mut self.crossings[..own] {
             let sums = E::numbers(&mut crossing.sums);
@@ -388,9 +402,6 @@ impl<E: Expansions> Engine<E> {
                 mine.push(leaf as f64);
                 mine.extend_from_slice(&sums[at * E::WIDTH..][..len]);
             }
-        }
-        if parts == 1 {
-            return;
         }
         // each part's count, then the records themselves
         let mut bounds: Vec<usize> = (0..=parts).collect();
@@ -516,20 +527,21 @@ fn stretch(n: usize, fill: usize) -> f64 {
     (cells * fill as f64 / n as f64).cbrt()
 }
 
-/// Adds `records` (per leaf its node, then its particles' sums) to the
-/// sums `sorted`, record after record.
-fn add_records<E: Expansions>(records: &[f64], tree: &Octree, sorted: &mut [E::Sum]) {
-    let numbers = E::numbers(sorted);
-    let mut at = 0;
-    while at < records.len() {
-        let node = &tree.nodes[records[at] as usize];
-        let range = node.start as usize * E::WIDTH..node.end as usize * E::WIDTH;
-        at += 1;
-        for (sum, r) in numbers[range.clone()].iter_mut().zip(&records[at..]) {
-            *sum += r;
-        }
-        at += range.len();
+/// Adds the reactions `values` (from their start on) to the sums of leaf
+/// `leaf`'s particles in `sorted` (the sums' numbers); returns how many
+/// numbers it took.
+fn add_reactions<E: Expansions>(
+    tree: &Octree,
+    leaf: usize,
+    values: &[f64],
+    sorted: &mut [f64],
+) -> usize {
+    let node = &tree.nodes[leaf];
+    let range = node.start as usize * E::WIDTH..node.end as usize * E::WIDTH;
+    for (sum, r) in sorted[range.clone()].iter_mut().zip(values) {
+        *sum += r;
     }
+    range.len()
 }
 
 /// A leaf without a slot in the running group's [`Crossing`].

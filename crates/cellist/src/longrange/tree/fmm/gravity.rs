@@ -59,8 +59,8 @@ const FILL: usize = 200;
 /// by the earlier). Groups of at most `n / 4` bodies make 8 groups (the
 /// root's children) below 10^6 uniform bodies, for the threads and the
 /// ranks to share (1 group of 10^5 bodies took 0.952 s on 1 thread and
-/// 2, 8 groups 0.922 s and 0.549 s); at 10^6 the 8 groups of 262,144
-/// took 12.43 s, 64 groups of 32,768 12.76 s.
+/// 2, 8 groups 0.922 s and 0.549 s); at 10^6 the 8 groups (about 125,000
+/// bodies each) took 12.43 s, 64 groups of at most 32,768 12.76 s.
 const GROUP: usize = 262144;
 
 /// The fast multipole method for gravity,
@@ -74,9 +74,9 @@ const GROUP: usize = 262144;
 /// `2 max(s_T, s_S) <= 0.95 d` and their gap is at least the distance at
 /// which the softened or repulsive law is `1/r` within the tolerance
 /// (`eps sqrt(1.5 / tol)`, `a tol^(-1/4)`); otherwise the larger one is
-/// split, and two leaves meet pair by pair with the law itself, each pair of
-/// a target group once. Each particle's sum runs in an order fixed by the
-/// tree, so 1 and N threads give the same bits.
+/// split, and two leaves meet pair by pair with the law itself, each pair
+/// once (across target groups too). Each particle's sum runs in an order
+/// fixed by the tree, so 1 and N threads give the same bits.
 #[derive(Debug)]
 pub struct GravityFmm {
     accuracy: FmmAccuracy,
@@ -716,9 +716,10 @@ mod tests {
 
     /// Bodies divided among 1 to 4 thread-ranks in blocks of the input order
     /// (uneven, and empty for 3 bodies on 4 ranks): every rank's block gets
-    /// the bits of one process's evaluation, twice, and the ranks' target
-    /// groups are the whole run's (one group here: the division of several
-    /// among ranks is the vortex fmm's test in `tree/share.rs`).
+    /// the bits of one process's evaluation, twice, and the ranks'
+    /// interactions add up to the whole run's (3000 bodies make 8 target
+    /// groups, whose pairs across groups one rank sums for both and
+    /// gathers).
     #[test]
     fn spread_bodies_get_one_process_bits() {
         use crate::longrange::mesh::slab::testkit::Hub;

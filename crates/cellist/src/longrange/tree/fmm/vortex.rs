@@ -44,9 +44,9 @@ impl ErrorFit {
 /// pair by pair.
 const LEAF: usize = 32;
 
-/// Most particles in a target group: each group traverses the tree with its
-/// own boxes as targets, in parallel with the others (a function of the
-/// particles only, so the result does not depend on the thread count).
+/// Most particles in a target group: the groups traverse the tree in
+/// parallel (a function of the particles only, so the result does not
+/// depend on the thread count).
 const GROUP: usize = 4096;
 
 /// The fast multipole method for 2D vortex velocities,
@@ -58,13 +58,15 @@ const GROUP: usize = 4096;
 /// apart, the law is the point vortex's, `u - i v = sum_j Gamma_j / (2 pi i
 /// (z - z_j))`, a Cauchy sum whose complex multipole and local expansions
 /// (order `p`) the boxes of the quadtree carry. Each target group (a subtree
-/// of at most 4096 particles) traverses the tree with its boxes as targets:
+/// of at most 4096 particles) makes the traversal of the whole tree along
+/// the boxes that hold it and then its own ([`super::engine`]):
 /// a target box `T` and a source box `S` whose radii and centre distance
 /// satisfy `2 max(s_T, s_S) <= 0.85 d` and whose gap `d - s_T - s_S` is at
 /// least the law's reach ([`VortexLaw::reach`]) interact through M2L; otherwise the
 /// larger of the two is split (a leaf never is: then the other one), and two
-/// leaves meet pair by pair with the law itself. Then the group's locals move down (L2L) and are evaluated at
-/// its particles (L2P).
+/// leaves meet pair by pair with the law itself, each pair once (across
+/// groups by the earlier group). Then the group's locals move down (L2L)
+/// and are evaluated at its particles (L2P).
 ///
 /// The error of one M2L is below `4 0.74^(p + 1)` relative to the source
 /// box's field; the measured errors fall faster, about 2.2-fold (0.45) per
