@@ -59,7 +59,7 @@ const GROUP: usize = 4096;
 /// (z - z_j))`, a Cauchy sum whose complex multipole and local expansions
 /// (order `p`) the boxes of the quadtree carry. Each target group (a subtree
 /// of at most 4096 particles) makes the traversal of the whole tree along
-/// the boxes that hold it and then its own ([`super::engine`]):
+/// the boxes that hold it and then its own (`fmm/engine.rs`):
 /// a target box `T` and a source box `S` whose radii and centre distance
 /// satisfy `2 max(s_T, s_S) <= 0.85 d` and whose gap `d - s_T - s_S` is at
 /// least the law's reach ([`VortexLaw::reach`]) interact through M2L; otherwise the
