@@ -425,6 +425,7 @@ fn the_fmm_run_follows_the_direct_run() {
     let (fmm, run) = run_scenario(dir.path(), "fmm", &scenario(fmm_solver), &[]);
     assert!(run.status.success(), "{}", text(&run.stderr));
     assert!(text(&run.stdout).contains("fmm (order 22, tolerance 1e-8)"));
+    assert!(!text(&run.stderr).contains("warning"), "{}", text(&run.stderr));
     let (want, got) = (thermo(&direct), thermo(&fmm));
     assert_eq!(want.len(), got.len());
     for (w, g) in want.iter().zip(&got) {
@@ -440,6 +441,31 @@ fn the_fmm_run_follows_the_direct_run() {
             assert!((w[column] - g[column]).abs() < 1e-7, "{w:?} vs {g:?}");
         }
     }
+}
+
+/// The fmm with the examples' softening (0.01, at 1e-6 the law is `1/r`
+/// only beyond 12.2) on a Plummer sphere, whose pairs nearly all lie closer:
+/// the run warns that it sums them directly and names the faster choices;
+/// with a softening of 1e-6 (reach 1.2e-3) it does not warn.
+#[test]
+fn the_fmm_warns_when_the_softening_leaves_it_a_direct_sum() {
+    let dir = tempfile::tempdir().unwrap();
+    let fmm = r#"{ kind = "fmm", tolerance = 1e-6 }"#;
+    let scenario = plummer_scenario(fmm, "").replace("steps = 20", "steps = 1");
+    let (_, run) = run_scenario(dir.path(), "wide", &scenario, &[]);
+    assert!(run.status.success(), "{}", text(&run.stderr));
+    let err = text(&run.stderr);
+    assert!(
+        err.contains("warning: system.solver: the fmm sums directly every pair of bodies closer than 12.2"),
+        "{err}"
+    );
+    assert!(err.contains("the softening (0.01) keeps"), "{err}");
+    assert!(err.contains("% of the pairs here"), "{err}");
+    assert!(err.contains("\"barnes-hut\""), "{err}");
+    let narrow = scenario.replace("softening = 0.01", "softening = 1e-6");
+    let (_, run) = run_scenario(dir.path(), "narrow", &narrow, &[]);
+    assert!(run.status.success(), "{}", text(&run.stderr));
+    assert!(!text(&run.stderr).contains("warning"), "{}", text(&run.stderr));
 }
 
 /// `bench gravity --solver fmm` on a file of bodies and on a uniform cube:

@@ -16,7 +16,7 @@ use crate::scenario::keys::{SeriesKeys, TrajectoryKeys};
 use crate::scenario::Scenario;
 use cellist::interactions::GravityLaw;
 use cellist::longrange::p3m::SPLIT_CELLS;
-use cellist::longrange::{ErrorFit, MeshBoundary, MeshParams, TreeParams};
+use cellist::longrange::{ErrorFit, FmmAccuracy, GravityFmm, MeshBoundary, MeshParams, TreeParams};
 use cellist::models::gravity::{
     plummer, two_body_seed004, Bodies, GravityError, GravityModel, GravitySystem, Integrator,
     Solver, SolverChoice,
@@ -413,6 +413,55 @@ fn initial_bodies(
     }
 }
 
+/// Bodies sampled by [`warn_direct_fmm`].
+const REACH_SAMPLE: usize = 1000;
+
+/// Warns when the fmm would sum most pairs of the bodies at `positions` one
+/// by one: when more than half the pairs of at most [`REACH_SAMPLE`] bodies
+/// spread evenly through the input order lie closer than the law's
+/// [`GravityFmm::direct_reach`] (with the examples' softening 0.01 at
+/// tolerance 1e-6, 12 length units: nearly every pair of a Plummer sphere).
+fn warn_direct_fmm(
+    positions: &[[f64; 3]],
+    law: &GravityLaw,
+    accuracy: FmmAccuracy,
+    context: &RunContext,
+) {
+    let reach = GravityFmm::direct_reach(law, accuracy);
+    let sample: Vec<[f64; 3]> = positions
+        .iter()
+        .step_by((positions.len() / REACH_SAMPLE).max(1))
+        .copied()
+        .collect();
+    let (mut closer, mut pairs) = (0u64, 0u64);
+    for (i, a) in sample.iter().enumerate() {
+        for b in &sample[i + 1..] {
+            let d2: f64 = (0..3).map(|k| (a[k] - b[k]).powi(2)).sum();
+            closer += u64::from(d2 < reach * reach);
+            pairs += 1;
+        }
+    }
+    if 2 * closer > pairs {
+        let tolerance = accuracy.tolerance(ErrorFit::LAPLACE_3D);
+        let mut causes = Vec::new();
+        if law.softening() > 0.0 {
+            causes.push(format!("the softening ({})", law.softening()));
+        }
+        if law.has_repulsion() {
+            causes.push(format!("the repulsion (radius {})", law.repulsion_radius()));
+        }
+        context.warn(format!(
+            "system.solver: the fmm sums directly every pair of bodies closer than {reach:.3}, \
+             where {} {} the law more than the tolerance ({tolerance:e}) away from 1/r: \
+             {:.0}% of the pairs here, which costs more than solver = \"direct\" (\"direct\" \
+             or \"barnes-hut\", a smaller softening or a larger tolerance is faster)",
+            causes.join(" and "),
+            if causes.len() > 1 { "keep" } else { "keeps" },
+            100.0 * closer as f64 / pairs as f64
+        ));
+    }
+}
+
 /// Checks the scenario and builds the bodies.
 fn build(scenario: &Scenario, keys: &GravityScenario, context: &RunContext) -> SimResult<Setup> {
     let err = |m: String| scenario.error(m);
@@ -427,6 +476,9 @@ fn build(scenario: &Scenario, keys: &GravityScenario, context: &RunContext) -> S
         .map_err(|e| err(format!("system: {e}")))?;
     let (choice, solver_name) = solver_choice(&s.solver).map_err(err)?;
     let (bodies, initial) = initial_bodies(scenario, &s.initial, &law, context)?;
+    if let SolverChoice::Fmm(accuracy) = choice {
+        warn_direct_fmm(&bodies.position, &law, accuracy, context);
+    }
     let integrator = Integrator::from_name(&keys.run.integrator).ok_or_else(|| {
         err(format!(
             "run.integrator '{}' is unknown; expected one of: {}",

@@ -106,12 +106,23 @@ struct Gathered {
 }
 
 impl GravityFmm {
-    /// A solver for `law` at `accuracy` (checked).
-    pub fn new(law: GravityLaw, accuracy: FmmAccuracy) -> Result<Self, String> {
-        accuracy.check()?;
+    /// The gap below which the fmm for `law` at `accuracy` meets two boxes
+    /// pair by pair whatever their sizes: where the law is not yet `1/r`
+    /// within the tolerance `tol`. The softened law
+    /// `1 / sqrt(r^2 + eps^2) = (1 / r) (1 - eps^2 / (2 r^2) + ...)` is
+    /// within `tol` of `1/r` (its field within `1.5 eps^2 / r^2`) beyond
+    /// `eps sqrt(1.5 / tol)`, the repulsion beyond `a tol^(-1/4)`; the
+    /// larger of the two (0 for the plain law).
+    pub fn direct_reach(law: &GravityLaw, accuracy: FmmAccuracy) -> f64 {
         let tolerance = accuracy.tolerance(ErrorFit::LAPLACE_3D);
         let softened = law.softening() * (1.5 / tolerance).sqrt();
         let repelled = law.repulsion_radius() * tolerance.powf(-0.25);
+        softened.max(repelled)
+    }
+
+    /// A solver for `law` at `accuracy` (checked).
+    pub fn new(law: GravityLaw, accuracy: FmmAccuracy) -> Result<Self, String> {
+        accuracy.check()?;
         Ok(GravityFmm {
             accuracy,
             law,
@@ -119,7 +130,7 @@ impl GravityFmm {
                 order: accuracy.order(ErrorFit::LAPLACE_3D),
                 kernel: Kernel::new(&law),
                 repulsion: law.has_repulsion(),
-                reach: softened.max(repelled),
+                reach: Self::direct_reach(&law, accuracy),
                 x: Default::default(),
                 m: Vec::new(),
             },
