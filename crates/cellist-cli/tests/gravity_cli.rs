@@ -425,7 +425,11 @@ fn the_fmm_run_follows_the_direct_run() {
     let (fmm, run) = run_scenario(dir.path(), "fmm", &scenario(fmm_solver), &[]);
     assert!(run.status.success(), "{}", text(&run.stderr));
     assert!(text(&run.stdout).contains("fmm (order 22, tolerance 1e-8)"));
-    assert!(!text(&run.stderr).contains("warning"), "{}", text(&run.stderr));
+    assert!(
+        !text(&run.stderr).contains("warning"),
+        "{}",
+        text(&run.stderr)
+    );
     let (want, got) = (thermo(&direct), thermo(&fmm));
     assert_eq!(want.len(), got.len());
     for (w, g) in want.iter().zip(&got) {
@@ -456,7 +460,9 @@ fn the_fmm_warns_when_the_softening_leaves_it_a_direct_sum() {
     assert!(run.status.success(), "{}", text(&run.stderr));
     let err = text(&run.stderr);
     assert!(
-        err.contains("warning: system.solver: the fmm sums directly every pair of bodies closer than 12.2"),
+        err.contains(
+            "warning: system.solver: the fmm sums directly every pair of bodies closer than 12.2"
+        ),
         "{err}"
     );
     assert!(err.contains("the softening (0.01) keeps"), "{err}");
@@ -465,7 +471,11 @@ fn the_fmm_warns_when_the_softening_leaves_it_a_direct_sum() {
     let narrow = scenario.replace("softening = 0.01", "softening = 1e-6");
     let (_, run) = run_scenario(dir.path(), "narrow", &narrow, &[]);
     assert!(run.status.success(), "{}", text(&run.stderr));
-    assert!(!text(&run.stderr).contains("warning"), "{}", text(&run.stderr));
+    assert!(
+        !text(&run.stderr).contains("warning"),
+        "{}",
+        text(&run.stderr)
+    );
 }
 
 /// `bench gravity --solver fmm` on a file of bodies and on a uniform cube:

@@ -10,6 +10,12 @@
 //! `D^n_{m m'} = (-1)^(m - m') d^n_{m m'}(beta) sqrt((n - m')! (n + m')! / ((n - m)! (n + m)!))`
 //!
 //! (`d^n` Wigner's small d-matrix). Each turn is then `O(p^3)`.
+//!
+//! The expansions are those of real fields, `v_n^{-m} = (-1)^m conj(v_n^m)`,
+//! so a turn needs only the terms `m >= 0` of its input: with the real `D`,
+//! `sum_{m'} D_{m m'} v^{m'} = D_{m 0} v^0 + sum_{m' > 0} (P_{m m'} Re v^{m'} + i Q_{m m'} Im v^{m'})`,
+//! `P, Q = D_{m m'} +- (-1)^{m'} D_{m, -m'}` ([`Turn`]'s folded matrices):
+//! `2 (n + 1)` multiply-adds per output term instead of `2 (2n + 1)`.
 
 use super::engine::Cube;
 use super::solid::at;
@@ -38,8 +44,8 @@ fn times(re: Word, im: Word, e: Complex64) -> (Word, Word) {
     (re * er - im * ei, re * ei + im * er)
 }
 
-/// The terms `m >= 0` of [`LANES`] expansions, or one degree's `-n..=n`,
-/// a word per coefficient, real and imaginary parts apart.
+/// The terms `m >= 0` of [`LANES`] expansions (or of one degree), a word
+/// per coefficient, real and imaginary parts apart.
 #[derive(Clone, Debug, Default)]
 struct Lanes {
     re: Vec<Word>,
@@ -54,132 +60,149 @@ impl Lanes {
             v.resize(len, Word::splat(0.0));
         }
     }
-
-    /// Degree `n`'s terms `m` and `-m` of a real field from the term `m >= 0`,
-    /// at indices `n + m` and `n - m`: `v_n^{-m} = (-1)^m conj(v_n^m)`.
-    #[inline(always)]
-    fn set_pair(&mut self, n: usize, m: usize, (re, im): (Word, Word)) {
-        (self.re[n + m], self.im[n + m]) = (re, im);
-        if m > 0 {
-            let (re, im) = if m.is_multiple_of(2) {
-                (re, negated(im))
-            } else {
-                (negated(re), im)
-            };
-            (self.re[n - m], self.im[n - m]) = (re, im);
-        }
-    }
 }
 
-/// `out[m] = sum_c d(m, c) v[c]` for `m = 0..=n` and the `2n + 1` complex
-/// inputs `v` of every lane; each output sums over the inputs in two
-/// interleaved halves (even and odd `c`), so that the multiply-adds do not
-/// wait on each other.
+/// `out[m] = sum_c (P_{m c} Re v_c + i Q_{m c} Im v_c)` for `m, c = 0..=n`
+/// (`folded`: `P` then `Q`, row by row) and the `n + 1` complex inputs `v`
+/// (`v_c` at `v.re[first + c]`, `v.im[first + c]`) of every lane; each
+/// output sums over the inputs in two interleaved halves (even and odd `c`),
+/// so that the multiply-adds do not wait on each other.
 #[inline(always)]
 fn products(
     n: usize,
-    d: impl Fn(usize, usize) -> f64,
-    v: &Lanes,
+    folded: &[f64],
+    (v, first): (&Lanes, usize),
     (out_re, out_im): (&mut [Word], &mut [Word]),
 ) {
-    let inputs = 2 * n + 1;
+    let inputs = n + 1;
+    let (p, q) = folded.split_at(inputs * inputs);
+    let (re_in, im_in) = (&v.re[first..first + inputs], &v.im[first..first + inputs]);
     let zero = Word::splat(0.0);
     for m in 0..=n {
+        let (p, q) = (&p[m * inputs..][..inputs], &q[m * inputs..][..inputs]);
         let (mut re, mut im, mut re2, mut im2) = (zero, zero, zero, zero);
         let mut c = 0;
         while c + 2 <= inputs {
-            let (a, b) = (Word::splat(d(m, c)), Word::splat(d(m, c + 1)));
-            re = a.mul_add(v.re[c], re);
-            im = a.mul_add(v.im[c], im);
-            re2 = b.mul_add(v.re[c + 1], re2);
-            im2 = b.mul_add(v.im[c + 1], im2);
+            re = Word::splat(p[c]).mul_add(re_in[c], re);
+            im = Word::splat(q[c]).mul_add(im_in[c], im);
+            re2 = Word::splat(p[c + 1]).mul_add(re_in[c + 1], re2);
+            im2 = Word::splat(q[c + 1]).mul_add(im_in[c + 1], im2);
             c += 2;
         }
         if c < inputs {
-            let a = Word::splat(d(m, c));
-            re = a.mul_add(v.re[c], re);
-            im = a.mul_add(v.im[c], im);
+            re = Word::splat(p[c]).mul_add(re_in[c], re);
+            im = Word::splat(q[c]).mul_add(im_in[c], im);
         }
         (out_re[m], out_im[m]) = (re + re2, im + im2);
     }
 }
 
-/// The turn of one direction onto `+z`: the phases `e^{i m alpha}` and the
-/// matrices `D^n` (rows and columns `-n..=n`), degree after degree.
+/// The turn of one direction onto `+z`: the phases `e^{i m alpha}` and,
+/// degree after degree, the matrices `D^n` folded for real fields (module
+/// doc): for the forward turn `P, Q = D_{m c} +- (-1)^c D_{m, -c}`, for the
+/// turn back (which sums over the rows) `P, Q = D_{c l} +- (-1)^c D_{-c, l}`,
+/// `m, l, c = 0..=n` (at `c = 0` both are `D`'s own entry).
 #[derive(Clone, Debug)]
 pub(super) struct Turn {
     phases: Vec<Complex64>,
-    /// `D^n` row by row from [`start`]`(n)` on.
-    matrices: Vec<f64>,
+    /// Per degree `n` from [`start`]`(n)` on: the forward `P` and `Q`, then
+    /// the backward `P` and `Q`, each `(n + 1)^2` row by row.
+    folded: Vec<f64>,
 }
 
-/// Where degree `n`'s matrix starts: `sum_{j < n} (2j + 1)^2`.
+/// Where degree `n`'s folded matrices start: `sum_{j < n} 4 (j + 1)^2`.
 fn start(n: usize) -> usize {
-    n * (2 * n - 1) * (2 * n + 1) / 3
+    2 * n * (n + 1) * (2 * n + 1) / 3
+}
+
+/// `D^n_{m m'}` of the turn by `beta` ([`wigner_d`] with its scale and
+/// sign, module doc), rows and columns `-n..=n`: at `(m + n) (2n + 1) + m' + n`.
+fn full_matrix(n: usize, beta: f64, log_factorials: &[f64]) -> Vec<f64> {
+    let w = 2 * n + 1;
+    let mut block = vec![0.0; w * w];
+    for (i, m) in (-(n as i64)..=n as i64).enumerate() {
+        for (k, mp) in (-(n as i64)..=n as i64).enumerate() {
+            let lf = |x: i64| log_factorials[x as usize];
+            let scale = (0.5
+                * (lf(n as i64 - mp) + lf(n as i64 + mp) - lf(n as i64 - m) - lf(n as i64 + m)))
+            .exp();
+            let sign = if (m - mp).rem_euclid(2) == 0 {
+                1.0
+            } else {
+                -1.0
+            };
+            block[i * w + k] = sign * scale * wigner_d(n as i64, m, mp, beta, log_factorials);
+        }
+    }
+    block
+}
+
+/// The angles `(beta, alpha)` of the direction `v` (any length).
+fn angles(v: [f64; 3]) -> (f64, f64) {
+    let r = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+    ((v[2] / r).clamp(-1.0, 1.0).acos(), v[1].atan2(v[0]))
 }
 
 impl Turn {
     /// The turn of the direction `v` (any length) for degrees `0..=p`.
     pub fn new(v: [f64; 3], p: usize, log_factorials: &[f64]) -> Self {
-        let r = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-        let beta = (v[2] / r).clamp(-1.0, 1.0).acos();
-        let alpha = v[1].atan2(v[0]);
+        let (beta, alpha) = angles(v);
         let phases = (0..=p)
             .map(|m| Complex64::from_polar(1.0, m as f64 * alpha))
             .collect();
-        let mut matrices = vec![0.0; start(p + 1)];
+        let mut folded = vec![0.0; start(p + 1)];
         for n in 0..=p {
-            let w = 2 * n + 1;
-            let block = &mut matrices[start(n)..start(n) + w * w];
-            for (i, m) in (-(n as i64)..=n as i64).enumerate() {
-                for (k, mp) in (-(n as i64)..=n as i64).enumerate() {
-                    let lf = |x: i64| log_factorials[x as usize];
-                    let scale = (0.5
-                        * (lf(n as i64 - mp) + lf(n as i64 + mp)
-                            - lf(n as i64 - m)
-                            - lf(n as i64 + m)))
-                    .exp();
-                    let sign = if (m - mp).rem_euclid(2) == 0 {
-                        1.0
-                    } else {
-                        -1.0
-                    };
-                    block[i * w + k] =
-                        sign * scale * wigner_d(n as i64, m, mp, beta, log_factorials);
+            let d = full_matrix(n, beta, log_factorials);
+            let (w, inputs) = (2 * n + 1, n + 1);
+            let at_d = |m: i64, c: i64| d[(m + n as i64) as usize * w + (c + n as i64) as usize];
+            let block = &mut folded[start(n)..start(n + 1)];
+            let (forward, back) = block.split_at_mut(2 * inputs * inputs);
+            for (half, transposed) in [(forward, false), (back, true)] {
+                let (p_half, q_half) = half.split_at_mut(inputs * inputs);
+                for m in 0..inputs as i64 {
+                    for c in 0..inputs as i64 {
+                        let (own, mirror) = if transposed {
+                            (at_d(c, m), at_d(-c, m))
+                        } else {
+                            (at_d(m, c), at_d(m, -c))
+                        };
+                        let k = m as usize * inputs + c as usize;
+                        if c == 0 {
+                            (p_half[k], q_half[k]) = (own, own);
+                        } else {
+                            let mirror = if c % 2 == 0 { mirror } else { -mirror };
+                            (p_half[k], q_half[k]) = (own + mirror, own - mirror);
+                        }
+                    }
                 }
             }
         }
-        Turn { phases, matrices }
+        Turn { phases, folded }
     }
 
-    /// `D^n` row by row: `D^n_{m m'}` at `(m + n) (2n + 1) + m' + n`.
+    /// Degree `n`'s folded matrices: the forward `P` and `Q`, and the
+    /// backward ones.
     #[inline(always)]
-    fn matrix(&self, n: usize) -> &[f64] {
-        &self.matrices[start(n)..start(n + 1)]
-    }
-
-    /// `D^n_{m m'}`.
-    #[cfg(test)]
-    fn get(&self, n: usize, m: isize, mp: isize) -> f64 {
-        let w = 2 * n as isize + 1;
-        self.matrix(n)[((m + n as isize) * w + mp + n as isize) as usize]
+    fn matrices(&self, n: usize) -> (&[f64], &[f64]) {
+        let block = &self.folded[start(n)..start(n + 1)];
+        block.split_at(2 * (n + 1) * (n + 1))
     }
 
     /// The turned terms `a'_n^m = sum_{m'} D^n_{m m'} e^{i m' alpha} a_n^{m'}`
     /// (`m >= 0`) of the lanes' multipoles `a` (terms `m >= 0`), into `out`.
-    fn forward(&self, p: usize, a: &Lanes, out: &mut Lanes, full: &mut Lanes) {
+    fn forward(&self, p: usize, a: &Lanes, out: &mut Lanes, phased: &mut Lanes) {
         out.clear(at(p + 1, 0));
         for n in 0..=p {
-            full.clear(2 * n + 1);
+            phased.clear(n + 1);
             for m in 0..=n {
                 let t = at(n, m);
-                full.set_pair(n, m, times(a.re[t], a.im[t], self.phases[m]));
+                (phased.re[m], phased.im[m]) = times(a.re[t], a.im[t], self.phases[m]);
             }
-            let (range, d, w) = (at(n, 0)..at(n, n) + 1, self.matrix(n), 2 * n + 1);
+            let range = at(n, 0)..at(n, n) + 1;
             products(
                 n,
-                |m, c| d[(n + m) * w + c],
-                full,
+                self.matrices(n).0,
+                (phased, 0),
                 (&mut out.re[range.clone()], &mut out.im[range]),
             );
         }
@@ -187,19 +210,14 @@ impl Turn {
 
     /// The turned-back local terms `b_k^l = e^{i l alpha} sum_{l'} D^k_{l' l}
     /// b'_k^{l'}` (`l >= 0`) of the lanes' turned locals `b`, into `out`.
-    fn back(&self, p: usize, b: &Lanes, out: &mut Lanes, full: &mut Lanes) {
+    fn back(&self, p: usize, b: &Lanes, out: &mut Lanes) {
         out.clear(at(p + 1, 0));
         for k in 0..=p {
-            full.clear(2 * k + 1);
-            for l in 0..=k {
-                let t = at(k, l);
-                full.set_pair(k, l, (b.re[t], b.im[t]));
-            }
-            let (range, d, w) = (at(k, 0)..at(k, k) + 1, self.matrix(k), 2 * k + 1);
+            let range = at(k, 0)..at(k, k) + 1;
             products(
                 k,
-                |l, c| d[c * w + k + l],
-                full,
+                self.matrices(k).1,
+                (b, range.start),
                 (&mut out.re[range.clone()], &mut out.im[range.clone()]),
             );
             for (l, t) in range.enumerate() {
@@ -287,7 +305,7 @@ pub(super) struct Turns {
 
 /// The most bytes of turns a thread keeps: past them the cache starts
 /// afresh (a turn depends only on its key, so results do not change). A turn
-/// takes about 44 KB at order 15; a Plummer sphere of 3 x 10^5 bodies meets
+/// takes about 48 KB at order 15; a Plummer sphere of 3 x 10^5 bodies meets
 /// about 1400 directions.
 const TURN_BYTES: usize = 256 << 20;
 
@@ -375,13 +393,14 @@ pub(super) fn m2l_by_direction(
                     target: (to.centre, to.radius),
                 }
             });
-            for lane in 0..count {
-                let (t, _, c) = item(lane);
-                m2l.add_lane(
-                    lane,
-                    &mut locals[(t - group) * stride + c * terms..][..terms],
-                );
-            }
+            m2l.add_lanes(
+                count,
+                |lane| {
+                    let (t, _, c) = item(lane);
+                    (t - group) * stride + c * terms
+                },
+                locals,
+            );
             done += count;
         }
         first += same;
@@ -443,7 +462,7 @@ impl M2lLanes {
             *self = M2lLanes {
                 order: p,
                 log_factorials: log_factorials(4 * p + 2),
-                factorials: (0..=2 * p + 1)
+                factorials: (0..=2 * p + 4)
                     .scan(1.0, |f, k| {
                         let v = *f;
                         *f *= (k + 1) as f64;
@@ -465,7 +484,7 @@ impl M2lLanes {
     /// `b'_k^l = (-1)^k (s_t / d)^k / d sum_{n = |l|}^{p} a'_n^{-l} (s_c / d)^n (n + k)!`
     ///
     /// (`I_j^m(d z) = j! / d^(j + 1)` for `m = 0`, else 0), and turned back
-    /// (every `n, k <= p`); [`M2lLanes::add_lane`] adds a lane's local.
+    /// (every `n, k <= p`); [`M2lLanes::add_lanes`] adds the lanes' locals.
     /// Each lane's numbers take the same operations in the same order as
     /// one translation alone.
     pub fn translate<'a>(
@@ -530,15 +549,17 @@ impl M2lLanes {
                 power = power * step;
             }
             // sum_{n >= l} a'_n^l f[n + k], four k at a time (eight sums that
-            // do not wait on each other, each over n in order)
+            // do not wait on each other, each over n in order, held in
+            // registers; past k = p the sums are made and dropped)
             let mut k = l;
             while k <= p {
                 let runs = 4.min(p + 1 - k);
                 let zero = Word::splat(0.0);
                 let (mut sum_re, mut sum_im) = ([zero; 4], [zero; 4]);
                 for i in 0..len {
-                    for r in 0..runs {
-                        let f = Word::splat(factorials[l + k + r + i]);
+                    let f = &factorials[l + k + i..][..4];
+                    for r in 0..4 {
+                        let f = Word::splat(f[r]);
                         sum_re[r] = f.mul_add(full.re[i], sum_re[r]);
                         sum_im[r] = f.mul_add(full.im[i], sum_im[r]);
                     }
@@ -562,7 +583,7 @@ impl M2lLanes {
             }
             factor = factor * step;
         }
-        turn.back(p, shifted, locals, full);
+        turn.back(p, shifted, locals);
         let (re, im) = &mut self.staged;
         for t in 0..terms {
             self.locals.re[t].store(&mut re[t]);
@@ -570,11 +591,22 @@ impl M2lLanes {
         }
     }
 
-    /// Adds lane `lane`'s local of the last [`M2lLanes::translate`] to `local`.
-    pub fn add_lane(&self, lane: usize, local: &mut [Complex64]) {
+    /// Adds the locals of the last [`M2lLanes::translate`]'s lanes
+    /// `0..count` to `locals`, lane `l`'s from `locals[start(l)]` on; lanes
+    /// that share a local add to each term in lane order (the bits of
+    /// adding them lane after lane).
+    pub fn add_lanes(
+        &self,
+        count: usize,
+        start: impl Fn(usize) -> usize,
+        locals: &mut [Complex64],
+    ) {
+        let starts: [usize; LANES] = std::array::from_fn(|l| if l < count { start(l) } else { 0 });
         let (re, im) = &self.staged;
-        for (t, l) in local.iter_mut().enumerate() {
-            *l += Complex64::new(re[t][lane], im[t][lane]);
+        for (t, (re, im)) in re.iter().zip(im).enumerate() {
+            for l in 0..count {
+                locals[starts[l] + t] += Complex64::new(re[l], im[l]);
+            }
         }
     }
 }
@@ -653,16 +685,83 @@ mod tests {
         regular(x, p, &mut h);
         regular(qx, p, &mut hq);
         for n in 0..=p {
+            let (d, w) = (full_matrix(n, beta, &lf), 2 * n as isize + 1);
             for m in 0..=n as isize {
                 let mut sum = Complex64::new(0.0, 0.0);
                 for mp in -(n as isize)..=n as isize {
-                    sum += signed(&h, n, mp) * turn.phase(mp).conj() * turn.get(n, m, mp);
+                    let dm = d[((m + n as isize) * w + mp + n as isize) as usize];
+                    sum += signed(&h, n, mp) * turn.phase(mp).conj() * dm;
                 }
                 let want = hq[at(n, m as usize)];
                 assert!(
                     (sum - want).norm() < 1e-12 * (1.0 + want.norm()),
                     "n {n} m {m}: {sum} vs {want}"
                 );
+            }
+        }
+    }
+
+    /// The folded turns (forward, and back) of lanes of real fields' terms
+    /// against the sums over every `m'` (and `l'`) with the whole matrices
+    /// `D^n`, at order 20, to rounding.
+    #[test]
+    fn folded_turns_are_the_whole_matrices_sums() {
+        use super::super::solid::signed;
+        let p = 20;
+        let lf = log_factorials(2 * p + 2);
+        let v = [-0.4, 0.9, 0.25];
+        let turn = Turn::new(v, p, &lf);
+        let (beta, _) = angles(v);
+        let terms = at(p + 1, 0);
+        let values: Vec<[Complex64; LANES]> = (0..terms)
+            .map(|t| {
+                std::array::from_fn(|l| {
+                    let x = ((t * 37 + l * 11) % 29) as f64 / 9.0 - 1.6;
+                    Complex64::new(x, 0.7 * x - 0.2 * l as f64)
+                })
+            })
+            .collect();
+        let mut input = Lanes::default();
+        input.clear(terms);
+        for (t, v) in values.iter().enumerate() {
+            input.re[t] = Word::load(&v.map(|c| c.re));
+            input.im[t] = Word::load(&v.map(|c| c.im));
+        }
+        let (mut out, mut back, mut scratch) =
+            (Lanes::default(), Lanes::default(), Lanes::default());
+        turn.forward(p, &input, &mut out, &mut scratch);
+        turn.back(p, &input, &mut back);
+        let lane = |w: Word, l: usize| {
+            let mut a = [0.0; LANES];
+            w.store(&mut a);
+            a[l]
+        };
+        for l in 0..LANES {
+            let h: Vec<Complex64> = values.iter().map(|v| v[l]).collect();
+            for n in 0..=p {
+                let (d, w) = (full_matrix(n, beta, &lf), 2 * n as isize + 1);
+                let entry =
+                    |m: isize, c: isize| d[((m + n as isize) * w + c + n as isize) as usize];
+                for m in 0..=n as isize {
+                    let (mut want, mut want_back) =
+                        (Complex64::new(0.0, 0.0), Complex64::new(0.0, 0.0));
+                    for c in -(n as isize)..=n as isize {
+                        want += entry(m, c) * turn.phase(c) * signed(&h, n, c);
+                        want_back += entry(c, m) * signed(&h, n, c);
+                    }
+                    want_back *= turn.phase(m);
+                    let t = at(n, m as usize);
+                    let got = Complex64::new(lane(out.re[t], l), lane(out.im[t], l));
+                    let got_back = Complex64::new(lane(back.re[t], l), lane(back.im[t], l));
+                    assert!(
+                        (got - want).norm() < 1e-12 * (1.0 + want.norm()),
+                        "n {n} m {m}: {got} vs {want}"
+                    );
+                    assert!(
+                        (got_back - want_back).norm() < 1e-12 * (1.0 + want_back.norm()),
+                        "back n {n} m {m}: {got_back} vs {want_back}"
+                    );
+                }
             }
         }
     }
@@ -697,19 +796,20 @@ mod tests {
         for l in 0..LANES {
             let mut alone = M2lLanes::default();
             alone.translate(p, [1, 2, 2], 1, |_| translation(l));
+            // (the other lanes into a second local, past the first)
             let (mut a, mut b) = (
-                vec![Complex64::new(0.0, 0.0); terms],
+                vec![Complex64::new(0.0, 0.0); 2 * terms],
                 vec![Complex64::new(0.0, 0.0); terms],
             );
-            together.add_lane(l, &mut a);
-            alone.add_lane(0, &mut b);
+            together.add_lanes(LANES, |k| if k == l { 0 } else { terms }, &mut a);
+            alone.add_lanes(1, |_| 0, &mut b);
             let bits = |v: &[Complex64]| {
                 v.iter()
                     .map(|c| (c.re.to_bits(), c.im.to_bits()))
                     .collect::<Vec<_>>()
             };
-            assert!(a.iter().any(|c| c.norm() > 0.0));
-            assert_eq!(bits(&a), bits(&b), "lane {l}");
+            assert!(a[..terms].iter().any(|c| c.norm() > 0.0));
+            assert_eq!(bits(&a[..terms]), bits(&b), "lane {l}");
         }
     }
 }

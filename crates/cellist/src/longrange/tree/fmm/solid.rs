@@ -498,9 +498,7 @@ mod tests {
                 source: (parent_c, s_parent),
                 target: (target_c, s_parent),
             });
-            for lane in 0..2 {
-                m2l.add_lane(lane, &mut local);
-            }
+            m2l.add_lanes(2, |_| 0, &mut local);
             let mut leaf = zero.clone();
             l2l(
                 p, &local, target_c, s_parent, &mut leaf, leaf_c, s_child, &mut h,
