@@ -64,9 +64,9 @@ impl Lanes {
 
 /// `out[m] = sum_c (P_{m c} Re v_c + i Q_{m c} Im v_c)` for `m, c = 0..=n`
 /// (`folded`: `P` then `Q`, row by row) and the `n + 1` complex inputs `v`
-/// (`v_c` at `v.re[first + c]`, `v.im[first + c]`) of every lane; each
-/// output sums over the inputs in two interleaved halves (even and odd `c`),
-/// so that the multiply-adds do not wait on each other.
+/// (`v_c` at `v.re[first + c]`, `v.im[first + c]`) of every lane: four
+/// outputs at a time ([`rows`]), each input loaded once for the four, each
+/// output's sum over the inputs in order.
 #[inline(always)]
 fn products(
     n: usize,
@@ -76,25 +76,40 @@ fn products(
 ) {
     let inputs = n + 1;
     let (p, q) = folded.split_at(inputs * inputs);
-    let (re_in, im_in) = (&v.re[first..first + inputs], &v.im[first..first + inputs]);
-    let zero = Word::splat(0.0);
-    for m in 0..=n {
-        let (p, q) = (&p[m * inputs..][..inputs], &q[m * inputs..][..inputs]);
-        let (mut re, mut im, mut re2, mut im2) = (zero, zero, zero, zero);
-        let mut c = 0;
-        while c + 2 <= inputs {
-            re = Word::splat(p[c]).mul_add(re_in[c], re);
-            im = Word::splat(q[c]).mul_add(im_in[c], im);
-            re2 = Word::splat(p[c + 1]).mul_add(re_in[c + 1], re2);
-            im2 = Word::splat(q[c + 1]).mul_add(im_in[c + 1], im2);
-            c += 2;
-        }
-        if c < inputs {
-            re = Word::splat(p[c]).mul_add(re_in[c], re);
-            im = Word::splat(q[c]).mul_add(im_in[c], im);
-        }
-        (out_re[m], out_im[m]) = (re + re2, im + im2);
+    let input = (&v.re[first..first + inputs], &v.im[first..first + inputs]);
+    let mut m = 0;
+    while m + 4 <= inputs {
+        rows::<4>(m, (p, q), input, (&mut *out_re, &mut *out_im));
+        m += 4;
     }
+    while m < inputs {
+        rows::<1>(m, (p, q), input, (&mut *out_re, &mut *out_im));
+        m += 1;
+    }
+}
+
+/// The outputs `first..first + R` of [`products`]: `2 R` sums that do not
+/// wait on each other, the inputs' words loaded once for all of them.
+#[inline(always)]
+fn rows<const R: usize>(
+    first: usize,
+    (p, q): (&[f64], &[f64]),
+    (re_in, im_in): (&[Word], &[Word]),
+    (out_re, out_im): (&mut [Word], &mut [Word]),
+) {
+    let inputs = re_in.len();
+    let zero = Word::splat(0.0);
+    let (mut re, mut im) = ([zero; R], [zero; R]);
+    for c in 0..inputs {
+        let (x, y) = (re_in[c], im_in[c]);
+        for r in 0..R {
+            let row = (first + r) * inputs + c;
+            re[r] = Word::splat(p[row]).mul_add(x, re[r]);
+            im[r] = Word::splat(q[row]).mul_add(y, im[r]);
+        }
+    }
+    out_re[first..first + R].copy_from_slice(&re);
+    out_im[first..first + R].copy_from_slice(&im);
 }
 
 /// The turn of one direction onto `+z`: the phases `e^{i m alpha}` and,
