@@ -53,11 +53,13 @@ struct Lanes {
 }
 
 impl Lanes {
-    /// `len` zero coefficients.
-    fn clear(&mut self, len: usize) {
+    /// Room for at least `len` coefficients, grown with zeros and never
+    /// cleared: each user writes a coefficient before it reads it.
+    fn fit(&mut self, len: usize) {
         for v in [&mut self.re, &mut self.im] {
-            v.clear();
-            v.resize(len, Word::splat(0.0));
+            if v.len() < len {
+                v.resize(len, Word::splat(0.0));
+            }
         }
     }
 }
@@ -206,9 +208,9 @@ impl Turn {
     /// The turned terms `a'_n^m = sum_{m'} D^n_{m m'} e^{i m' alpha} a_n^{m'}`
     /// (`m >= 0`) of the lanes' multipoles `a` (terms `m >= 0`), into `out`.
     fn forward(&self, p: usize, a: &Lanes, out: &mut Lanes, phased: &mut Lanes) {
-        out.clear(at(p + 1, 0));
+        out.fit(at(p + 1, 0));
         for n in 0..=p {
-            phased.clear(n + 1);
+            phased.fit(n + 1);
             for m in 0..=n {
                 let t = at(n, m);
                 (phased.re[m], phased.im[m]) = times(a.re[t], a.im[t], self.phases[m]);
@@ -226,7 +228,7 @@ impl Turn {
     /// The turned-back local terms `b_k^l = e^{i l alpha} sum_{l'} D^k_{l' l}
     /// b'_k^{l'}` (`l >= 0`) of the lanes' turned locals `b`, into `out`.
     fn back(&self, p: usize, b: &Lanes, out: &mut Lanes) {
-        out.clear(at(p + 1, 0));
+        out.fit(at(p + 1, 0));
         for k in 0..=p {
             let range = at(k, 0)..at(k, k) + 1;
             products(
@@ -533,7 +535,7 @@ impl M2lLanes {
                 (re[t][l], im[t][l]) = (a.re, a.im);
             }
         }
-        self.multipoles.clear(terms);
+        self.multipoles.fit(terms);
         for t in 0..terms {
             self.multipoles.re[t] = Word::load(&re[t]);
             self.multipoles.im[t] = Word::load(&im[t]);
@@ -551,13 +553,16 @@ impl M2lLanes {
         } = self;
         let turn = turns.of(key, p, log_factorials);
         turn.forward(p, multipoles, turned, full);
-        shifted.clear(terms);
+        shifted.fit(terms);
+        let step = Word::load(&rho_s);
+        // (s_c / d)^l
+        let mut first_power = Word::splat(1.0);
         for l in 0..=p {
             // a'_n^l (s_c / d)^n for n = l..=p
             let len = p - l + 1;
-            full.clear(len);
-            let mut power = Word::load(&rho_s.map(|r| r.powi(l as i32)));
-            let step = Word::load(&rho_s);
+            full.fit(len);
+            let mut power = first_power;
+            first_power = first_power * step;
             for (i, n) in (l..=p).enumerate() {
                 let t = at(n, l);
                 (full.re[i], full.im[i]) = (turned.re[t] * power, turned.im[t] * power);
@@ -737,7 +742,7 @@ mod tests {
             })
             .collect();
         let mut input = Lanes::default();
-        input.clear(terms);
+        input.fit(terms);
         for (t, v) in values.iter().enumerate() {
             input.re[t] = Word::load(&v.map(|c| c.re));
             input.im[t] = Word::load(&v.map(|c| c.im));
