@@ -430,7 +430,7 @@ fn warn_direct_fmm(
     let reach = GravityFmm::direct_reach(law, accuracy);
     let sample: Vec<[f64; 3]> = positions
         .iter()
-        .step_by((positions.len() / REACH_SAMPLE).max(1))
+        .step_by(positions.len().div_ceil(REACH_SAMPLE).max(1))
         .copied()
         .collect();
     let (mut closer, mut pairs) = (0u64, 0u64);
@@ -450,11 +450,15 @@ fn warn_direct_fmm(
         if law.has_repulsion() {
             causes.push(format!("the repulsion (radius {})", law.repulsion_radius()));
         }
+        let looser = match accuracy {
+            FmmAccuracy::Tolerance(_) => "a larger tolerance",
+            FmmAccuracy::Order(_) => "a lower order",
+        };
         context.warn(format!(
             "system.solver: the fmm sums directly every pair of bodies closer than {reach:.3}, \
              where {} {} the law more than the tolerance ({tolerance:e}) away from 1/r: \
-             {:.0}% of the pairs here, which costs more than solver = \"direct\" (\"direct\" \
-             or \"barnes-hut\", a smaller softening or a larger tolerance is faster)",
+             {:.0}% of the pairs here, so it may cost more than solver = \"direct\" (\"direct\" \
+             or \"barnes-hut\", a smaller softening or {looser} is faster)",
             causes.join(" and "),
             if causes.len() > 1 { "keep" } else { "keeps" },
             100.0 * closer as f64 / pairs as f64
@@ -476,9 +480,6 @@ fn build(scenario: &Scenario, keys: &GravityScenario, context: &RunContext) -> S
         .map_err(|e| err(format!("system: {e}")))?;
     let (choice, solver_name) = solver_choice(&s.solver).map_err(err)?;
     let (bodies, initial) = initial_bodies(scenario, &s.initial, &law, context)?;
-    if let SolverChoice::Fmm(accuracy) = choice {
-        warn_direct_fmm(&bodies.position, &law, accuracy, context);
-    }
     let integrator = Integrator::from_name(&keys.run.integrator).ok_or_else(|| {
         err(format!(
             "run.integrator '{}' is unknown; expected one of: {}",
@@ -522,6 +523,9 @@ fn build(scenario: &Scenario, keys: &GravityScenario, context: &RunContext) -> S
                 GRAVITY_DUMP_COLUMNS.join(" ")
             )));
         }
+    }
+    if let SolverChoice::Fmm(accuracy) = choice {
+        warn_direct_fmm(&bodies.position, &law, accuracy, context);
     }
     Ok(Setup {
         dimension: keys.dimension as usize,

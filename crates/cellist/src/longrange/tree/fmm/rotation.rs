@@ -470,7 +470,7 @@ pub(super) struct M2lLanes {
     turned: Lanes,
     shifted: Lanes,
     locals: Lanes,
-    full: Lanes,
+    scratch: Lanes,
 }
 
 impl M2lLanes {
@@ -548,11 +548,11 @@ impl M2lLanes {
             turned,
             shifted,
             locals,
-            full,
+            scratch,
             ..
         } = self;
         let turn = turns.of(key, p, log_factorials);
-        turn.forward(p, multipoles, turned, full);
+        turn.forward(p, multipoles, turned, scratch);
         shifted.fit(terms);
         let step = Word::load(&rho_s);
         // (s_c / d)^l
@@ -560,12 +560,12 @@ impl M2lLanes {
         for l in 0..=p {
             // a'_n^l (s_c / d)^n for n = l..=p
             let len = p - l + 1;
-            full.fit(len);
+            scratch.fit(len);
             let mut power = first_power;
             first_power = first_power * step;
             for (i, n) in (l..=p).enumerate() {
                 let t = at(n, l);
-                (full.re[i], full.im[i]) = (turned.re[t] * power, turned.im[t] * power);
+                (scratch.re[i], scratch.im[i]) = (turned.re[t] * power, turned.im[t] * power);
                 power = power * step;
             }
             // sum_{n >= l} a'_n^l f[n + k], four k at a time (eight sums that
@@ -577,11 +577,11 @@ impl M2lLanes {
                 let zero = Word::splat(0.0);
                 let (mut sum_re, mut sum_im) = ([zero; 4], [zero; 4]);
                 for i in 0..len {
-                    let f = &factorials[l + k + i..][..4];
+                    let four = &factorials[l + k + i..][..4];
                     for r in 0..4 {
-                        let f = Word::splat(f[r]);
-                        sum_re[r] = f.mul_add(full.re[i], sum_re[r]);
-                        sum_im[r] = f.mul_add(full.im[i], sum_im[r]);
+                        let f = Word::splat(four[r]);
+                        sum_re[r] = f.mul_add(scratch.re[i], sum_re[r]);
+                        sum_im[r] = f.mul_add(scratch.im[i], sum_im[r]);
                     }
                 }
                 for r in 0..runs {
@@ -612,16 +612,16 @@ impl M2lLanes {
     }
 
     /// Adds the locals of the last [`M2lLanes::translate`]'s lanes
-    /// `0..count` to `locals`, lane `l`'s from `locals[start(l)]` on; lanes
+    /// `0..count` to `locals`, lane `l`'s from `locals[offset(l)]` on; lanes
     /// that share a local add to each term in lane order (the bits of
     /// adding them lane after lane).
     pub fn add_lanes(
         &self,
         count: usize,
-        start: impl Fn(usize) -> usize,
+        offset: impl Fn(usize) -> usize,
         locals: &mut [Complex64],
     ) {
-        let starts: [usize; LANES] = std::array::from_fn(|l| if l < count { start(l) } else { 0 });
+        let starts: [usize; LANES] = std::array::from_fn(|l| if l < count { offset(l) } else { 0 });
         let (re, im) = &self.staged;
         for (t, (re, im)) in re.iter().zip(im).enumerate() {
             for l in 0..count {
@@ -784,6 +784,46 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// Lanes that share a local (0, 2 and 4 into one, 1 and 5 into another,
+    /// 3, 6 and 7 alone) add the bits of adding each lane's local in turn.
+    #[test]
+    fn shared_locals_take_their_lanes_in_order() {
+        let p = 6;
+        let terms = super::super::solid::terms(p);
+        let multipoles: Vec<Vec<Complex64>> = (0..LANES)
+            .map(|l| {
+                (0..terms)
+                    .map(|k| {
+                        Complex64::new(1.0 / (1 + k + 3 * l) as f64, -0.1 * (k as f64 - l as f64))
+                    })
+                    .collect()
+            })
+            .collect();
+        let translation = |l: usize| Translation {
+            multipole: &multipoles[l],
+            source: ([0.0, 0.0, 0.0], 0.5 + 0.01 * l as f64),
+            target: ([2.0 + l as f64, 0.0, 0.0], 0.5),
+        };
+        let mut m2l = M2lLanes::default();
+        m2l.translate(p, [1, 0, 0], LANES, translation);
+        let slot = [0, 1, 0, 2, 0, 1, 3, 4];
+        let mut together = vec![Complex64::new(0.3, -0.2); 5 * terms];
+        m2l.add_lanes(LANES, |l| slot[l] * terms, &mut together);
+        let mut in_turn = vec![Complex64::new(0.3, -0.2); 5 * terms];
+        for (l, &k) in slot.iter().enumerate() {
+            let mut alone = M2lLanes::default();
+            alone.translate(p, [1, 0, 0], 1, |_| translation(l));
+            alone.add_lanes(1, |_| k * terms, &mut in_turn);
+        }
+        let bits = |v: &[Complex64]| {
+            v.iter()
+                .map(|c| (c.re.to_bits(), c.im.to_bits()))
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(bits(&together), bits(&in_turn));
+        assert!(together.iter().all(|c| *c != Complex64::new(0.3, -0.2)));
     }
 
     /// Eight different translations of one direction in one batch give the
