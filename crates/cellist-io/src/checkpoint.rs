@@ -12,11 +12,14 @@
 //! ```
 //! Floats are stored by their bit patterns. Files are written atomically:
 //! `FILE.partial` in the same folder, fsync, the previous checkpoint renamed to
-//! `FILE.prev`, the new one renamed into place, fsync of the folder.
+//! `FILE.prev`, the new one renamed into place, fsync of the folder. A state
+//! need not be whole in memory: its sections' sizes place them in the file,
+//! their bytes arrive a block at a time, and the checksums are combined from
+//! the pieces' ([`encode_in_blocks`]; a state spread over MPI ranks).
 
 use crate::error::InputError;
-use cellist::state::{Section, State};
-use std::io::{self, Write};
+use cellist::state::{Layout, Section, SectionSink, State};
+use std::io::{self, Seek, Write};
 use std::path::{Path, PathBuf};
 
 /// The magic number at the start of a checkpoint.
@@ -86,44 +89,199 @@ fn section_crc(name: &str, data: &[u8]) -> u32 {
 /// The bytes of a checkpoint.
 pub fn encode(c: &Checkpoint) -> Vec<u8> {
     let sections: usize = c.state.sections.iter().map(|s| s.data.len() + 64).sum();
-    let mut out = Vec::with_capacity(256 + sections);
-    encode_to(c, &mut out).expect("writing to memory does not fail");
-    out
+    let mut out = io::Cursor::new(Vec::with_capacity(256 + sections));
+    encode_in_blocks(&mut out, c, &Layout::of(&c.state), |sink| {
+        append_sections(sink, &c.state)
+    })
+    .expect("writing to memory does not fail");
+    out.into_inner()
 }
 
-/// Writes the bytes of a checkpoint ([`encode`]) to `out` as they are made,
-/// without a copy of the state's sections in one buffer.
-pub fn encode_to<W: Write>(c: &Checkpoint, out: W) -> io::Result<()> {
-    let mut out = Summed {
+/// Appends every section of `state` to `sink` (whose layout is `state`'s).
+fn append_sections(sink: &mut dyn SectionSink, state: &State) {
+    for (k, section) in state.sections.iter().enumerate() {
+        sink.append(k, &section.data);
+    }
+}
+
+/// A sink that drops what it is given: a fill that must run (it pulls from
+/// the ranks) when the file cannot be written.
+struct Discard;
+
+impl SectionSink for Discard {
+    fn append(&mut self, _: usize, _: &[u8]) {}
+}
+
+/// Where one section of a checkpoint being written lies and what it holds so far.
+struct Placed {
+    name: String,
+    /// The offset of its first byte, and its byte count.
+    start: u64,
+    len: u64,
+    written: u64,
+    /// The CRC-32 of its bytes so far.
+    crc: crc32fast::Hasher,
+}
+
+/// The sections of a checkpoint being written to `out`, each at its place
+/// in the file ([`encode_in_blocks`]), with the CRC-32 of the head before
+/// them and where the last one ends; the first error is kept and ends the
+/// writing.
+struct PlacedSections<W> {
+    out: W,
+    head: crc32fast::Hasher,
+    sections: Vec<Placed>,
+    end: u64,
+    error: Option<io::Error>,
+}
+
+impl<W: Write + Seek> PlacedSections<W> {
+    fn write_at(&mut self, section: usize, bytes: &[u8]) -> io::Result<()> {
+        let placed = &mut self.sections[section];
+        if placed.written + bytes.len() as u64 > placed.len {
+            return Err(io::Error::other(format!(
+                "section '{}' was given more than its {} bytes",
+                placed.name, placed.len
+            )));
+        }
+        self.out
+            .seek(io::SeekFrom::Start(placed.start + placed.written))?;
+        self.out.write_all(bytes)?;
+        placed.written += bytes.len() as u64;
+        placed.crc.update(bytes);
+        Ok(())
+    }
+}
+
+impl<W: Write + Seek> SectionSink for PlacedSections<W> {
+    fn append(&mut self, section: usize, bytes: &[u8]) {
+        if self.error.is_none() {
+            self.error = self.write_at(section, bytes).err();
+        }
+    }
+}
+
+/// Writes a checkpoint to `out` (from its start) with `c`'s step, model,
+/// physics keys and outputs, and a state of the sections `layout` declares,
+/// whose bytes `fill` appends a block at a time (each section's in order,
+/// the sections in any interleaving; `c.state` is not read): every section
+/// is placed from its declared size and its checksum kept as its bytes
+/// arrive, and the file's checksum is put together from the pieces' at the
+/// end (CRC-32s combine), so no section is ever held whole. The bytes are
+/// those of [`encode`] of the whole checkpoint.
+pub fn encode_in_blocks<W: Write + Seek>(
+    out: W,
+    c: &Checkpoint,
+    layout: &Layout,
+    fill: impl FnOnce(&mut dyn SectionSink),
+) -> io::Result<()> {
+    let mut placed = match place(out, c, layout) {
+        Ok(placed) => placed,
+        Err(e) => {
+            fill(&mut Discard);
+            return Err(e);
+        }
+    };
+    fill(&mut placed);
+    let PlacedSections {
+        mut out,
+        head,
+        sections,
+        end,
+        error,
+    } = placed;
+    if let Some(e) = error {
+        return Err(e);
+    }
+    let mut whole = head;
+    for s in &sections {
+        if s.written != s.len {
+            return Err(io::Error::other(format!(
+                "section '{}' got {} of its {} bytes",
+                s.name, s.written, s.len
+            )));
+        }
+        // the section's checksum covers its name and bytes
+        let mut own = crc32fast::Hasher::new();
+        own.update(s.name.as_bytes());
+        own.combine(&s.crc);
+        let own = own.finalize().to_le_bytes();
+        out.seek(io::SeekFrom::Start(s.start + s.len))?;
+        out.write_all(&own)?;
+        whole.update(&frame(&s.name, s.len));
+        whole.combine(&s.crc);
+        whole.update(&own);
+    }
+    out.seek(io::SeekFrom::Start(end))?;
+    out.write_all(&whole.finalize().to_le_bytes())?;
+    out.write_all(END_MAGIC)?;
+    out.flush()
+}
+
+/// Writes the head of a checkpoint (everything before the first section,
+/// its CRC-32 kept) and each section's name and size at its place:
+/// [`encode_in_blocks`]'s first part.
+fn place<W: Write + Seek>(
+    out: W,
+    c: &Checkpoint,
+    layout: &Layout,
+) -> io::Result<PlacedSections<W>> {
+    let mut head = Summed {
         inner: out,
         crc: crc32fast::Hasher::new(),
     };
-    out.write_all(MAGIC)?;
-    out.write_all(&VERSION.to_le_bytes())?;
-    out.write_all(&c.step.to_le_bytes())?;
-    put_str(&mut out, &c.model)?;
-    out.write_all(&physics_hash(&c.physics).to_le_bytes())?;
-    out.write_all(&(c.physics.len() as u32).to_le_bytes())?;
+    head.inner.seek(io::SeekFrom::Start(0))?;
+    head.write_all(MAGIC)?;
+    head.write_all(&VERSION.to_le_bytes())?;
+    head.write_all(&c.step.to_le_bytes())?;
+    put_str(&mut head, &c.model)?;
+    head.write_all(&physics_hash(&c.physics).to_le_bytes())?;
+    head.write_all(&(c.physics.len() as u32).to_le_bytes())?;
     for (k, v) in &c.physics {
-        put_str(&mut out, k)?;
-        put_str(&mut out, v)?;
+        put_str(&mut head, k)?;
+        put_str(&mut head, v)?;
     }
-    out.write_all(&(c.outputs.len() as u32).to_le_bytes())?;
+    head.write_all(&(c.outputs.len() as u32).to_le_bytes())?;
     for (file, length) in &c.outputs {
-        put_str(&mut out, file)?;
-        out.write_all(&length.to_le_bytes())?;
+        put_str(&mut head, file)?;
+        head.write_all(&length.to_le_bytes())?;
     }
-    out.write_all(&(c.state.sections.len() as u32).to_le_bytes())?;
-    for s in &c.state.sections {
-        put_str(&mut out, &s.name)?;
-        out.write_all(&(s.data.len() as u64).to_le_bytes())?;
-        out.write_all(&s.data)?;
-        out.write_all(&section_crc(&s.name, &s.data).to_le_bytes())?;
+    head.write_all(&(layout.sections.len() as u32).to_le_bytes())?;
+    let Summed {
+        inner: mut out,
+        crc,
+    } = head;
+    let mut at = out.stream_position()?;
+    let mut sections = Vec::with_capacity(layout.sections.len());
+    for (name, len) in &layout.sections {
+        let frame = frame(name, *len);
+        out.seek(io::SeekFrom::Start(at))?;
+        out.write_all(&frame)?;
+        sections.push(Placed {
+            name: name.clone(),
+            start: at + frame.len() as u64,
+            len: *len,
+            written: 0,
+            crc: crc32fast::Hasher::new(),
+        });
+        at += frame.len() as u64 + len + 4;
     }
-    let Summed { mut inner, crc } = out;
-    inner.write_all(&crc.finalize().to_le_bytes())?;
-    inner.write_all(END_MAGIC)?;
-    inner.flush()
+    Ok(PlacedSections {
+        out,
+        head: crc,
+        sections,
+        end: at,
+        error: None,
+    })
+}
+
+/// What precedes a section's bytes: its name (`str`) and its byte count.
+fn frame(name: &str, len: u64) -> Vec<u8> {
+    let mut frame = Vec::with_capacity(name.len() + 12);
+    frame.extend_from_slice(&(name.len() as u32).to_le_bytes());
+    frame.extend_from_slice(name.as_bytes());
+    frame.extend_from_slice(&len.to_le_bytes());
+    frame
 }
 
 /// Reads the fields of a checkpoint's body, never past its end.
@@ -292,16 +450,36 @@ pub fn partial_path(path: &Path) -> PathBuf {
 /// renamed to `path`; the folder synced. At every moment a complete checkpoint
 /// exists under `path` or `path.prev`.
 pub fn write_checkpoint(path: &Path, c: &Checkpoint) -> io::Result<()> {
+    write_checkpoint_in_blocks(path, c, &Layout::of(&c.state), |sink| {
+        append_sections(sink, &c.state)
+    })
+}
+
+/// [`write_checkpoint`] of a checkpoint whose state `fill` appends a block
+/// at a time to the sections of `layout` ([`encode_in_blocks`]): a state
+/// spread over ranks goes to its file without being held whole.
+pub fn write_checkpoint_in_blocks(
+    path: &Path,
+    c: &Checkpoint,
+    layout: &Layout,
+    fill: impl FnOnce(&mut dyn SectionSink),
+) -> io::Result<()> {
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
         _ => PathBuf::from("."),
     };
     let partial = partial_path(path);
+    // `fill` runs once whatever happens (it may pull from other ranks)
+    let mut fill = Some(fill);
     let written = std::fs::File::create(&partial).and_then(|file| {
         let mut out = io::BufWriter::with_capacity(1 << 20, file);
-        encode_to(c, &mut out)?;
+        let fill = fill.take().expect("filled once");
+        encode_in_blocks(&mut out, c, layout, fill)?;
         out.into_inner().map_err(|e| e.into_error())?.sync_all()
     });
+    if let Some(fill) = fill {
+        fill(&mut Discard);
+    }
     if let Err(e) = written {
         // a write cut short (a full disk) leaves nothing behind
         let _ = std::fs::remove_file(&partial);
@@ -336,6 +514,45 @@ mod tests {
         let c = sample();
         let back = decode(Path::new("c"), &encode(&c)).unwrap();
         assert_eq!(back, c);
+    }
+
+    /// Sections filled a block at a time, interleaved, give the bytes of
+    /// the whole state encoded at once; a section given fewer or more bytes
+    /// than its layout declared is an error.
+    #[test]
+    fn sections_written_in_blocks_are_the_whole_states_bytes() {
+        let mut c = sample();
+        c.state.put_f64s("v", (0..1000).map(|k| 0.1 * k as f64));
+        c.state.put_u64s("empty", []);
+        let whole = encode(&c);
+        let layout = Layout::of(&c.state);
+        let fill = |sink: &mut dyn SectionSink, short: bool| {
+            let data: Vec<&[u8]> = c.state.sections.iter().map(|s| &s.data[..]).collect();
+            // the sections' bytes in blocks of 24, round robin
+            let mut at = vec![0; data.len()];
+            while at.iter().zip(&data).any(|(a, d)| a < &d.len()) {
+                for (k, d) in data.iter().enumerate() {
+                    let end = (at[k] + 24).min(d.len());
+                    // short: section 'v' without its last block
+                    if !(short && end == d.len() && k == 2) {
+                        sink.append(k, &d[at[k]..end]);
+                    }
+                    at[k] = end;
+                }
+            }
+        };
+        let mut out = io::Cursor::new(Vec::new());
+        encode_in_blocks(&mut out, &c, &layout, |sink| fill(sink, false)).unwrap();
+        assert_eq!(out.into_inner(), whole);
+        let mut out = io::Cursor::new(Vec::new());
+        let short = encode_in_blocks(&mut out, &c, &layout, |sink| fill(sink, true));
+        assert!(short.unwrap_err().to_string().contains("section 'v' got"));
+        let mut out = io::Cursor::new(Vec::new());
+        let long = encode_in_blocks(&mut out, &c, &layout, |sink| {
+            fill(sink, false);
+            sink.append(0, &[0; 8]);
+        });
+        assert!(long.unwrap_err().to_string().contains("more than its"));
     }
 
     #[test]

@@ -26,17 +26,18 @@
 //! ```
 
 use crate::error::{SimError, SimResult};
-use crate::hosted::Hosted;
+use crate::hosted::{FileState, Hosted};
 use crate::observers::{write_field_csv, write_frame, DumpFormat, Observer, Recorded};
 use crate::ranks::Ranks;
 use crate::scenario::keys::CheckpointKeys;
 use cellist::models::{check, Blowup, Model};
 use cellist::state::State;
 use cellist::Threads;
-use cellist_io::checkpoint::{read_checkpoint, write_checkpoint, Checkpoint};
+use cellist_io::checkpoint::{
+    read_checkpoint, write_checkpoint, write_checkpoint_in_blocks, Checkpoint,
+};
 use cellist_io::AtomicFile;
 use indicatif::ProgressBar;
-use std::borrow::Cow;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
@@ -488,21 +489,15 @@ impl<M: Hosted> Job<M> {
     }
 
     /// Writes `good` to `file`, with the state the model puts in files
-    /// ([`Hosted::file_state`]: `good`'s, or a spread model's global one).
+    /// ([`Hosted::file_state`]: `good`'s, or a spread model's global one,
+    /// written a block at a time).
     fn write_checkpoint(&self, file: &Path, good: &Checkpoint) -> SimResult {
         let path = self.dir.join(file);
         let written = match self.model.file_state(&good.state) {
-            Cow::Borrowed(_) => write_checkpoint(&path, good),
-            Cow::Owned(state) => write_checkpoint(
-                &path,
-                &Checkpoint {
-                    model: good.model.clone(),
-                    step: good.step,
-                    physics: good.physics.clone(),
-                    outputs: good.outputs.clone(),
-                    state,
-                },
-            ),
+            FileState::Saved(_) => write_checkpoint(&path, good),
+            FileState::Spread(layout, fill) => {
+                write_checkpoint_in_blocks(&path, good, &layout, fill)
+            }
         };
         written.map_err(SimError::output(path.display().to_string()))
     }

@@ -5,10 +5,23 @@
 //! models under `distributed/`) implements it for its model.
 
 use cellist::models::Model;
-use cellist::state::State;
+use cellist::state::{Layout, SectionSink, State};
 use cellist::Threads;
-use std::borrow::Cow;
 use std::time::Duration;
+
+/// What a checkpoint file holds of a model's state ([`Hosted::file_state`]).
+pub enum FileState<'a> {
+    /// The state just saved or restored, as it is.
+    Saved(&'a State),
+    /// A state spread over ranks, written on rank 0 without being held
+    /// whole: its sections' layout, and what appends their bytes a block of
+    /// particles at a time (pulling them from the ranks, in id order). It
+    /// is called once, even when the file cannot be written.
+    Spread(Layout, FillSections<'a>),
+}
+
+/// What appends a spread state's sections' bytes ([`FileState::Spread`]).
+pub type FillSections<'a> = Box<dyn FnOnce(&mut dyn SectionSink) + 'a>;
 
 /// What one rank of a distributed run measures of the distribution: the
 /// MPI figures of the run's `summary.json`.
@@ -79,11 +92,11 @@ pub trait Hosted: Model {
 
     /// The state a checkpoint file holds, given `saved`, the state this
     /// model has just saved or restored: `saved` itself, except for a model
-    /// spread over ranks, whose rank 0 puts together the global state of
-    /// every rank's part (the other ranks serving it,
+    /// spread over ranks, whose rank 0 writes the global state of every
+    /// rank's part a block at a time (the other ranks serving it,
     /// [`Hosted::serve_outputs`]).
-    fn file_state<'a>(&self, saved: &'a State) -> Cow<'a, State> {
-        Cow::Borrowed(saved)
+    fn file_state<'a>(&'a self, saved: &'a State) -> FileState<'a> {
+        FileState::Saved(saved)
     }
 
     /// Replaces the per-particle array `name` ("positions", "velocities") by

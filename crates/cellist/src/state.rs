@@ -34,37 +34,132 @@ impl fmt::Display for StateError {
 
 impl std::error::Error for StateError {}
 
-/// A section's numbers added a block at a time, in the layout of
-/// [`State::put_u64s`], [`State::put_f64s`] and [`State::put_vectors`]: the
-/// same bytes as one call with all of them.
-#[derive(Clone, Debug, Default)]
-pub struct SectionBuilder {
-    data: Vec<u8>,
+/// The sections a state will hold, in order: each one's name and byte
+/// count, known before any of its bytes (a checkpoint file places each
+/// section from it and fills the sections a block of particles at a time).
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Layout {
+    /// `(name, bytes)` per section.
+    pub sections: Vec<(String, u64)>,
 }
 
-impl SectionBuilder {
-    /// An empty section with room for `values` numbers.
-    pub fn with_capacity(values: usize) -> Self {
-        SectionBuilder {
-            data: Vec::with_capacity(8 * values),
-        }
+impl Layout {
+    /// Adds a section of `values` numbers of 8 bytes; returns its index.
+    pub fn add(&mut self, name: &str, values: usize) -> usize {
+        self.sections.push((name.to_string(), 8 * values as u64));
+        self.sections.len() - 1
     }
 
-    /// Appends unsigned integers.
-    pub fn push_u64s(&mut self, values: impl IntoIterator<Item = u64>) {
+    /// The layout of `state` as it is.
+    pub fn of(state: &State) -> Self {
+        Layout {
+            sections: state
+                .sections
+                .iter()
+                .map(|s| (s.name.clone(), s.data.len() as u64))
+                .collect(),
+        }
+    }
+}
+
+/// Where the sections of a [`Layout`] go as they are made: each section's
+/// bytes appended in order, a block at a time, the sections in any
+/// interleaving (a state in memory, [`StateBuilder`], or a checkpoint file).
+pub trait SectionSink {
+    /// Appends `bytes` to section `section` of the layout.
+    fn append(&mut self, section: usize, bytes: &[u8]);
+}
+
+/// The bytes [`SectionWriter`] encodes before it hands them on.
+const WRITER_CHUNK: usize = 1 << 16;
+
+/// Encodes numbers into a [`SectionSink`] through a buffer of at most
+/// 64 KiB, kept from block to block (a section of many
+/// numbers arrives in several appends, never copied whole).
+#[derive(Debug, Default)]
+pub struct SectionWriter {
+    buffer: Vec<u8>,
+}
+
+impl SectionWriter {
+    /// Appends unsigned integers to section `section` of `sink`.
+    pub fn u64s(
+        &mut self,
+        sink: &mut dyn SectionSink,
+        section: usize,
+        values: impl IntoIterator<Item = u64>,
+    ) {
+        self.buffer.clear();
         for v in values {
-            self.data.extend_from_slice(&v.to_le_bytes());
+            self.buffer.extend_from_slice(&v.to_le_bytes());
+            if self.buffer.len() == WRITER_CHUNK {
+                sink.append(section, &self.buffer);
+                self.buffer.clear();
+            }
+        }
+        if !self.buffer.is_empty() {
+            sink.append(section, &self.buffer);
         }
     }
 
-    /// Appends floats as their IEEE-754 bit patterns.
-    pub fn push_f64s(&mut self, values: impl IntoIterator<Item = f64>) {
-        self.push_u64s(values.into_iter().map(f64::to_bits));
+    /// Appends floats by their bit patterns.
+    pub fn f64s(
+        &mut self,
+        sink: &mut dyn SectionSink,
+        section: usize,
+        values: impl IntoIterator<Item = f64>,
+    ) {
+        self.u64s(sink, section, values.into_iter().map(f64::to_bits));
     }
 
-    /// Appends fixed-size vectors component by component.
-    pub fn push_vectors<const D: usize>(&mut self, values: &[[f64; D]]) {
-        self.push_f64s(values.as_flattened().iter().copied());
+    /// Appends vectors component by component.
+    pub fn vectors<const D: usize>(
+        &mut self,
+        sink: &mut dyn SectionSink,
+        section: usize,
+        values: &[[f64; D]],
+    ) {
+        self.f64s(sink, section, values.as_flattened().iter().copied());
+    }
+}
+
+/// A state in memory filled through [`SectionSink`]: the sections of its
+/// layout, each with room for its bytes.
+#[derive(Debug)]
+pub struct StateBuilder {
+    layout: Layout,
+    data: Vec<Vec<u8>>,
+}
+
+impl StateBuilder {
+    /// Empty sections of `layout`.
+    pub fn new(layout: Layout) -> Self {
+        let data = layout
+            .sections
+            .iter()
+            .map(|(_, bytes)| Vec::with_capacity(*bytes as usize))
+            .collect();
+        StateBuilder { layout, data }
+    }
+
+    /// Adds the sections to `state`; each must hold the bytes its layout
+    /// declared.
+    pub fn finish(self, state: &mut State) {
+        for ((name, bytes), data) in self.layout.sections.into_iter().zip(self.data) {
+            assert_eq!(
+                data.len() as u64,
+                bytes,
+                "section {name} got {} bytes of {bytes}",
+                data.len()
+            );
+            state.push(&name, data);
+        }
+    }
+}
+
+impl SectionSink for StateBuilder {
+    fn append(&mut self, section: usize, bytes: &[u8]) {
+        self.data[section].extend_from_slice(bytes);
     }
 }
 
@@ -94,14 +189,11 @@ impl State {
     /// knows its length, not grown by doubling).
     pub fn put_u64s(&mut self, name: &str, values: impl IntoIterator<Item = u64>) {
         let values = values.into_iter();
-        let mut section = SectionBuilder::with_capacity(values.size_hint().0);
-        section.push_u64s(values);
-        self.put_section(name, section);
-    }
-
-    /// Adds a section built a piece at a time.
-    pub fn put_section(&mut self, name: &str, section: SectionBuilder) {
-        self.push(name, section.data);
+        let mut data = Vec::with_capacity(8 * values.size_hint().0);
+        for v in values {
+            data.extend_from_slice(&v.to_le_bytes());
+        }
+        self.push(name, data);
     }
 
     /// The bytes of section `name`, whose size must be a multiple of `width`.
@@ -210,6 +302,36 @@ mod tests {
         );
         assert_eq!(s.vectors::<2>("x", 2).unwrap(), [[1.0, 2.0], [3.0, 4.5]]);
         assert_eq!(s.u64s_of("ids", 2).unwrap(), [7, u64::MAX]);
+    }
+
+    /// Sections written through a sink in blocks (each larger than the
+    /// writer's chunk, in any interleaving) hold the bytes of `put_*` with
+    /// all the numbers at once.
+    #[test]
+    fn sections_written_in_blocks_are_put_whole() {
+        let n = 20_000;
+        let x: Vec<f64> = (0..n).map(|k| (k as f64).sqrt()).collect();
+        let v: Vec<[f64; 3]> = (0..n)
+            .map(|k| [k as f64, -0.5, 1.0 / (k + 1) as f64])
+            .collect();
+        let mut whole = State::default();
+        whole.put_f64s("x", x.iter().copied());
+        whole.put_vectors("v", &v);
+        whole.put_u64s("one", [7]);
+        let mut layout = Layout::default();
+        let sections = [("x", n), ("v", 3 * n), ("one", 1)].map(|(name, k)| layout.add(name, k));
+        assert_eq!(layout, Layout::of(&whole));
+        let mut builder = StateBuilder::new(layout);
+        let mut writer = SectionWriter::default();
+        for start in (0..n).step_by(9000) {
+            let end = n.min(start + 9000);
+            writer.vectors(&mut builder, sections[1], &v[start..end]);
+            writer.f64s(&mut builder, sections[0], x[start..end].iter().copied());
+        }
+        writer.u64s(&mut builder, sections[2], [7]);
+        let mut blocks = State::default();
+        builder.finish(&mut blocks);
+        assert_eq!(blocks, whole);
     }
 
     #[test]

@@ -43,7 +43,7 @@ use super::parts::{imbalance, Figures};
 use super::pull::{self, IdSpan, OwnRows};
 use super::ring::{blocks, RingGravity};
 use super::{agree, agree_blowup, is_own_part, mark_part};
-use crate::hosted::{Distribution, Hosted};
+use crate::hosted::{Distribution, FileState, Hosted};
 use cellist::interactions::GravityLaw;
 use cellist::longrange::Exchange;
 use cellist::longrange::{
@@ -57,12 +57,11 @@ use cellist::models::gravity::{
 use cellist::models::{
     whole_frame, Blowup, Checked, Ids, Model, ModelInfo, ParticleBlock, Particles,
 };
-use cellist::state::{State, StateError};
+use cellist::state::{Layout, State, StateError};
 use cellist::Threads;
 use mpi::collective::SystemOperation;
 use mpi::topology::SimpleCommunicator;
 use mpi::traits::*;
-use std::borrow::Cow;
 use std::ops::{ControlFlow, Range};
 use std::time::{Duration, Instant};
 
@@ -573,21 +572,26 @@ impl Hosted for DistributedGravity {
 
     /// On rank 0 the global state in the single-process layout
     /// ([`save_bodies`]), pulled from every rank's current bodies (the state
-    /// just saved or restored) a block at a time into its sections
-    /// ([`SavedBodies`]), so that it is held once. The other ranks' `saved`.
-    fn file_state<'a>(&self, saved: &'a State) -> Cow<'a, State> {
+    /// just saved or restored) a block at a time and written as it comes
+    /// ([`SavedBodies`]), so that it is never held whole. The other ranks'
+    /// `saved`.
+    fn file_state<'a>(&'a self, saved: &'a State) -> FileState<'a> {
         if self.world.rank() != 0 {
-            return Cow::Borrowed(saved);
+            return FileState::Saved(saved);
         }
-        let mut saved = SavedBodies::with_capacity(self.total);
-        self.blocks(|_, rows| {
-            let (bodies, acc, phi) = bodies_of(rows);
-            saved.push(&bodies, (&acc, &phi));
-            true
-        });
-        let mut state = State::default();
-        saved.finish(&mut state, self.e0);
-        Cow::Owned(state)
+        let mut layout = Layout::default();
+        let mut bodies = SavedBodies::new(self.total, &mut layout);
+        FileState::Spread(
+            layout,
+            Box::new(move |sink| {
+                self.blocks(|_, rows| {
+                    let (block, acc, phi) = bodies_of(rows);
+                    bodies.push(sink, &block, (&acc, &phi));
+                    true
+                });
+                bodies.finish(sink, self.e0);
+            }),
+        )
     }
 
     /// This rank's communication time, the balance of the blocks (fixed:

@@ -40,7 +40,7 @@
 
 use super::pull::{self, IdSpan, OwnRows as _};
 use super::{agree, agree_blowup, is_own_part, mark_part, migrate, GhostPlan};
-use crate::hosted::{Distribution, Hosted};
+use crate::hosted::{Distribution, FileState, Hosted};
 use cellist::decomposition::{Balance, Decomposition, REBALANCE_ABOVE};
 use cellist::geometry::Domain;
 use cellist::interactions::{LennardJones, PairPotential};
@@ -53,13 +53,12 @@ use cellist::models::{
     check, md, whole_frame, Blowup, Checked, Model, ModelInfo, ParticleBlock, Particles,
 };
 use cellist::neighbors::{CellGrid, OrderedRows, Rebuild, RebuildRule};
-use cellist::state::{State, StateError};
+use cellist::state::{Layout, State, StateError};
 use cellist::threads::counting_sort;
 use cellist::Threads;
 use mpi::collective::SystemOperation;
 use mpi::topology::SimpleCommunicator;
 use mpi::traits::*;
-use std::borrow::Cow;
 use std::cell::OnceCell;
 use std::ops::ControlFlow;
 use std::time::{Duration, Instant};
@@ -927,20 +926,25 @@ impl<const D: usize> Hosted for DistributedMd<D> {
 
     /// On rank 0 the global state sorted by id in the single-process layout
     /// ([`save_atoms`]), pulled from every rank's current atoms (the state
-    /// just saved or restored); a distributed checkpoint restarts in one
-    /// process or on any number of ranks. The other ranks' `saved`.
-    fn file_state<'a>(&self, saved: &'a State) -> Cow<'a, State> {
+    /// just saved or restored) a block at a time and written as it comes;
+    /// a distributed checkpoint restarts in one process or on any number of
+    /// ranks. The other ranks' `saved`.
+    fn file_state<'a>(&'a self, saved: &'a State) -> FileState<'a> {
         if self.world.rank() != 0 {
-            return Cow::Borrowed(saved);
+            return FileState::Saved(saved);
         }
-        let mut global = SavedAtoms::with_capacity(self.total);
-        self.blocks(|g| {
-            global.push(&g.atoms, &g.reference);
-            true
-        });
-        let mut state = State::default();
-        global.finish(&mut state, self.counts);
-        Cow::Owned(state)
+        let mut layout = Layout::default();
+        let mut atoms = SavedAtoms::<D>::new(self.total, &mut layout);
+        FileState::Spread(
+            layout,
+            Box::new(move |sink| {
+                self.blocks(|g| {
+                    atoms.push(sink, &g.atoms, &g.reference);
+                    true
+                });
+                atoms.finish(sink, self.counts);
+            }),
+        )
     }
 
     /// This rank's communication time, the mean load imbalance and the atom

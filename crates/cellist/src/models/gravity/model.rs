@@ -2,7 +2,7 @@
 
 use super::{Bodies, GravitySystem, Integrator, Observables};
 use crate::models::{Blowup, Checked, CheckedArray, Ids, Model, ModelInfo, Particles};
-use crate::state::{SectionBuilder, State, StateError};
+use crate::state::{Layout, SectionSink, SectionWriter, State, StateBuilder, StateError};
 use crate::threads::Threads;
 use std::time::{Duration, Instant};
 
@@ -194,50 +194,62 @@ pub fn body_particles(
 /// `field` and the energy `e0` of step 0 into `state` (a checkpoint's
 /// layout: `mass`, `position`, `velocity`, `acceleration`, `potential`, `e0`).
 pub fn save_bodies(state: &mut State, bodies: &Bodies, field: (&[[f64; 3]], &[f64]), e0: f64) {
-    let mut saved = SavedBodies::with_capacity(bodies.len());
-    saved.push(bodies, field);
-    saved.finish(state, e0);
+    let mut layout = Layout::default();
+    let mut saved = SavedBodies::new(bodies.len(), &mut layout);
+    let mut sections = StateBuilder::new(layout);
+    saved.push(&mut sections, bodies, field);
+    saved.finish(&mut sections, e0);
+    sections.finish(state);
 }
 
-/// The sections of [`save_bodies`] put together a block of bodies at a time
-/// (in order), so that a state gathered from parts is held once.
+/// The sections of [`save_bodies`] written a block of bodies at a time (in
+/// order) into a [`SectionSink`]: the same bytes as one call with all of
+/// them, so that a state gathered from parts goes to its file without being
+/// held whole.
 pub struct SavedBodies {
-    mass: SectionBuilder,
-    position: SectionBuilder,
-    velocity: SectionBuilder,
-    acceleration: SectionBuilder,
-    potential: SectionBuilder,
+    /// The sections' indices in the layout: `mass`, `position`, `velocity`,
+    /// `acceleration`, `potential`, `e0`.
+    sections: [usize; 6],
+    writer: SectionWriter,
 }
 
 impl SavedBodies {
-    /// Empty sections with room for `n` bodies.
-    pub fn with_capacity(n: usize) -> Self {
+    /// The sections of `n` bodies, added to `layout`.
+    pub fn new(n: usize, layout: &mut Layout) -> Self {
+        let sections = [
+            ("mass", n),
+            ("position", 3 * n),
+            ("velocity", 3 * n),
+            ("acceleration", 3 * n),
+            ("potential", n),
+            ("e0", 1),
+        ]
+        .map(|(name, values)| layout.add(name, values));
         SavedBodies {
-            mass: SectionBuilder::with_capacity(n),
-            position: SectionBuilder::with_capacity(3 * n),
-            velocity: SectionBuilder::with_capacity(3 * n),
-            acceleration: SectionBuilder::with_capacity(3 * n),
-            potential: SectionBuilder::with_capacity(n),
+            sections,
+            writer: SectionWriter::default(),
         }
     }
 
     /// Appends `bodies` with their accelerations and potentials `field`.
-    pub fn push(&mut self, bodies: &Bodies, field: (&[[f64; 3]], &[f64])) {
-        self.mass.push_f64s(bodies.mass.iter().copied());
-        self.position.push_vectors(&bodies.position);
-        self.velocity.push_vectors(&bodies.velocity);
-        self.acceleration.push_vectors(field.0);
-        self.potential.push_f64s(field.1.iter().copied());
+    pub fn push(
+        &mut self,
+        sink: &mut dyn SectionSink,
+        bodies: &Bodies,
+        field: (&[[f64; 3]], &[f64]),
+    ) {
+        let [mass, position, velocity, acceleration, potential, _] = self.sections;
+        let w = &mut self.writer;
+        w.f64s(sink, mass, bodies.mass.iter().copied());
+        w.vectors(sink, position, &bodies.position);
+        w.vectors(sink, velocity, &bodies.velocity);
+        w.vectors(sink, acceleration, field.0);
+        w.f64s(sink, potential, field.1.iter().copied());
     }
 
-    /// Puts the sections into `state`, with the energy `e0` of step 0.
-    pub fn finish(self, state: &mut State, e0: f64) {
-        state.put_section("mass", self.mass);
-        state.put_section("position", self.position);
-        state.put_section("velocity", self.velocity);
-        state.put_section("acceleration", self.acceleration);
-        state.put_section("potential", self.potential);
-        state.put_f64s("e0", [e0]);
+    /// Appends the energy `e0` of step 0, after the last bodies.
+    pub fn finish(&mut self, sink: &mut dyn SectionSink, e0: f64) {
+        self.writer.f64s(sink, self.sections[5], [e0]);
     }
 }
 
@@ -259,4 +271,42 @@ pub fn load_bodies(
         state.f64s_of("potential", n)?,
         state.f64("e0")?,
     ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Bodies saved a block at a time give the bytes of one call with all
+    /// of them, and load back as they were.
+    #[test]
+    fn bodies_saved_in_blocks_are_the_whole_state() {
+        let n = 23;
+        let bodies = Bodies {
+            mass: (0..n).map(|k| 1.0 + k as f64).collect(),
+            position: (0..n).map(|k| [k as f64, -0.5, 0.25 * k as f64]).collect(),
+            velocity: (0..n).map(|k| [0.1, k as f64 * 0.3, -1.0]).collect(),
+        };
+        let acc: Vec<[f64; 3]> = (0..n).map(|k| [1.0 / (k + 1) as f64, 2.0, 3.0]).collect();
+        let phi: Vec<f64> = (0..n).map(|k| -(k as f64)).collect();
+        let mut whole = State::default();
+        save_bodies(&mut whole, &bodies, (&acc, &phi), -0.75);
+        let mut layout = Layout::default();
+        let mut saved = SavedBodies::new(n, &mut layout);
+        let mut sections = StateBuilder::new(layout);
+        for start in (0..n).step_by(5) {
+            let range = start..n.min(start + 5);
+            let field = (&acc[range.clone()], &phi[range.clone()]);
+            saved.push(&mut sections, &bodies.part(range), field);
+        }
+        saved.finish(&mut sections, -0.75);
+        let mut blocks = State::default();
+        sections.finish(&mut blocks);
+        assert_eq!(blocks, whole);
+        let (loaded, loaded_acc, loaded_phi, e0) = load_bodies(&blocks, n).unwrap();
+        assert_eq!(
+            (loaded, loaded_acc, loaded_phi, e0),
+            (bodies, acc, phi, -0.75)
+        );
+    }
 }

@@ -6,7 +6,7 @@ use crate::geometry::Domain;
 use crate::models::{
     Blowup, Checked, CheckedArray, Ids, Model, ModelInfo, ParticleBlock, Particles,
 };
-use crate::state::{SectionBuilder, State, StateError};
+use crate::state::{Layout, SectionSink, SectionWriter, State, StateBuilder, StateError};
 use crate::threads::Threads;
 use std::ops::ControlFlow;
 use std::time::Duration;
@@ -271,62 +271,69 @@ pub fn save_atoms<const D: usize>(
     reference: &[[f64; D]],
     counts: ListCounts,
 ) {
-    let mut saved = SavedAtoms::with_capacity(atoms.len());
-    saved.push(atoms, reference);
-    saved.finish(state, counts);
+    let mut layout = Layout::default();
+    let mut saved = SavedAtoms::<D>::new(atoms.len(), &mut layout);
+    let mut sections = StateBuilder::new(layout);
+    saved.push(&mut sections, atoms, reference);
+    saved.finish(&mut sections, counts);
+    sections.finish(state);
 }
 
-/// The state of [`save_atoms`] built a block of atoms at a time (a
-/// distributed run's atoms arriving in id order): the same bytes as one call
-/// with all of them.
-#[derive(Clone, Debug)]
+/// The state of [`save_atoms`] written a block of atoms at a time (a
+/// distributed run's atoms arriving in id order) into a [`SectionSink`]:
+/// the same bytes as one call with all of them.
+#[derive(Debug)]
 pub struct SavedAtoms<const D: usize> {
-    ids: SectionBuilder,
-    types: SectionBuilder,
-    masses: SectionBuilder,
-    positions: SectionBuilder,
-    velocities: SectionBuilder,
-    forces: SectionBuilder,
-    reference: SectionBuilder,
+    /// The sections' indices in the layout: `ids`, `types`, `masses`,
+    /// `positions`, `velocities`, `forces`, `list_reference`, `rebuilds`,
+    /// `list_counts`.
+    sections: [usize; 9],
+    writer: SectionWriter,
 }
 
 impl<const D: usize> SavedAtoms<D> {
-    /// No atoms yet, with room for `n`.
-    pub fn with_capacity(n: usize) -> Self {
-        let vectors = || SectionBuilder::with_capacity(n * D);
+    /// The sections of `n` atoms, added to `layout`.
+    pub fn new(n: usize, layout: &mut Layout) -> Self {
+        let sections = [
+            ("ids", n),
+            ("types", n),
+            ("masses", n),
+            ("positions", D * n),
+            ("velocities", D * n),
+            ("forces", D * n),
+            ("list_reference", D * n),
+            ("rebuilds", 1),
+            ("list_counts", 2),
+        ]
+        .map(|(name, values)| layout.add(name, values));
         SavedAtoms {
-            ids: SectionBuilder::with_capacity(n),
-            types: SectionBuilder::with_capacity(n),
-            masses: SectionBuilder::with_capacity(n),
-            positions: vectors(),
-            velocities: vectors(),
-            forces: vectors(),
-            reference: vectors(),
+            sections,
+            writer: SectionWriter::default(),
         }
     }
 
     /// Appends `atoms` and their positions at the last rebuild.
-    pub fn push(&mut self, atoms: &Atoms<D>, reference: &[[f64; D]]) {
-        self.ids.push_u64s(atoms.ids.iter().copied());
-        self.types.push_u64s(atoms.types.iter().map(|&t| t as u64));
-        self.masses.push_f64s(atoms.masses.iter().copied());
-        self.positions.push_vectors(&atoms.positions);
-        self.velocities.push_vectors(&atoms.velocities);
-        self.forces.push_vectors(&atoms.forces);
-        self.reference.push_vectors(reference);
+    pub fn push(&mut self, sink: &mut dyn SectionSink, atoms: &Atoms<D>, reference: &[[f64; D]]) {
+        let [ids, types, masses, positions, velocities, forces, list_reference, ..] = self.sections;
+        let w = &mut self.writer;
+        w.u64s(sink, ids, atoms.ids.iter().copied());
+        w.u64s(sink, types, atoms.types.iter().map(|&t| t as u64));
+        w.f64s(sink, masses, atoms.masses.iter().copied());
+        w.vectors(sink, positions, &atoms.positions);
+        w.vectors(sink, velocities, &atoms.velocities);
+        w.vectors(sink, forces, &atoms.forces);
+        w.vectors(sink, list_reference, reference);
     }
 
-    /// Puts the sections into `state`, with the list's counters.
-    pub fn finish(self, state: &mut State, counts: ListCounts) {
-        state.put_section("ids", self.ids);
-        state.put_section("types", self.types);
-        state.put_section("masses", self.masses);
-        state.put_section("positions", self.positions);
-        state.put_section("velocities", self.velocities);
-        state.put_section("forces", self.forces);
-        state.put_section("list_reference", self.reference);
-        state.put_u64s("rebuilds", [counts.rebuilds]);
-        state.put_u64s("list_counts", [counts.since_build, counts.late_builds]);
+    /// Appends the list's counters, after the last atoms.
+    pub fn finish(&mut self, sink: &mut dyn SectionSink, counts: ListCounts) {
+        let w = &mut self.writer;
+        w.u64s(sink, self.sections[7], [counts.rebuilds]);
+        w.u64s(
+            sink,
+            self.sections[8],
+            [counts.since_build, counts.late_builds],
+        );
     }
 }
 
@@ -394,13 +401,17 @@ mod tests {
         };
         let mut whole = State::default();
         save_atoms(&mut whole, &atoms, &reference, counts);
-        let mut saved = SavedAtoms::with_capacity(7);
+        let mut layout = Layout::default();
+        let mut saved = SavedAtoms::<2>::new(n, &mut layout);
+        let mut sections = StateBuilder::new(layout);
         for start in (0..n).step_by(7) {
             let slots: Vec<usize> = (start..n.min(start + 7)).collect();
-            saved.push(&atoms.select(&slots), &reference[start..n.min(start + 7)]);
+            let block = &reference[start..n.min(start + 7)];
+            saved.push(&mut sections, &atoms.select(&slots), block);
         }
+        saved.finish(&mut sections, counts);
         let mut blocks = State::default();
-        saved.finish(&mut blocks, counts);
+        sections.finish(&mut blocks);
         assert_eq!(blocks, whole);
         let (loaded, loaded_reference, loaded_counts) = load_atoms::<2>(&blocks, n).unwrap();
         assert_eq!(loaded, atoms);
