@@ -535,6 +535,11 @@ fn bad_input_is_refused_with_a_clear_message() {
             None,
             "missing.data: cannot read",
         ),
+        (
+            base.replace("model = \"md\"", "model = \"md\"\ndimension = 2"),
+            Some(GOOD_DATA.into()),
+            "a 2D system needs z = 0 and vz = 0 (is this a 3D data file? set dimension = 3)",
+        ),
     ];
     for (scenario, data, want) in cases {
         let dir = tempfile::tempdir().unwrap();

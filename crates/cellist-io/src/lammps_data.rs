@@ -1,11 +1,13 @@
 //! LAMMPS data files (`read_data`), atom style `atomic`, orthogonal boxes: the
 //! header (`N atoms`, `N atom types`, `lo hi xlo xhi` per axis) and the sections
-//! `Masses`, `Atoms` (`id type x y z [ix iy iz]`) and `Velocities` (`id vx vy vz`).
-//! Files ending in `.gz` are decompressed on the fly.
+//! `Masses`, `Atoms` (`id type x y z [ix iy iz]`) and `Velocities` (`id vx vy vz`,
+//! after `Atoms`, as LAMMPS requires). Files ending in `.gz` are decompressed on
+//! the fly. The file is read a line at a time: [`read_data_where`] keeps only
+//! the atoms a rank wants while it checks every line.
 
 use crate::error::{parse_finite, InputError};
 use std::collections::HashMap;
-use std::io::Read;
+use std::io::{BufRead, BufReader};
 use std::path::Path;
 
 /// One atom of the `Atoms` section.
@@ -32,34 +34,79 @@ pub struct DataFile {
     pub atom_types: u32,
     /// Mass per type (index `type - 1`), if the file has a `Masses` section.
     pub masses: Option<Vec<f64>>,
-    /// The atoms in file order.
+    /// The atoms in file order (those kept, [`read_data_where`]).
     pub atoms: Vec<DataAtom>,
     /// True when the file had a `Velocities` section.
     pub has_velocities: bool,
 }
 
-/// Reads a LAMMPS data file.
-pub fn read_data(path: &Path) -> Result<DataFile, InputError> {
-    let bytes =
-        std::fs::read(path).map_err(|e| InputError::file(path, format!("cannot read: {e}")))?;
-    decode_data(path, &bytes)
+/// What a reader of a data file does with the atoms as it reads them
+/// ([`read_data_where`]); a closure `FnMut(&DataAtom) -> bool` keeps what it
+/// accepts and ignores the velocities.
+pub trait AtomsWanted {
+    /// Whether to keep `atom` (every atom of the `Atoms` section in file
+    /// order, its velocity not yet read).
+    fn keep(&mut self, atom: &DataAtom) -> bool;
+    /// Sees the velocity `v` of atom `id`, kept or not, in the order of the
+    /// `Velocities` section.
+    fn velocity(&mut self, id: u64, v: [f64; 3]) {
+        let _ = (id, v);
+    }
+}
+
+impl<F: FnMut(&DataAtom) -> bool> AtomsWanted for F {
+    fn keep(&mut self, atom: &DataAtom) -> bool {
+        self(atom)
+    }
+}
+
+/// Reads a LAMMPS data file a line at a time, keeping in
+/// [`DataFile::atoms`] only the atoms `wanted` keeps; every line is checked
+/// (as [`parse_data`] checks a whole text), and the memory held is that of the kept
+/// atoms and of an index of every id.
+pub fn read_data_where(path: &Path, wanted: &mut dyn AtomsWanted) -> Result<DataFile, InputError> {
+    let file = std::fs::File::open(path)
+        .map_err(|e| InputError::file(path, format!("cannot read: {e}")))?;
+    if is_gzip(path) {
+        let text = BufReader::new(flate2::read::MultiGzDecoder::new(BufReader::new(file)));
+        parse_lines(path, text, None, wanted)
+    } else {
+        let size = file.metadata().ok().map(|m| m.len());
+        parse_lines(path, BufReader::new(file), size, wanted)
+    }
+}
+
+/// The box `(lo, hi)` of a data file's header, read without its sections.
+pub fn read_data_box(path: &Path) -> Result<([f64; 3], [f64; 3]), InputError> {
+    let file = std::fs::File::open(path)
+        .map_err(|e| InputError::file(path, format!("cannot read: {e}")))?;
+    let header = if is_gzip(path) {
+        let text = BufReader::new(flate2::read::MultiGzDecoder::new(BufReader::new(file)));
+        parse_header(&mut Lines::new(path, text))?
+    } else {
+        parse_header(&mut Lines::new(path, BufReader::new(file)))?
+    };
+    Ok((header.lo, header.hi))
+}
+
+/// Keeps every atom.
+fn every(_: &DataAtom) -> bool {
+    true
+}
+
+fn is_gzip(path: &Path) -> bool {
+    path.extension().is_some_and(|e| e == "gz")
 }
 
 /// Parses the bytes of a data file: gzip-compressed when `path` ends in `.gz`,
 /// otherwise UTF-8 text (`path` only names it in errors and tells the two apart).
 pub fn decode_data(path: &Path, bytes: &[u8]) -> Result<DataFile, InputError> {
-    let decompressed;
-    let text = if path.extension().is_some_and(|e| e == "gz") {
-        let mut text = String::new();
-        flate2::read::MultiGzDecoder::new(bytes)
-            .read_to_string(&mut text)
-            .map_err(|e| InputError::file(path, format!("cannot decompress: {e}")))?;
-        decompressed = text;
-        decompressed.as_str()
+    if is_gzip(path) {
+        let text = BufReader::new(flate2::read::MultiGzDecoder::new(bytes));
+        parse_lines(path, text, None, &mut every)
     } else {
-        std::str::from_utf8(bytes).map_err(|_| InputError::file(path, "not UTF-8 text"))?
-    };
-    parse_data(path, text)
+        parse_lines(path, bytes, Some(bytes.len() as u64), &mut every)
+    }
 }
 
 /// Sections with a fixed number of lines that cellist reads past (pair
@@ -68,15 +115,28 @@ const SKIPPED_SECTIONS: [&str; 2] = ["Pair Coeffs", "PairIJ Coeffs"];
 
 /// Parses the text of a data file (`path` only names it in errors).
 pub fn parse_data(path: &Path, text: &str) -> Result<DataFile, InputError> {
-    // header counts are not trusted for allocation beyond the file's length (Lines)
-    let mut lines = Lines::new(path, text);
-    lines.next_raw(); // the title line
+    parse_lines(path, text.as_bytes(), Some(text.len() as u64), &mut every)
+}
+
+/// What a data file's header says, and the line of the first section.
+struct Header {
+    atoms: usize,
+    atom_types: u32,
+    lo: [f64; 3],
+    hi: [f64; 3],
+    first_section: (usize, String),
+}
+
+/// Reads the title line and the header, up to the first section keyword.
+fn parse_header<R: BufRead>(lines: &mut Lines<'_, R>) -> Result<Header, InputError> {
+    let path = lines.path;
+    lines.next_raw()?; // the title line
     let mut atoms_count: Option<usize> = None;
     let mut atom_types: Option<u32> = None;
     let mut bounds: [Option<(f64, f64)>; 3] = [None; 3];
     // header: until the first section keyword
     let first_section = loop {
-        let Some((no, line)) = lines.next_content() else {
+        let Some((no, line)) = lines.next_content()? else {
             return Err(InputError::file(path, "no Atoms section"));
         };
         let words: Vec<&str> = line.split_whitespace().collect();
@@ -165,7 +225,7 @@ pub fn parse_data(path: &Path, text: &str) -> Result<DataFile, InputError> {
             }
         }
     };
-    let n =
+    let atoms =
         atoms_count.ok_or_else(|| InputError::file(path, "the header has no 'N atoms' line"))?;
     let atom_types = atom_types
         .ok_or_else(|| InputError::file(path, "the header has no 'N atom types' line"))?;
@@ -185,12 +245,47 @@ pub fn parse_data(path: &Path, text: &str) -> Result<DataFile, InputError> {
         hi[axis] = h;
     }
 
+    Ok(Header {
+        atoms,
+        atom_types,
+        lo,
+        hi,
+        first_section,
+    })
+}
+
+/// The fewest bytes of an `Atoms` line: `1 1 0 0 0` and its end.
+const LEAST_ATOM_LINE: u64 = 10;
+
+/// Marks an atom that is not kept.
+const NOT_KEPT: usize = usize::MAX;
+
+/// Parses a data file from its lines, keeping the atoms `wanted` keeps.
+/// `size`: the text's bytes when known, which bound the atoms it can hold
+/// (an atom's line takes at least [`LEAST_ATOM_LINE`] bytes) and so what is
+/// reserved for them (a header's count alone is not trusted).
+fn parse_lines<R: BufRead>(
+    path: &Path,
+    reader: R,
+    size: Option<u64>,
+    wanted: &mut dyn AtomsWanted,
+) -> Result<DataFile, InputError> {
+    let mut lines = Lines::new(path, reader);
+    let Header {
+        atoms: n,
+        atom_types,
+        lo,
+        hi,
+        first_section,
+    } = parse_header(&mut lines)?;
     let mut masses: Option<Vec<f64>> = None;
     let mut atoms: Option<Vec<DataAtom>> = None;
-    // the line of each atom, for messages about ids
+    // every atom of the Atoms section by its place there: its id's place,
+    // its line, where it is kept (NOT_KEPT: not), its velocity's line (0: none)
+    let mut places: HashMap<u64, usize> = HashMap::new();
     let mut atom_lines: Vec<usize> = Vec::new();
-    // the (line, id, velocity) entries of the Velocities section
-    let mut velocities: Option<Vec<(usize, u64, [f64; 3])>> = None;
+    let mut kept_at: Vec<usize> = Vec::new();
+    let mut has_velocities = false;
     let mut section = Some(first_section);
     while let Some((no, header)) = section.take() {
         let (name, hint) = match header.split_once('#') {
@@ -199,17 +294,23 @@ pub fn parse_data(path: &Path, text: &str) -> Result<DataFile, InputError> {
         };
         match name.as_str() {
             "Masses" => {
-                let entries = lines.entries(atom_types as usize, "Masses")?;
-                let mut m = vec![f64::NAN; atom_types as usize];
-                // the line that gave each type its mass (0: none yet)
-                let mut given = vec![0; atom_types as usize];
-                for (no, line) in entries {
+                // the file's lines first: a header's type count is not trusted
+                // for an allocation before they are there
+                let mut entries = Vec::new();
+                lines.each_entry(atom_types as usize, "Masses", |no, line| {
                     let f = fields(path, no, line, 2, 2, "type mass")?;
                     let t = parse_type(path, no, f[0], atom_types)?;
                     let mass = parse_finite(path, no, f[1], || "the mass".into())?;
                     if mass <= 0.0 {
                         return Err(InputError::at(path, no, format!("mass {mass} must be > 0")));
                     }
+                    entries.push((no, t, mass));
+                    Ok(())
+                })?;
+                let mut m = vec![f64::NAN; atom_types as usize];
+                // the line that gave each type its mass (0: none yet)
+                let mut given = vec![0; atom_types as usize];
+                for (no, t, mass) in entries {
                     let first = std::mem::replace(&mut given[t as usize - 1], no);
                     if first != 0 {
                         return Err(InputError::at(
@@ -230,9 +331,12 @@ pub fn parse_data(path: &Path, text: &str) -> Result<DataFile, InputError> {
                         format!("atom style '{hint}' is not supported; expected 'atomic' (id type x y z)"),
                     ));
                 }
-                let entries = lines.entries(n, "Atoms")?;
-                let mut list = Vec::with_capacity(entries.len());
-                for (no, line) in entries {
+                let mut list = Vec::new();
+                let room = size.map_or(0, |bytes| n.min((bytes / LEAST_ATOM_LINE) as usize));
+                places.reserve(room);
+                atom_lines.reserve(room);
+                kept_at.reserve(room);
+                lines.each_entry(n, "Atoms", |no, line| {
                     let f = fields(path, no, line, 5, 8, "id type x y z [ix iy iz]")?;
                     if f.len() != 5 && f.len() != 8 {
                         return Err(InputError::at(
@@ -277,20 +381,45 @@ pub fn parse_data(path: &Path, text: &str) -> Result<DataFile, InputError> {
                             }
                         }
                     }
-                    list.push(DataAtom {
+                    let atom = DataAtom {
                         id,
                         kind,
                         position,
                         velocity: [0.0; 3],
-                    });
+                    };
+                    if let Some(first) = places.insert(id, atom_lines.len()) {
+                        return Err(InputError::at(
+                            path,
+                            no,
+                            format!(
+                                "atom id {id} appears twice in the Atoms section (first on line {})",
+                                atom_lines[first]
+                            ),
+                        ));
+                    }
                     atom_lines.push(no);
-                }
+                    if wanted.keep(&atom) {
+                        kept_at.push(list.len());
+                        list.push(atom);
+                    } else {
+                        kept_at.push(NOT_KEPT);
+                    }
+                    Ok(())
+                })?;
                 atoms = Some(list);
             }
             "Velocities" => {
-                let entries = lines.entries(n, "Velocities")?;
-                let mut list = Vec::with_capacity(entries.len());
-                for (no, line) in entries {
+                let Some(list) = atoms.as_mut() else {
+                    return Err(InputError::at(
+                        path,
+                        no,
+                        "the Velocities section comes before the Atoms section; expected it after",
+                    ));
+                };
+                has_velocities = true;
+                // the line that gave each atom its velocity (0: none yet)
+                let mut seen = vec![0; atom_lines.len()];
+                lines.each_entry(n, "Velocities", |no, line| {
                     let f = fields(path, no, line, 4, 4, "id vx vy vz")?;
                     let id = parse_id(path, no, f[0])?;
                     let mut v = [0.0; 3];
@@ -298,9 +427,23 @@ pub fn parse_data(path: &Path, text: &str) -> Result<DataFile, InputError> {
                         v[a] =
                             parse_finite(path, no, f[1 + a], || ["vx", "vy", "vz"][a].to_string())?;
                     }
-                    list.push((no, id, v));
-                }
-                velocities = Some(list);
+                    let place = *places.get(&id).ok_or_else(|| {
+                        InputError::at(path, no, format!("the Velocities section names atom id {id}, which is not in the Atoms section"))
+                    })?;
+                    let first = std::mem::replace(&mut seen[place], no);
+                    if first != 0 {
+                        return Err(InputError::at(
+                            path,
+                            no,
+                            format!("atom id {id} appears twice in the Velocities section (first on line {first})"),
+                        ));
+                    }
+                    if kept_at[place] != NOT_KEPT {
+                        list[kept_at[place]].velocity = v;
+                    }
+                    wanted.velocity(id, v);
+                    Ok(())
+                })?;
             }
             s if SKIPPED_SECTIONS.contains(&s) => {
                 let count = if s == "PairIJ Coeffs" {
@@ -308,7 +451,7 @@ pub fn parse_data(path: &Path, text: &str) -> Result<DataFile, InputError> {
                 } else {
                     atom_types as usize
                 };
-                lines.entries(count, s)?;
+                lines.each_entry(count, s, |_, _| Ok(()))?;
             }
             _ => {
                 return Err(InputError::at(
@@ -320,7 +463,7 @@ pub fn parse_data(path: &Path, text: &str) -> Result<DataFile, InputError> {
                 ))
             }
         }
-        if let Some((no, line)) = lines.next_content() {
+        if let Some((no, line)) = lines.next_content()? {
             if !is_section(line) {
                 return Err(InputError::at(
                     path,
@@ -333,39 +476,7 @@ pub fn parse_data(path: &Path, text: &str) -> Result<DataFile, InputError> {
             section = Some((no, line.to_string()));
         }
     }
-    let mut atoms = atoms.ok_or_else(|| InputError::file(path, "no Atoms section"))?;
-    let mut index: HashMap<u64, usize> = HashMap::with_capacity(atoms.len());
-    for (k, a) in atoms.iter().enumerate() {
-        if let Some(first) = index.insert(a.id, k) {
-            return Err(InputError::at(
-                path,
-                atom_lines[k],
-                format!(
-                    "atom id {} appears twice in the Atoms section (first on line {})",
-                    a.id, atom_lines[first]
-                ),
-            ));
-        }
-    }
-    let has_velocities = velocities.is_some();
-    if let Some(list) = velocities {
-        // the line that gave each atom its velocity (0: none yet)
-        let mut seen = vec![0; atoms.len()];
-        for (no, id, v) in list {
-            let k = *index.get(&id).ok_or_else(|| {
-                InputError::at(path, no, format!("the Velocities section names atom id {id}, which is not in the Atoms section"))
-            })?;
-            let first = std::mem::replace(&mut seen[k], no);
-            if first != 0 {
-                return Err(InputError::at(
-                    path,
-                    no,
-                    format!("atom id {id} appears twice in the Velocities section (first on line {first})"),
-                ));
-            }
-            atoms[k].velocity = v;
-        }
-    }
+    let atoms = atoms.ok_or_else(|| InputError::file(path, "no Atoms section"))?;
     Ok(DataFile {
         lo,
         hi,
@@ -374,6 +485,16 @@ pub fn parse_data(path: &Path, text: &str) -> Result<DataFile, InputError> {
         atoms,
         has_velocities,
     })
+}
+
+/// A line's content: a section keyword with its `# style` hint, or the
+/// line without its comment; `None` when that is blank.
+fn content(line: &str) -> Option<&str> {
+    let trimmed = line.trim();
+    if is_section(trimmed) {
+        return Some(trimmed);
+    }
+    Some(trimmed.split('#').next().unwrap_or("").trim()).filter(|c| !c.is_empty())
 }
 
 fn is_section(line: &str) -> bool {
@@ -413,6 +534,8 @@ fn parse_type(path: &Path, no: usize, token: &str, atom_types: u32) -> Result<u3
     }
 }
 
+/// The whitespace-separated words of `line`, between `min` and `max` (at
+/// most [`MOST_FIELDS`]) of them, without an allocation per line.
 fn fields<'a>(
     path: &Path,
     no: usize,
@@ -420,82 +543,142 @@ fn fields<'a>(
     min: usize,
     max: usize,
     layout: &str,
-) -> Result<Vec<&'a str>, InputError> {
-    let f: Vec<&str> = line.split_whitespace().collect();
-    if f.len() < min || f.len() > max {
+) -> Result<Fields<'a>, InputError> {
+    debug_assert!(max <= MOST_FIELDS);
+    let mut f = Fields {
+        words: [""; MOST_FIELDS],
+        len: 0,
+    };
+    let mut count = 0;
+    for word in line.split_whitespace() {
+        if count < MOST_FIELDS {
+            f.words[count] = word;
+        }
+        count += 1;
+    }
+    if count < min || count > max {
         return Err(InputError::at(
             path,
             no,
-            format!("{} fields; expected '{layout}'", f.len()),
+            format!("{count} fields; expected '{layout}'"),
         ));
     }
+    f.len = count;
     Ok(f)
 }
 
-/// The lines of the file with their 1-based numbers, comments (`#`) removed.
-struct Lines<'a> {
-    path: &'a Path,
-    max_lines: usize,
-    inner: std::iter::Peekable<std::iter::Enumerate<std::str::Lines<'a>>>,
+/// The most words a line of a data file has (an atom with image flags).
+const MOST_FIELDS: usize = 8;
+
+/// A line's words ([`fields`]).
+struct Fields<'a> {
+    words: [&'a str; MOST_FIELDS],
+    len: usize,
 }
 
-impl<'a> Lines<'a> {
-    fn new(path: &'a Path, text: &'a str) -> Self {
+impl<'a> std::ops::Deref for Fields<'a> {
+    type Target = [&'a str];
+    fn deref(&self) -> &[&'a str] {
+        &self.words[..self.len]
+    }
+}
+
+/// The lines of the file with their 1-based numbers, comments (`#`) removed,
+/// read one at a time.
+struct Lines<'a, R> {
+    path: &'a Path,
+    reader: R,
+    number: usize,
+    /// The last line read (its bytes are reused for the next).
+    line: String,
+}
+
+impl<'a, R: BufRead> Lines<'a, R> {
+    fn new(path: &'a Path, reader: R) -> Self {
         Lines {
             path,
-            max_lines: text.lines().count(),
-            inner: text.lines().enumerate().peekable(),
+            reader,
+            number: 0,
+            line: String::new(),
         }
     }
 
-    fn next_raw(&mut self) -> Option<(usize, &'a str)> {
-        self.inner.next().map(|(k, l)| (k + 1, l))
+    /// Reads the next line into `self.line` (with its end); false at the
+    /// end of the file.
+    fn read(&mut self) -> Result<bool, InputError> {
+        let mut bytes = std::mem::take(&mut self.line).into_bytes();
+        bytes.clear();
+        let read = self.reader.read_until(b'\n', &mut bytes).map_err(|e| {
+            let what = if is_gzip(self.path) {
+                "cannot decompress"
+            } else {
+                "cannot read"
+            };
+            InputError::file(self.path, format!("{what}: {e}"))
+        })?;
+        self.line =
+            String::from_utf8(bytes).map_err(|_| InputError::file(self.path, "not UTF-8 text"))?;
+        self.number += usize::from(read > 0);
+        Ok(read > 0)
+    }
+
+    /// The next line without its end, `None` at the end of the file.
+    fn next_raw(&mut self) -> Result<Option<(usize, &str)>, InputError> {
+        if !self.read()? {
+            return Ok(None);
+        }
+        let line = self.line.strip_suffix('\n').unwrap_or(&self.line);
+        Ok(Some((self.number, line.strip_suffix('\r').unwrap_or(line))))
     }
 
     /// The next line that is not blank after removing a comment; section keywords
     /// keep their `# style` hint.
-    fn next_content(&mut self) -> Option<(usize, &'a str)> {
-        while let Some((no, line)) = self.next_raw() {
-            let trimmed = line.trim();
-            if is_section(trimmed) {
-                return Some((no, trimmed));
+    fn next_content(&mut self) -> Result<Option<(usize, &str)>, InputError> {
+        // where the content lies is found first and the line borrowed after
+        // (a borrow returned from inside the loop would hold `self` through
+        // the next reads)
+        let range = loop {
+            if !self.read()? {
+                return Ok(None);
             }
-            let content = trimmed.split('#').next().unwrap_or("").trim();
-            if !content.is_empty() {
-                return Some((no, content));
+            if let Some(c) = content(&self.line) {
+                let start = c.as_ptr() as usize - self.line.as_ptr() as usize;
+                break start..start + c.len();
             }
-        }
-        None
+        };
+        Ok(Some((self.number, &self.line[range])))
     }
 
-    /// The `count` entries of section `name`: non-blank lines after the keyword.
-    fn entries(&mut self, count: usize, name: &str) -> Result<Vec<(usize, &'a str)>, InputError> {
-        let mut out = Vec::with_capacity(count.min(self.max_lines));
-        while out.len() < count {
-            match self.next_content() {
+    /// Calls `entry` with each of the `count` entries of section `name`:
+    /// non-blank lines after the keyword.
+    fn each_entry(
+        &mut self,
+        count: usize,
+        name: &str,
+        mut entry: impl FnMut(usize, &str) -> Result<(), InputError>,
+    ) -> Result<(), InputError> {
+        let path = self.path;
+        for done in 0..count {
+            match self.next_content()? {
                 Some((no, line)) if is_section(line) => {
                     return Err(InputError::at(
-                        self.path,
+                        path,
                         no,
-                        format!(
-                            "section {name} has {} lines; the header says {count}",
-                            out.len()
-                        ),
+                        format!("section {name} has {done} lines; the header says {count}"),
                     ))
                 }
-                Some(entry) => out.push(entry),
+                Some((no, line)) => entry(no, line)?,
                 None => {
                     return Err(InputError::file(
-                        self.path,
+                        path,
                         format!(
-                            "the file ends inside section {name} after {} of {count} lines",
-                            out.len()
+                            "the file ends inside section {name} after {done} of {count} lines"
                         ),
                     ))
                 }
             }
         }
-        Ok(out)
+        Ok(())
     }
 }
 
@@ -517,6 +700,40 @@ mod tests {
         assert_eq!(d.atoms[1].velocity, [0.1, 0.2, 0.0]);
         assert_eq!(d.atoms[0].velocity, [-1.0, 1.0, 0.0]);
         assert!(d.has_velocities);
+    }
+
+    /// The atoms a predicate keeps, with their velocities; every line is
+    /// still checked (an error in an atom not kept, a velocity of an id not
+    /// kept given twice), and the velocities must follow the atoms.
+    #[test]
+    fn kept_atoms_are_read_and_the_rest_checked() {
+        let path = Path::new("t.data");
+        let mut seen = Vec::new();
+        let d = parse_lines(path, GOOD.as_bytes(), None, &mut |a: &DataAtom| {
+            seen.push(a.id);
+            a.id != 1
+        })
+        .unwrap();
+        assert_eq!(seen, [3, 1, 2]);
+        let kept: Vec<(u64, [f64; 3])> = d.atoms.iter().map(|a| (a.id, a.velocity)).collect();
+        assert_eq!(kept, [(3, [-1.0, 1.0, 0.0]), (2, [0.0, 0.0, 0.0])]);
+        let mut odd = |a: &DataAtom| a.id % 2 == 1;
+        let bad = GOOD.replace("2 1 5 6 0", "2 1 5 x 0");
+        let err = parse_lines(path, bad.as_bytes(), None, &mut odd).unwrap_err();
+        assert_eq!(err.to_string(), "t.data:19: y is 'x'; expected a number");
+        let twice = GOOD.replace("1 0.1 0.2 0", "2 0.1 0.2 0");
+        let err = parse_lines(path, twice.as_bytes(), None, &mut odd).unwrap_err();
+        assert_eq!(
+            err.to_string(),
+            "t.data:24: atom id 2 appears twice in the Velocities section (first on line 23)"
+        );
+        let (head, atoms) = GOOD.split_at(GOOD.find("Atoms").unwrap());
+        let (atoms, velocities) = atoms.split_at(atoms.find("Velocities").unwrap());
+        let swapped = format!("{head}{velocities}\n{atoms}");
+        let err = parse_lines(path, swapped.as_bytes(), None, &mut odd).unwrap_err();
+        assert!(err
+            .to_string()
+            .contains("the Velocities section comes before the Atoms section"));
     }
 
     #[test]

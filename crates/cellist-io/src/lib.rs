@@ -46,7 +46,9 @@ pub use field_csv::{
 };
 pub use field_picture::FieldPainter;
 pub use gsd::{write_hoomd_frame, GsdData, GsdWriter, HoomdFrame};
-pub use lammps_data::{decode_data, parse_data, read_data, DataAtom, DataFile};
+pub use lammps_data::{
+    decode_data, parse_data, read_data_box, read_data_where, AtomsWanted, DataAtom, DataFile,
+};
 pub use output::{format_g17, write_pairs, AtomicFile, StreamFile};
 pub use points::{read_points, BoxInfo, PointFile, Points};
 pub use vtk::{write_pvd, write_vtp};

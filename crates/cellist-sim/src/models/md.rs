@@ -21,7 +21,7 @@ use cellist::models::md::{
 use cellist::models::Model;
 use cellist::neighbors::RebuildRule;
 use cellist::Threads;
-use cellist_io::{read_data, DUMP_COLUMNS};
+use cellist_io::{read_data_box, read_data_where, AtomsWanted, DataAtom, DUMP_COLUMNS};
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -202,8 +202,9 @@ struct XyzKeys {
 enum Source<const D: usize> {
     /// A filled lattice of atoms of one mass, made where they are kept.
     Lattice(Lattice<D>, f64),
-    /// The atoms of a data file.
-    Atoms(Atoms<D>),
+    /// A data file, read where its atoms are kept, and `system.mass` (for a
+    /// file without a `Masses` section).
+    Data(PathBuf, Option<f64>),
 }
 
 /// The atoms a run starts from, made where they are needed: all of them in
@@ -215,24 +216,18 @@ struct Initial<const D: usize> {
 }
 
 impl<const D: usize> Initial<D> {
-    /// The atoms whose initial position `keep` accepts, in id order, with
-    /// the velocities of `system.velocity` created over every atom
-    /// ([`VelocityScaling`]: the same velocities whoever keeps which atom).
-    fn atoms_where(self, keep: impl Fn(&[f64; D]) -> bool) -> Atoms<D> {
+    /// The atoms whose initial position `keep` accepts (in id order, or a
+    /// data file's order), with the velocities of `system.velocity` created
+    /// over every atom ([`VelocityScaling`]: the same velocities whoever
+    /// keeps which atom). A data file is read a line at a time and checked
+    /// whole on every rank, which keeps only its atoms.
+    fn atoms_where(self, keep: impl Fn(&[f64; D]) -> bool) -> SimResult<Atoms<D>> {
         let (mut atoms, scaling) = match self.source {
-            Source::Atoms(atoms) => {
+            Source::Data(path, mass) => {
+                let (atoms, every) = from_data(&path, mass, keep, self.velocities.is_some())?;
                 let scaling = self.velocities.map(|(t, seed, dist)| {
-                    let every = || atoms.ids.iter().copied().zip(atoms.masses.iter().copied());
-                    VelocityScaling::over(every, t, seed, dist)
+                    VelocityScaling::over(|| every.iter().copied(), t, seed, dist)
                 });
-                let kept: Vec<usize> = (0..atoms.len())
-                    .filter(|&k| keep(&atoms.positions[k]))
-                    .collect();
-                let atoms = if kept.len() == atoms.len() {
-                    atoms
-                } else {
-                    atoms.select(&kept)
-                };
                 (atoms, scaling)
             }
             Source::Lattice(lattice, mass) => {
@@ -252,7 +247,7 @@ impl<const D: usize> Initial<D> {
                 *v = scaling.velocity(id);
             }
         }
-        atoms
+        Ok(atoms)
     }
 }
 
@@ -305,6 +300,7 @@ fn run_in<const D: usize, L: Launch>(
 ) -> SimResult<L::Output> {
     let threads = context.threads;
     let (setup, initial) = build::<D>(scenario, keys)?;
+    let in_scenario = in_scenario(scenario);
     let started = Instant::now();
     #[cfg(feature = "mpi")]
     if let Some(world) = crate::distributed::world_of_many() {
@@ -312,7 +308,9 @@ fn run_in<const D: usize, L: Launch>(
         let ranks = crate::ranks::Ranks::Spread(mpi::traits::Communicator::duplicate(&world));
         let spec = MdSpec {
             domain: setup.domain,
-            atoms: initial.atoms_where(share_at_set_up(&world, setup.domain)),
+            atoms: initial
+                .atoms_where(share_at_set_up(&world, setup.domain))
+                .map_err(in_scenario)?,
             potential: setup.potential,
             skin: setup.skin,
             rule: setup.rebuild,
@@ -331,7 +329,7 @@ fn run_in<const D: usize, L: Launch>(
         let job = job_spec(&setup, scenario, context)?.with(model).on(ranks);
         return launch.launch(job, &output_plan(&setup), context, started);
     }
-    let atoms = initial.atoms_where(|_| true);
+    let atoms = initial.atoms_where(|_| true).map_err(in_scenario)?;
     let mut system = MdSystem::new(setup.domain, atoms, setup.potential, setup.skin, threads)
         .map_err(|e| scenario.error(e))?;
     system.set_rebuild_rule(setup.rebuild);
@@ -424,12 +422,9 @@ fn build<const D: usize>(
         (Some(_), Some(_)) => return Err(err("system: give read_data or lattice, not both".into())),
         (None, None) => return Err(err("system: no initial state; give read_data = \"file.data\" or lattice = { kind, density, cells }".into())),
         (Some(path), None) => {
-            let (domain, atoms, z_bounds) = from_data::<D>(&scenario.input_path(path), sys.mass)
-                .map_err(|e| match e {
-                    SimError::Input(m) => err(m),
-                    other => other,
-                })?;
-            (domain, Source::Atoms(atoms), z_bounds)
+            let path = scenario.input_path(path);
+            let (domain, z_bounds) = data_box::<D>(&path).map_err(in_scenario(scenario))?;
+            (domain, Source::Data(path, sys.mass), z_bounds)
         }
         (None, Some(lat)) => {
             let kind = LatticeKind::from_name(&lat.kind).ok_or_else(|| {
@@ -582,12 +577,69 @@ fn build<const D: usize>(
     Ok((setup, Initial { source, velocities }))
 }
 
-/// The box and atoms of a LAMMPS data file (its z bounds kept for 2D dumps).
+/// An input error of the data file named as the scenario's (the other
+/// errors as they are).
+fn in_scenario(scenario: &Scenario) -> impl Fn(SimError) -> SimError + '_ {
+    move |e| match e {
+        SimError::Input(m) => scenario.error(m),
+        other => other,
+    }
+}
+
+/// The box of a LAMMPS data file's header and its z bounds (kept for 2D
+/// dumps).
+fn data_box<const D: usize>(path: &Path) -> SimResult<(Domain<D>, (f64, f64))> {
+    let (lo, hi) = read_data_box(path)?;
+    let length: [f64; D] = std::array::from_fn(|a| hi[a] - lo[a]);
+    let mut domain = Domain::periodic(length)
+        .map_err(|e| SimError::Input(format!("{}: {e}", path.display())))?;
+    domain.lo = std::array::from_fn(|a| lo[a]);
+    Ok((domain, (lo[2], hi[2])))
+}
+
+/// What md keeps of a data file as it is read: the atoms whose position
+/// `keep` accepts, every atom's `(id, type)` when `system.velocity` needs
+/// them all, and (2D) the first atom off the plane `z = 0`.
+struct Wanted<K, const D: usize> {
+    keep: K,
+    every: Option<Vec<(u64, u32)>>,
+    off_plane: Option<(u64, f64, f64)>,
+}
+
+impl<K: Fn(&[f64; D]) -> bool, const D: usize> AtomsWanted for Wanted<K, D> {
+    fn keep(&mut self, atom: &DataAtom) -> bool {
+        if let Some(every) = &mut self.every {
+            every.push((atom.id, atom.kind));
+        }
+        if D == 2 && atom.position[2] != 0.0 && self.off_plane.is_none() {
+            self.off_plane = Some((atom.id, atom.position[2], 0.0));
+        }
+        (self.keep)(&std::array::from_fn(|k| atom.position[k]))
+    }
+
+    fn velocity(&mut self, id: u64, v: [f64; 3]) {
+        match &mut self.off_plane {
+            Some((off, _, vz)) if *off == id => *vz = v[2],
+            None if D == 2 && v[2] != 0.0 => self.off_plane = Some((id, 0.0, v[2])),
+            _ => {}
+        }
+    }
+}
+
+/// The atoms of a LAMMPS data file whose position `keep` accepts (every
+/// line checked), and with `all` every atom's `(id, mass)` in file order.
 fn from_data<const D: usize>(
     path: &Path,
     mass: Option<f64>,
-) -> SimResult<(Domain<D>, Atoms<D>, (f64, f64))> {
-    let data = read_data(path)?;
+    keep: impl Fn(&[f64; D]) -> bool,
+    all: bool,
+) -> SimResult<(Atoms<D>, Vec<(u64, f64)>)> {
+    let mut wanted = Wanted {
+        keep,
+        every: all.then(Vec::new),
+        off_plane: None,
+    };
+    let data = read_data_where(path, &mut wanted)?;
     let masses = match (&data.masses, mass) {
         (Some(_), Some(_)) => {
             return Err(SimError::Input(format!(
@@ -614,25 +666,12 @@ fn from_data<const D: usize>(
             t + 1
         )));
     }
-    if D == 2 {
-        if let Some(a) = data
-            .atoms
-            .iter()
-            .find(|a| a.position[2] != 0.0 || a.velocity[2] != 0.0)
-        {
-            return Err(SimError::Input(format!(
-                "{}: atom {} has z = {} and vz = {}; a 2D system needs z = 0 and vz = 0 (is this a 3D data file? set dimension = 3)",
-                path.display(),
-                a.id,
-                a.position[2],
-                a.velocity[2]
-            )));
-        }
+    if let Some((id, z, vz)) = wanted.off_plane {
+        return Err(SimError::Input(format!(
+            "{}: atom {id} has z = {z} and vz = {vz}; a 2D system needs z = 0 and vz = 0 (is this a 3D data file? set dimension = 3)",
+            path.display(),
+        )));
     }
-    let length: [f64; D] = std::array::from_fn(|a| data.hi[a] - data.lo[a]);
-    let mut domain = Domain::periodic(length)
-        .map_err(|e| SimError::Input(format!("{}: {e}", path.display())))?;
-    domain.lo = std::array::from_fn(|a| data.lo[a]);
     let atoms = Atoms {
         ids: data.atoms.iter().map(|a| a.id).collect(),
         types: data.atoms.iter().map(|a| a.kind).collect(),
@@ -653,7 +692,12 @@ fn from_data<const D: usize>(
             .collect(),
         forces: vec![[0.0; D]; data.atoms.len()],
     };
-    Ok((domain, atoms, (data.lo[2], data.hi[2])))
+    let every = wanted.every.unwrap_or_default();
+    let every = every
+        .into_iter()
+        .map(|(id, kind)| (id, masses[kind as usize - 1]))
+        .collect();
+    Ok((atoms, every))
 }
 
 fn print_header<const D: usize>(setup: &Setup<D>, atoms: usize, context: &RunContext) {
