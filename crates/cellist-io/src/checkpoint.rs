@@ -104,20 +104,14 @@ fn append_sections(sink: &mut dyn SectionSink, state: &State) {
     }
 }
 
-/// A sink that drops what it is given: a fill that must run (it pulls from
-/// the ranks) when the file cannot be written.
-struct Discard;
-
-impl SectionSink for Discard {
-    fn append(&mut self, _: usize, _: &[u8]) {}
-}
-
 /// Where one section of a checkpoint being written lies and what it holds so far.
 struct Placed {
     name: String,
-    /// The offset of its first byte, and its byte count.
+    /// The offset of its first byte.
     start: u64,
+    /// Its byte count, as the layout declared it.
     len: u64,
+    /// The bytes appended so far.
     written: u64,
     /// The CRC-32 of its bytes so far.
     crc: crc32fast::Hasher,
@@ -132,21 +126,30 @@ struct PlacedSections<W> {
     head: crc32fast::Hasher,
     sections: Vec<Placed>,
     end: u64,
+    /// Where `out` stands (a write that follows the last one needs no seek,
+    /// which would empty a buffered writer's buffer).
+    at: u64,
     error: Option<io::Error>,
 }
 
 impl<W: Write + Seek> PlacedSections<W> {
     fn write_at(&mut self, section: usize, bytes: &[u8]) -> io::Result<()> {
-        let placed = &mut self.sections[section];
+        let count = self.sections.len();
+        let placed = self.sections.get_mut(section).ok_or_else(|| {
+            io::Error::other(format!("no section {section} in a layout of {count}"))
+        })?;
         if placed.written + bytes.len() as u64 > placed.len {
             return Err(io::Error::other(format!(
                 "section '{}' was given more than its {} bytes",
                 placed.name, placed.len
             )));
         }
-        self.out
-            .seek(io::SeekFrom::Start(placed.start + placed.written))?;
+        let to = placed.start + placed.written;
+        if to != self.at {
+            self.out.seek(io::SeekFrom::Start(to))?;
+        }
         self.out.write_all(bytes)?;
+        self.at = to + bytes.len() as u64;
         placed.written += bytes.len() as u64;
         placed.crc.update(bytes);
         Ok(())
@@ -159,9 +162,13 @@ impl<W: Write + Seek> SectionSink for PlacedSections<W> {
             self.error = self.write_at(section, bytes).err();
         }
     }
+
+    fn failed(&self) -> bool {
+        self.error.is_some()
+    }
 }
 
-/// Writes a checkpoint to `out` (from its start) with `c`'s step, model,
+/// Writes a checkpoint to an empty `out` with `c`'s step, model,
 /// physics keys and outputs, and a state of the sections `layout` declares,
 /// whose bytes `fill` appends a block at a time (each section's in order,
 /// the sections in any interleaving; `c.state` is not read): every section
@@ -175,13 +182,7 @@ pub fn encode_in_blocks<W: Write + Seek>(
     layout: &Layout,
     fill: impl FnOnce(&mut dyn SectionSink),
 ) -> io::Result<()> {
-    let mut placed = match place(out, c, layout) {
-        Ok(placed) => placed,
-        Err(e) => {
-            fill(&mut Discard);
-            return Err(e);
-        }
-    };
+    let mut placed = place(out, c, layout)?;
     fill(&mut placed);
     let PlacedSections {
         mut out,
@@ -189,6 +190,7 @@ pub fn encode_in_blocks<W: Write + Seek>(
         sections,
         end,
         error,
+        ..
     } = placed;
     if let Some(e) = error {
         return Err(e);
@@ -266,11 +268,13 @@ fn place<W: Write + Seek>(
         });
         at += frame.len() as u64 + len + 4;
     }
+    let position = out.stream_position()?;
     Ok(PlacedSections {
         out,
         head: crc,
         sections,
         end: at,
+        at: position,
         error: None,
     })
 }
@@ -469,17 +473,11 @@ pub fn write_checkpoint_in_blocks(
         _ => PathBuf::from("."),
     };
     let partial = partial_path(path);
-    // `fill` runs once whatever happens (it may pull from other ranks)
-    let mut fill = Some(fill);
     let written = std::fs::File::create(&partial).and_then(|file| {
-        let mut out = io::BufWriter::with_capacity(1 << 20, file);
-        let fill = fill.take().expect("filled once");
+        let mut out = io::BufWriter::with_capacity(1 << 16, file);
         encode_in_blocks(&mut out, c, layout, fill)?;
         out.into_inner().map_err(|e| e.into_error())?.sync_all()
     });
-    if let Some(fill) = fill {
-        fill(&mut Discard);
-    }
     if let Err(e) = written {
         // a write cut short (a full disk) leaves nothing behind
         let _ = std::fs::remove_file(&partial);
@@ -607,6 +605,37 @@ mod tests {
         assert_eq!(read_checkpoint(&path).unwrap().step, 43);
         assert_eq!(read_checkpoint(&previous_path(&path)).unwrap().step, 42);
         assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 2);
+    }
+
+    /// A checkpoint in blocks that cannot be written leaves the previous one
+    /// as it was and no partial file: a short section, an append past the
+    /// layout (the sink then says it failed), a folder that does not exist
+    /// (nothing to fill).
+    #[test]
+    fn a_failed_write_in_blocks_keeps_the_previous_checkpoint() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("state.ckpt");
+        let c = sample();
+        write_checkpoint(&path, &c).unwrap();
+        let layout = Layout::of(&c.state);
+        let short = write_checkpoint_in_blocks(&path, &c, &layout, |sink| {
+            sink.append(0, &c.state.sections[0].data[..8]);
+        });
+        assert!(short
+            .unwrap_err()
+            .to_string()
+            .contains("section 'x' got 8 of its 24 bytes"));
+        let past = write_checkpoint_in_blocks(&path, &c, &layout, |sink| {
+            sink.append(2, &[0; 8]);
+            assert!(sink.failed());
+        });
+        assert!(past.unwrap_err().to_string().contains("no section 2"));
+        assert_eq!(read_checkpoint(&path).unwrap(), c);
+        assert!(!partial_path(&path).exists());
+        let mut filled = false;
+        let nowhere = dir.path().join("missing").join("state.ckpt");
+        assert!(write_checkpoint_in_blocks(&nowhere, &c, &layout, |_| filled = true).is_err());
+        assert!(!filled);
     }
 
     #[test]

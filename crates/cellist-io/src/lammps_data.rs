@@ -48,9 +48,10 @@ pub trait AtomsWanted {
     /// order, its velocity not yet read).
     fn keep(&mut self, atom: &DataAtom) -> bool;
     /// Sees the velocity `v` of atom `id`, kept or not, in the order of the
-    /// `Velocities` section.
-    fn velocity(&mut self, id: u64, v: [f64; 3]) {
-        let _ = (id, v);
+    /// `Velocities` section; `place` is the atom's in the `Atoms` section
+    /// (0 for the first).
+    fn velocity(&mut self, place: usize, id: u64, v: [f64; 3]) {
+        let _ = (place, id, v);
     }
 }
 
@@ -280,8 +281,8 @@ fn parse_lines<R: BufRead>(
     } = parse_header(&mut lines)?;
     let mut masses: Option<Vec<f64>> = None;
     let mut atoms: Option<Vec<DataAtom>> = None;
-    // every atom of the Atoms section by its place there: its id's place,
-    // its line, where it is kept (NOT_KEPT: not), its velocity's line (0: none)
+    // every atom of the Atoms section by its place there: the place of each
+    // id, each atom's line and where it is kept (NOT_KEPT: not)
     let mut places: HashMap<u64, usize> = HashMap::new();
     let mut atom_lines: Vec<usize> = Vec::new();
     let mut kept_at: Vec<usize> = Vec::new();
@@ -294,9 +295,9 @@ fn parse_lines<R: BufRead>(
         };
         match name.as_str() {
             "Masses" => {
-                // the file's lines first: a header's type count is not trusted
-                // for an allocation before they are there
-                let mut entries = Vec::new();
+                // the line that gave each type its mass (a map: the header's
+                // type count is not trusted for an allocation)
+                let mut given: HashMap<u32, (usize, f64)> = HashMap::new();
                 lines.each_entry(atom_types as usize, "Masses", |no, line| {
                     let f = fields(path, no, line, 2, 2, "type mass")?;
                     let t = parse_type(path, no, f[0], atom_types)?;
@@ -304,26 +305,29 @@ fn parse_lines<R: BufRead>(
                     if mass <= 0.0 {
                         return Err(InputError::at(path, no, format!("mass {mass} must be > 0")));
                     }
-                    entries.push((no, t, mass));
-                    Ok(())
-                })?;
-                let mut m = vec![f64::NAN; atom_types as usize];
-                // the line that gave each type its mass (0: none yet)
-                let mut given = vec![0; atom_types as usize];
-                for (no, t, mass) in entries {
-                    let first = std::mem::replace(&mut given[t as usize - 1], no);
-                    if first != 0 {
+                    if let Some((first, _)) = given.insert(t, (no, mass)) {
                         return Err(InputError::at(
                             path,
                             no,
                             format!("atom type {t} was already given a mass on line {first}; expected one line per type"),
                         ));
                     }
+                    Ok(())
+                })?;
+                let mut m = vec![f64::NAN; atom_types as usize];
+                for (t, (_, mass)) in given {
                     m[t as usize - 1] = mass;
                 }
                 masses = Some(m);
             }
             "Atoms" => {
+                if atoms.is_some() {
+                    return Err(InputError::at(
+                        path,
+                        no,
+                        "a second Atoms section; expected one",
+                    ));
+                }
                 if !hint.is_empty() && hint != "atomic" {
                     return Err(InputError::at(
                         path,
@@ -413,9 +417,16 @@ fn parse_lines<R: BufRead>(
                     return Err(InputError::at(
                         path,
                         no,
-                        "the Velocities section comes before the Atoms section; expected it after",
+                        "the Velocities section must follow an Atoms section",
                     ));
                 };
+                if has_velocities {
+                    return Err(InputError::at(
+                        path,
+                        no,
+                        "a second Velocities section; expected one",
+                    ));
+                }
                 has_velocities = true;
                 // the line that gave each atom its velocity (0: none yet)
                 let mut seen = vec![0; atom_lines.len()];
@@ -441,7 +452,7 @@ fn parse_lines<R: BufRead>(
                     if kept_at[place] != NOT_KEPT {
                         list[kept_at[place]].velocity = v;
                     }
-                    wanted.velocity(id, v);
+                    wanted.velocity(place, id, v);
                     Ok(())
                 })?;
             }
@@ -733,7 +744,55 @@ mod tests {
         let err = parse_lines(path, swapped.as_bytes(), None, &mut odd).unwrap_err();
         assert!(err
             .to_string()
-            .contains("the Velocities section comes before the Atoms section"));
+            .contains("the Velocities section must follow an Atoms section"));
+    }
+
+    /// A second Atoms or Velocities section is an error (a kept atom's
+    /// velocity would otherwise land on another atom).
+    #[test]
+    fn sections_come_once() {
+        let path = Path::new("t.data");
+        let atoms = &GOOD[GOOD.find("Atoms").unwrap()..GOOD.find("Velocities").unwrap()];
+        let again = GOOD.replace("\nVelocities", &format!("\n{atoms}Velocities"));
+        let err = parse_data(path, &again).unwrap_err().to_string();
+        assert_eq!(err, "t.data:21: a second Atoms section; expected one");
+        let velocities = &GOOD[GOOD.find("Velocities").unwrap()..];
+        let twice = format!("{GOOD}\n{velocities}");
+        let err = parse_data(path, &twice).unwrap_err().to_string();
+        assert_eq!(err, "t.data:27: a second Velocities section; expected one");
+    }
+
+    /// Windows line ends and a last line without one read as the others;
+    /// files on disk, plain and compressed, read as their text.
+    #[test]
+    fn line_ends_and_files_on_disk() {
+        let path = Path::new("t.data");
+        let crlf = GOOD.replace('\n', "\r\n");
+        assert_eq!(
+            parse_data(path, &crlf).unwrap(),
+            parse_data(path, GOOD).unwrap()
+        );
+        let cut = GOOD.trim_end();
+        assert_eq!(
+            parse_data(path, cut).unwrap(),
+            parse_data(path, GOOD).unwrap()
+        );
+        let dir = tempfile::tempdir().unwrap();
+        let plain = dir.path().join("t.data");
+        std::fs::write(&plain, GOOD).unwrap();
+        let gz = dir.path().join("t.data.gz");
+        let mut encoder = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::default());
+        std::io::Write::write_all(&mut encoder, GOOD.as_bytes()).unwrap();
+        std::fs::write(&gz, encoder.finish().unwrap()).unwrap();
+        for file in [&plain, &gz] {
+            let d = read_data_where(file, &mut |a: &DataAtom| a.id == 3).unwrap();
+            assert_eq!(d.atoms.len(), 1);
+            assert_eq!(d.atoms[0].velocity, [-1.0, 1.0, 0.0]);
+            assert_eq!(
+                read_data_box(file).unwrap(),
+                ([0.0, 0.0, -0.5], [10.0, 10.0, 0.5])
+            );
+        }
     }
 
     #[test]

@@ -7,10 +7,13 @@ use std::path::{Path, PathBuf};
 
 /// A file written under a temporary name in the target's folder and renamed into
 /// place by [`AtomicFile::commit`]; dropped without a commit, it is removed, so a
-/// failed run leaves no partial output behind.
+/// failed run leaves no partial output behind. A target that exists and is not
+/// a regular file (`/dev/null`, a pipe) is written in place: a rename would
+/// replace the device with a file.
 pub struct AtomicFile {
     target: PathBuf,
-    temp: PathBuf,
+    /// The temporary name, or `None` when the target is written in place.
+    temp: Option<PathBuf>,
     writer: Option<BufWriter<File>>,
 }
 
@@ -20,6 +23,14 @@ impl AtomicFile {
         let name = target.file_name().ok_or_else(|| {
             io::Error::new(io::ErrorKind::InvalidInput, "output path has no file name")
         })?;
+        if std::fs::metadata(target).is_ok_and(|m| !m.file_type().is_file()) {
+            let file = std::fs::OpenOptions::new().write(true).open(target)?;
+            return Ok(AtomicFile {
+                target: target.to_path_buf(),
+                temp: None,
+                writer: Some(BufWriter::with_capacity(1 << 20, file)),
+            });
+        }
         let mut temp_name = std::ffi::OsString::from(".");
         temp_name.push(name);
         temp_name.push(format!(".{}.tmp", std::process::id()));
@@ -27,7 +38,7 @@ impl AtomicFile {
         let file = File::create(&temp)?;
         Ok(AtomicFile {
             target: target.to_path_buf(),
-            temp,
+            temp: Some(temp),
             writer: Some(BufWriter::with_capacity(1 << 20, file)),
         })
     }
@@ -37,19 +48,25 @@ impl AtomicFile {
         self.writer.as_mut().expect("writer present until commit")
     }
 
-    /// Flushes, syncs and renames the file into place.
+    /// Flushes, syncs and renames the file into place (a target written in
+    /// place is only flushed).
     pub fn commit(mut self) -> io::Result<()> {
         let writer = self.writer.take().expect("writer present until commit");
         let file = writer.into_inner().map_err(|e| e.into_error())?;
-        file.sync_all()?;
-        std::fs::rename(&self.temp, &self.target)
+        match &self.temp {
+            Some(temp) => {
+                file.sync_all()?;
+                std::fs::rename(temp, &self.target)
+            }
+            None => Ok(()),
+        }
     }
 }
 
 impl Drop for AtomicFile {
     fn drop(&mut self) {
-        if self.writer.take().is_some() {
-            let _ = std::fs::remove_file(&self.temp);
+        if let (Some(_), Some(temp)) = (self.writer.take(), &self.temp) {
+            let _ = std::fs::remove_file(temp);
         }
     }
 }
@@ -180,6 +197,24 @@ fn trim_zeros(s: &str) -> &str {
 
 #[cfg(test)]
 mod tests {
+    /// A device as the target is written in place, not replaced by a file
+    /// (`--output /dev/null` used to turn `/dev/null` into a regular file).
+    #[test]
+    fn a_device_stays_a_device() {
+        use std::os::unix::fs::FileTypeExt;
+        let null = std::path::Path::new("/dev/null");
+        if !std::fs::metadata(null).is_ok_and(|m| m.file_type().is_char_device()) {
+            return; // no device to check on this machine
+        }
+        let mut out = super::AtomicFile::create(null).unwrap();
+        std::io::Write::write_all(out.writer(), b"discarded").unwrap();
+        out.commit().unwrap();
+        assert!(std::fs::metadata(null)
+            .unwrap()
+            .file_type()
+            .is_char_device());
+    }
+
     use super::*;
 
     fn g(x: f64) -> String {

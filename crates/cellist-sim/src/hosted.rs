@@ -15,8 +15,10 @@ pub enum FileState<'a> {
     Saved(&'a State),
     /// A state spread over ranks, written on rank 0 without being held
     /// whole: its sections' layout, and what appends their bytes a block of
-    /// particles at a time (pulling them from the ranks, in id order). It
-    /// is called once, even when the file cannot be written.
+    /// particles at a time (pulling them from the ranks, in id order, until
+    /// the sink has failed). It is not called when the file cannot be
+    /// created (the other ranks serve pulls until rank 0's outputs are done,
+    /// however many it makes).
     Spread(Layout, FillSections<'a>),
 }
 

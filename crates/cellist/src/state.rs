@@ -1,8 +1,10 @@
 //! A model's complete state as named sections of little-endian numbers, for
 //! checkpoints: floats by their bit patterns, so that a restored state is the saved
 //! one bit for bit. The file around the sections (magic, version, checksums) is
-//! `cellist-io`'s; this module only packs and unpacks numbers, and never panics on
-//! a section of the wrong size or a missing one.
+//! `cellist-io`'s; this module only packs and unpacks numbers. Reading never
+//! panics on a section of the wrong size or a missing one; a [`StateBuilder`]
+//! given other bytes than its [`Layout`] declares is a bug of its caller and
+//! panics.
 
 use std::fmt;
 
@@ -68,6 +70,12 @@ impl Layout {
 pub trait SectionSink {
     /// Appends `bytes` to section `section` of the layout.
     fn append(&mut self, section: usize, bytes: &[u8]);
+
+    /// True once an append has failed (a file that could not be written):
+    /// what is appended after is dropped, and a writer may stop early.
+    fn failed(&self) -> bool {
+        false
+    }
 }
 
 /// The bytes [`SectionWriter`] encodes before it hands them on.

@@ -587,7 +587,7 @@ impl Hosted for DistributedGravity {
                 self.blocks(|_, rows| {
                     let (block, acc, phi) = bodies_of(rows);
                     bodies.push(sink, &block, (&acc, &phi));
-                    true
+                    !sink.failed()
                 });
                 bodies.finish(sink, self.e0);
             }),

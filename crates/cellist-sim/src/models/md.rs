@@ -306,11 +306,13 @@ fn run_in<const D: usize, L: Launch>(
     if let Some(world) = crate::distributed::world_of_many() {
         use crate::distributed::md::{share_at_set_up, DistributedMd, MdSpec};
         let ranks = crate::ranks::Ranks::Spread(mpi::traits::Communicator::duplicate(&world));
+        // a read that fails on one rank alone stops every rank
+        let atoms = initial
+            .atoms_where(share_at_set_up(&world, setup.domain))
+            .map_err(in_scenario);
         let spec = MdSpec {
             domain: setup.domain,
-            atoms: initial
-                .atoms_where(share_at_set_up(&world, setup.domain))
-                .map_err(in_scenario)?,
+            atoms: crate::driver::agreed(&ranks, atoms)?,
             potential: setup.potential,
             skin: setup.skin,
             rule: setup.rebuild,
@@ -599,11 +601,13 @@ fn data_box<const D: usize>(path: &Path) -> SimResult<(Domain<D>, (f64, f64))> {
 
 /// What md keeps of a data file as it is read: the atoms whose position
 /// `keep` accepts, every atom's `(id, type)` when `system.velocity` needs
-/// them all, and (2D) the first atom off the plane `z = 0`.
+/// them all, and (2D) the first atom of the `Atoms` section off the plane
+/// (`z != 0` or `vz != 0`): its place there, id, z and vz.
 struct Wanted<K, const D: usize> {
     keep: K,
     every: Option<Vec<(u64, u32)>>,
-    off_plane: Option<(u64, f64, f64)>,
+    seen: usize,
+    off_plane: Option<(usize, u64, f64, f64)>,
 }
 
 impl<K: Fn(&[f64; D]) -> bool, const D: usize> AtomsWanted for Wanted<K, D> {
@@ -612,15 +616,18 @@ impl<K: Fn(&[f64; D]) -> bool, const D: usize> AtomsWanted for Wanted<K, D> {
             every.push((atom.id, atom.kind));
         }
         if D == 2 && atom.position[2] != 0.0 && self.off_plane.is_none() {
-            self.off_plane = Some((atom.id, atom.position[2], 0.0));
+            self.off_plane = Some((self.seen, atom.id, atom.position[2], 0.0));
         }
+        self.seen += 1;
         (self.keep)(&std::array::from_fn(|k| atom.position[k]))
     }
 
-    fn velocity(&mut self, id: u64, v: [f64; 3]) {
+    /// An atom before the first one with `z != 0` has `z = 0`.
+    fn velocity(&mut self, place: usize, id: u64, v: [f64; 3]) {
         match &mut self.off_plane {
-            Some((off, _, vz)) if *off == id => *vz = v[2],
-            None if D == 2 && v[2] != 0.0 => self.off_plane = Some((id, 0.0, v[2])),
+            Some((first, _, _, vz)) if *first == place => *vz = v[2],
+            Some((first, ..)) if *first < place => {}
+            _ if D == 2 && v[2] != 0.0 => self.off_plane = Some((place, id, 0.0, v[2])),
             _ => {}
         }
     }
@@ -637,6 +644,7 @@ fn from_data<const D: usize>(
     let mut wanted = Wanted {
         keep,
         every: all.then(Vec::new),
+        seen: 0,
         off_plane: None,
     };
     let data = read_data_where(path, &mut wanted)?;
@@ -666,7 +674,7 @@ fn from_data<const D: usize>(
             t + 1
         )));
     }
-    if let Some((id, z, vz)) = wanted.off_plane {
+    if let Some((_, id, z, vz)) = wanted.off_plane {
         return Err(SimError::Input(format!(
             "{}: atom {id} has z = {z} and vz = {vz}; a 2D system needs z = 0 and vz = 0 (is this a 3D data file? set dimension = 3)",
             path.display(),

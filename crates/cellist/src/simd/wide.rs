@@ -6,8 +6,9 @@
 //! 14-bit estimate `y_0` refined in one step by the series of
 //! `(1 - e)^(-1/2)` to its fourth term,
 //! `y = y_0 + y_0 e (1/2 + 3/8 e + 5/16 e^2)` with `e = 1 - x y_0^2`
-//! (`|e| < 2^-13`, so the series' rest `35/128 e^4` is below `1e-16`:
-//! within a few ulp, not correctly rounded; `x = 0` gives NaN), otherwise
+//! (`|e|` about `2^-13` at most, so the series' rest `35/128 e^4` is about
+//! `6e-17`: within a few ulp, not correctly rounded; `x = 0` and `x = inf`
+//! give NaN), otherwise
 //! `1 / sqrt(x)` exactly rounded.
 
 use super::Register;

@@ -940,7 +940,7 @@ impl<const D: usize> Hosted for DistributedMd<D> {
             Box::new(move |sink| {
                 self.blocks(|g| {
                     atoms.push(sink, &g.atoms, &g.reference);
-                    true
+                    !sink.failed()
                 });
                 atoms.finish(sink, self.counts);
             }),
