@@ -102,11 +102,20 @@ fn is_gzip(path: &Path) -> bool {
 /// Parses the bytes of a data file: gzip-compressed when `path` ends in `.gz`,
 /// otherwise UTF-8 text (`path` only names it in errors and tells the two apart).
 pub fn decode_data(path: &Path, bytes: &[u8]) -> Result<DataFile, InputError> {
+    decode_data_where(path, bytes, &mut every)
+}
+
+/// [`decode_data`] keeping the atoms `wanted` keeps ([`read_data_where`]).
+pub fn decode_data_where(
+    path: &Path,
+    bytes: &[u8],
+    wanted: &mut dyn AtomsWanted,
+) -> Result<DataFile, InputError> {
     if is_gzip(path) {
         let text = BufReader::new(flate2::read::MultiGzDecoder::new(bytes));
-        parse_lines(path, text, None, &mut every)
+        parse_lines(path, text, None, wanted)
     } else {
-        parse_lines(path, bytes, Some(bytes.len() as u64), &mut every)
+        parse_lines(path, bytes, Some(bytes.len() as u64), wanted)
     }
 }
 

@@ -47,7 +47,8 @@ pub use field_csv::{
 pub use field_picture::FieldPainter;
 pub use gsd::{write_hoomd_frame, GsdData, GsdWriter, HoomdFrame};
 pub use lammps_data::{
-    decode_data, parse_data, read_data_box, read_data_where, AtomsWanted, DataAtom, DataFile,
+    decode_data, decode_data_where, parse_data, read_data_box, read_data_where, AtomsWanted,
+    DataAtom, DataFile,
 };
 pub use output::{format_g17, write_pairs, AtomicFile, StreamFile};
 pub use points::{read_points, BoxInfo, PointFile, Points};

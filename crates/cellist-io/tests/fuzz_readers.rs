@@ -26,7 +26,7 @@
 use cellist_io::billiards::{parse_billiards_input, TrajectoryReader};
 use cellist_io::bodies::parse_bodies;
 use cellist_io::field_csv::parse_field;
-use cellist_io::lammps_data::decode_data;
+use cellist_io::lammps_data::{decode_data, decode_data_where, DataAtom};
 use cellist_io::points::{parse_extended_xyz, parse_plain, Points};
 use cellist_io::InputError;
 use proptest::prelude::*;
@@ -128,6 +128,9 @@ enum Reader {
     Lammps,
     /// `lammps_data::decode_data` of a `.gz` file (raw bytes).
     LammpsGz,
+    /// `lammps_data::decode_data_where` of a text file, keeping the atoms
+    /// of odd ids (a rank's share: every line checked, some atoms kept).
+    LammpsOdd,
     /// `bodies::parse_bodies`.
     Bodies,
     /// `field_csv::parse_field::<2>`.
@@ -158,7 +161,7 @@ impl Reader {
         Path::new(match self {
             Reader::Plain => "fuzz.txt",
             Reader::Xyz => "fuzz.xyz",
-            Reader::Lammps => "fuzz.data",
+            Reader::Lammps | Reader::LammpsOdd => "fuzz.data",
             Reader::LammpsGz => "fuzz.data.gz",
             Reader::Bodies => "bodies.txt",
             Reader::Field2 | Reader::Field3 => "field.csv",
@@ -188,11 +191,14 @@ impl Reader {
                 }
                 Ok(v)
             }
-            Reader::Lammps | Reader::LammpsGz => {
-                let d = if self == Reader::Lammps {
-                    decode_data(path, text().as_bytes())?
-                } else {
-                    decode_data(path, bytes)?
+            Reader::Lammps | Reader::LammpsGz | Reader::LammpsOdd => {
+                let d = match self {
+                    Reader::Lammps => decode_data(path, text().as_bytes())?,
+                    Reader::LammpsOdd => {
+                        let mut odd = |a: &DataAtom| a.id % 2 == 1;
+                        decode_data_where(path, text().as_bytes(), &mut odd)?
+                    }
+                    _ => decode_data(path, bytes)?,
                 };
                 let mut v: Vec<f64> = d.lo.iter().chain(&d.hi).copied().collect();
                 v.extend(d.masses.iter().flatten());
@@ -549,6 +555,7 @@ proptest! {
     #[test]
     fn mutated_data_files(bytes in mutated("lammps")) {
         prop_assert_eq!(check(Reader::Lammps, &bytes.0), Ok(()));
+        prop_assert_eq!(check(Reader::LammpsOdd, &bytes.0), Ok(()));
         prop_assert_eq!(check(Reader::LammpsGz, &gzip(&bytes.0)), Ok(()));
     }
 
