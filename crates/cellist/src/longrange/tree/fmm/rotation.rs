@@ -786,21 +786,26 @@ mod tests {
         }
     }
 
+    /// A multipole of `terms` terms per lane, term `k` of lane `l` being
+    /// `value(k, l)`.
+    fn lane_multipoles(
+        terms: usize,
+        value: impl Fn(usize, usize) -> Complex64,
+    ) -> Vec<Vec<Complex64>> {
+        (0..LANES)
+            .map(|l| (0..terms).map(|k| value(k, l)).collect())
+            .collect()
+    }
+
     /// Lanes that share a local (0, 2 and 4 into one, 1 and 5 into another,
     /// 3, 6 and 7 alone) add the bits of adding each lane's local in turn.
     #[test]
     fn shared_locals_take_their_lanes_in_order() {
         let p = 6;
         let terms = super::super::solid::terms(p);
-        let multipoles: Vec<Vec<Complex64>> = (0..LANES)
-            .map(|l| {
-                (0..terms)
-                    .map(|k| {
-                        Complex64::new(1.0 / (1 + k + 3 * l) as f64, -0.1 * (k as f64 - l as f64))
-                    })
-                    .collect()
-            })
-            .collect();
+        let multipoles = lane_multipoles(terms, |k, l| {
+            Complex64::new(1.0 / (1 + k + 3 * l) as f64, -0.1 * (k as f64 - l as f64))
+        });
         let translation = |l: usize| Translation {
             multipole: &multipoles[l],
             source: ([0.0, 0.0, 0.0], 0.5 + 0.01 * l as f64),
@@ -832,16 +837,10 @@ mod tests {
     fn lanes_give_the_bits_of_one_translation_alone() {
         let p = 12;
         let terms = super::super::solid::terms(p);
-        let multipoles: Vec<Vec<Complex64>> = (0..LANES)
-            .map(|l| {
-                (0..terms)
-                    .map(|k| {
-                        let v = ((k * 31 + l * 17) % 23) as f64 / 7.0 - 1.5;
-                        Complex64::new(v, 0.3 * v - 0.1 * l as f64)
-                    })
-                    .collect()
-            })
-            .collect();
+        let multipoles = lane_multipoles(terms, |k, l| {
+            let v = ((k * 31 + l * 17) % 23) as f64 / 7.0 - 1.5;
+            Complex64::new(v, 0.3 * v - 0.1 * l as f64)
+        });
         // one direction (1, 2, 2), at distances and scales that differ per lane
         let translation = |l: usize| {
             let (k, scale) = (1.0 + l as f64 * 0.5, 0.4 + 0.05 * l as f64);
