@@ -34,7 +34,7 @@ use cellist::models::{check, Blowup, Model};
 use cellist::state::State;
 use cellist::Threads;
 use cellist_io::checkpoint::{
-    read_checkpoint, write_checkpoint, write_checkpoint_in_blocks, Checkpoint,
+    write_checkpoint, write_checkpoint_in_blocks, Checkpoint, CheckpointFile,
 };
 use cellist_io::AtomicFile;
 use indicatif::ProgressBar;
@@ -133,7 +133,9 @@ pub struct Timing {
 /// Reads `path` and checks it against `model` and `physics`: the same model, the
 /// same physics keys (the first difference named), a step within `steps`, and a
 /// state `model` can take. Nothing is written. On success the model holds the
-/// checkpoint's state.
+/// checkpoint's state, read from the file in place (a rank of a spread run
+/// reads only the particles it keeps), and the checkpoint returned is the
+/// file's head: its step, physics and outputs, no state.
 pub fn restore<M: Model>(
     model: &mut M,
     path: &Path,
@@ -142,7 +144,8 @@ pub fn restore<M: Model>(
     dir: &Path,
     threads: &Threads,
 ) -> SimResult<Checkpoint> {
-    let c = read_checkpoint(path)?;
+    let file = CheckpointFile::open(path)?;
+    let c = &file.head;
     let at = path.display();
     let name = model.info().name;
     if c.model != name {
@@ -163,23 +166,23 @@ pub fn restore<M: Model>(
         )));
     }
     model
-        .restore(&c.state, threads)
+        .restore(&file, threads)
         .map_err(|e| SimError::Input(format!("{at}: the state does not fit the scenario: {e}")))?;
     for (name, length) in &c.outputs {
-        let file = dir.join(name);
-        if let Ok(meta) = std::fs::metadata(&file) {
+        let output = dir.join(name);
+        if let Ok(meta) = std::fs::metadata(&output) {
             if meta.len() < *length {
                 return Err(SimError::Input(format!(
                     "{at}: {} has {} bytes, fewer than the {length} it had at step {}; \
                      restore it, or restart with --out into a new folder",
-                    file.display(),
+                    output.display(),
                     meta.len(),
                     c.step
                 )));
             }
         }
     }
-    Ok(c)
+    Ok(file.head)
 }
 
 /// The first key whose value differs between a checkpoint's physics and a

@@ -234,15 +234,29 @@ pub fn bounding_box<const D: usize>(points: &[[f64; D]]) -> ([f64; D], [f64; D])
     if points.is_empty() {
         return ([0.0; D], [1.0; D]);
     }
-    let mut lo = [f64::INFINITY; D];
-    let mut hi = [f64::NEG_INFINITY; D];
+    let mut bounds = empty_box();
+    widen_box(&mut bounds, points);
+    bounds
+}
+
+/// The box around no points, for [`widen_box`]: lower corner `+inf`, upper
+/// `-inf`.
+pub fn empty_box<const D: usize>() -> ([f64; D], [f64; D]) {
+    ([f64::INFINITY; D], [f64::NEG_INFINITY; D])
+}
+
+/// Widens `bounds` to hold `points`: `lo_d = min(lo_d, p_d)` and
+/// `hi_d = max(hi_d, p_d)` point after point in order, so a box widened a
+/// block at a time is the one [`bounding_box`] gives all at once, bit for
+/// bit.
+pub fn widen_box<const D: usize>(bounds: &mut ([f64; D], [f64; D]), points: &[[f64; D]]) {
+    let (lo, hi) = bounds;
     for p in points {
         for d in 0..D {
             lo[d] = lo[d].min(p[d]);
             hi[d] = hi[d].max(p[d]);
         }
     }
-    (lo, hi)
 }
 
 /// Squared Euclidean norm `sum_k d_k^2`.

@@ -172,6 +172,10 @@ impl SectionSink for StateBuilder {
 }
 
 impl State {
+    fn section(&self, name: &str) -> Option<&Section> {
+        self.sections.iter().find(|s| s.name == name)
+    }
+
     fn push(&mut self, name: &str, data: Vec<u8>) {
         debug_assert!(
             self.sections.iter().all(|s| s.name != name),
@@ -203,58 +207,153 @@ impl State {
         }
         self.push(name, data);
     }
+}
 
-    /// The bytes of section `name`, whose size must be a multiple of `width`.
-    fn bytes(&self, name: &str, width: usize) -> Result<&[u8], StateError> {
-        let section = self
-            .sections
-            .iter()
-            .find(|s| s.name == name)
-            .ok_or_else(|| StateError(format!("the state has no section '{name}'")))?;
-        if section.data.len() % width != 0 {
-            return Err(StateError(format!(
-                "section '{name}' has {} bytes, not a whole number of {width}-byte values",
-                section.data.len()
-            )));
-        }
-        Ok(&section.data)
+/// Where a saved state's sections are read from, a few numbers at a time:
+/// a [`State`] in memory, or a checkpoint file read in place (a rank
+/// restoring a run spread over ranks reads every block but keeps only
+/// its own particles, so no rank holds the whole state). The numbers are
+/// read through the methods of `dyn SectionSource`.
+pub trait SectionSource {
+    /// The byte count of section `name`, or `None` if the state has none.
+    fn section_len(&self, name: &str) -> Option<u64>;
+
+    /// Fills `bytes` with section `name`'s bytes from its byte `at` on
+    /// (within the length [`SectionSource::section_len`] gives).
+    fn read_bytes(&self, name: &str, at: u64, bytes: &mut [u8]) -> Result<(), StateError>;
+}
+
+impl SectionSource for State {
+    fn section_len(&self, name: &str) -> Option<u64> {
+        self.section(name).map(|s| s.data.len() as u64)
     }
 
+    fn read_bytes(&self, name: &str, at: u64, bytes: &mut [u8]) -> Result<(), StateError> {
+        let data = self
+            .section(name)
+            .map(|s| &s.data[..])
+            .ok_or_else(|| no_section(name))?;
+        let range = at as usize..at as usize + bytes.len();
+        let part = data.get(range.clone()).ok_or_else(|| {
+            StateError(format!(
+                "section '{name}' has {} bytes, not the bytes {range:?}",
+                data.len()
+            ))
+        })?;
+        bytes.copy_from_slice(part);
+        Ok(())
+    }
+}
+
+fn no_section(name: &str) -> StateError {
+    StateError(format!("the state has no section '{name}'"))
+}
+
+/// The numbers [`SectionSource::read_bytes`] hands over at once: 64 KiB.
+const READ_CHUNK: usize = 1 << 13;
+
+impl dyn SectionSource + '_ {
     /// True when the state holds a section `name`.
     pub fn has(&self, name: &str) -> bool {
-        self.sections.iter().any(|s| s.name == name)
+        self.section_len(name).is_some()
+    }
+
+    /// The count of 8-byte numbers section `name` holds (an error if there
+    /// is no such section, or its bytes are not a whole number of them).
+    pub fn count(&self, name: &str) -> Result<usize, StateError> {
+        let bytes = self.section_len(name).ok_or_else(|| no_section(name))?;
+        if bytes % 8 != 0 {
+            return Err(StateError(format!(
+                "section '{name}' has {bytes} bytes, not a whole number of 8-byte values"
+            )));
+        }
+        Ok((bytes / 8) as usize)
+    }
+
+    /// Section `name`'s numbers `start..start + len` as unsigned integers,
+    /// each handed to `each` in order, read 64 KiB at a time.
+    pub fn each_u64(
+        &self,
+        name: &str,
+        start: usize,
+        len: usize,
+        mut each: impl FnMut(u64),
+    ) -> Result<(), StateError> {
+        let mut bytes = vec![0u8; 8 * READ_CHUNK.min(len)];
+        let mut at = start;
+        while at < start + len {
+            let take = READ_CHUNK.min(start + len - at);
+            let chunk = &mut bytes[..8 * take];
+            self.read_bytes(name, 8 * at as u64, chunk)?;
+            for c in chunk.chunks_exact(8) {
+                each(u64::from_le_bytes(c.try_into().expect("8 bytes")));
+            }
+            at += take;
+        }
+        Ok(())
+    }
+
+    /// Section `name`'s numbers `start..start + len` as unsigned integers.
+    pub fn u64s_at(&self, name: &str, start: usize, len: usize) -> Result<Vec<u64>, StateError> {
+        let mut values = Vec::with_capacity(len);
+        self.each_u64(name, start, len, |v| values.push(v))?;
+        Ok(values)
+    }
+
+    /// Section `name`'s numbers `start..start + len` as floats (from their
+    /// bit patterns).
+    pub fn f64s_at(&self, name: &str, start: usize, len: usize) -> Result<Vec<f64>, StateError> {
+        let mut values = Vec::with_capacity(len);
+        self.each_u64(name, start, len, |v| values.push(f64::from_bits(v)))?;
+        Ok(values)
+    }
+
+    /// Vectors `start..start + len` of section `name`, `D` floats each.
+    pub fn vectors_at<const D: usize>(
+        &self,
+        name: &str,
+        start: usize,
+        len: usize,
+    ) -> Result<Vec<[f64; D]>, StateError> {
+        let mut values = Vec::with_capacity(len);
+        let mut vector = [0.0; D];
+        let mut a = 0;
+        self.each_u64(name, D * start, D * len, |v| {
+            vector[a] = f64::from_bits(v);
+            a += 1;
+            if a == D {
+                values.push(vector);
+                a = 0;
+            }
+        })?;
+        Ok(values)
+    }
+
+    /// Checks that section `name` holds exactly `n` numbers.
+    pub fn expect_count(&self, name: &str, n: usize) -> Result<(), StateError> {
+        expect_len(name, self.count(name)?, n)
     }
 
     /// Section `name` as floats.
     pub fn f64s(&self, name: &str) -> Result<Vec<f64>, StateError> {
-        Ok(self
-            .bytes(name, 8)?
-            .chunks_exact(8)
-            .map(|c| f64::from_bits(u64::from_le_bytes(c.try_into().expect("8 bytes"))))
-            .collect())
+        self.f64s_at(name, 0, self.count(name)?)
     }
 
     /// Section `name` as unsigned integers.
     pub fn u64s(&self, name: &str) -> Result<Vec<u64>, StateError> {
-        Ok(self
-            .bytes(name, 8)?
-            .chunks_exact(8)
-            .map(|c| u64::from_le_bytes(c.try_into().expect("8 bytes")))
-            .collect())
+        self.u64s_at(name, 0, self.count(name)?)
     }
 
     /// Section `name` as exactly `n` floats.
     pub fn f64s_of(&self, name: &str, n: usize) -> Result<Vec<f64>, StateError> {
-        let values = self.f64s(name)?;
-        expect_len(name, values.len(), n)?;
-        Ok(values)
+        self.expect_count(name, n)?;
+        self.f64s_at(name, 0, n)
     }
 
     /// Section `name` as exactly `n` unsigned integers.
     pub fn u64s_of(&self, name: &str, n: usize) -> Result<Vec<u64>, StateError> {
-        let values = self.u64s(name)?;
-        expect_len(name, values.len(), n)?;
-        Ok(values)
+        self.expect_count(name, n)?;
+        self.u64s_at(name, 0, n)
     }
 
     /// Section `name` as exactly `n` vectors of `D` components.
@@ -263,12 +362,8 @@ impl State {
         name: &str,
         n: usize,
     ) -> Result<Vec<[f64; D]>, StateError> {
-        let flat = self.f64s(name)?;
-        expect_len(name, flat.len(), n * D)?;
-        Ok(flat
-            .chunks_exact(D)
-            .map(|c| std::array::from_fn(|a| c[a]))
-            .collect())
+        self.expect_count(name, n * D)?;
+        self.vectors_at(name, 0, n)
     }
 
     /// The single float of section `name`.
@@ -303,6 +398,7 @@ mod tests {
         s.put_f64s("odd", odd);
         s.put_vectors("x", &[[1.0, 2.0], [3.0, 4.5]]);
         s.put_u64s("ids", [7, u64::MAX]);
+        let s: &dyn SectionSource = &s;
         let back = s.f64s("odd").unwrap();
         assert_eq!(
             back.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
@@ -342,13 +438,53 @@ mod tests {
         assert_eq!(blocks, whole);
     }
 
+    /// Numbers read from any start, across the 64 KiB chunks of a read,
+    /// are the section's numbers there.
+    #[test]
+    fn numbers_read_from_any_start_are_the_sections() {
+        let n = 3 * READ_CHUNK + 5;
+        let v: Vec<[f64; 3]> = (0..n)
+            .map(|k| [k as f64, -(k as f64).sqrt(), 1.0 / (k + 1) as f64])
+            .collect();
+        let mut s = State::default();
+        s.put_vectors("v", &v);
+        s.put_u64s("ids", (0..n as u64).map(|k| k * k));
+        let read: &dyn SectionSource = &s;
+        for (start, len) in [
+            (0, n),
+            (1, READ_CHUNK),
+            (READ_CHUNK - 1, 2 * READ_CHUNK + 3),
+            (n, 0),
+        ] {
+            assert_eq!(
+                read.vectors_at::<3>("v", start, len).unwrap(),
+                &v[start..start + len]
+            );
+            let ids: Vec<u64> = (start as u64..(start + len) as u64)
+                .map(|k| k * k)
+                .collect();
+            assert_eq!(read.u64s_at("ids", start, len).unwrap(), ids);
+        }
+    }
+
     #[test]
     fn missing_and_misshapen_sections_are_errors() {
         let mut s = State::default();
         s.put_f64s("x", [1.0, 2.0, 3.0]);
-        assert!(s.f64s("y").unwrap_err().0.contains("no section 'y'"));
-        assert!(s.vectors::<2>("x", 1).unwrap_err().0.contains("expected 2"));
+        let read: &dyn SectionSource = &s;
+        assert!(read.f64s("y").unwrap_err().0.contains("no section 'y'"));
+        assert!(read
+            .vectors::<2>("x", 1)
+            .unwrap_err()
+            .0
+            .contains("expected 2"));
+        assert!(read
+            .f64s_at("x", 2, 2)
+            .unwrap_err()
+            .0
+            .contains("not the bytes"));
         s.sections[0].data.pop();
-        assert!(s.f64s("x").unwrap_err().0.contains("whole number"));
+        let read: &dyn SectionSource = &s;
+        assert!(read.f64s("x").unwrap_err().0.contains("whole number"));
     }
 }

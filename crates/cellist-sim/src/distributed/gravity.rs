@@ -44,6 +44,7 @@ use super::pull::{self, IdSpan, OwnRows};
 use super::ring::{blocks, RingGravity};
 use super::{agree, agree_blowup, is_own_part, mark_part};
 use crate::hosted::{Distribution, FileState, Hosted};
+use cellist::geometry::{bounding_box, empty_box, widen_box};
 use cellist::interactions::GravityLaw;
 use cellist::longrange::Exchange;
 use cellist::longrange::{
@@ -57,7 +58,7 @@ use cellist::models::gravity::{
 use cellist::models::{
     whole_frame, Blowup, Checked, Ids, Model, ModelInfo, ParticleBlock, Particles,
 };
-use cellist::state::{Layout, State, StateError};
+use cellist::state::{Layout, SectionSource, State, StateError};
 use cellist::Threads;
 use mpi::collective::SystemOperation;
 use mpi::topology::SimpleCommunicator;
@@ -310,9 +311,9 @@ impl DistributedGravity {
         let position = &self.system.bodies().position;
         // a rank without bodies adds nothing to the minimum and the maximum
         let (lo, hi) = if position.is_empty() {
-            ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3])
+            empty_box()
         } else {
-            cellist::geometry::bounding_box(position)
+            bounding_box(position)
         };
         let (mut all_lo, mut all_hi) = ([0.0; 3], [0.0; 3]);
         self.world
@@ -507,24 +508,38 @@ impl Model for DistributedGravity {
     /// ([`Model::save`] of this rank), or from a global state (a checkpoint
     /// file of any number of ranks, or of one process). Not collective: a
     /// rank that fails returns its error alone.
-    fn restore(&mut self, state: &State, _threads: &Threads) -> Result<(), StateError> {
+    fn restore(&mut self, state: &dyn SectionSource, _threads: &Threads) -> Result<(), StateError> {
         self.observed = true;
         let (bodies, acc, phi, e0, bounds) = if is_own_part(&self.world, state)? {
-            let (bodies, acc, phi, e0) = load_bodies(state, self.len())?;
+            let (bodies, acc, phi, e0) = load_bodies(state, self.len(), 0..self.len())?;
             let b = state.f64s_of(BOUNDS, 6)?;
             let bounds = ([b[0], b[1], b[2]], [b[3], b[4], b[5]]);
             (bodies, acc, phi, e0, bounds)
         } else {
-            let (all, acc, phi, e0) = load_bodies(state, self.total)?;
-            let bounds = cellist::geometry::bounding_box(&all.position);
-            let own = self.own.clone();
-            let (acc, phi) = (acc[own.clone()].to_vec(), phi[own.clone()].to_vec());
-            (all.part(own), acc, phi, e0, bounds)
+            let (bodies, acc, phi, e0) = load_bodies(state, self.total, self.own.clone())?;
+            (bodies, acc, phi, e0, bounds_of_all(state, self.total)?)
         };
         self.e0 = e0;
         self.bounds = bounds;
         self.system.restore(bodies, acc, phi).map_err(StateError)
     }
+}
+
+/// The bodies whose positions [`bounds_of_all`] reads at once.
+const BOUNDS_BLOCK: usize = 1 << 13;
+
+/// The box of the `n` bodies of a global state, their positions read a
+/// block at a time in order: the box [`bounding_box`] gives of them all.
+fn bounds_of_all(state: &dyn SectionSource, n: usize) -> Result<([f64; 3], [f64; 3]), StateError> {
+    if n == 0 {
+        return Ok(bounding_box::<3>(&[]));
+    }
+    let mut bounds = empty_box();
+    for start in (0..n).step_by(BOUNDS_BLOCK) {
+        let block = state.vectors_at::<3>("position", start, BOUNDS_BLOCK.min(n - start))?;
+        widen_box(&mut bounds, &block);
+    }
+    Ok(bounds)
 }
 
 impl Hosted for DistributedGravity {

@@ -47,7 +47,7 @@ use crate::error::SimError;
 use crate::scenario::{ModelKind, Scenario};
 use cellist::decomposition::{Decomposition, Images};
 use cellist::models::Blowup;
-use cellist::state::{State, StateError};
+use cellist::state::{SectionSource, State, StateError};
 use mpi::collective::SystemOperation;
 use mpi::topology::SimpleCommunicator;
 use mpi::traits::*;
@@ -553,7 +553,10 @@ pub fn mark_part<C: Communicator>(world: &C, state: &mut State) {
 /// with [`mark_part`]) rather than a global state (a checkpoint file of any
 /// number of ranks, or of one process); the part of another rank, or of
 /// another rank count, is an error.
-pub fn is_own_part<C: Communicator>(world: &C, state: &State) -> Result<bool, StateError> {
+pub fn is_own_part<C: Communicator>(
+    world: &C,
+    state: &dyn SectionSource,
+) -> Result<bool, StateError> {
     if !state.has(PART) {
         return Ok(false);
     }

@@ -19,7 +19,7 @@ use cellist::models::pse::{
 };
 use cellist::models::{Blowup, Checked, CheckedArray, Field, Ids, Model, ModelInfo};
 use cellist::neighbors::OrderedRows;
-use cellist::state::{State, StateError};
+use cellist::state::{SectionSource, State, StateError};
 use cellist::Threads;
 use mpi::collective::SystemOperation;
 use mpi::topology::SimpleCommunicator;
@@ -305,7 +305,7 @@ impl<const D: usize> Model for DistributedPse<D> {
     /// Takes the own particles' values from a global state (of any number of
     /// ranks or of one process); rank 0's replica takes all of it. Not
     /// collective.
-    fn restore(&mut self, state: &State, threads: &Threads) -> Result<(), StateError> {
+    fn restore(&mut self, state: &dyn SectionSource, threads: &Threads) -> Result<(), StateError> {
         if let Some(r) = &mut self.replica {
             r.restore(state, threads)?;
         }

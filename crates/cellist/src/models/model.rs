@@ -4,7 +4,7 @@
 //! runs the loop, the observers and the checkpoints once for all models; a model
 //! only implements this trait.
 
-use crate::state::{State, StateError};
+use crate::state::{SectionSource, State, StateError};
 use crate::threads::Threads;
 use std::fmt;
 use std::ops::ControlFlow;
@@ -331,7 +331,7 @@ pub trait Model {
     fn save(&self, state: &mut State);
 
     /// Replaces the state by a saved one (of a model built from the same scenario).
-    fn restore(&mut self, state: &State, threads: &Threads) -> Result<(), StateError>;
+    fn restore(&mut self, state: &dyn SectionSource, threads: &Threads) -> Result<(), StateError>;
 }
 
 /// The first non-finite value of `model`'s checked arrays, or a position outside its

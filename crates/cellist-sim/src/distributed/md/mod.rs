@@ -46,14 +46,14 @@ use cellist::geometry::Domain;
 use cellist::interactions::{LennardJones, PairPotential};
 use cellist::models::md::{
     blowup_of, check_positions, checked_atoms, dump_particles, lap, late_note, load_atoms,
-    ordered_forces, save_atoms, twice_kinetic, AtomForce, Atoms, HaloSums, Integrator, ListCounts,
-    PairTally, SavedAtoms, StageTimes, ThermoSums, REMEDY,
+    load_atoms_where, ordered_forces, save_atoms, twice_kinetic, AtomForce, Atoms, HaloSums,
+    Integrator, ListCounts, PairTally, SavedAtoms, StageTimes, ThermoSums, REMEDY,
 };
 use cellist::models::{
     check, md, whole_frame, Blowup, Checked, Model, ModelInfo, ParticleBlock, Particles,
 };
 use cellist::neighbors::{CellGrid, OrderedRows, Rebuild, RebuildRule};
-use cellist::state::{Layout, State, StateError};
+use cellist::state::{Layout, SectionSource, State, StateError};
 use cellist::threads::counting_sort;
 use cellist::Threads;
 use mpi::collective::SystemOperation;
@@ -841,19 +841,14 @@ impl<const D: usize> Model for DistributedMd<D> {
     /// file of any number of ranks, or of one process). The next step
     /// migrates and rebuilds. Not collective: a rank that fails returns its
     /// error alone.
-    fn restore(&mut self, state: &State, _threads: &Threads) -> Result<(), StateError> {
+    fn restore(&mut self, state: &dyn SectionSource, _threads: &Threads) -> Result<(), StateError> {
         self.observed = true;
-        let rank = self.world.rank() as u64;
+        let rank = self.world.rank() as usize;
         let (atoms, reference, counts) = if is_own_part(&self.world, state)? {
-            let n = state.u64s("ids")?.len();
-            load_atoms::<D>(state, n)?
+            load_atoms::<D>(state, state.count("ids")?)?
         } else {
-            let (all, reference, counts) = load_atoms::<D>(state, self.total)?;
-            let mine: Vec<usize> = (0..all.len())
-                .filter(|&k| self.decomposition.owner(&all.positions[k]) == rank as usize)
-                .collect();
-            let reference = mine.iter().map(|&k| reference[k]).collect();
-            (all.select(&mine), reference, counts)
+            let decomposition = &self.decomposition;
+            load_atoms_where::<D>(state, self.total, |p| decomposition.owner(p) == rank)?
         };
         if atoms.positions.iter().flatten().any(|c| !c.is_finite()) {
             return Err(StateError("a saved position is not finite".into()));

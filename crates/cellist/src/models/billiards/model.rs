@@ -3,7 +3,7 @@
 use super::error::{not_converged_what, overflow_what, BilliardsError};
 use super::system::Billiards;
 use crate::models::{Blowup, Checked, CheckedArray, Ids, Model, ModelInfo, Particles};
-use crate::state::{State, StateError};
+use crate::state::{SectionSource, State, StateError};
 use crate::threads::Threads;
 use std::time::{Duration, Instant};
 
@@ -134,7 +134,7 @@ impl Model for BilliardsModel {
         state.put_u64s("hardest", [self.hardest.0, self.hardest.1]);
     }
 
-    fn restore(&mut self, state: &State, _threads: &Threads) -> Result<(), StateError> {
+    fn restore(&mut self, state: &dyn SectionSource, _threads: &Threads) -> Result<(), StateError> {
         let n = self.len();
         let ids = state.u64s_of("ids", n)?;
         if ids.iter().zip(&self.ids).any(|(&a, &b)| a != b as u64) {

@@ -2,8 +2,11 @@
 
 use super::{Bodies, GravitySystem, Integrator, Observables};
 use crate::models::{Blowup, Checked, CheckedArray, Ids, Model, ModelInfo, Particles};
-use crate::state::{Layout, SectionSink, SectionWriter, State, StateBuilder, StateError};
+use crate::state::{
+    Layout, SectionSink, SectionSource, SectionWriter, State, StateBuilder, StateError,
+};
 use crate::threads::Threads;
+use std::ops::Range;
 use std::time::{Duration, Instant};
 
 /// A [`GravitySystem`] with its integrator, time step and the energy at step 0
@@ -107,8 +110,8 @@ impl Model for GravityModel {
         save_bodies(state, self.system.bodies(), field, self.e0);
     }
 
-    fn restore(&mut self, state: &State, _threads: &Threads) -> Result<(), StateError> {
-        let (bodies, acc, phi, e0) = load_bodies(state, self.len())?;
+    fn restore(&mut self, state: &dyn SectionSource, _threads: &Threads) -> Result<(), StateError> {
+        let (bodies, acc, phi, e0) = load_bodies(state, self.len(), 0..self.len())?;
         self.e0 = e0;
         self.system.restore(bodies, acc, phi).map_err(StateError)
     }
@@ -253,22 +256,35 @@ impl SavedBodies {
     }
 }
 
-/// The `n` bodies of a state written by [`save_bodies`], their accelerations,
-/// potentials and the energy of step 0.
+/// The bodies `part` of the `n` a state written by [`save_bodies`] holds,
+/// their accelerations and potentials, and the energy of step 0: every
+/// section checked to hold `n` bodies' numbers, only `part`'s read (a
+/// rank's share of a checkpoint file).
 #[allow(clippy::type_complexity)]
 pub fn load_bodies(
-    state: &State,
+    state: &dyn SectionSource,
     n: usize,
+    part: Range<usize>,
 ) -> Result<(Bodies, Vec<[f64; 3]>, Vec<f64>, f64), StateError> {
+    for (name, per_body) in [
+        ("mass", 1),
+        ("position", 3),
+        ("velocity", 3),
+        ("acceleration", 3),
+        ("potential", 1),
+    ] {
+        state.expect_count(name, per_body * n)?;
+    }
+    let (start, len) = (part.start, part.len());
     let bodies = Bodies {
-        mass: state.f64s_of("mass", n)?,
-        position: state.vectors("position", n)?,
-        velocity: state.vectors("velocity", n)?,
+        mass: state.f64s_at("mass", start, len)?,
+        position: state.vectors_at("position", start, len)?,
+        velocity: state.vectors_at("velocity", start, len)?,
     };
     Ok((
         bodies,
-        state.vectors("acceleration", n)?,
-        state.f64s_of("potential", n)?,
+        state.vectors_at("acceleration", start, len)?,
+        state.f64s_at("potential", start, len)?,
         state.f64("e0")?,
     ))
 }
@@ -303,7 +319,10 @@ mod tests {
         let mut blocks = State::default();
         sections.finish(&mut blocks);
         assert_eq!(blocks, whole);
-        let (loaded, loaded_acc, loaded_phi, e0) = load_bodies(&blocks, n).unwrap();
+        let (loaded, loaded_acc, loaded_phi, e0) = load_bodies(&blocks, n, 0..n).unwrap();
+        let part = load_bodies(&blocks, n, 6..17).unwrap();
+        let field = (acc[6..17].to_vec(), phi[6..17].to_vec());
+        assert_eq!(part, (bodies.part(6..17), field.0, field.1, -0.75));
         assert_eq!(
             (loaded, loaded_acc, loaded_phi, e0),
             (bodies, acc, phi, -0.75)

@@ -152,17 +152,22 @@ impl<const D: usize> Atoms<D> {
 
     /// The atoms at `indices`, in that order: `out[k] = self[indices[k]]`.
     pub fn select(&self, indices: &[usize]) -> Self {
-        fn pick<T: Copy>(values: &[T], indices: &[usize]) -> Vec<T> {
-            indices.iter().map(|&k| values[k]).collect()
+        let mut out = Atoms::default();
+        out.push_from(self, indices);
+        out
+    }
+
+    /// Appends the atoms of `other` at `indices`, in that order.
+    pub fn push_from(&mut self, other: &Atoms<D>, indices: &[usize]) {
+        fn pick<T: Copy>(to: &mut Vec<T>, values: &[T], indices: &[usize]) {
+            to.extend(indices.iter().map(|&k| values[k]));
         }
-        Atoms {
-            ids: pick(&self.ids, indices),
-            types: pick(&self.types, indices),
-            masses: pick(&self.masses, indices),
-            positions: pick(&self.positions, indices),
-            velocities: pick(&self.velocities, indices),
-            forces: pick(&self.forces, indices),
-        }
+        pick(&mut self.ids, &other.ids, indices);
+        pick(&mut self.types, &other.types, indices);
+        pick(&mut self.masses, &other.masses, indices);
+        pick(&mut self.positions, &other.positions, indices);
+        pick(&mut self.velocities, &other.velocities, indices);
+        pick(&mut self.forces, &other.forces, indices);
     }
 
     /// Slots in increasing id order (for output sorted by id).

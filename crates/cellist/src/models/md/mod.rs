@@ -28,7 +28,8 @@ pub use halo::{HaloForces, HaloSums};
 pub use integrate::{Integrator, Langevin};
 pub use lattice::{lattice, Lattice, LatticeKind};
 pub use model::{
-    blowup_of, checked_atoms, late_note, load_atoms, save_atoms, MdModel, SavedAtoms, INFO, REMEDY,
+    blowup_of, checked_atoms, late_note, load_atoms, load_atoms_where, save_atoms, MdModel,
+    SavedAtoms, INFO, REMEDY,
 };
 pub use subdomain::{ordered_forces, AtomForce};
 

@@ -6,7 +6,9 @@ use crate::geometry::Domain;
 use crate::models::{
     Blowup, Checked, CheckedArray, Ids, Model, ModelInfo, ParticleBlock, Particles,
 };
-use crate::state::{Layout, SectionSink, SectionWriter, State, StateBuilder, StateError};
+use crate::state::{
+    Layout, SectionSink, SectionSource, SectionWriter, State, StateBuilder, StateError,
+};
 use crate::threads::Threads;
 use std::ops::ControlFlow;
 use std::time::Duration;
@@ -222,7 +224,7 @@ impl<const D: usize> Model for MdModel<D> {
         );
     }
 
-    fn restore(&mut self, state: &State, threads: &Threads) -> Result<(), StateError> {
+    fn restore(&mut self, state: &dyn SectionSource, threads: &Threads) -> Result<(), StateError> {
         let (atoms, reference, counts) = load_atoms(state, self.len())?;
         self.system
             .restore(atoms, &reference, counts, threads)
@@ -337,28 +339,38 @@ impl<const D: usize> SavedAtoms<D> {
     }
 }
 
+/// The atoms read a block at a time by [`load_atoms_where`].
+const LOAD_BLOCK: usize = 1 << 13;
+
 /// Reads what [`save_atoms`] wrote for `n` atoms (a checkpoint written before
 /// the list counted its steps since a build restarts with 0 of them: it was
 /// written by a run that looked at its list on every step).
 pub fn load_atoms<const D: usize>(
-    state: &State,
+    state: &dyn SectionSource,
     n: usize,
 ) -> Result<(Atoms<D>, Vec<[f64; D]>, ListCounts), StateError> {
-    let types = state
-        .u64s_of("types", n)?
-        .iter()
-        .map(|&t| {
-            u32::try_from(t).map_err(|_| StateError(format!("atom type {t} is out of range")))
-        })
-        .collect::<Result<Vec<u32>, StateError>>()?;
-    let atoms = Atoms {
-        ids: state.u64s_of("ids", n)?,
-        types,
-        masses: state.f64s_of("masses", n)?,
-        positions: state.vectors("positions", n)?,
-        velocities: state.vectors("velocities", n)?,
-        forces: state.vectors("forces", n)?,
-    };
+    load_atoms_where(state, n, |_| true)
+}
+
+/// [`load_atoms`] keeping only the atoms whose position `keep` accepts, in
+/// the saved order with their reference positions: every section checked
+/// to hold `n` atoms' numbers, the atoms read [`LOAD_BLOCK`] at a time (a
+/// rank's share of a checkpoint file, the whole never held).
+pub fn load_atoms_where<const D: usize>(
+    state: &dyn SectionSource,
+    n: usize,
+    mut keep: impl FnMut(&[f64; D]) -> bool,
+) -> Result<(Atoms<D>, Vec<[f64; D]>, ListCounts), StateError> {
+    for (name, per_atom) in [
+        ("types", 1),
+        ("ids", 1),
+        ("masses", 1),
+        ("positions", D),
+        ("velocities", D),
+        ("forces", D),
+    ] {
+        state.expect_count(name, per_atom * n)?;
+    }
     let [since_build, late_builds] = if state.has("list_counts") {
         let counts = state.u64s_of("list_counts", 2)?;
         [counts[0], counts[1]]
@@ -370,7 +382,36 @@ pub fn load_atoms<const D: usize>(
         since_build,
         late_builds,
     };
-    Ok((atoms, state.vectors("list_reference", n)?, counts))
+    state.expect_count("list_reference", D * n)?;
+    let mut atoms = Atoms::default();
+    let mut reference = Vec::new();
+    for start in (0..n).step_by(LOAD_BLOCK) {
+        let len = LOAD_BLOCK.min(n - start);
+        let positions = state.vectors_at::<D>("positions", start, len)?;
+        let kept: Vec<usize> = (0..len).filter(|&k| keep(&positions[k])).collect();
+        if kept.is_empty() {
+            continue;
+        }
+        let types = state
+            .u64s_at("types", start, len)?
+            .into_iter()
+            .map(|t| {
+                u32::try_from(t).map_err(|_| StateError(format!("atom type {t} is out of range")))
+            })
+            .collect::<Result<Vec<u32>, StateError>>()?;
+        let block = Atoms {
+            ids: state.u64s_at("ids", start, len)?,
+            types,
+            masses: state.f64s_at("masses", start, len)?,
+            positions,
+            velocities: state.vectors_at("velocities", start, len)?,
+            forces: state.vectors_at("forces", start, len)?,
+        };
+        let block_reference = state.vectors_at::<D>("list_reference", start, len)?;
+        atoms.push_from(&block, &kept);
+        reference.extend(kept.iter().map(|&k| block_reference[k]));
+    }
+    Ok((atoms, reference, counts))
 }
 
 #[cfg(test)]
@@ -416,5 +457,30 @@ mod tests {
         let (loaded, loaded_reference, loaded_counts) = load_atoms::<2>(&blocks, n).unwrap();
         assert_eq!(loaded, atoms);
         assert_eq!((loaded_reference, loaded_counts), (reference, counts));
+    }
+
+    /// Atoms loaded where a test keeps them, over more than one block, are
+    /// those of the whole load at the kept places, in order.
+    #[test]
+    fn atoms_loaded_where_kept_are_the_whole_loads_at_those_places() {
+        let n = LOAD_BLOCK + 100;
+        let points = (0..n).map(|k| [(k % 97) as f64, k as f64]).collect();
+        let mut atoms = Atoms::<2>::at_rest(points, 1.5);
+        for k in 0..n {
+            atoms.velocities[k] = [k as f64, 0.25];
+            atoms.types[k] = 1 + (k % 2) as u32;
+        }
+        let reference: Vec<[f64; 2]> = atoms.positions.iter().map(|p| [p[0], -p[1]]).collect();
+        let counts = ListCounts::default();
+        let mut state = State::default();
+        save_atoms(&mut state, &atoms, &reference, counts);
+        let keep = |p: &[f64; 2]| p[0] < 10.0 || p[1] > (n - 5) as f64;
+        let kept: Vec<usize> = (0..n).filter(|&k| keep(&atoms.positions[k])).collect();
+        let (part, part_reference, part_counts) = load_atoms_where::<2>(&state, n, keep).unwrap();
+        assert_eq!(part, atoms.select(&kept));
+        let want: Vec<[f64; 2]> = kept.iter().map(|&k| reference[k]).collect();
+        assert_eq!((part_reference, part_counts), (want, counts));
+        let wrong = load_atoms_where::<2>(&state, n + 1, keep).unwrap_err();
+        assert!(wrong.0.contains("expected"), "{wrong}");
     }
 }

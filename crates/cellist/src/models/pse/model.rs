@@ -2,7 +2,7 @@
 
 use super::{InitialField, Integrator, PseSystem};
 use crate::models::{Blowup, Checked, CheckedArray, Field, Ids, Model, ModelInfo};
-use crate::state::{State, StateError};
+use crate::state::{SectionSource, State, StateError};
 use crate::threads::Threads;
 use std::time::{Duration, Instant};
 
@@ -137,7 +137,7 @@ impl<const D: usize> Model for PseModel<D> {
         state.put_f64s("picture_scale", [self.scale]);
     }
 
-    fn restore(&mut self, state: &State, _threads: &Threads) -> Result<(), StateError> {
+    fn restore(&mut self, state: &dyn SectionSource, _threads: &Threads) -> Result<(), StateError> {
         let n = self.len();
         let positions = state.vectors::<D>("positions", n)?;
         if positions.as_slice() != self.system.slot_positions() {

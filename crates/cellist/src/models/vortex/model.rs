@@ -3,7 +3,7 @@
 use super::{energy_and_enstrophy, lamb_oseen_vorticity, Moments, VortexError, VortexSystem};
 use crate::models::pse::Integrator;
 use crate::models::{Blowup, Checked, CheckedArray, Field, Ids, Model, ModelInfo};
-use crate::state::{State, StateError};
+use crate::state::{SectionSource, State, StateError};
 use crate::threads::Threads;
 use std::f64::consts::PI;
 use std::time::Duration;
@@ -303,7 +303,7 @@ impl Model for VortexModel {
         state.put_f64s("observed", self.observed.iter().copied());
     }
 
-    fn restore(&mut self, state: &State, threads: &Threads) -> Result<(), StateError> {
+    fn restore(&mut self, state: &dyn SectionSource, threads: &Threads) -> Result<(), StateError> {
         let gamma = state.f64s("gamma")?;
         let positions = state.vectors::<2>("positions", gamma.len())?;
         let scalars = state.f64s_of("scalars", 3)?;

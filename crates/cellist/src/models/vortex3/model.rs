@@ -6,7 +6,7 @@ use super::{
 use crate::models::pse::Integrator;
 use crate::models::vortex::VortexError;
 use crate::models::{Blowup, Checked, CheckedArray, Field, Ids, Model, ModelInfo};
-use crate::state::{State, StateError};
+use crate::state::{SectionSource, State, StateError};
 use crate::threads::Threads;
 use std::time::Duration;
 
@@ -351,7 +351,7 @@ impl Model for Vortex3Model {
         state.put_f64s("observed", self.observed.iter().copied());
     }
 
-    fn restore(&mut self, state: &State, threads: &Threads) -> Result<(), StateError> {
+    fn restore(&mut self, state: &dyn SectionSource, threads: &Threads) -> Result<(), StateError> {
         let n = state.f64s("alpha")?.len() / 3;
         let alpha = state.vectors::<3>("alpha", n)?;
         let positions = state.vectors::<3>("positions", n)?;

@@ -17,8 +17,10 @@
 //! their bytes arrive a block at a time, and the checksums are combined from
 //! the pieces' ([`encode_in_blocks`]; a state spread over MPI ranks).
 
-use crate::error::InputError;
-use cellist::state::{Layout, Section, SectionSink, State};
+mod read;
+
+use cellist::state::{Layout, SectionSink, State};
+pub use read::{decode, read_checkpoint, CheckpointFile};
 use std::io::{self, Seek, Write};
 use std::path::{Path, PathBuf};
 
@@ -77,13 +79,6 @@ impl<W: Write> Write for Summed<W> {
 fn put_str(out: &mut impl Write, s: &str) -> io::Result<()> {
     out.write_all(&(s.len() as u32).to_le_bytes())?;
     out.write_all(s.as_bytes())
-}
-
-fn section_crc(name: &str, data: &[u8]) -> u32 {
-    let mut h = crc32fast::Hasher::new();
-    h.update(name.as_bytes());
-    h.update(data);
-    h.finalize()
 }
 
 /// The bytes of a checkpoint.
@@ -288,151 +283,6 @@ fn frame(name: &str, len: u64) -> Vec<u8> {
     frame
 }
 
-/// Reads the fields of a checkpoint's body, never past its end.
-struct Cursor<'a> {
-    bytes: &'a [u8],
-    at: usize,
-}
-
-impl<'a> Cursor<'a> {
-    fn take(&mut self, n: u64, what: &str) -> Result<&'a [u8], String> {
-        let left = (self.bytes.len() - self.at) as u64;
-        if n > left {
-            return Err(format!(
-                "{what} needs {n} bytes at offset {}, but only {left} are left",
-                self.at
-            ));
-        }
-        let slice = &self.bytes[self.at..self.at + n as usize];
-        self.at += n as usize;
-        Ok(slice)
-    }
-
-    fn u32(&mut self, what: &str) -> Result<u32, String> {
-        Ok(u32::from_le_bytes(
-            self.take(4, what)?.try_into().expect("4 bytes"),
-        ))
-    }
-
-    fn u64(&mut self, what: &str) -> Result<u64, String> {
-        Ok(u64::from_le_bytes(
-            self.take(8, what)?.try_into().expect("8 bytes"),
-        ))
-    }
-
-    fn str(&mut self, what: &str) -> Result<String, String> {
-        let n = self.u32(what)?;
-        let bytes = self.take(n as u64, what)?;
-        String::from_utf8(bytes.to_vec()).map_err(|_| format!("{what} is not UTF-8"))
-    }
-
-    /// A count of items of at least `min_size` bytes each, checked against the
-    /// bytes left (so that a corrupt count cannot ask for a huge allocation).
-    fn count(&mut self, what: &str, min_size: u64) -> Result<usize, String> {
-        let n = self.u32(what)? as u64;
-        let left = (self.bytes.len() - self.at) as u64;
-        if n * min_size > left {
-            return Err(format!(
-                "{what} claims {n} entries, more than the file holds"
-            ));
-        }
-        Ok(n as usize)
-    }
-}
-
-/// Decodes a checkpoint read from `path` (named in errors).
-pub fn decode(path: &Path, bytes: &[u8]) -> Result<Checkpoint, InputError> {
-    let fail = |m: String| InputError::file(path, m);
-    let min = MAGIC.len() + 4 + 4 + END_MAGIC.len();
-    if bytes.len() < MAGIC.len() || &bytes[..MAGIC.len()] != MAGIC {
-        return Err(fail(
-            "not a cellist checkpoint (it does not start with CELLCKPT)".into(),
-        ));
-    }
-    if bytes.len() < min {
-        return Err(fail(format!(
-            "the checkpoint is truncated ({} bytes); use the previous one, {}.prev, if there is one",
-            bytes.len(),
-            path.display()
-        )));
-    }
-    let version = u32::from_le_bytes(bytes[8..12].try_into().expect("4 bytes"));
-    if version != VERSION {
-        return Err(fail(format!(
-            "checkpoint format version {version}; this cellist reads version {VERSION}"
-        )));
-    }
-    let body_end = bytes.len() - END_MAGIC.len() - 4;
-    if &bytes[bytes.len() - END_MAGIC.len()..] != END_MAGIC {
-        return Err(fail(format!(
-            "the checkpoint is truncated (no CKPTDONE end marker); use the previous one, {}.prev, if there is one",
-            path.display()
-        )));
-    }
-    let stored = u32::from_le_bytes(bytes[body_end..body_end + 4].try_into().expect("4 bytes"));
-    if crc32fast::hash(&bytes[..body_end]) != stored {
-        return Err(fail(format!(
-            "the checkpoint is corrupt (its CRC-32 does not match); use the previous one, {}.prev, if there is one",
-            path.display()
-        )));
-    }
-    let mut c = Cursor {
-        bytes: &bytes[..body_end],
-        at: 12,
-    };
-    let parse = |c: &mut Cursor| -> Result<Checkpoint, String> {
-        let step = c.u64("the step")?;
-        let model = c.str("the model name")?;
-        let hash = c.u64("the physics hash")?;
-        let n = c.count("the physics keys", 8)?;
-        let mut physics = Vec::with_capacity(n);
-        for _ in 0..n {
-            physics.push((c.str("a physics key")?, c.str("a physics value")?));
-        }
-        if physics_hash(&physics) != hash {
-            return Err("the physics keys do not match their hash".into());
-        }
-        let n = c.count("the output files", 12)?;
-        let mut outputs = Vec::with_capacity(n);
-        for _ in 0..n {
-            outputs.push((c.str("an output file name")?, c.u64("an output length")?));
-        }
-        let n = c.count("the state sections", 16)?;
-        let mut sections = Vec::with_capacity(n);
-        for _ in 0..n {
-            let name = c.str("a section name")?;
-            let len = c.u64("a section length")?;
-            let data = c.take(len, &format!("section '{name}'"))?.to_vec();
-            let crc = c.u32("a section checksum")?;
-            if section_crc(&name, &data) != crc {
-                return Err(format!("section '{name}' is corrupt (CRC-32 mismatch)"));
-            }
-            sections.push(Section { name, data });
-        }
-        if c.at != c.bytes.len() {
-            return Err(format!(
-                "{} bytes after the last section",
-                c.bytes.len() - c.at
-            ));
-        }
-        Ok(Checkpoint {
-            model,
-            step,
-            physics,
-            outputs,
-            state: State { sections },
-        })
-    };
-    parse(&mut c).map_err(|m| fail(format!("the checkpoint is malformed: {m}")))
-}
-
-/// Reads the checkpoint at `path`.
-pub fn read_checkpoint(path: &Path) -> Result<Checkpoint, InputError> {
-    let bytes =
-        std::fs::read(path).map_err(|e| InputError::file(path, format!("cannot read: {e}")))?;
-    decode(path, &bytes)
-}
-
 /// `path` with `.prev` appended: where the previous checkpoint is kept.
 pub fn previous_path(path: &Path) -> PathBuf {
     let mut name = path.as_os_str().to_owned();
@@ -493,6 +343,7 @@ pub fn write_checkpoint_in_blocks(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use cellist::state::SectionSource;
 
     fn sample() -> Checkpoint {
         let mut state = State::default();
@@ -562,6 +413,50 @@ mod tests {
             assert!(decode(Path::new("c"), &bad).is_err(), "flip at {k}");
             assert!(decode(Path::new("c"), &bytes[..k]).is_err(), "cut at {k}");
         }
+    }
+
+    /// A file whose checksum does not match is called corrupt, whatever
+    /// else is wrong with it; one whose checksum matches but whose fields
+    /// do not fit is called malformed, with the field named.
+    #[test]
+    fn corrupt_is_told_before_malformed() {
+        let bytes = encode(&sample());
+        let mut bad = bytes.clone();
+        // the step count of physics keys made huge
+        let keys = 8 + 4 + 8 + (4 + 2) + 8;
+        bad[keys..keys + 4].copy_from_slice(&u32::MAX.to_le_bytes());
+        let e = decode(Path::new("c"), &bad).unwrap_err().to_string();
+        assert!(e.contains("corrupt (its CRC-32"), "{e}");
+        let end = bad.len() - END_MAGIC.len() - 4;
+        let crc = crc32fast::hash(&bad[..end]);
+        bad[end..end + 4].copy_from_slice(&crc.to_le_bytes());
+        let e = decode(Path::new("c"), &bad).unwrap_err().to_string();
+        assert!(e.contains("malformed: the physics keys claims"), "{e}");
+    }
+
+    /// A checkpoint file read in place: its head, and any stretch of a
+    /// section, are those of the checkpoint written; a stretch past a
+    /// section's end is an error.
+    #[test]
+    fn sections_are_read_in_place() {
+        let mut c = sample();
+        c.state.put_f64s("v", (0..20_000).map(|k| 0.5 * k as f64));
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("c.ckpt");
+        write_checkpoint(&path, &c).unwrap();
+        let file = CheckpointFile::open(&path).unwrap();
+        let state = Checkpoint {
+            state: State::default(),
+            ..c.clone()
+        };
+        assert_eq!(file.head, state);
+        let read: &dyn SectionSource = &file;
+        let v: Vec<f64> = (9_000..19_000).map(|k| 0.5 * k as f64).collect();
+        assert_eq!(read.f64s_at("v", 9_000, 10_000).unwrap(), v);
+        assert_eq!(read.u64s_of("ids", 3).unwrap(), [1, 2, 3]);
+        assert!(read.f64s_at("v", 19_999, 2).is_err());
+        assert!(!read.has("w"));
+        assert_eq!(file.into_checkpoint().unwrap(), c);
     }
 
     proptest::proptest! {
