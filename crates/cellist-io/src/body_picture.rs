@@ -217,33 +217,98 @@ impl BodyChart {
     }
 
     /// Paints the bodies in the plot area: its RGB pixels, rows from the top,
-    /// white where no body is.
-    pub fn paint(&self, positions: &[[f64; 3]], velocities: &[[f64; 3]]) -> Vec<u8> {
+    /// white where no body is (an error unless there are as many velocities
+    /// as positions).
+    pub fn paint(&self, positions: &[[f64; 3]], velocities: &[[f64; 3]]) -> io::Result<Vec<u8>> {
+        let mut canvas = self.canvas();
+        canvas.add(0, positions, velocities)?;
+        Ok(canvas.pixels)
+    }
+
+    /// An empty canvas of the plot area, to paint bodies on a block at a
+    /// time ([`BodyCanvas::add`]).
+    pub fn canvas(&self) -> BodyCanvas<'_> {
         let (_, n) = self.frame.plot_area();
-        let palette = Self::palette();
         let size = n as usize;
-        let mut pixels = vec![255u8; 3 * size * size];
-        let per_unit = n as f64 / self.frame.side;
-        let [lx, ly] = self.frame.lo;
-        let r = self.dot_radius;
-        // farther bodies first; equal depths in input order
-        let mut order: Vec<(f64, usize)> = positions
-            .iter()
-            .enumerate()
-            .filter(|(_, x)| x.iter().all(|c| c.is_finite()))
-            .map(|(i, x)| (self.plane.depth(x), i))
-            .collect();
-        order.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-        for (_, i) in order {
-            let [a, b] = self.plane.project(&positions[i]);
-            let (cx, cy) = ((a - lx) * per_unit, (ly + self.frame.side - b) * per_unit);
+        BodyCanvas {
+            chart: self,
+            palette: Self::palette(),
+            pixels: vec![255u8; 3 * size * size],
+            nearest: vec![(f64::NEG_INFINITY, 0); size * size],
+            outside: 0,
+        }
+    }
+
+    /// Renders the picture of bodies at `positions` moving at `velocities`: the
+    /// RGB pixels, [`FieldChart::picture_width`] by [`FieldChart::height`] of the
+    /// frame.
+    pub fn render(&self, positions: &[[f64; 3]], velocities: &[[f64; 3]]) -> io::Result<Vec<u8>> {
+        self.render_painted(self.paint(positions, velocities)?)
+    }
+
+    /// The picture around plot-area pixels `painted` (of [`BodyChart::paint`]
+    /// or [`BodyCanvas::pixels`]): the RGB pixels of the frame.
+    pub fn render_painted(&self, painted: Vec<u8>) -> io::Result<Vec<u8>> {
+        let palette = Self::palette();
+        let top = self.top_speed;
+        self.frame.render_painted(painted, (0.0, top), |speed| {
+            let k = 3 * DiscPainter::speed_colour(speed, top) as usize;
+            [palette[k], palette[k + 1], palette[k + 2]]
+        })
+    }
+}
+
+/// Bodies painted on a [`BodyChart`]'s plot area a block at a time: each
+/// pixel takes the colour of the nearest body covering it (the largest
+/// depth, then the latest in input order), the picture painting them all at
+/// once, farther first, leaves; what is held is the pixels and each one's
+/// nearest body, not the bodies.
+pub struct BodyCanvas<'c> {
+    chart: &'c BodyChart,
+    palette: Vec<u8>,
+    pixels: Vec<u8>,
+    /// Per pixel: the depth and input place of the body painted there.
+    nearest: Vec<(f64, usize)>,
+    outside: usize,
+}
+
+impl BodyCanvas<'_> {
+    /// Paints bodies `first..` of the input at `positions` moving at
+    /// `velocities` (as many: else an error), and counts those outside the
+    /// view (or not finite). Bodies with a coordinate that is not finite are
+    /// not drawn.
+    pub fn add(
+        &mut self,
+        first: usize,
+        positions: &[[f64; 3]],
+        velocities: &[[f64; 3]],
+    ) -> io::Result<()> {
+        if positions.len() != velocities.len() {
+            return Err(io::Error::new(
+                io::ErrorKind::InvalidInput,
+                "body chart: as many velocities as positions are needed",
+            ));
+        }
+        let chart = self.chart;
+        self.outside += chart.outside(positions);
+        let (_, n) = chart.frame.plot_area();
+        let size = n as usize;
+        let per_unit = n as f64 / chart.frame.side;
+        let [lx, ly] = chart.frame.lo;
+        let r = chart.dot_radius;
+        for (k, (x, v)) in positions.iter().zip(velocities).enumerate() {
+            if !x.iter().all(|c| c.is_finite()) {
+                continue;
+            }
+            let key = (chart.plane.depth(x), first + k);
+            let [a, b] = chart.plane.project(x);
+            let (cx, cy) = ((a - lx) * per_unit, (ly + chart.frame.side - b) * per_unit);
             if !(cx > -r && cx < n as f64 + r && cy > -r && cy < n as f64 + r) {
                 continue;
             }
-            let v = velocities[i];
             let speed = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-            let k = 3 * DiscPainter::speed_colour(speed, self.top_speed) as usize;
-            let colour = &palette[k..k + 3];
+            let c = 3 * DiscPainter::speed_colour(speed, chart.top_speed) as usize;
+            let colour = &self.palette[c..c + 3];
             let span = |c: f64| {
                 let lo = (c - r).floor().max(0.0) as usize;
                 let hi = ((c + r).ceil() as usize).min(size);
@@ -254,32 +319,27 @@ impl BodyChart {
                 for px in span(cx) {
                     let (dx, dy) = (px as f64 + 0.5 - cx, py as f64 + 0.5 - cy);
                     if dx * dx + dy * dy <= r * r || (px as f64, py as f64) == centre {
-                        let p = 3 * (py * size + px);
-                        pixels[p..p + 3].copy_from_slice(colour);
+                        let q = py * size + px;
+                        let (depth, place) = self.nearest[q];
+                        if key.0.total_cmp(&depth).then(key.1.cmp(&place)).is_gt() {
+                            self.nearest[q] = key;
+                            self.pixels[3 * q..3 * q + 3].copy_from_slice(colour);
+                        }
                     }
                 }
             }
         }
-        pixels
+        Ok(())
     }
 
-    /// Renders the picture of bodies at `positions` moving at `velocities`: the
-    /// RGB pixels, [`FieldChart::picture_width`] by [`FieldChart::height`] of the
-    /// frame.
-    pub fn render(&self, positions: &[[f64; 3]], velocities: &[[f64; 3]]) -> io::Result<Vec<u8>> {
-        if positions.len() != velocities.len() {
-            return Err(io::Error::new(
-                io::ErrorKind::InvalidInput,
-                "body chart: as many velocities as positions are needed",
-            ));
-        }
-        let palette = Self::palette();
-        let top = self.top_speed;
-        self.frame
-            .render_painted(self.paint(positions, velocities), (0.0, top), |speed| {
-                let k = 3 * DiscPainter::speed_colour(speed, top) as usize;
-                [palette[k], palette[k + 1], palette[k + 2]]
-            })
+    /// The bodies added so far outside the view (or not finite).
+    pub fn outside(&self) -> usize {
+        self.outside
+    }
+
+    /// The painted plot area's RGB pixels, rows from the top.
+    pub fn pixels(self) -> Vec<u8> {
+        self.pixels
     }
 }
 
@@ -342,6 +402,42 @@ mod tests {
             BodyChart::view_around(&[], None, Plane::Xy, 0.98),
             ([-1.0, -1.0], 2.0)
         );
+    }
+
+    /// Bodies painted a block at a time, or one at a time in any order
+    /// (each with its input place), give the pixels of painting them all
+    /// at once: where they overlap the nearest shows, and of two at the
+    /// same depth the later in the input.
+    #[test]
+    fn bodies_painted_in_blocks_are_painted_at_once() {
+        let (mut x, mut v) = ring();
+        // a pile on one spot: depths 0.5, 0.9, 0.9, 0.1 (plane xy: depth z)
+        for (k, z) in [0.5, 0.9, 0.9, 0.1].into_iter().enumerate() {
+            x.push([1.0, 1.0, z]);
+            v.push([0.5 * k as f64, 0.0, 0.0]);
+        }
+        let chart = BodyChart::new(Plane::Xy, [-0.5, 0.5], 3.0, 2.0, x.len());
+        let whole = chart.paint(&x, &v).unwrap();
+        let mut blocks = chart.canvas();
+        for start in (0..x.len()).step_by(7) {
+            let end = x.len().min(start + 7);
+            blocks.add(start, &x[start..end], &v[start..end]).unwrap();
+        }
+        assert_eq!(blocks.outside(), chart.outside(&x));
+        assert!(blocks.pixels() == whole);
+        let mut shuffled = chart.canvas();
+        let odd = (0..x.len()).rev().filter(|k| k % 2 == 1);
+        for k in odd.chain((0..x.len()).step_by(2)) {
+            shuffled.add(k, &x[k..k + 1], &v[k..k + 1]).unwrap();
+        }
+        assert!(shuffled.pixels() == whole);
+        // the pile's spot shows body 2 (depth 0.9, after body 1): speed 1.0
+        let (_, n) = chart.frame.plot_area();
+        let per_unit = n as f64 / 3.0;
+        let (px, py) = ((1.5 * per_unit) as usize, (2.5 * per_unit) as usize);
+        let at = 3 * (py * n as usize + px);
+        assert_eq!(whole[at..at + 3], speed_rgb(1.0, 2.0));
+        assert!(chart.canvas().add(0, &x, &v[1..]).is_err());
     }
 
     #[test]

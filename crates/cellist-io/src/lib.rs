@@ -30,7 +30,7 @@ pub use billiards::{
     TrajectoryReader, TrajectoryStep,
 };
 pub use bodies::{parse_bodies, read_bodies, BodyFile};
-pub use body_picture::{body_chart, BodyChart, Plane};
+pub use body_picture::{body_chart, BodyCanvas, BodyChart, Plane};
 pub use chart_gif::ChartPalette;
 pub use checkpoint::{read_checkpoint, write_checkpoint, Checkpoint};
 pub use disc_picture::{DiscPainter, GifAnimation};
@@ -45,11 +45,13 @@ pub use field_csv::{
     write_field, write_field_columns,
 };
 pub use field_picture::FieldPainter;
-pub use gsd::{write_hoomd_frame, GsdData, GsdWriter, HoomdFrame};
+pub use gsd::{
+    write_hoomd_frame, GsdData, GsdWriter, HoomdBlocks, HoomdFrame, HoomdHead, HoomdRows,
+};
 pub use lammps_data::{
     decode_data, decode_data_where, parse_data, read_data_box, read_data_where, AtomsWanted,
     DataAtom, DataFile,
 };
 pub use output::{format_g17, write_pairs, AtomicFile, StreamFile};
 pub use points::{read_points, BoxInfo, PointFile, Points};
-pub use vtk::{write_pvd, write_vtp};
+pub use vtk::{write_pvd, write_vtp, VtpBlocks};

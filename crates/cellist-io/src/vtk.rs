@@ -27,9 +27,22 @@ pub fn write_vtp(
     arrays: &[(&str, &[f64], usize)],
 ) -> io::Result<()> {
     check_arrays(positions.len(), arrays)?;
-    let mut file = AtomicFile::create(path)?;
-    write_polydata(file.writer(), positions, arrays)?;
-    file.commit()
+    let mut file = VtpBlocks::create(path, positions.len())?;
+    for &(name, values, components) in arrays {
+        file.begin_array(name, components, all_finite(values))?;
+        file.push(values)?;
+        file.end_array()?;
+    }
+    let flat = positions.as_flattened();
+    file.begin_points(all_finite(flat))?;
+    file.push(flat)?;
+    file.end_array()?;
+    file.finish()
+}
+
+/// Whether every value is finite (an array of them is written as ASCII).
+pub fn all_finite(values: &[f64]) -> bool {
+    values.iter().all(|v| v.is_finite())
 }
 
 /// Checks that every array has `n` tuples of at least one component.
@@ -45,72 +58,194 @@ fn check_arrays(n: usize, arrays: &[(&str, &[f64], usize)]) -> io::Result<()> {
     Ok(())
 }
 
-fn write_polydata<W: Write>(
-    w: &mut W,
-    positions: &[[f64; 3]],
-    arrays: &[(&str, &[f64], usize)],
-) -> io::Result<()> {
-    let n = positions.len();
-    writeln!(w, r#"<?xml version="1.0"?>"#)?;
-    writeln!(
-        w,
-        r#"<VTKFile type="PolyData" version="1.0" byte_order="LittleEndian" header_type="UInt64">"#
-    )?;
-    writeln!(w, "  <PolyData>")?;
-    writeln!(
-        w,
-        r#"    <Piece NumberOfPoints="{n}" NumberOfVerts="{n}" NumberOfLines="0" NumberOfStrips="0" NumberOfPolys="0">"#
-    )?;
-    writeln!(w, "      <PointData>")?;
-    for &(name, values, components) in arrays {
-        write_float_array(w, name, values, components)?;
-    }
-    writeln!(w, "      </PointData>")?;
-    writeln!(w, "      <Points>")?;
-    write_float_array(w, "Points", positions.as_flattened(), 3)?;
-    writeln!(w, "      </Points>")?;
-    writeln!(w, "      <Verts>")?;
-    write_int_array(w, "connectivity", 0..n)?;
-    write_int_array(w, "offsets", 1..=n)?;
-    writeln!(w, "      </Verts>")?;
-    writeln!(w, "    </Piece>")?;
-    writeln!(w, "  </PolyData>")?;
-    writeln!(w, "</VTKFile>")
+/// A `.vtp` file of `n` points (each also a vertex cell) written an array at
+/// a time, each array's values a block of points at a time, so that no
+/// array need be held whole (a model spread over ranks hands its particles
+/// out in blocks): the point-data arrays, then the points; the bytes of
+/// [`write_vtp`] of the same arrays. Whether an array is ASCII or binary
+/// (some value not finite) is said when it begins. The file appears whole
+/// at [`VtpBlocks::finish`] or not at all.
+pub struct VtpBlocks {
+    file: AtomicFile,
+    n: usize,
+    /// The array being written.
+    open: Option<OpenArray>,
+    /// True once the points have begun.
+    points: bool,
 }
 
-/// A `Float64` `DataArray`: ASCII, one tuple a line, or binary when a value is
-/// not finite.
-fn write_float_array<W: Write>(
-    w: &mut W,
-    name: &str,
-    values: &[f64],
+/// A `DataArray` being written: its name and tuple size, the tuples so far,
+/// and for a binary one the base64 stream.
+struct OpenArray {
+    name: String,
     components: usize,
-) -> io::Result<()> {
-    let ascii = values.iter().all(|v| v.is_finite());
-    writeln!(
-        w,
-        r#"        <DataArray type="Float64" Name="{}" NumberOfComponents="{components}" format="{}">"#,
-        escape(name),
-        if ascii { "ascii" } else { "binary" }
-    )?;
-    if ascii {
-        let mut line = String::new();
-        for tuple in values.chunks(components) {
-            line.clear();
-            line.push_str("          ");
-            for (k, v) in tuple.iter().enumerate() {
-                if k > 0 {
-                    line.push(' ');
-                }
-                // `{:?}` prints the shortest digits that read back to the same f64
-                let _ = write!(line, "{v:?}");
-            }
-            writeln!(w, "{line}")?;
-        }
-    } else {
-        writeln!(w, "          {}", binary_payload(values))?;
+    tuples: usize,
+    binary: Option<Base64Stream>,
+}
+
+impl VtpBlocks {
+    /// Begins the file, up to its point data.
+    pub fn create(path: &Path, n: usize) -> io::Result<Self> {
+        let mut file = AtomicFile::create(path)?;
+        let w = file.writer();
+        writeln!(w, r#"<?xml version="1.0"?>"#)?;
+        writeln!(
+            w,
+            r#"<VTKFile type="PolyData" version="1.0" byte_order="LittleEndian" header_type="UInt64">"#
+        )?;
+        writeln!(w, "  <PolyData>")?;
+        writeln!(
+            w,
+            r#"    <Piece NumberOfPoints="{n}" NumberOfVerts="{n}" NumberOfLines="0" NumberOfStrips="0" NumberOfPolys="0">"#
+        )?;
+        writeln!(w, "      <PointData>")?;
+        Ok(VtpBlocks {
+            file,
+            n,
+            open: None,
+            points: false,
+        })
     }
-    writeln!(w, "        </DataArray>")
+
+    /// Begins the next point-data array: ASCII, one tuple a line, when
+    /// `finite` (every value is), else binary.
+    pub fn begin_array(&mut self, name: &str, components: usize, finite: bool) -> io::Result<()> {
+        if self.open.is_some() || self.points {
+            return Err(invalid_input(format!(
+                "VTK array {name} begun inside another or after the points"
+            )));
+        }
+        if components == 0 {
+            return Err(invalid_input(format!("VTK array {name}: 0 components")));
+        }
+        let w = self.file.writer();
+        writeln!(
+            w,
+            r#"        <DataArray type="Float64" Name="{}" NumberOfComponents="{components}" format="{}">"#,
+            escape(name),
+            if finite { "ascii" } else { "binary" }
+        )?;
+        let binary = if finite {
+            None
+        } else {
+            write!(w, "          ")?;
+            let mut stream = Base64Stream::default();
+            let bytes = 8 * (components * self.n) as u64;
+            w.write_all(stream.feed(&bytes.to_le_bytes()).as_bytes())?;
+            Some(stream)
+        };
+        self.open = Some(OpenArray {
+            name: name.to_string(),
+            components,
+            tuples: 0,
+            binary,
+        });
+        Ok(())
+    }
+
+    /// Ends the point data and begins the points' array (3 components).
+    pub fn begin_points(&mut self, finite: bool) -> io::Result<()> {
+        if self.open.is_some() || self.points {
+            return Err(invalid_input(
+                "VTK points begun twice or inside an array".into(),
+            ));
+        }
+        let w = self.file.writer();
+        writeln!(w, "      </PointData>")?;
+        writeln!(w, "      <Points>")?;
+        self.begin_array("Points", 3, finite)?;
+        self.points = true;
+        Ok(())
+    }
+
+    /// Appends whole tuples to the array being written (no more than `n`
+    /// in all; an ASCII array's values must be finite).
+    pub fn push(&mut self, values: &[f64]) -> io::Result<()> {
+        let n = self.n;
+        let open = self
+            .open
+            .as_mut()
+            .ok_or_else(|| invalid_input("VTK values outside an array".into()))?;
+        let components = open.components;
+        let tuples = values.len() / components;
+        if !values.len().is_multiple_of(components) || open.tuples + tuples > n {
+            return Err(invalid_input(format!(
+                "VTK array {}: {} more values are not whole tuples of {components} within {n} points",
+                open.name,
+                values.len()
+            )));
+        }
+        let w = self.file.writer();
+        match &mut open.binary {
+            None => {
+                if !all_finite(values) {
+                    return Err(invalid_input(format!(
+                        "VTK array {}: a value that is not finite in an ASCII array",
+                        open.name
+                    )));
+                }
+                let mut line = String::new();
+                for tuple in values.chunks(components) {
+                    line.clear();
+                    line.push_str("          ");
+                    for (k, v) in tuple.iter().enumerate() {
+                        if k > 0 {
+                            line.push(' ');
+                        }
+                        // `{:?}` prints the shortest digits that read back to the same f64
+                        let _ = write!(line, "{v:?}");
+                    }
+                    writeln!(w, "{line}")?;
+                }
+            }
+            Some(stream) => {
+                let bytes: Vec<u8> = values.iter().flat_map(|v| v.to_le_bytes()).collect();
+                w.write_all(stream.feed(&bytes).as_bytes())?;
+            }
+        }
+        open.tuples += tuples;
+        Ok(())
+    }
+
+    /// Ends the array being written, once it holds `n` tuples.
+    pub fn end_array(&mut self) -> io::Result<()> {
+        let open = self
+            .open
+            .take()
+            .ok_or_else(|| invalid_input("VTK array ended but none begun".into()))?;
+        if open.tuples != self.n {
+            return Err(invalid_input(format!(
+                "VTK array {}: {} values are not {} points x {} components",
+                open.name,
+                open.tuples * open.components,
+                self.n,
+                open.components
+            )));
+        }
+        let w = self.file.writer();
+        if let Some(stream) = open.binary {
+            writeln!(w, "{}", stream.finish())?;
+        }
+        writeln!(w, "        </DataArray>")
+    }
+
+    /// Ends the points, writes the vertex cells and commits the file.
+    pub fn finish(mut self) -> io::Result<()> {
+        if self.open.is_some() || !self.points {
+            return Err(invalid_input("VTK file finished before its points".into()));
+        }
+        let n = self.n;
+        let w = self.file.writer();
+        writeln!(w, "      </Points>")?;
+        writeln!(w, "      <Verts>")?;
+        write_int_array(w, "connectivity", 0..n)?;
+        write_int_array(w, "offsets", 1..=n)?;
+        writeln!(w, "      </Verts>")?;
+        writeln!(w, "    </Piece>")?;
+        writeln!(w, "  </PolyData>")?;
+        writeln!(w, "</VTKFile>")?;
+        self.file.commit()
+    }
 }
 
 /// An `Int64` `DataArray` of `values`, ASCII, sixteen a line.
@@ -131,22 +266,41 @@ fn write_int_array<W: Write>(
     writeln!(w, "        </DataArray>")
 }
 
-/// VTK's inline binary form of `values` with a `UInt64` header: base64 of the
-/// byte count followed by the little-endian values, encoded as one stream.
-fn binary_payload(values: &[f64]) -> String {
-    let mut bytes = Vec::with_capacity(8 + 8 * values.len());
-    bytes.extend_from_slice(&(8 * values.len() as u64).to_le_bytes());
-    for v in values {
-        bytes.extend_from_slice(&v.to_le_bytes());
-    }
-    base64(&bytes)
+/// Standard base64 (RFC 4648 alphabet, `=` padding) of bytes that arrive a
+/// piece at a time: each piece's whole groups of 3 encoded as it comes, the
+/// rest kept for the next.
+#[derive(Default)]
+struct Base64Stream {
+    /// Bytes not yet encoded (fewer than 3).
+    carry: Vec<u8>,
 }
 
-/// Standard base64 (RFC 4648 alphabet, `=` padding).
-fn base64(bytes: &[u8]) -> String {
+impl Base64Stream {
     const ALPHABET: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-    let mut out = String::with_capacity(bytes.len().div_ceil(3) * 4);
-    for group in bytes.chunks(3) {
+
+    /// The encoding of the whole groups of 3 bytes the carry and `bytes` make.
+    fn feed(&mut self, bytes: &[u8]) -> String {
+        self.carry.extend_from_slice(bytes);
+        let whole = self.carry.len() / 3 * 3;
+        let mut out = String::with_capacity(whole / 3 * 4);
+        for group in self.carry[..whole].chunks(3) {
+            Self::encode(group, &mut out);
+        }
+        self.carry.drain(..whole);
+        out
+    }
+
+    /// The encoding of the bytes left, padded.
+    fn finish(self) -> String {
+        let mut out = String::new();
+        if !self.carry.is_empty() {
+            Self::encode(&self.carry, &mut out);
+        }
+        out
+    }
+
+    /// One group of 1 to 3 bytes as 4 characters.
+    fn encode(group: &[u8], out: &mut String) {
         let b = [
             group[0],
             *group.get(1).unwrap_or(&0),
@@ -155,13 +309,12 @@ fn base64(bytes: &[u8]) -> String {
         let bits = u32::from(b[0]) << 16 | u32::from(b[1]) << 8 | u32::from(b[2]);
         for k in 0..4 {
             if k <= group.len() {
-                out.push(ALPHABET[(bits >> (18 - 6 * k) & 63) as usize] as char);
+                out.push(Self::ALPHABET[(bits >> (18 - 6 * k) & 63) as usize] as char);
             } else {
                 out.push('=');
             }
         }
     }
-    out
 }
 
 /// `text` with the characters XML gives meaning to in attribute values escaped.
@@ -250,6 +403,18 @@ mod tests {
         out
     }
 
+    /// Base64 of `bytes` fed in pieces of `piece` bytes.
+    fn base64_in(bytes: &[u8], piece: usize) -> String {
+        let mut stream = Base64Stream::default();
+        let mut out: String = bytes.chunks(piece.max(1)).map(|c| stream.feed(c)).collect();
+        out += &stream.finish();
+        out
+    }
+
+    fn base64(bytes: &[u8]) -> String {
+        base64_in(bytes, bytes.len())
+    }
+
     #[test]
     fn base64_matches_rfc_4648() {
         assert_eq!(base64(b""), "");
@@ -258,6 +423,54 @@ mod tests {
         assert_eq!(base64(b"foo"), "Zm9v");
         assert_eq!(base64(b"foobar"), "Zm9vYmFy");
         assert_eq!(decode_base64("Zm9vYg=="), b"foob");
+        let text: Vec<u8> = (0..100u8).collect();
+        for piece in [1, 2, 4, 5, 7] {
+            assert_eq!(base64_in(&text, piece), base64(&text), "pieces of {piece}");
+        }
+    }
+
+    /// A file written a block of points at a time is that of all of them
+    /// at once, ASCII and binary arrays alike; an array of the wrong length
+    /// is an error and leaves no file.
+    #[test]
+    fn vtp_in_blocks_is_the_whole_files_bytes() {
+        let dir = tempfile::tempdir().unwrap();
+        let n = 10;
+        let positions: Vec<[f64; 3]> = (0..n).map(|k| [k as f64, 0.5, -1.0 / 3.0]).collect();
+        let speed: Vec<f64> = (0..n).map(|k| (k as f64).sqrt()).collect();
+        let mut odd: Vec<f64> = (0..2 * n).map(|k| k as f64 * 0.25).collect();
+        odd[7] = f64::NAN;
+        let arrays: [(&str, &[f64], usize); 2] = [("speed", &speed, 1), ("odd", &odd, 2)];
+        let whole = dir.path().join("whole.vtp");
+        write_vtp(&whole, &positions, &arrays).unwrap();
+        let blocks = dir.path().join("blocks.vtp");
+        let mut file = VtpBlocks::create(&blocks, n).unwrap();
+        for (name, values, components) in arrays {
+            file.begin_array(name, components, all_finite(values))
+                .unwrap();
+            for block in values.chunks(3 * components) {
+                file.push(block).unwrap();
+            }
+            file.end_array().unwrap();
+        }
+        file.begin_points(true).unwrap();
+        for block in positions.chunks(4) {
+            file.push(block.as_flattened()).unwrap();
+        }
+        file.end_array().unwrap();
+        file.finish().unwrap();
+        assert_eq!(
+            std::fs::read(&blocks).unwrap(),
+            std::fs::read(&whole).unwrap()
+        );
+        let short = dir.path().join("short.vtp");
+        let mut file = VtpBlocks::create(&short, n).unwrap();
+        file.begin_array("speed", 1, true).unwrap();
+        file.push(&speed[1..]).unwrap();
+        assert!(file.end_array().is_err());
+        assert!(file.push(&[f64::NAN]).is_err());
+        drop(file);
+        assert!(!short.exists());
     }
 
     #[test]

@@ -67,6 +67,11 @@ impl GsdData<'_> {
         }
     }
 
+    /// Bytes per value.
+    pub(super) fn value_bytes(&self) -> u64 {
+        type_size(self.type_code()).expect("a GSD type")
+    }
+
     /// Appends the values' little-endian bytes to `out`.
     pub(super) fn append_le(&self, out: &mut Vec<u8>) {
         match self {

@@ -22,5 +22,5 @@ mod test_reader;
 mod writer;
 
 pub use file::GsdData;
-pub use hoomd::{write_hoomd_frame, HoomdFrame};
+pub use hoomd::{write_hoomd_frame, HoomdBlocks, HoomdFrame, HoomdHead, HoomdRows};
 pub use writer::GsdWriter;

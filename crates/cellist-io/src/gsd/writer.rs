@@ -15,6 +15,15 @@ const INITIAL_INDEX_ENTRIES: u64 = 128;
 const INITIAL_NAMELIST_BYTES: u64 = 1024;
 const HOOMD_SCHEMA_VERSION: u32 = version(1, 4);
 
+/// Where the bytes of a chunk of the current frame lie ([`GsdWriter::place_chunk`]).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct PlacedChunk {
+    location: u64,
+    rows: u64,
+    columns: u32,
+    row_bytes: u64,
+}
+
 /// Writes a GSD file a frame at a time: [`GsdWriter::write_chunk`] for each chunk
 /// of a frame, then [`GsdWriter::end_frame`], after which the file is a valid GSD
 /// file that holds the frame. Each chunk costs one write of its bytes plus, at the
@@ -117,21 +126,40 @@ impl GsdWriter {
         data: GsdData,
     ) -> io::Result<()> {
         check_shape(name, rows, columns, data.len())?;
+        let place = self.place_chunk(name, rows, columns, &data)?;
+        self.write_rows(&place, 0, &data)
+    }
+
+    /// Adds a chunk of `rows` x `columns` values of `like`'s type (its values
+    /// are not read) to the current frame, its bytes reserved after the
+    /// chunks before it and filled by [`GsdWriter::write_rows`] a block of
+    /// rows at a time: the file of [`GsdWriter::write_chunk`] with all of them.
+    pub(super) fn place_chunk(
+        &mut self,
+        name: &str,
+        rows: u64,
+        columns: u32,
+        like: &GsdData,
+    ) -> io::Result<PlacedChunk> {
+        if columns == 0 {
+            return Err(invalid_input(format!("GSD chunk {name} has 0 columns")));
+        }
         let id = self.name_id(name)?;
         if self.pending.iter().any(|e| e.id == id) {
             return Err(invalid_input(format!(
                 "GSD chunk {name} written twice in one frame"
             )));
         }
-        self.scratch.clear();
-        data.append_le(&mut self.scratch);
+        let row_bytes = u64::from(columns) * like.value_bytes();
+        let bytes = rows
+            .checked_mul(row_bytes)
+            .ok_or_else(|| invalid_input(format!("GSD chunk {name}: too large")))?;
         let start = *self.frame_start.get_or_insert(self.end);
-        let location = if self.scratch.is_empty() {
+        let location = if bytes == 0 {
             start
         } else {
-            write_at(&mut self.file, self.end, &self.scratch)?;
             let at = self.end;
-            self.end += self.scratch.len() as u64;
+            self.end += bytes;
             at
         };
         self.pending.push(Entry {
@@ -140,10 +168,43 @@ impl GsdWriter {
             location,
             columns,
             id,
-            kind: data.type_code(),
+            kind: like.type_code(),
             flags: 0,
         });
-        Ok(())
+        Ok(PlacedChunk {
+            location,
+            rows,
+            columns,
+            row_bytes,
+        })
+    }
+
+    /// Writes `data` (whole rows of `place`'s type) as the rows of `place`
+    /// from `first_row` on.
+    pub(super) fn write_rows(
+        &mut self,
+        place: &PlacedChunk,
+        first_row: u64,
+        data: &GsdData,
+    ) -> io::Result<()> {
+        let columns = u64::from(place.columns);
+        let values = data.len() as u64;
+        if !values.is_multiple_of(columns) || first_row + values / columns > place.rows {
+            return Err(invalid_input(format!(
+                "GSD rows {first_row}.. of {values} values do not fit {} x {columns}",
+                place.rows
+            )));
+        }
+        if values == 0 {
+            return Ok(());
+        }
+        self.scratch.clear();
+        data.append_le(&mut self.scratch);
+        write_at(
+            &mut self.file,
+            place.location + first_row * place.row_bytes,
+            &self.scratch,
+        )
     }
 
     /// The id of `name`, given a new one if the file has no such name yet.
@@ -192,6 +253,18 @@ impl GsdWriter {
         self.pending.clear();
         self.frame_start = None;
         Ok(())
+    }
+
+    /// Drops the frame being written: its chunks, its new names and the
+    /// bytes written for it (overwritten by the next frame; the file's
+    /// header and index never pointed at them).
+    pub(super) fn abandon_frame(&mut self) {
+        self.pending.clear();
+        self.frame_start = None;
+        self.end = self.committed_end;
+        self.names.truncate(self.committed_names);
+        let committed = self.names.iter().filter(|&&b| b == 0).count();
+        self.ids.retain(|_, id| usize::from(*id) < committed);
     }
 
     /// Writes the names new in this frame: into the free end of the name list

@@ -8,6 +8,7 @@ use crate::error::{SimError, SimResult};
 use cellist::models::Model;
 use cellist_io::{write_chart, BodyChart, ChartPalette, FieldChart, GifAnimation};
 use indicatif::ProgressBar;
+use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
 
 /// Opens the GIF animation `dir/name` of `width` x `height` frames in `palette`:
@@ -274,23 +275,37 @@ impl<M: Model> Observer<M> for BodyPictures {
         self.snapshots.due(step, last)
     }
 
+    /// Paints the model's particles a block at a time ([`cellist_io::BodyCanvas`]): what
+    /// is held is the picture, not the particles (a model spread over ranks
+    /// pulls its blocks from them).
     fn observe(&mut self, model: &M, step: u64, last: u64, _bar: &ProgressBar) -> SimResult {
-        let Some(particles) = model.particles(step, false) else {
+        let mut canvas = self.chart.canvas();
+        let mut painted = Ok(());
+        let has_particles = model.particle_blocks(step, false, &mut |block| {
+            let rows = block.rows;
+            painted = canvas.add(block.first, &rows.positions, &rows.velocities);
+            match painted {
+                Ok(()) => ControlFlow::Continue(()),
+                Err(_) => ControlFlow::Break(()),
+            }
+        });
+        if !has_particles {
             return Err(SimError::Internal(format!(
                 "model {} has no particles to draw",
                 model.info().name
             )));
-        };
-        let (x, v) = (&particles.positions, &particles.velocities);
+        }
+        painted.map_err(SimError::output("a picture of the bodies"))?;
+        let outside = canvas.outside();
+        let painted = canvas.pixels();
         let mut title = snapshot_title("bodies", step, model.dt());
-        let outside = self.chart.outside(x);
         if outside > 0 {
             title += &format!(", {outside} outside");
         }
         self.chart.frame.title = title;
         let pixels = self
             .chart
-            .render(x, v)
+            .render_painted(painted)
             .map_err(SimError::output("a picture of the bodies"))?;
         self.snapshots.write(step, last, &self.chart.frame, &pixels)
     }

@@ -13,8 +13,14 @@ use super::observer::{Observer, Recorded};
 use crate::error::{SimError, SimResult};
 use crate::scenario::keys::SeriesKeys;
 use cellist::models::{Field, Model, Particles};
-use cellist_io::{write_hoomd_frame, write_pvd, write_vtp, GsdWriter, HoomdFrame};
+use cellist_io::vtk::all_finite;
+use cellist_io::{
+    write_hoomd_frame, write_pvd, write_vtp, GsdWriter, HoomdBlocks, HoomdFrame, HoomdHead,
+    HoomdRows, VtpBlocks,
+};
 use indicatif::ProgressBar;
+use std::borrow::Cow;
+use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
 
 /// One frame of a model: positions (3 components), its box, and named
@@ -60,18 +66,10 @@ impl TrajectoryFrame {
     }
 
     fn of_particles(p: Particles) -> Self {
-        let flat = |v: &[[f64; 3]]| v.iter().flatten().copied().collect::<Vec<f64>>();
-        let mut arrays = Vec::new();
-        if !p.forces.is_empty() {
-            arrays.push(("force", flat(&p.forces), 3));
-        }
-        if let Some(a) = &p.accelerations {
-            arrays.push(("acceleration", flat(a), 3));
-        }
-        if let Some(phi) = p.potentials {
-            arrays.push(("potential", phi, 1));
-        }
-        arrays.push(("id", p.ids.iter().map(|&i| i as f64).collect(), 1));
+        let arrays = particle_arrays(&p)
+            .into_iter()
+            .map(|(name, values, components)| (name, values.into_owned(), components))
+            .collect();
         TrajectoryFrame {
             dimension: p.dimension,
             lo: p.lo,
@@ -114,12 +112,9 @@ impl TrajectoryFrame {
 
     /// Appends this frame of `step` to the GSD file `writer`.
     pub fn write_gsd(&self, writer: &mut GsdWriter, step: u64) -> std::io::Result<()> {
-        let typeid: Option<Vec<u32>> = self
-            .types
-            .as_ref()
-            .map(|t| t.iter().map(|&k| k.saturating_sub(1)).collect());
+        let typeid = self.types.as_deref().map(type_ids);
         let most = self.types.as_ref().and_then(|t| t.iter().max().copied());
-        let names: Vec<String> = (1..=most.unwrap_or(1)).map(|k| k.to_string()).collect();
+        let names = type_names(most);
         let extra: Vec<(&str, &[f64], u32)> = self
             .arrays
             .iter()
@@ -161,27 +156,250 @@ impl TrajectoryFrame {
 
     /// Writes this frame as the VTK PolyData file `path`.
     pub fn write_vtp(&self, path: &Path) -> std::io::Result<()> {
-        let velocities: Option<Vec<f64>> = self
-            .velocities
-            .as_ref()
-            .map(|v| v.iter().flatten().copied().collect());
-        let types: Option<Vec<f64>> = self
-            .types
-            .as_ref()
-            .map(|t| t.iter().map(|&k| k as f64).collect());
-        let mut arrays: Vec<(&str, &[f64], usize)> = Vec::new();
-        if let Some(v) = &velocities {
-            arrays.push(("velocity", v, 3));
-        }
-        if let Some(m) = &self.masses {
-            arrays.push(("mass", m, 1));
-        }
-        if let Some(t) = &types {
-            arrays.push(("type", t, 1));
-        }
-        arrays.extend(self.arrays.iter().map(|(n, v, c)| (*n, v.as_slice(), *c)));
+        let borrowed = self
+            .arrays
+            .iter()
+            .map(|(n, v, c)| (*n, Cow::Borrowed(v.as_slice()), *c));
+        let columns = vtk_columns(
+            self.velocities.as_deref(),
+            self.masses.as_deref(),
+            self.types.as_deref(),
+            borrowed,
+        );
+        let arrays: Vec<(&str, &[f64], usize)> =
+            columns.iter().map(|(n, v, c)| (*n, &v[..], *c)).collect();
         write_vtp(path, &self.positions, &arrays)
     }
+}
+
+/// A VTK point-data array: name, values (row-major) and components.
+type Column<'a> = (&'static str, Cow<'a, [f64]>, usize);
+
+/// The point-data arrays of a VTK frame in the file's order: velocity, mass
+/// and type where the frame has them, then `rest`.
+fn vtk_columns<'a>(
+    velocities: Option<&'a [[f64; 3]]>,
+    masses: Option<&'a [f64]>,
+    types: Option<&[u32]>,
+    rest: impl Iterator<Item = Column<'a>>,
+) -> Vec<Column<'a>> {
+    let mut columns = Vec::new();
+    if let Some(v) = velocities {
+        columns.push(("velocity", Cow::Borrowed(v.as_flattened()), 3));
+    }
+    if let Some(m) = masses {
+        columns.push(("mass", Cow::Borrowed(m), 1));
+    }
+    if let Some(t) = types {
+        columns.push(("type", Cow::Owned(t.iter().map(|&k| k as f64).collect()), 1));
+    }
+    columns.extend(rest);
+    columns
+}
+
+/// The VTK arrays of a block of particles `p` ([`vtk_columns`]).
+fn particle_columns(p: &Particles) -> Vec<Column<'_>> {
+    let rest = particle_arrays(p).into_iter();
+    let types = (!p.types.is_empty()).then_some(&p.types[..]);
+    vtk_columns(Some(&p.velocities), p.masses.as_deref(), types, rest)
+}
+
+/// What a VTK frame of a model's particles holds besides their values, from
+/// a first pass over its blocks.
+struct VtpShape {
+    /// Per point-data array: name, components, and whether every value is
+    /// finite.
+    arrays: Vec<(&'static str, usize, bool)>,
+    /// Whether every position is finite.
+    points: bool,
+    /// The particles in the frame.
+    n: usize,
+}
+
+/// Writes the frame of `model`'s particles at `step` as the VTK file `path`
+/// an array at a time, each a block of rows at a time ([`VtpBlocks`]): a
+/// first pass over the blocks for the arrays' names and whether each is
+/// finite (ASCII) or not (binary), then one pass per array and one for the
+/// points; what is held is a block, not the frame. `None` for a model
+/// without particles. The file is that of [`TrajectoryFrame::write_vtp`] of
+/// the whole frame.
+fn write_vtp_blocks<M: Model + ?Sized>(
+    model: &M,
+    path: &Path,
+    step: u64,
+) -> Option<std::io::Result<()>> {
+    let mut shape: Option<VtpShape> = None;
+    let has_particles = model.particle_blocks(step, false, &mut |block| {
+        let p = block.rows;
+        let columns = particle_columns(p);
+        let shape = shape.get_or_insert_with(|| VtpShape {
+            arrays: columns.iter().map(|(n, _, c)| (*n, *c, true)).collect(),
+            points: true,
+            n: block.total,
+        });
+        for ((_, _, finite), (_, values, _)) in shape.arrays.iter_mut().zip(&columns) {
+            *finite &= all_finite(values);
+        }
+        shape.points &= all_finite(p.positions.as_flattened());
+        ControlFlow::Continue(())
+    });
+    if !has_particles {
+        return None;
+    }
+    let VtpShape { arrays, points, n } = shape.expect("at least one block");
+    let mut file = match VtpBlocks::create(path, n) {
+        Ok(file) => file,
+        Err(e) => return Some(Err(e)),
+    };
+    let mut written = Ok(());
+    let mut pass = |file: &mut VtpBlocks, column: Option<usize>| {
+        model.particle_blocks(step, false, &mut |block| {
+            let p = block.rows;
+            written = match column {
+                Some(k) => file.push(&particle_columns(p)[k].1),
+                None => file.push(p.positions.as_flattened()),
+            };
+            match written {
+                Ok(()) => ControlFlow::Continue(()),
+                Err(_) => ControlFlow::Break(()),
+            }
+        });
+        std::mem::replace(&mut written, Ok(()))
+    };
+    let mut result = Ok(());
+    for (k, &(name, components, finite)) in arrays.iter().enumerate() {
+        result = result
+            .and_then(|()| file.begin_array(name, components, finite))
+            .and_then(|()| pass(&mut file, Some(k)))
+            .and_then(|()| file.end_array());
+    }
+    Some(
+        result
+            .and_then(|()| file.begin_points(points))
+            .and_then(|()| pass(&mut file, None))
+            .and_then(|()| file.end_array())
+            .and_then(|()| file.finish()),
+    )
+}
+
+/// The per-particle quantities of `p` a trajectory frame carries besides its
+/// positions, velocities, masses and types: name, values (row-major) and
+/// components.
+fn particle_arrays(p: &Particles) -> Vec<Column<'_>> {
+    let mut arrays = Vec::new();
+    if !p.forces.is_empty() {
+        arrays.push(("force", Cow::Borrowed(p.forces.as_flattened()), 3));
+    }
+    if let Some(a) = &p.accelerations {
+        arrays.push(("acceleration", Cow::Borrowed(a.as_flattened()), 3));
+    }
+    if let Some(phi) = &p.potentials {
+        arrays.push(("potential", Cow::Borrowed(&phi[..]), 1));
+    }
+    let ids = p.ids.iter().map(|&i| i as f64).collect();
+    arrays.push(("id", Cow::Owned(ids), 1));
+    arrays
+}
+
+/// GSD type ids of cellist's types (from 1): `type - 1`.
+fn type_ids(types: &[u32]) -> Vec<u32> {
+    types.iter().map(|&k| k.saturating_sub(1)).collect()
+}
+
+/// The GSD type names of types 1 to `most` (one type without types).
+fn type_names(most: Option<u32>) -> Vec<String> {
+    (1..=most.unwrap_or(1)).map(|k| k.to_string()).collect()
+}
+
+/// What a GSD frame of a model's particles holds besides their values, from
+/// a first pass over its blocks: the first block's box, count and columns,
+/// and the largest type of any block.
+struct GsdShape {
+    dimension: usize,
+    lo: [f64; 3],
+    length: [f64; 3],
+    n: u64,
+    masses: bool,
+    typeid: bool,
+    extra: Vec<(&'static str, u32)>,
+    most: Option<u32>,
+}
+
+/// Appends the frame of `model`'s particles at `step` to `writer` a block of
+/// rows at a time ([`HoomdBlocks`]): two passes over the blocks, the first
+/// for the frame's shape (the type names need the largest type), the second
+/// writing; what is held is a block, not the frame (a model spread over
+/// ranks pulls its blocks from them). `None` for a model without particles.
+/// The file is that of [`TrajectoryFrame::write_gsd`] of the whole frame.
+fn write_gsd_blocks<M: Model + ?Sized>(
+    model: &M,
+    writer: &mut GsdWriter,
+    step: u64,
+) -> Option<std::io::Result<()>> {
+    let mut shape: Option<GsdShape> = None;
+    let has_particles = model.particle_blocks(step, false, &mut |block| {
+        let p = block.rows;
+        let most = p.types.iter().max().copied();
+        match &mut shape {
+            Some(shape) => shape.most = shape.most.max(most),
+            None => {
+                shape = Some(GsdShape {
+                    dimension: p.dimension,
+                    lo: p.lo,
+                    length: std::array::from_fn(|a| p.hi[a] - p.lo[a]),
+                    n: block.total as u64,
+                    masses: p.masses.is_some(),
+                    typeid: !p.types.is_empty(),
+                    extra: particle_arrays(p)
+                        .into_iter()
+                        .map(|(name, _, components)| (name, components as u32))
+                        .collect(),
+                    most,
+                })
+            }
+        }
+        ControlFlow::Continue(())
+    });
+    if !has_particles {
+        return None;
+    }
+    let shape = shape.expect("at least one block");
+    let names = type_names(shape.most);
+    let head = HoomdHead {
+        step,
+        dimensions: shape.dimension as u8,
+        box_lengths: shape.length,
+        lo: shape.lo,
+        n: shape.n,
+        velocities: true,
+        masses: shape.masses,
+        typeid: shape.typeid,
+        types: &names,
+        extra: &shape.extra,
+    };
+    let mut frame = match HoomdBlocks::begin(writer, head) {
+        Ok(frame) => frame,
+        Err(e) => return Some(Err(e)),
+    };
+    let mut written = Ok(());
+    model.particle_blocks(step, false, &mut |block| {
+        let p = block.rows;
+        let arrays = particle_arrays(p);
+        let extra: Vec<&[f64]> = arrays.iter().map(|(_, v, _)| &v[..]).collect();
+        let typeid = shape.typeid.then(|| type_ids(&p.types));
+        written = frame.push(&HoomdRows {
+            positions: &p.positions,
+            velocities: Some(&p.velocities),
+            masses: p.masses.as_deref(),
+            typeid: typeid.as_deref(),
+            extra: &extra,
+        });
+        match written {
+            Ok(()) => ControlFlow::Continue(()),
+            Err(_) => ControlFlow::Break(()),
+        }
+    });
+    Some(written.and_then(|()| frame.end()))
 }
 
 /// Opens the GSD file `dir/name`: continued from its recorded length when the
@@ -226,11 +444,16 @@ impl<M: Model> Observer<M> for GsdTrajectory {
         step.is_multiple_of(self.every)
     }
 
+    /// A model's particles a block at a time (`write_gsd_blocks`), or the
+    /// particles carrying its field.
     fn observe(&mut self, model: &M, step: u64, _last: u64, _bar: &ProgressBar) -> SimResult {
-        let frame = TrajectoryFrame::required(model, step, "GSD")?;
-        frame
-            .write_gsd(&mut self.writer, step)
-            .map_err(SimError::output(self.path.display().to_string()))
+        let written = match write_gsd_blocks(model, &mut self.writer, step) {
+            Some(written) => written,
+            None => {
+                TrajectoryFrame::required(model, step, "GSD")?.write_gsd(&mut self.writer, step)
+            }
+        };
+        written.map_err(SimError::output(self.path.display().to_string()))
     }
 
     fn sync(&mut self) -> SimResult<Vec<(String, u64)>> {
@@ -298,12 +521,15 @@ impl<M: Model> Observer<M> for VtkSeries {
         step.is_multiple_of(self.every)
     }
 
+    /// A model's particles a block at a time (`write_vtp_blocks`), or the
+    /// particles carrying its field; then the index.
     fn observe(&mut self, model: &M, step: u64, _last: u64, _bar: &ProgressBar) -> SimResult {
-        let frame = TrajectoryFrame::required(model, step, "VTK")?;
         let path = self.dir.join(self.frame_name(step));
-        frame
-            .write_vtp(&path)
-            .map_err(SimError::output(path.display().to_string()))?;
+        let written = match write_vtp_blocks(model, &path, step) {
+            Some(written) => written,
+            None => TrajectoryFrame::required(model, step, "VTK")?.write_vtp(&path),
+        };
+        written.map_err(SimError::output(path.display().to_string()))?;
         let entries = self
             .frames_up_to(step)
             .map_err(SimError::output(self.dir.display().to_string()))?;

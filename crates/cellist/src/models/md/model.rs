@@ -354,7 +354,7 @@ pub fn load_atoms<const D: usize>(
 
 /// [`load_atoms`] keeping only the atoms whose position `keep` accepts, in
 /// the saved order with their reference positions: every section checked
-/// to hold `n` atoms' numbers, the atoms read [`LOAD_BLOCK`] at a time (a
+/// to hold `n` atoms' numbers, the atoms read 8192 at a time (a
 /// rank's share of a checkpoint file, the whole never held).
 pub fn load_atoms_where<const D: usize>(
     state: &dyn SectionSource,
