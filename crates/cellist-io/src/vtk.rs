@@ -252,16 +252,23 @@ impl VtpBlocks {
 fn write_int_array<W: Write>(
     w: &mut W,
     name: &str,
-    values: impl Iterator<Item = usize>,
+    mut values: impl Iterator<Item = usize>,
 ) -> io::Result<()> {
     writeln!(
         w,
         r#"        <DataArray type="Int64" Name="{name}" format="ascii">"#
     )?;
-    let values: Vec<usize> = values.collect();
-    for row in values.chunks(16) {
-        let row: Vec<String> = row.iter().map(usize::to_string).collect();
-        writeln!(w, "          {}", row.join(" "))?;
+    let mut line = String::new();
+    loop {
+        line.clear();
+        for (k, v) in values.by_ref().take(16).enumerate() {
+            line.push_str(if k == 0 { "          " } else { " " });
+            let _ = write!(line, "{v}");
+        }
+        if line.is_empty() {
+            break;
+        }
+        writeln!(w, "{line}")?;
     }
     writeln!(w, "        </DataArray>")
 }

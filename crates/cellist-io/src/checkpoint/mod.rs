@@ -422,7 +422,7 @@ mod tests {
     fn corrupt_is_told_before_malformed() {
         let bytes = encode(&sample());
         let mut bad = bytes.clone();
-        // the step count of physics keys made huge
+        // the count of physics keys made huge
         let keys = 8 + 4 + 8 + (4 + 2) + 8;
         bad[keys..keys + 4].copy_from_slice(&u32::MAX.to_le_bytes());
         let e = decode(Path::new("c"), &bad).unwrap_err().to_string();

@@ -144,8 +144,9 @@ impl<R: Read + Seek> SectionSource for CheckpointFile<R> {
         self.sections.iter().find(|s| s.name == name).map(|s| s.len)
     }
 
-    /// Reads the bytes from the file (checked when it was opened; an error
-    /// if it has since become shorter).
+    /// Reads the bytes from the file. They were checked when it was opened
+    /// and are not checked again (a checkpoint replaced since keeps the open
+    /// file's bytes; one cut shorter is an error).
     fn read_bytes(&self, name: &str, at: u64, bytes: &mut [u8]) -> Result<(), StateError> {
         let s = self
             .sections
@@ -194,6 +195,11 @@ fn read_up_to(reader: &mut impl Read, buf: &mut [u8]) -> io::Result<usize> {
     }
     Ok(got)
 }
+
+/// The entries a list reserves room for before they are read: its count is
+/// not yet checked against the file's CRC-32, so a corrupt one must not
+/// size an allocation.
+const RESERVE_AT_MOST: usize = 1024;
 
 /// The bytes a section is checked through at once.
 const SCAN_CHUNK: u64 = 1 << 16;
@@ -302,7 +308,7 @@ impl<R: Read> Scan<'_, R> {
         let model = self.str("the model name")?;
         let hash = self.u64("the physics hash")?;
         let n = self.count("the physics keys", 8)?;
-        let mut physics = Vec::with_capacity(n);
+        let mut physics = Vec::with_capacity(n.min(RESERVE_AT_MOST));
         for _ in 0..n {
             physics.push((self.str("a physics key")?, self.str("a physics value")?));
         }
@@ -310,7 +316,7 @@ impl<R: Read> Scan<'_, R> {
             return Err("the physics keys do not match their hash".into());
         }
         let n = self.count("the output files", 12)?;
-        let mut outputs = Vec::with_capacity(n);
+        let mut outputs = Vec::with_capacity(n.min(RESERVE_AT_MOST));
         for _ in 0..n {
             outputs.push((
                 self.str("an output file name")?,
@@ -318,7 +324,7 @@ impl<R: Read> Scan<'_, R> {
             ));
         }
         let n = self.count("the state sections", 16)?;
-        let mut sections = Vec::with_capacity(n);
+        let mut sections = Vec::with_capacity(n.min(RESERVE_AT_MOST));
         for _ in 0..n {
             let name = self.str("a section name")?;
             let len = self.u64("a section length")?;

@@ -130,9 +130,25 @@ pub struct HoomdBlocks<'w, 'h> {
 }
 
 impl<'w, 'h> HoomdBlocks<'w, 'h> {
-    /// Writes the head's chunks and places the per-particle ones.
+    /// Writes the head's chunks and places the per-particle ones (a failure
+    /// drops the frame from the writer).
     pub fn begin(w: &'w mut GsdWriter, head: HoomdHead<'h>) -> io::Result<Self> {
         check_head(&head)?;
+        let mut frame = HoomdBlocks {
+            writer: w,
+            head,
+            places: Vec::with_capacity(4 + head.extra.len()),
+            written: 0,
+            buffer: Vec::new(),
+            ended: false,
+        };
+        frame.write_head()?;
+        Ok(frame)
+    }
+
+    /// [`HoomdBlocks::begin`]'s chunks and places.
+    fn write_head(&mut self) -> io::Result<()> {
+        let (w, head) = (&mut *self.writer, &self.head);
         let n = head.n;
         w.write_chunk("configuration/step", 1, 1, GsdData::U64(&[head.step]))?;
         w.write_chunk(
@@ -141,18 +157,18 @@ impl<'w, 'h> HoomdBlocks<'w, 'h> {
             1,
             GsdData::U8(&[head.dimensions]),
         )?;
-        w.write_chunk("configuration/box", 6, 1, GsdData::F32(&hoomd_box(&head)))?;
+        w.write_chunk("configuration/box", 6, 1, GsdData::F32(&hoomd_box(head)))?;
         w.write_chunk("particles/N", 1, 1, GsdData::U32(&[n as u32]))?;
         if !head.types.is_empty() {
             let (table, width) = type_table(head.types);
             let rows = head.types.len() as u64;
             w.write_chunk("particles/types", rows, width, GsdData::I8(&table))?;
         }
-        let mut places = Vec::with_capacity(4 + head.extra.len());
         let place = |w: &mut GsdWriter, on: bool, name: &str, columns, like| {
             on.then(|| w.place_chunk(name, n, columns, &like))
                 .transpose()
         };
+        let places = &mut self.places;
         places.push(place(
             w,
             head.typeid,
@@ -179,14 +195,7 @@ impl<'w, 'h> HoomdBlocks<'w, 'h> {
             let name = format!("log/particles/{name}");
             places.push(place(w, true, &name, columns, GsdData::F64(&[]))?);
         }
-        Ok(HoomdBlocks {
-            writer: w,
-            head,
-            places,
-            written: 0,
-            buffer: Vec::new(),
-            ended: false,
-        })
+        Ok(())
     }
 
     /// Writes the next block's rows.
@@ -233,8 +242,9 @@ impl<'w, 'h> HoomdBlocks<'w, 'h> {
                 self.written, self.head.n
             )));
         }
-        self.ended = true;
-        self.writer.end_frame()
+        let committed = self.writer.end_frame();
+        self.ended = committed.is_ok();
+        committed
     }
 }
 
@@ -529,6 +539,24 @@ mod tests {
         };
         write(&mut w, 7, false).unwrap();
         assert!(write(&mut w, 9, true).is_err());
+        // a frame with a new name, dropped: the name goes with it
+        let lone = HoomdHead {
+            extra: &[("stress", 3), ("junk", 1)],
+            ..head
+        };
+        let mut dropped = HoomdBlocks::begin(&mut w, lone).unwrap();
+        let (p, v, m, t, s) = rows(0..1, &stress[..3]);
+        let junk = [0.5];
+        dropped
+            .push(&HoomdRows {
+                positions: &p,
+                velocities: Some(&v),
+                masses: Some(&m),
+                typeid: Some(&t),
+                extra: &[&s, &junk],
+            })
+            .unwrap();
+        assert!(dropped.end().is_err());
         assert_eq!(read(&blocks).frames(), 1);
         write(&mut w, 8, false).unwrap();
         drop(w);

@@ -22,6 +22,8 @@ pub(super) struct PlacedChunk {
     rows: u64,
     columns: u32,
     row_bytes: u64,
+    /// The GSD type code of its values.
+    kind: u8,
 }
 
 /// Writes a GSD file a frame at a time: [`GsdWriter::write_chunk`] for each chunk
@@ -176,17 +178,25 @@ impl GsdWriter {
             rows,
             columns,
             row_bytes,
+            kind: like.type_code(),
         })
     }
 
-    /// Writes `data` (whole rows of `place`'s type) as the rows of `place`
-    /// from `first_row` on.
+    /// Writes `data` (whole rows of `place`'s type: else an error) as the
+    /// rows of `place` from `first_row` on.
     pub(super) fn write_rows(
         &mut self,
         place: &PlacedChunk,
         first_row: u64,
         data: &GsdData,
     ) -> io::Result<()> {
+        if data.type_code() != place.kind {
+            return Err(invalid_input(format!(
+                "GSD rows of type {} for a chunk of type {}",
+                data.type_code(),
+                place.kind
+            )));
+        }
         let columns = u64::from(place.columns);
         let values = data.len() as u64;
         if !values.is_multiple_of(columns) || first_row + values / columns > place.rows {
@@ -255,13 +265,16 @@ impl GsdWriter {
         Ok(())
     }
 
-    /// Drops the frame being written: its chunks, its new names and the
-    /// bytes written for it (overwritten by the next frame; the file's
-    /// header and index never pointed at them).
+    /// Drops the frame being written: its chunks, its new names, and the
+    /// bytes written for it, cut off at the file's committed length (the
+    /// header and index never pointed at them; should the cut fail, they
+    /// stay unseen by readers until a later frame writes over them).
     pub(super) fn abandon_frame(&mut self) {
         self.pending.clear();
         self.frame_start = None;
         self.end = self.committed_end;
+        // best effort: the bytes left are harmless
+        let _ = self.file.set_len(self.committed_end);
         self.names.truncate(self.committed_names);
         let committed = self.names.iter().filter(|&&b| b == 0).count();
         self.ids.retain(|_, id| usize::from(*id) < committed);

@@ -3,9 +3,10 @@
 //! restart from the lengths its checkpoint recorded).
 
 use crate::error::{SimError, SimResult};
-use cellist::models::Model;
+use cellist::models::{Model, ParticleBlock};
 use cellist_io::StreamFile;
 use indicatif::ProgressBar;
+use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
 
 /// Something done after the steps its trigger picks.
@@ -97,4 +98,27 @@ impl Every {
 /// True when `every` is given and due at `step`.
 pub fn due(every: &Option<Every>, step: u64, last: u64) -> bool {
     every.as_ref().is_some_and(|e| e.due(step, last))
+}
+
+/// Hands the non-empty blocks of `model`'s particles at `step` to `visit`
+/// in order, stopping at its first error. `None` for a model without
+/// particles; the error, if any. (A spread model may hand out empty blocks,
+/// whose rows lack the columns, and none at all for no particles.)
+pub(crate) fn each_block<M: Model + ?Sized>(
+    model: &M,
+    step: u64,
+    mut visit: impl FnMut(&ParticleBlock) -> std::io::Result<()>,
+) -> Option<std::io::Result<()>> {
+    let mut result = Ok(());
+    let has_particles = model.particle_blocks(step, false, &mut |block| {
+        if block.rows.ids.is_empty() {
+            return ControlFlow::Continue(());
+        }
+        result = visit(&block);
+        match result {
+            Ok(()) => ControlFlow::Continue(()),
+            Err(_) => ControlFlow::Break(()),
+        }
+    });
+    has_particles.then_some(result)
 }

@@ -3,12 +3,11 @@
 //! pictures of bodies (any model with particles: positions projected on a
 //! plane, coloured by speed, the time in the title).
 
-use super::observer::{due, Every, Observer, Recorded};
+use super::observer::{due, each_block, Every, Observer, Recorded};
 use crate::error::{SimError, SimResult};
 use cellist::models::Model;
 use cellist_io::{write_chart, BodyChart, ChartPalette, FieldChart, GifAnimation};
 use indicatif::ProgressBar;
-use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
 
 /// Opens the GIF animation `dir/name` of `width` x `height` frames in `palette`:
@@ -280,21 +279,16 @@ impl<M: Model> Observer<M> for BodyPictures {
     /// pulls its blocks from them).
     fn observe(&mut self, model: &M, step: u64, last: u64, _bar: &ProgressBar) -> SimResult {
         let mut canvas = self.chart.canvas();
-        let mut painted = Ok(());
-        let has_particles = model.particle_blocks(step, false, &mut |block| {
+        let painted = each_block(model, step, |block| {
             let rows = block.rows;
-            painted = canvas.add(block.first, &rows.positions, &rows.velocities);
-            match painted {
-                Ok(()) => ControlFlow::Continue(()),
-                Err(_) => ControlFlow::Break(()),
-            }
+            canvas.add(block.first, &rows.positions, &rows.velocities)
         });
-        if !has_particles {
+        let Some(painted) = painted else {
             return Err(SimError::Internal(format!(
                 "model {} has no particles to draw",
                 model.info().name
             )));
-        }
+        };
         painted.map_err(SimError::output("a picture of the bodies"))?;
         let outside = canvas.outside();
         let painted = canvas.pixels();

@@ -9,7 +9,7 @@
 //! vtk = { every = 100, file = "traj.pvd" }   # traj_00000100.vtp, ... beside it
 //! ```
 
-use super::observer::{Observer, Recorded};
+use super::observer::{each_block, Observer, Recorded};
 use crate::error::{SimError, SimResult};
 use crate::scenario::keys::SeriesKeys;
 use cellist::models::{Field, Model, Particles};
@@ -20,7 +20,6 @@ use cellist_io::{
 };
 use indicatif::ProgressBar;
 use std::borrow::Cow;
-use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
 
 /// One frame of a model: positions (3 components), its box, and named
@@ -216,20 +215,37 @@ struct VtpShape {
     n: usize,
 }
 
+/// Column `name` of [`particle_columns`] of `p`, or an error naming the
+/// block that lacks it.
+fn column_of<'p>(p: &'p Particles, name: &str) -> std::io::Result<Cow<'p, [f64]>> {
+    particle_columns(p)
+        .into_iter()
+        .find(|(n, _, _)| *n == name)
+        .map(|(_, values, _)| values)
+        .ok_or_else(|| missing_column(name))
+}
+
+/// The error of a block without a column its frame's first block has.
+fn missing_column(name: &str) -> std::io::Error {
+    std::io::Error::other(format!(
+        "a block of the frame has no '{name}' column while the first has one"
+    ))
+}
+
 /// Writes the frame of `model`'s particles at `step` as the VTK file `path`
 /// an array at a time, each a block of rows at a time ([`VtpBlocks`]): a
 /// first pass over the blocks for the arrays' names and whether each is
 /// finite (ASCII) or not (binary), then one pass per array and one for the
 /// points; what is held is a block, not the frame. `None` for a model
-/// without particles. The file is that of [`TrajectoryFrame::write_vtp`] of
-/// the whole frame.
+/// without particles or a frame without any (written whole). The file is
+/// that of [`TrajectoryFrame::write_vtp`] of the whole frame.
 fn write_vtp_blocks<M: Model + ?Sized>(
     model: &M,
     path: &Path,
     step: u64,
 ) -> Option<std::io::Result<()>> {
     let mut shape: Option<VtpShape> = None;
-    let has_particles = model.particle_blocks(step, false, &mut |block| {
+    let scanned = each_block(model, step, |block| {
         let p = block.rows;
         let columns = particle_columns(p);
         let shape = shape.get_or_insert_with(|| VtpShape {
@@ -237,46 +253,42 @@ fn write_vtp_blocks<M: Model + ?Sized>(
             points: true,
             n: block.total,
         });
-        for ((_, _, finite), (_, values, _)) in shape.arrays.iter_mut().zip(&columns) {
+        for (name, _, finite) in &mut shape.arrays {
+            let (_, values, _) = columns
+                .iter()
+                .find(|(n, _, _)| n == name)
+                .ok_or_else(|| missing_column(name))?;
             *finite &= all_finite(values);
         }
         shape.points &= all_finite(p.positions.as_flattened());
-        ControlFlow::Continue(())
-    });
-    if !has_particles {
-        return None;
-    }
-    let VtpShape { arrays, points, n } = shape.expect("at least one block");
+        Ok(())
+    })?;
+    let VtpShape { arrays, points, n } = match (scanned, shape) {
+        (Err(e), _) => return Some(Err(e)),
+        (Ok(()), None) => return None,
+        (Ok(()), Some(shape)) => shape,
+    };
     let mut file = match VtpBlocks::create(path, n) {
         Ok(file) => file,
         Err(e) => return Some(Err(e)),
     };
-    let mut written = Ok(());
-    let mut pass = |file: &mut VtpBlocks, column: Option<usize>| {
-        model.particle_blocks(step, false, &mut |block| {
-            let p = block.rows;
-            written = match column {
-                Some(k) => file.push(&particle_columns(p)[k].1),
-                None => file.push(p.positions.as_flattened()),
-            };
-            match written {
-                Ok(()) => ControlFlow::Continue(()),
-                Err(_) => ControlFlow::Break(()),
-            }
-        });
-        std::mem::replace(&mut written, Ok(()))
-    };
     let mut result = Ok(());
-    for (k, &(name, components, finite)) in arrays.iter().enumerate() {
+    for &(name, components, finite) in &arrays {
         result = result
             .and_then(|()| file.begin_array(name, components, finite))
-            .and_then(|()| pass(&mut file, Some(k)))
+            .and_then(|()| {
+                let pass = each_block(model, step, |b| file.push(&column_of(b.rows, name)?));
+                pass.unwrap_or(Ok(()))
+            })
             .and_then(|()| file.end_array());
     }
     Some(
         result
             .and_then(|()| file.begin_points(points))
-            .and_then(|()| pass(&mut file, None))
+            .and_then(|()| {
+                let pass = each_block(model, step, |b| file.push(b.rows.positions.as_flattened()));
+                pass.unwrap_or(Ok(()))
+            })
             .and_then(|()| file.end_array())
             .and_then(|()| file.finish()),
     )
@@ -329,15 +341,16 @@ struct GsdShape {
 /// rows at a time ([`HoomdBlocks`]): two passes over the blocks, the first
 /// for the frame's shape (the type names need the largest type), the second
 /// writing; what is held is a block, not the frame (a model spread over
-/// ranks pulls its blocks from them). `None` for a model without particles.
-/// The file is that of [`TrajectoryFrame::write_gsd`] of the whole frame.
+/// ranks pulls its blocks from them). `None` for a model without particles
+/// or a frame without any (written whole). The file is that of
+/// [`TrajectoryFrame::write_gsd`] of the whole frame.
 fn write_gsd_blocks<M: Model + ?Sized>(
     model: &M,
     writer: &mut GsdWriter,
     step: u64,
 ) -> Option<std::io::Result<()>> {
     let mut shape: Option<GsdShape> = None;
-    let has_particles = model.particle_blocks(step, false, &mut |block| {
+    let scanned = each_block(model, step, |block| {
         let p = block.rows;
         let most = p.types.iter().max().copied();
         match &mut shape {
@@ -358,12 +371,13 @@ fn write_gsd_blocks<M: Model + ?Sized>(
                 })
             }
         }
-        ControlFlow::Continue(())
-    });
-    if !has_particles {
-        return None;
-    }
-    let shape = shape.expect("at least one block");
+        Ok(())
+    })?;
+    let shape = match (scanned, shape) {
+        (Err(e), _) => return Some(Err(e)),
+        (Ok(()), None) => return None,
+        (Ok(()), Some(shape)) => shape,
+    };
     let names = type_names(shape.most);
     let head = HoomdHead {
         step,
@@ -381,25 +395,29 @@ fn write_gsd_blocks<M: Model + ?Sized>(
         Ok(frame) => frame,
         Err(e) => return Some(Err(e)),
     };
-    let mut written = Ok(());
-    model.particle_blocks(step, false, &mut |block| {
+    let written = each_block(model, step, |block| {
         let p = block.rows;
         let arrays = particle_arrays(p);
-        let extra: Vec<&[f64]> = arrays.iter().map(|(_, v, _)| &v[..]).collect();
+        let extra = shape
+            .extra
+            .iter()
+            .map(|(name, _)| {
+                let found = arrays.iter().find(|(n, _, _)| n == name);
+                found
+                    .map(|(_, v, _)| &v[..])
+                    .ok_or_else(|| missing_column(name))
+            })
+            .collect::<std::io::Result<Vec<&[f64]>>>()?;
         let typeid = shape.typeid.then(|| type_ids(&p.types));
-        written = frame.push(&HoomdRows {
+        frame.push(&HoomdRows {
             positions: &p.positions,
             velocities: Some(&p.velocities),
             masses: p.masses.as_deref(),
             typeid: typeid.as_deref(),
             extra: &extra,
-        });
-        match written {
-            Ok(()) => ControlFlow::Continue(()),
-            Err(_) => ControlFlow::Break(()),
-        }
+        })
     });
-    Some(written.and_then(|()| frame.end()))
+    Some(written.unwrap_or(Ok(())).and_then(|()| frame.end()))
 }
 
 /// Opens the GSD file `dir/name`: continued from its recorded length when the
@@ -534,5 +552,176 @@ impl<M: Model> Observer<M> for VtkSeries {
             .frames_up_to(step)
             .map_err(SimError::output(self.dir.display().to_string()))?;
         write_pvd(&self.index, &entries).map_err(SimError::output(self.index.display().to_string()))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use cellist::models::{Blowup, Checked, Ids, ModelInfo, ParticleBlock};
+    use cellist::state::{SectionSource, State, StateError};
+    use cellist::Threads;
+    use std::ops::{ControlFlow, Range};
+    use std::time::Duration;
+
+    const INFO: ModelInfo = ModelInfo {
+        name: "blocks",
+        particle: "particle",
+        thermo_columns: &[],
+        remedy: "",
+        count_may_change: false,
+    };
+
+    /// A frame handed out in the blocks `cuts` (an empty one as a spread
+    /// model's id range without atoms gives it: no forces, no types); never
+    /// stepped.
+    struct Blocks {
+        frame: Particles,
+        cuts: Vec<Range<usize>>,
+    }
+
+    impl Blocks {
+        fn rows(&self, cut: &Range<usize>) -> Particles {
+            let f = &self.frame;
+            let box_only = Particles {
+                dimension: f.dimension,
+                lo: f.lo,
+                hi: f.hi,
+                periodic: f.periodic,
+                masses: Some(Vec::new()),
+                ..Particles::default()
+            };
+            if cut.is_empty() {
+                return box_only;
+            }
+            let r = cut.clone();
+            Particles {
+                ids: f.ids[r.clone()].to_vec(),
+                types: f.types[r.clone()].to_vec(),
+                positions: f.positions[r.clone()].to_vec(),
+                velocities: f.velocities[r.clone()].to_vec(),
+                forces: f.forces[r.clone()].to_vec(),
+                masses: f.masses.as_ref().map(|m| m[r].to_vec()),
+                ..box_only
+            }
+        }
+    }
+
+    impl Model for Blocks {
+        fn info(&self) -> &ModelInfo {
+            &INFO
+        }
+        fn len(&self) -> usize {
+            self.frame.ids.len()
+        }
+        fn dt(&self) -> f64 {
+            0.5
+        }
+        fn step(&mut self, step: u64, _: &Threads) -> Result<(), Blowup> {
+            Err(Blowup::new(step, "never stepped", ""))
+        }
+        fn thermo(&self, _: u64) -> Vec<f64> {
+            Vec::new()
+        }
+        fn checked(&self) -> Checked<'_> {
+            Checked::new(Ids::Index, Vec::new())
+        }
+        fn particles(&self, _: u64, _: bool) -> Option<Particles> {
+            Some(self.frame.clone())
+        }
+        fn particle_blocks(
+            &self,
+            _: u64,
+            _: bool,
+            visit: &mut dyn FnMut(ParticleBlock<'_>) -> ControlFlow<()>,
+        ) -> bool {
+            for cut in &self.cuts {
+                let rows = self.rows(cut);
+                let block = ParticleBlock {
+                    total: self.len(),
+                    first: cut.start,
+                    rows: &rows,
+                };
+                if visit(block).is_break() {
+                    break;
+                }
+            }
+            true
+        }
+        fn stage_times(&self) -> Vec<(&'static str, Duration)> {
+            Vec::new()
+        }
+        fn save(&self, _: &mut State) {}
+        fn restore(&mut self, _: &dyn SectionSource, _: &Threads) -> Result<(), StateError> {
+            Ok(())
+        }
+    }
+
+    /// 11 particles of types 1 to 3 in 2D, one with a speed that is not
+    /// finite (its VTK velocity array goes binary), cut into blocks of 4
+    /// with an empty block in the middle.
+    fn blocks() -> Blocks {
+        let n = 11;
+        let frame = Particles {
+            dimension: 2,
+            lo: [0.0, 0.0, -0.5],
+            hi: [10.0, 5.0, 0.5],
+            periodic: [true, true, false],
+            ids: (1..=n as u64).collect(),
+            types: (0..n).map(|k| 1 + (k % 3) as u32).collect(),
+            positions: (0..n)
+                .map(|k| [0.9 * k as f64, 0.4 * k as f64, 0.0])
+                .collect(),
+            velocities: (0..n)
+                .map(|k| [if k == 6 { f64::NAN } else { k as f64 }, -0.5, 0.0])
+                .collect(),
+            forces: (0..n).map(|k| [1.0 / (k + 1) as f64, 2.0, 0.0]).collect(),
+            masses: Some((0..n).map(|k| 1.0 + k as f64).collect()),
+            ..Particles::default()
+        };
+        Blocks {
+            frame,
+            cuts: vec![0..4, 4..4, 4..8, 8..11],
+        }
+    }
+
+    /// A frame written a block at a time, an empty block among them, is
+    /// the GSD and VTK file of the whole frame at once, byte for byte.
+    #[test]
+    fn frames_in_blocks_are_the_whole_frames_files() {
+        let model = blocks();
+        let whole = TrajectoryFrame::of(&model, 3).unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let path = |name: &str| dir.path().join(name);
+        let mut writer = GsdWriter::create(&path("whole.gsd")).unwrap();
+        whole.write_gsd(&mut writer, 3).unwrap();
+        let mut writer = GsdWriter::create(&path("blocks.gsd")).unwrap();
+        write_gsd_blocks(&model, &mut writer, 3).unwrap().unwrap();
+        whole.write_vtp(&path("whole.vtp")).unwrap();
+        write_vtp_blocks(&model, &path("blocks.vtp"), 3)
+            .unwrap()
+            .unwrap();
+        for (a, b) in [("whole.gsd", "blocks.gsd"), ("whole.vtp", "blocks.vtp")] {
+            let (a, b) = (
+                std::fs::read(path(a)).unwrap(),
+                std::fs::read(path(b)).unwrap(),
+            );
+            assert!(a == b, "{} bytes against {}", a.len(), b.len());
+        }
+        let vtp = std::fs::read_to_string(path("blocks.vtp")).unwrap();
+        assert!(vtp.contains(r#"Name="velocity" NumberOfComponents="3" format="binary""#));
+        assert!(vtp.contains(r#"Name="mass" NumberOfComponents="1" format="ascii""#));
+    }
+
+    /// A frame without particles (no block, as a spread model of none
+    /// gives it) is left to the whole frame's writer.
+    #[test]
+    fn a_frame_without_blocks_is_written_whole() {
+        let mut model = blocks();
+        model.cuts.clear();
+        let dir = tempfile::tempdir().unwrap();
+        let mut writer = GsdWriter::create(&dir.path().join("t.gsd")).unwrap();
+        assert!(write_gsd_blocks(&model, &mut writer, 0).is_none());
+        assert!(write_vtp_blocks(&model, &dir.path().join("t.vtp"), 0).is_none());
     }
 }

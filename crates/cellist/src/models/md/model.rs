@@ -387,11 +387,7 @@ pub fn load_atoms_where<const D: usize>(
     let mut reference = Vec::new();
     for start in (0..n).step_by(LOAD_BLOCK) {
         let len = LOAD_BLOCK.min(n - start);
-        let positions = state.vectors_at::<D>("positions", start, len)?;
-        let kept: Vec<usize> = (0..len).filter(|&k| keep(&positions[k])).collect();
-        if kept.is_empty() {
-            continue;
-        }
+        // every rank checks every type, kept or not, as the whole load did
         let types = state
             .u64s_at("types", start, len)?
             .into_iter()
@@ -399,6 +395,11 @@ pub fn load_atoms_where<const D: usize>(
                 u32::try_from(t).map_err(|_| StateError(format!("atom type {t} is out of range")))
             })
             .collect::<Result<Vec<u32>, StateError>>()?;
+        let positions = state.vectors_at::<D>("positions", start, len)?;
+        let kept: Vec<usize> = (0..len).filter(|&k| keep(&positions[k])).collect();
+        if kept.is_empty() {
+            continue;
+        }
         let block = Atoms {
             ids: state.u64s_at("ids", start, len)?,
             types,
@@ -482,5 +483,15 @@ mod tests {
         assert_eq!((part_reference, part_counts), (want, counts));
         let wrong = load_atoms_where::<2>(&state, n + 1, keep).unwrap_err();
         assert!(wrong.0.contains("expected"), "{wrong}");
+        // a type out of range in a block none of whose atoms is kept
+        let types = state
+            .sections
+            .iter_mut()
+            .find(|s| s.name == "types")
+            .unwrap();
+        types.data[8 * 50..8 * 51].copy_from_slice(&u64::MAX.to_le_bytes());
+        let last = |p: &[f64; 2]| p[1] > (n - 5) as f64;
+        let bad = load_atoms_where::<2>(&state, n, last).unwrap_err();
+        assert!(bad.0.contains("out of range"), "{bad}");
     }
 }
