@@ -482,6 +482,71 @@ fn runs_have_the_plain_bytes(
     Ok(())
 }
 
+/// An fcc crystal of 14^3 cells (10976 atoms) read from a data file whose
+/// ids jump from 5488 to 1000001: rank 0 pulls its frames by id ranges, and
+/// the middle ones hold no atom. Its step-0 GSD and VTK frames (written a
+/// block at a time, the empty blocks skipped) on 2 and 3 ranks in the
+/// reproducible mode: the same bytes.
+fn gapped_ids_give_the_same_frames(dir: &Path) -> Result<(), String> {
+    let folder = dir.join("gapped");
+    std::fs::create_dir_all(&folder).map_err(|e| e.to_string())?;
+    let (cells, a) = (14, (4.0f64 / 0.8442).cbrt());
+    let side = cells as f64 * a;
+    let mut atoms = String::new();
+    let mut velocities = String::new();
+    let basis = [
+        [0.0, 0.0, 0.0],
+        [0.5, 0.5, 0.0],
+        [0.5, 0.0, 0.5],
+        [0.0, 0.5, 0.5],
+    ];
+    let n = 4 * cells * cells * cells;
+    let mut k = 0;
+    for i in 0..cells {
+        for j in 0..cells {
+            for l in 0..cells {
+                for b in basis {
+                    let id = if k < n / 2 { k + 1 } else { 1_000_001 + k };
+                    let x = [i as f64 + b[0], j as f64 + b[1], l as f64 + b[2]].map(|c| c * a);
+                    atoms += &format!("{id} 1 {} {} {}\n", x[0], x[1], x[2]);
+                    let v = (k % 7) as f64 * 0.1 - 0.3;
+                    velocities += &format!("{id} {v} {} {}\n", -v, 0.5 * v);
+                    k += 1;
+                }
+            }
+        }
+    }
+    let data = format!(
+        "gapped ids\n\n{n} atoms\n1 atom types\n\n0 {side} xlo xhi\n0 {side} ylo yhi\n0 {side} zlo zhi\n\n\
+         Masses\n\n1 1.0\n\nAtoms # atomic\n\n{atoms}\nVelocities\n\n{velocities}"
+    );
+    std::fs::write(folder.join("gapped.data"), data).map_err(|e| e.to_string())?;
+    let scenario = folder.join("gapped.toml");
+    std::fs::write(
+        &scenario,
+        "model = \"md\"\n[system]\nread_data = \"gapped.data\"\n[pair]\ncutoff = 2.5\n\
+         [run]\nsteps = 0\nreproducible = true\n[output]\n\
+         gsd = { every = 1, file = \"t.gsd\" }\nvtk = { every = 1, file = \"t.pvd\" }\n",
+    )
+    .map_err(|e| e.to_string())?;
+    let scenario = scenario.display().to_string();
+    let mut frames = Vec::new();
+    for ranks in [2, 3] {
+        let out = folder.join(format!("np{ranks}"));
+        let out = out.display().to_string();
+        distributed(ranks, &["run", &scenario, "--out", &out])?;
+        let read = |file: &str| {
+            let path = Path::new(&out).join(file);
+            std::fs::read(&path).map_err(|e| format!("{}: {e}", path.display()))
+        };
+        frames.push((read("t.gsd")?, read("t_00000000.vtp")?));
+    }
+    if frames[0] != frames[1] {
+        return Err("the GSD or VTK frame of 2 and 3 ranks are not the same bytes".into());
+    }
+    Ok(())
+}
+
 /// The md `scenario` with `[neighbor] every = 10, check = false`, distributed
 /// and plain (in a folder of its own): the ranks rebuild on the steps the plain
 /// run does. The skin (1.5) is wide enough that no build is late: a late build
@@ -946,6 +1011,10 @@ fn main() {
         (
             "3D vortex fmm on 1 to 4 ranks (its target groups and blob rest's cell layers dealt out): the bytes of the plain run's fields and thermo",
             runs_have_the_plain_bytes(dir.path(), "vortex3", &vortex3_fmm, &["vorticity_3.csv", "thermo.csv"]),
+        ),
+        (
+            "md with gapped ids (empty id ranges) on 2 and 3 ranks: the same GSD and VTK frames",
+            gapped_ids_give_the_same_frames(dir.path()),
         ),
         (
             "gravity: a 4-rank checkpoint continues in one process and on 2 ranks",
