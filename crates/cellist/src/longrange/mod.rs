@@ -1,4 +1,4 @@
-//! Long-range solvers for the softened gravity of [`GravityLaw`]: each fills the
+//! Long-range solvers for the softened gravity of [`GravityLaw`](crate::interactions::GravityLaw): each fills the
 //! acceleration `acc_i = sum_j acc_ij` and potential `phi_i = sum_j phi_ij` of
 //! every particle (in input order, self term excluded), exactly ([`direct`]) or
 //! approximately ([`tree`], [`mesh`], [`p3m`]).
@@ -10,6 +10,7 @@ pub mod biot_savart;
 pub mod biot_savart3;
 #[cfg(test)]
 pub(crate) mod blobs3_testkit;
+mod checks;
 mod dealt;
 pub mod direct;
 pub mod mesh;
@@ -18,6 +19,7 @@ pub mod tree;
 
 pub use biot_savart::{BlobKernel, DirectBiotSavart, PointVortex, VortexLaw};
 pub use biot_savart3::{velocity_and_gradient_at, BlobKernel3, DirectBiotSavart3};
+pub use checks::{check_sources, check_sources_among, first_failure};
 pub use direct::{DirectSum, PartialField};
 pub use mesh::{
     Alone, Exchange, MeshBoundary, MeshParams, ParticleMesh, Peers, Rank, Vic3Boundary, Vic3Params,
@@ -29,7 +31,6 @@ pub use tree::{
     VortexFmm3, VortexTree, VortexTree3,
 };
 
-use crate::interactions::GravityLaw;
 use crate::threads::Threads;
 use std::fmt;
 
@@ -58,50 +59,4 @@ pub struct FieldOut<'a> {
 pub trait FieldSolver: fmt::Debug {
     /// Fills `out` with the accelerations and potentials of `sources`.
     fn compute(&mut self, sources: &Sources, out: FieldOut, threads: &Threads);
-}
-
-/// Checks shared by every solver's input: equal lengths, positive finite masses,
-/// finite positions, and no two particles at one point when the law is unsoftened.
-pub fn check_sources(law: &GravityLaw, sources: &Sources) -> Result<(), String> {
-    if sources.mass.len() != sources.position.len() {
-        return Err(format!(
-            "{} masses for {} positions",
-            sources.mass.len(),
-            sources.position.len()
-        ));
-    }
-    if let Some(i) = sources
-        .mass
-        .iter()
-        .position(|m| !(m.is_finite() && *m > 0.0))
-    {
-        return Err(format!(
-            "particle {i}: mass must be finite and > 0, got {}",
-            sources.mass[i]
-        ));
-    }
-    if let Some(i) = sources
-        .position
-        .iter()
-        .position(|x| x.iter().any(|c| !c.is_finite()))
-    {
-        return Err(format!(
-            "particle {i}: position {:?} is not finite",
-            sources.position[i]
-        ));
-    }
-    if law.softening() == 0.0 {
-        let mut order: Vec<usize> = (0..sources.position.len()).collect();
-        let key = |i: &usize| sources.position[*i].map(|c| (c + 0.0).to_bits());
-        order.sort_unstable_by_key(key);
-        if let Some(w) = order.windows(2).find(|w| key(&w[0]) == key(&w[1])) {
-            return Err(format!(
-                "particles {} and {} are at the same point {:?} and the softening is 0",
-                w[0].min(w[1]),
-                w[0].max(w[1]),
-                sources.position[w[0]]
-            ));
-        }
-    }
-    Ok(())
 }

@@ -63,14 +63,97 @@ const EXACT_VIRIAL_MAX_N: usize = 20_000;
 /// `2 T = |W|` with the potential energy `W` of `law` (softened), all pairs for
 /// `n <= 20000`, `-3 pi / 32` beyond.
 pub fn plummer(n: usize, seed: u64, law: &GravityLaw, threads: &Threads) -> Bodies {
-    let mut rng = Rng::new(seed);
-    let mass = vec![1.0 / n as f64; n];
-    let mut position = Vec::with_capacity(n);
-    let mut velocity = Vec::with_capacity(n);
-    for _ in 0..n {
+    plummer_part(n, seed, law, threads, 0..n)
+}
+
+/// The bodies `part` of [`plummer`]`(n, seed, law, threads)`, the same bits,
+/// holding no other body when `n > 20000`: the draws are made once for the
+/// centre of mass (`sum m_i x_i / sum m_i`, `sum m_i v_i / sum m_i`) while
+/// `part` is kept, and (unless `part` is every body) again for the kinetic
+/// energy `T = 1/2 sum m_i |v_i - v_cm|^2`, each sum in input order. A process of a distributed run builds its own
+/// block this way.
+pub fn plummer_part(
+    n: usize,
+    seed: u64,
+    law: &GravityLaw,
+    threads: &Threads,
+    part: std::ops::Range<usize>,
+) -> Bodies {
+    assert!(part.end <= n, "bodies {part:?} of {n}");
+    if n <= EXACT_VIRIAL_MAX_N {
+        let mut bodies = centred_draws(n, seed);
+        let w = softened_potential_energy(&bodies, law, threads);
+        let t = kinetic_energy_of(&bodies);
+        scale_to_virial(&mut bodies.velocity, w, t);
+        return bodies.part(part);
+    }
+    let m = 1.0 / n as f64;
+    // the sums of `to_centre_of_mass_frame`, each in input order from -0.0
+    // as `Iterator::sum` starts
+    let (mut total, mut x_sum, mut v_sum) = (-0.0, [-0.0; 3], [-0.0; 3]);
+    let mut mine = Bodies {
+        mass: vec![m; part.len()],
+        position: Vec::with_capacity(part.len()),
+        velocity: Vec::with_capacity(part.len()),
+    };
+    for (i, (x, v)) in PlummerDraws::new(n, seed).enumerate() {
+        total += m;
+        for a in 0..3 {
+            x_sum[a] += m * x[a];
+            v_sum[a] += m * v[a];
+        }
+        if part.contains(&i) {
+            mine.position.push(x);
+            mine.velocity.push(v);
+        }
+    }
+    let (x_cm, v_cm) = (x_sum.map(|s| s / total), v_sum.map(|s| s / total));
+    let relative = |v: [f64; 3]| std::array::from_fn(|a| v[a] - v_cm[a]);
+    // a second pass of draws for the velocities this process does not hold
+    let t = if part == (0..n) {
+        kinetic_energy(mine.velocity.iter().map(|&v| (m, relative(v))))
+    } else {
+        kinetic_energy(PlummerDraws::new(n, seed).map(|(_, v)| (m, relative(v))))
+    };
+    for x in &mut mine.position {
+        *x = std::array::from_fn(|a| x[a] - x_cm[a]);
+    }
+    for v in &mut mine.velocity {
+        *v = relative(*v);
+    }
+    scale_to_virial(
+        &mut mine.velocity,
+        -3.0 * std::f64::consts::PI / 32.0 * law.g(),
+        t,
+    );
+    mine
+}
+
+/// The Plummer sphere's draws in input order: each body's position and
+/// velocity before the centre-of-mass shift and the virial scaling.
+struct PlummerDraws {
+    rng: Rng,
+    left: usize,
+}
+
+impl PlummerDraws {
+    fn new(n: usize, seed: u64) -> Self {
+        PlummerDraws {
+            rng: Rng::new(seed),
+            left: n,
+        }
+    }
+}
+
+impl Iterator for PlummerDraws {
+    type Item = ([f64; 3], [f64; 3]);
+
+    fn next(&mut self) -> Option<Self::Item> {
+        self.left = self.left.checked_sub(1)?;
+        let rng = &mut self.rng;
         let x = MASS_TRUNCATION * rng.uniform();
         let r = 1.0 / (x.powf(-2.0 / 3.0) - 1.0).sqrt();
-        position.push(isotropic(&mut rng, r));
+        let position = isotropic(rng, r);
         let q = loop {
             let (q, y) = (rng.uniform(), 0.1 * rng.uniform());
             if y < q * q * (1.0 - q * q).powf(3.5) {
@@ -78,52 +161,73 @@ pub fn plummer(n: usize, seed: u64, law: &GravityLaw, threads: &Threads) -> Bodi
             }
         };
         let speed = q * std::f64::consts::SQRT_2 * (1.0 + r * r).powf(-0.25);
-        velocity.push(isotropic(&mut rng, speed));
+        Some((position, isotropic(rng, speed)))
     }
+}
+
+/// `W = 1/2 sum m_i phi_i` of `law` by the direct sum.
+fn softened_potential_energy(bodies: &Bodies, law: &GravityLaw, threads: &Threads) -> f64 {
+    let n = bodies.len();
+    let mut acc = vec![[0.0; 3]; n];
+    let mut phi = vec![0.0; n];
+    let sources = Sources {
+        mass: &bodies.mass,
+        position: &bodies.position,
+    };
+    DirectSum::new(*law, n).compute(
+        &sources,
+        FieldOut {
+            acc: &mut acc,
+            phi: &mut phi,
+        },
+        threads,
+    );
+    0.5 * bodies
+        .mass
+        .iter()
+        .zip(&phi)
+        .map(|(m, p)| m * p)
+        .sum::<f64>()
+}
+
+/// `T = 1/2 sum m_i |v_i|^2` of the bodies' `(m_i, v_i)`, summed in input order.
+fn kinetic_energy(bodies: impl Iterator<Item = (f64, [f64; 3])>) -> f64 {
+    0.5 * bodies
+        .map(|(m, v)| m * (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]))
+        .sum::<f64>()
+}
+
+/// [`kinetic_energy`] of `bodies`.
+fn kinetic_energy_of(bodies: &Bodies) -> f64 {
+    kinetic_energy(
+        bodies
+            .mass
+            .iter()
+            .copied()
+            .zip(bodies.velocity.iter().copied()),
+    )
+}
+
+/// The whole sphere's `n` equal masses `1 / n` at the draws, moved to their
+/// centre-of-mass frame.
+fn centred_draws(n: usize, seed: u64) -> Bodies {
     let mut bodies = Bodies {
-        mass,
-        position,
-        velocity,
+        mass: vec![1.0 / n as f64; n],
+        ..Bodies::default()
     };
+    (bodies.position, bodies.velocity) = PlummerDraws::new(n, seed).unzip();
     to_centre_of_mass_frame(&mut bodies);
-    let w = if n <= EXACT_VIRIAL_MAX_N {
-        let mut acc = vec![[0.0; 3]; n];
-        let mut phi = vec![0.0; n];
-        let sources = Sources {
-            mass: &bodies.mass,
-            position: &bodies.position,
-        };
-        DirectSum::new(*law, n).compute(
-            &sources,
-            FieldOut {
-                acc: &mut acc,
-                phi: &mut phi,
-            },
-            threads,
-        );
-        0.5 * bodies
-            .mass
-            .iter()
-            .zip(&phi)
-            .map(|(m, p)| m * p)
-            .sum::<f64>()
-    } else {
-        -3.0 * std::f64::consts::PI / 32.0 * law.g()
-    };
-    let t: f64 = 0.5
-        * bodies
-            .mass
-            .iter()
-            .zip(&bodies.velocity)
-            .map(|(m, v)| m * (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]))
-            .sum::<f64>();
+    bodies
+}
+
+/// Scales `velocity` by `sqrt(-W / 2T)`, so that `2 T = |W|` (none if `T = 0`).
+fn scale_to_virial(velocity: &mut [[f64; 3]], w: f64, t: f64) {
     if t > 0.0 {
         let scale = (-w / (2.0 * t)).sqrt();
-        for v in &mut bodies.velocity {
+        for v in velocity {
             *v = v.map(|c| c * scale);
         }
     }
-    bodies
 }
 
 /// A vector of length `r` in a uniformly random direction.
@@ -156,5 +260,41 @@ fn to_centre_of_mass_frame(bodies: &mut Bodies) {
                 x[a] -= mean[a];
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The whole sphere made as the draws, shifted and scaled in memory.
+    fn reference(n: usize, seed: u64, law: &GravityLaw) -> Bodies {
+        let mut bodies = centred_draws(n, seed);
+        let t = kinetic_energy_of(&bodies);
+        let w = if n <= EXACT_VIRIAL_MAX_N {
+            softened_potential_energy(&bodies, law, &Threads::single())
+        } else {
+            -3.0 * std::f64::consts::PI / 32.0 * law.g()
+        };
+        scale_to_virial(&mut bodies.velocity, w, t);
+        bodies
+    }
+
+    #[test]
+    fn parts_are_the_whole_spheres_bodies() {
+        let law = GravityLaw::new(1.0, 0.01, 0.0).unwrap();
+        let threads = Threads::single();
+        for n in [500, EXACT_VIRIAL_MAX_N + 1, 30_007] {
+            let whole = reference(n, 7, &law);
+            assert!(plummer(n, 7, &law, &threads) == whole, "n = {n}");
+            for part in [0..0, 0..1, 3..n / 3, n / 3..n - 1, n - 1..n] {
+                let got = plummer_part(n, 7, &law, &threads, part.clone());
+                assert!(got == whole.part(part.clone()), "n = {n}, part {part:?}");
+            }
+        }
+        let moved = reference(30_007, 8, &law);
+        assert!(moved != reference(30_007, 7, &law));
+        let mean = |a: usize| moved.position.iter().map(|x| x[a]).sum::<f64>() / 30_007.0;
+        assert!((0..3).all(|a| mean(a).abs() < 1e-13));
     }
 }

@@ -7,7 +7,7 @@
 mod initial;
 mod model;
 
-pub use initial::{plummer, two_body_seed004, Bodies};
+pub use initial::{plummer, plummer_part, two_body_seed004, Bodies};
 pub use model::{
     body_particles, checked_bodies, load_bodies, save_bodies, thermo_row, GravityModel,
     SavedBodies, INFO,
@@ -15,8 +15,8 @@ pub use model::{
 
 use crate::interactions::GravityLaw;
 use crate::longrange::{
-    check_sources, BarnesHut, DirectSum, FieldOut, FieldSolver, FmmAccuracy, GravityFmm,
-    MeshParams, P3m, ParticleMesh, Sources, TreeParams,
+    check_sources_among, first_failure, Alone, BarnesHut, DirectSum, Exchange, FieldOut,
+    FieldSolver, FmmAccuracy, GravityFmm, MeshParams, P3m, ParticleMesh, Sources, TreeParams,
 };
 use crate::threads::Threads;
 use std::fmt;
@@ -372,19 +372,33 @@ impl GravitySystem {
 }
 
 /// The checks of a system's bodies before its first forces: those of every
-/// solver's sources ([`check_sources`]) and finite velocities.
+/// solver's sources ([`check_sources`](crate::longrange::check_sources)) and
+/// finite velocities.
 pub fn check_bodies(law: &GravityLaw, bodies: &Bodies) -> Result<(), GravityError> {
+    check_bodies_among(law, bodies, 0, &Alone)
+}
+
+/// [`check_bodies`] of bodies divided among the ranks of `peers` (collective),
+/// this rank holding `bodies`, the bodies `first..` of the input order: every
+/// rank gets the message one process holding them all would give
+/// ([`check_sources_among`]).
+pub fn check_bodies_among(
+    law: &GravityLaw,
+    bodies: &Bodies,
+    first: usize,
+    peers: &dyn Exchange,
+) -> Result<(), GravityError> {
     let sources = Sources {
         mass: &bodies.mass,
         position: &bodies.position,
     };
-    check_sources(law, &sources).map_err(GravityError::Parameter)?;
-    match bodies
+    check_sources_among(law, &sources, first, peers).map_err(GravityError::Parameter)?;
+    let velocity = bodies
         .velocity
         .iter()
-        .position(|v| v.iter().any(|c| !c.is_finite()))
-    {
-        Some(i) => Err(GravityError::Parameter(format!(
+        .position(|v| v.iter().any(|c| !c.is_finite()));
+    match first_failure(velocity.map(|i| (first + i, bodies.velocity[i])), peers) {
+        Some((i, _)) => Err(GravityError::Parameter(format!(
             "body {i}: velocity is not finite"
         ))),
         None => Ok(()),
