@@ -5,6 +5,7 @@
 //! colours are [`DiscPainter`]'s speed scale, so that all pictures coloured by
 //! speed read alike.
 
+use crate::parts::{kth_smallest, Parts, Whole};
 use crate::{write_chart, DiscPainter, FieldChart};
 use std::io;
 use std::path::Path;
@@ -128,36 +129,55 @@ impl BodyChart {
         plane: Plane,
         fraction: f64,
     ) -> ([f64; 2], f64) {
-        let finite: Vec<usize> = (0..positions.len())
-            .filter(|&i| positions[i].iter().all(|c| c.is_finite()))
-            .collect();
-        if finite.is_empty() {
+        Self::view_among(positions, masses, plane, fraction, &Whole)
+    }
+
+    /// [`view_around`](Self::view_around) of bodies divided among the
+    /// processes of `parts` (collective), this one holding `positions` and
+    /// `masses`: the same view as one process holding them all.
+    pub fn view_among(
+        positions: &[[f64; 3]],
+        masses: Option<&[f64]>,
+        plane: Plane,
+        fraction: f64,
+        parts: &dyn Parts,
+    ) -> ([f64; 2], f64) {
+        let finite =
+            || (0..positions.len()).filter(|&i| positions[i].iter().all(|c| c.is_finite()));
+        let weight = |i: usize| masses.map_or(1.0, |m| m[i]);
+        // the total weight (from -0.0, as `Iterator::sum` starts) and the count
+        let mut sums = [-0.0, 0.0];
+        parts.fold(&mut sums, &mut |s| {
+            for i in finite() {
+                s[0] += weight(i);
+                s[1] += 1.0;
+            }
+        });
+        let [total, count] = sums;
+        if count == 0.0 {
             return ([-1.0, -1.0], 2.0);
         }
-        let weight = |i: usize| masses.map_or(1.0, |m| m[i]);
-        let total: f64 = finite.iter().map(|&i| weight(i)).sum();
         let mut centre = [0.0; 2];
-        for &i in &finite {
-            let [a, b] = plane.project(&positions[i]);
-            let w = if total > 0.0 {
-                weight(i) / total
-            } else {
-                1.0 / finite.len() as f64
-            };
-            centre[0] += w * a;
-            centre[1] += w * b;
-        }
-        let mut distances: Vec<f64> = finite
-            .iter()
-            .map(|&i| {
+        parts.fold(&mut centre, &mut |c| {
+            for i in finite() {
                 let [a, b] = plane.project(&positions[i]);
-                (a - centre[0]).abs().max((b - centre[1]).abs())
-            })
-            .collect();
-        distances.sort_by(f64::total_cmp);
-        let k = ((fraction.clamp(0.0, 1.0) * distances.len() as f64).ceil() as usize)
-            .clamp(1, distances.len());
-        let mut half = 1.1 * distances[k - 1];
+                let w = if total > 0.0 {
+                    weight(i) / total
+                } else {
+                    1.0 / count
+                };
+                c[0] += w * a;
+                c[1] += w * b;
+            }
+        });
+        let k = ((fraction.clamp(0.0, 1.0) * count).ceil() as u64).clamp(1, count as u64);
+        let distance = kth_smallest(k, parts, &mut |visit| {
+            for i in finite() {
+                let [a, b] = plane.project(&positions[i]);
+                visit((a - centre[0]).abs().max((b - centre[1]).abs()));
+            }
+        });
+        let mut half = 1.1 * distance;
         if !(half > 0.0 && half.is_finite()) {
             half = 1.0;
         }
@@ -169,18 +189,30 @@ impl BodyChart {
     /// 1.5, 2, 2.5, 3, 4, 5, 6 or 8 times a power of ten. 1 if that is not a
     /// positive number.
     pub fn speed_scale(velocities: &[[f64; 3]], fraction: f64, floor: f64) -> f64 {
-        let mut speeds: Vec<f64> = velocities
-            .iter()
-            .map(|v| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt())
-            .filter(|s| s.is_finite())
-            .collect();
-        speeds.sort_by(f64::total_cmp);
-        let quantile = if speeds.is_empty() {
+        Self::speed_scale_among(velocities, fraction, floor, &Whole)
+    }
+
+    /// [`speed_scale`](Self::speed_scale) of bodies divided among the
+    /// processes of `parts` (collective), this one holding `velocities`.
+    pub fn speed_scale_among(
+        velocities: &[[f64; 3]],
+        fraction: f64,
+        floor: f64,
+        parts: &dyn Parts,
+    ) -> f64 {
+        let speeds = || {
+            velocities
+                .iter()
+                .map(|v| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt())
+                .filter(|s| s.is_finite())
+        };
+        let mut count = [speeds().count() as u64];
+        parts.add_up(&mut count);
+        let quantile = if count[0] == 0 {
             0.0
         } else {
-            let k = ((fraction.clamp(0.0, 1.0) * speeds.len() as f64).ceil() as usize)
-                .clamp(1, speeds.len());
-            speeds[k - 1]
+            let k = ((fraction.clamp(0.0, 1.0) * count[0] as f64).ceil() as u64).clamp(1, count[0]);
+            kth_smallest(k, parts, &mut |visit| speeds().for_each(&mut *visit))
         };
         let top = quantile.max(if floor.is_finite() { floor } else { 0.0 });
         if !(top > 0.0 && top.is_finite()) {

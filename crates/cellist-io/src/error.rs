@@ -49,15 +49,19 @@ impl std::error::Error for InputError {}
 /// The data lines of `text`: `(0-based line index, tokens)` for every line that is
 /// neither blank nor a `#` comment, the tokens split at commas and whitespace.
 pub fn data_lines(text: &str) -> impl Iterator<Item = (usize, Vec<&str>)> {
-    text.lines().enumerate().filter_map(|(index, raw)| {
-        let line = raw.trim();
-        (!line.is_empty() && !line.starts_with('#')).then(|| {
-            let tokens = line
-                .split(|c: char| c == ',' || c.is_whitespace())
-                .filter(|t| !t.is_empty())
-                .collect();
-            (index, tokens)
-        })
+    text.lines()
+        .enumerate()
+        .filter_map(|(index, raw)| data_line(raw).map(|tokens| (index, tokens)))
+}
+
+/// The tokens of one line of [`data_lines`], `None` for a blank line or a `#`
+/// comment.
+pub fn data_line(raw: &str) -> Option<Vec<&str>> {
+    let line = raw.trim();
+    (!line.is_empty() && !line.starts_with('#')).then(|| {
+        line.split(|c: char| c == ',' || c.is_whitespace())
+            .filter(|t| !t.is_empty())
+            .collect()
     })
 }
 

@@ -19,6 +19,7 @@ pub mod field_picture;
 pub mod gsd;
 pub mod lammps_data;
 pub mod output;
+pub mod parts;
 pub mod plot;
 pub mod points;
 #[cfg(test)]
@@ -29,7 +30,7 @@ pub use billiards::{
     parse_billiards_input, read_billiards_input, write_state, BilliardsInput, StateFormat,
     TrajectoryReader, TrajectoryStep,
 };
-pub use bodies::{parse_bodies, read_bodies, BodyFile};
+pub use bodies::{parse_bodies, read_bodies, read_bodies_part, BodyFile};
 pub use body_picture::{body_chart, BodyCanvas, BodyChart, Plane};
 pub use chart_gif::ChartPalette;
 pub use checkpoint::{read_checkpoint, write_checkpoint, Checkpoint};
@@ -53,5 +54,6 @@ pub use lammps_data::{
     DataAtom, DataFile,
 };
 pub use output::{format_g17, write_pairs, AtomicFile, StreamFile};
+pub use parts::{Parts, Whole};
 pub use points::{read_points, BoxInfo, PointFile, Points};
 pub use vtk::{write_pvd, write_vtp, VtpBlocks};
