@@ -247,6 +247,27 @@ fn gravity_variant(dir: &Path, name: &str, scenario: &str, initial: &str) -> Str
     path.display().to_string()
 }
 
+/// A body file of 2000 bodies in the plane z = 0 (`m x y z vx vy vz`, all
+/// points apart), with `change(i, line)` applied to each: `dir/NAME.txt`.
+fn body_file(dir: &Path, name: &str, change: impl Fn(usize, String) -> String) -> String {
+    let path = dir.join(format!("{name}.txt"));
+    let text: String = (0..2000)
+        .map(|i| {
+            let (t, r) = (i as f64 * 2.399_963, (1.0 + i as f64).sqrt() / 10.0);
+            let line = format!(
+                "0.0005 {} {} 0 {} {} 0\n",
+                r * t.cos(),
+                r * t.sin(),
+                -0.1 * t.sin(),
+                0.1 * t.cos()
+            );
+            change(i, line)
+        })
+        .collect();
+    std::fs::write(&path, text).expect("write the body file");
+    path.display().to_string()
+}
+
 /// A vortex pair under the `velocity` solver, remeshed, 20 RK4 steps, written
 /// as `dir/NAME.toml`.
 fn vortex_scenario(dir: &Path, name: &str, velocity: &str) -> String {
@@ -874,6 +895,48 @@ fn main() {
         "gravity-fmm",
         r#"{ kind = "fmm", tolerance = 1e-6 }"#,
     );
+    // each rank draws its block of a sphere beyond the exact virial's 20000
+    let pm_drawn = gravity_variant(
+        dir.path(),
+        "pm-30000",
+        &pm_motion,
+        r#"{ kind = "plummer", n = 30000, seed = 3 }"#,
+    );
+    let bodies = body_file(dir.path(), "bodies", |_, line| line);
+    let pm_read = gravity_variant(
+        dir.path(),
+        "pm-read",
+        &pm_motion,
+        &format!("{{ file = {bodies:?} }}"),
+    );
+    let shared = body_file(dir.path(), "shared", |i, line| {
+        if i == 1500 {
+            "0.0005 5 5 -0 0 0 0\n".into()
+        } else if i == 3 {
+            "0.0005 5 5 0 1 1 0\n".into()
+        } else {
+            line
+        }
+    });
+    let shared = gravity_variant(
+        dir.path(),
+        "shared",
+        &gravity,
+        &format!("{{ file = {shared:?} }}"),
+    );
+    let off_plane = body_file(dir.path(), "off-plane", |i, line| {
+        if i == 1700 {
+            line.replacen(" 0 ", " 0.5 ", 1)
+        } else {
+            line
+        }
+    });
+    let off_plane = gravity_variant(
+        dir.path(),
+        "off-plane",
+        &gravity,
+        &format!("{{ file = {off_plane:?} }}"),
+    );
     let vortex = vortex_scenario(dir.path(), "vortex", r#"{ kind = "direct" }"#);
     let vic = vortex_scenario(dir.path(), "vic", r#"{ kind = "mesh", grid = 32 }"#);
     let vortex_tree = vortex_scenario(
@@ -967,6 +1030,14 @@ fn main() {
         (
             "gravity pm, 2 bodies on 1 to 4 ranks (ranks with no body): the dumps of the plain run within 1e-10",
             distributed_runs_match_the_plain_run(dir.path(), "gravity-pm-two", &pm_two, "stars.dump", false),
+        ),
+        (
+            "gravity pm, a Plummer sphere of 30000 bodies (each rank draws its own block): on 1 to 4 ranks the bytes of the plain run's dump and picture",
+            runs_have_the_plain_bytes(dir.path(), "gravity", &pm_drawn, &["stars.dump", "bodies.png"]),
+        ),
+        (
+            "gravity pm, 2000 bodies from a file (each rank reads its own block): on 1 to 4 ranks the bytes of the plain run's dump and picture",
+            runs_have_the_plain_bytes(dir.path(), "gravity", &pm_read, &["stars.dump", "bodies.png"]),
         ),
         (
             "gravity p3m (periodic), the bodies divided: on 1 to 4 ranks the bytes of the plain run's dumps",
@@ -1086,6 +1157,22 @@ fn main() {
                 9,
                 &["run", &vic3],
                 "9 ranks share a mesh of only 16 planes (grid 16): its slabs need at least 2",
+            ),
+        ),
+        (
+            "-np 3: bodies 3 and 1500 (on ranks 0 and 2) at one point, softening 0: one message, the plain run's",
+            refused_once(
+                3,
+                &["run", &shared, "--set", "system.softening=0.0"],
+                "particles 3 and 1500 are at the same point [5.0, 5.0, 0.0] and the softening is 0",
+            ),
+        ),
+        (
+            "-np 4: body 1700 (on rank 3) off the plane of a 2D run: one message, the plain run's",
+            refused_once(
+                4,
+                &["run", &off_plane, "--set", "dimension=2"],
+                "body 1700 has z = 0.5, vz = 0",
             ),
         ),
         (

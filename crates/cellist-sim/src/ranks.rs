@@ -9,15 +9,16 @@ use crate::distributed::mesh::MpiExchange;
 #[cfg(feature = "mpi")]
 use crate::distributed::parts::Figures;
 #[cfg(feature = "mpi")]
-use crate::distributed::{agree, all_reduce};
+use crate::distributed::{agree, all_reduce, fold_in_rank_order};
 use crate::hosted::{Distribution, Hosted};
-use cellist::longrange::Peers;
+use cellist::longrange::{Alone, Exchange, Peers};
+use cellist_io::Parts;
 #[cfg(feature = "mpi")]
 use mpi::collective::SystemOperation;
 #[cfg(feature = "mpi")]
 use mpi::topology::SimpleCommunicator;
 #[cfg(feature = "mpi")]
-use mpi::traits::Communicator;
+use mpi::traits::{Communicator, CommunicatorCollectives};
 
 /// Where a job's model lives.
 #[derive(Default)]
@@ -184,6 +185,65 @@ impl Ranks {
             #[cfg(feature = "mpi")]
             Ranks::Spread(world) | Ranks::Replicated { world, .. } => {
                 all_reduce(world, values, SystemOperation::sum())
+            }
+        }
+    }
+}
+
+impl Ranks {
+    /// The run of the input order this process holds of `n` particles
+    /// divided into blocks (rank `r` of `P` holding `n r / P .. n (r + 1) / P`):
+    /// all of them in one process.
+    pub fn block_of(&self, n: usize) -> std::ops::Range<usize> {
+        let (rank, ranks) = self.place();
+        n * rank / ranks..n * (rank + 1) / ranks
+    }
+
+    /// This rank and the number of ranks.
+    fn place(&self) -> (usize, usize) {
+        match self {
+            Ranks::One => (0, 1),
+            #[cfg(feature = "mpi")]
+            Ranks::Spread(world) | Ranks::Replicated { world, .. } => {
+                (world.rank() as usize, world.size() as usize)
+            }
+        }
+    }
+
+    /// The engine's collective exchanges among the ranks (collective: the
+    /// ranks' communicator is duplicated).
+    pub fn exchange(&self) -> Box<dyn Exchange> {
+        match self {
+            Ranks::One => Box::new(Alone),
+            #[cfg(feature = "mpi")]
+            Ranks::Spread(world) | Ranks::Replicated { world, .. } => {
+                Box::new(MpiExchange::new(world.duplicate()))
+            }
+        }
+    }
+}
+
+/// Each rank holding a run of the input order ([`Ranks::block_of`]).
+impl Parts for Ranks {
+    fn fold(&self, value: &mut [f64], add: &mut dyn FnMut(&mut [f64])) {
+        match self {
+            Ranks::One => add(value),
+            #[cfg(feature = "mpi")]
+            Ranks::Spread(world) | Ranks::Replicated { world, .. } => {
+                fold_in_rank_order(world, value, add)
+            }
+        }
+    }
+
+    fn add_up(&self, counts: &mut [u64]) {
+        match self {
+            Ranks::One => {
+                let _ = counts;
+            }
+            #[cfg(feature = "mpi")]
+            Ranks::Spread(world) | Ranks::Replicated { world, .. } => {
+                let mine = counts.to_vec();
+                world.all_reduce_into(&mine[..], counts, SystemOperation::sum());
             }
         }
     }

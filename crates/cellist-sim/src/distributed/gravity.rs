@@ -12,11 +12,11 @@
 //! on the ring, or the bodies routed to its slabs, or those routed to its
 //! part of the tree and the nodes and bodies of the other parts that its
 //! walks reach, or (the fmm) every body, in buffers kept from step to
-//! step. The whole
-//! system is held at set-up (every rank builds every body before it keeps its
-//! block, and decodes a whole checkpoint file at a restart), and by rank 0
-//! for a checkpoint file, a picture or a trajectory frame (dumps and thermo
-//! take a block at a time).
+//! step. No rank holds the whole system at any time but the fmm's
+//! evaluations: at set-up each rank makes only its block (the Plummer sphere's
+//! draws streamed above 20,000 bodies, a smaller one made whole for its
+//! exact virial; the body file read twice, its block kept), a restart reads its
+//! block of the checkpoint, and the outputs take a block at a time.
 //!
 //! ```text
 //! step:  kick + drift of the own bodies (the integrator's first part)
@@ -52,8 +52,9 @@ use cellist::longrange::{
     Sources, TreeParams,
 };
 use cellist::models::gravity::{
-    body_particles, check_bodies, checked_bodies, load_bodies, save_bodies, thermo_row, Bodies,
-    GravityError, GravitySystem, Integrator, Observables, SavedBodies, Solver, INFO as GRAVITY,
+    body_particles, check_bodies_among, checked_bodies, load_bodies, save_bodies, thermo_row,
+    Bodies, GravityError, GravitySystem, Integrator, Observables, SavedBodies, Solver,
+    INFO as GRAVITY,
 };
 use cellist::models::{
     whole_frame, Blowup, Checked, Ids, Model, ModelInfo, ParticleBlock, Particles,
@@ -219,27 +220,27 @@ pub struct DistributedGravity {
 }
 
 impl DistributedGravity {
-    /// This rank's part of `bodies` (every rank passes all of them, as the
-    /// scenario built them), under `law`, their field by `field`, stepped by
-    /// `integrator` with `dt`; the first forces. Collective; every rank
-    /// returns the same error.
+    /// This rank's bodies `mine`, its block of the `total` bodies in input
+    /// order (rank `r` of `P` holds `total r / P .. total (r + 1) / P`), under
+    /// `law`, their field by `field`, stepped by `integrator` with `dt`; the
+    /// checks of every rank's bodies and the first forces. Collective; every
+    /// rank returns the same error.
     #[allow(clippy::too_many_arguments)]
     pub fn new(
         world: SimpleCommunicator,
         law: GravityLaw,
-        bodies: Bodies,
+        (mine, total): (Bodies, usize),
         field: SpreadField,
         integrator: Integrator,
         dt: f64,
         dimension: usize,
         threads: &Threads,
     ) -> Result<Self, String> {
-        // every rank checks every body, so that all give the same message
-        check_bodies(&law, &bodies).map_err(|e| e.to_string())?;
-        let total = bodies.len();
         let (bounds, own) = blocks(total, &world);
-        let mine = bodies.part(own.clone());
-        drop(bodies);
+        assert_eq!(mine.len(), own.len(), "the bodies of this rank's block");
+        // the checks of every rank's bodies, so that all give the same message
+        let peers = MpiExchange::new(world.duplicate());
+        check_bodies_among(&law, &mine, own.start, &peers).map_err(|e| e.to_string())?;
         // every rank builds the same mesh, so that all give the same message
         let (solver, field) = field.solver(&world, law)?;
         let system = GravitySystem::with_solver(law, mine, solver, threads);

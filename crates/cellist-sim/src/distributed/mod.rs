@@ -615,6 +615,26 @@ pub fn all_reduce<C: Communicator, const N: usize>(
     reduced
 }
 
+/// Runs `add` on `value` once per rank of `world` in rank order, each rank
+/// continuing from the value the rank before it sent, so that a sum over
+/// blocks of particles held in rank order is added up as one process adds it;
+/// every rank gets the last rank's value (collective).
+pub fn fold_in_rank_order(
+    world: &SimpleCommunicator,
+    value: &mut [f64],
+    add: &mut dyn FnMut(&mut [f64]),
+) {
+    let (rank, size) = (world.rank(), world.size());
+    if rank > 0 {
+        world.process_at_rank(rank - 1).receive_into(value);
+    }
+    add(value);
+    if rank + 1 < size {
+        world.process_at_rank(rank + 1).send(&*value);
+    }
+    world.process_at_rank(size - 1).broadcast_into(value);
+}
+
 /// [`agree`] on a blow-up of `step`: every rank returns the blow-up of the
 /// lowest rank that had one.
 pub fn agree_blowup<C: Communicator>(

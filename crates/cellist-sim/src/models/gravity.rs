@@ -18,11 +18,11 @@ use cellist::interactions::GravityLaw;
 use cellist::longrange::p3m::SPLIT_CELLS;
 use cellist::longrange::{ErrorFit, FmmAccuracy, GravityFmm, MeshBoundary, MeshParams, TreeParams};
 use cellist::models::gravity::{
-    plummer, two_body_seed004, Bodies, GravityError, GravityModel, GravitySystem, Integrator,
+    plummer_part, two_body_seed004, Bodies, GravityError, GravityModel, GravitySystem, Integrator,
     Solver, SolverChoice,
 };
 use cellist::models::Model;
-use cellist_io::{read_bodies, BodyChart, Plane, GRAVITY_DUMP_COLUMNS};
+use cellist_io::{read_bodies_part, BodyChart, Parts, Plane, GRAVITY_DUMP_COLUMNS};
 use serde::Deserialize;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -196,7 +196,12 @@ fn dump_columns() -> Vec<String> {
 struct Setup {
     dimension: usize,
     law: GravityLaw,
+    /// This process's bodies: all of them, or under MPI its block
+    /// `first..first + bodies.len()` of the input order.
     bodies: Bodies,
+    first: usize,
+    /// The number of bodies on every rank.
+    total: usize,
     initial: String,
     choice: SolverChoice,
     solver_name: String,
@@ -230,19 +235,37 @@ pub fn run<L: Launch>(
     if !(keys.dimension == 2 || keys.dimension == 3) {
         return Err(scenario.error(format!("dimension must be 2 or 3, got {}", keys.dimension)));
     }
-    let setup = build(scenario, &keys, context)?;
+    let ranks = body_ranks();
+    let setup = build(scenario, &keys, context, &ranks)?;
     if keys.dimension == 2 {
         let b = &setup.bodies;
-        if let Some(i) = (0..b.len()).find(|&i| b.position[i][2] != 0.0 || b.velocity[i][2] != 0.0)
-        {
-            return Err(scenario.error(format!(
-                "dimension = 2 needs z = 0 and vz = 0 for every body (the plane z = 0 of the \
-                 3D model); body {i} has z = {}, vz = {}",
-                b.position[i][2], b.velocity[i][2]
-            )));
+        let off_plane = (0..b.len())
+            .find(|&i| b.position[i][2] != 0.0 || b.velocity[i][2] != 0.0)
+            .map(|i| {
+                format!(
+                    "dimension = 2 needs z = 0 and vz = 0 for every body (the plane z = 0 of \
+                     the 3D model); body {} has z = {}, vz = {}",
+                    setup.first + i,
+                    b.position[i][2],
+                    b.velocity[i][2]
+                )
+            });
+        // the lowest rank's body is the first in the input order
+        if let Some(message) = ranks.agree(off_plane) {
+            return Err(scenario.error(message));
         }
     }
-    run_setup(scenario, setup, context, launch)
+    run_setup(scenario, setup, context, launch, ranks)
+}
+
+/// The ranks the bodies are divided among: under MPI on several ranks, each
+/// holds a block of the input order from the start ([`Ranks::block_of`]).
+fn body_ranks() -> Ranks {
+    #[cfg(feature = "mpi")]
+    if let Some(world) = crate::distributed::world_of_many() {
+        return Ranks::Spread(world);
+    }
+    Ranks::One
 }
 
 /// The solver of `keys` and its name for messages.
@@ -365,13 +388,28 @@ fn mesh_name(kind: &str, mesh: &MeshParams, split: Option<f64>) -> String {
     format!("{kind} (grid {}^3, {boundary}{split})", mesh.grid)
 }
 
-/// The initial bodies of `keys` and a description.
+/// The initial bodies of `keys`: this process's block of them
+/// ([`Ranks::block_of`]; a Plummer sphere is drawn without the others), its
+/// first index, the number of all bodies, and a description.
 fn initial_bodies(
     scenario: &Scenario,
     keys: &InitialKeys,
     law: &GravityLaw,
     context: &RunContext,
-) -> SimResult<(Bodies, String)> {
+    ranks: &Ranks,
+) -> SimResult<(Bodies, usize, usize, String)> {
+    let (bodies, total, text) = all_or_part(scenario, keys, law, context, ranks)?;
+    Ok((bodies, ranks.block_of(total).start, total, text))
+}
+
+/// The bodies of [`initial_bodies`], the number of all, and the description.
+fn all_or_part(
+    scenario: &Scenario,
+    keys: &InitialKeys,
+    law: &GravityLaw,
+    context: &RunContext,
+    ranks: &Ranks,
+) -> SimResult<(Bodies, usize, String)> {
     let err = |m: String| scenario.error(m);
     match (&keys.kind, &keys.file) {
         (Some(_), Some(_)) => Err(err("system.initial has both kind and file; give one".into())),
@@ -383,12 +421,13 @@ fn initial_bodies(
                 return Err(err("system.initial.n and .seed apply to kind = \"plummer\" only".into()));
             }
             let path = scenario.input_path(file);
-            let read = read_bodies(&path).map_err(|e| SimError::Input(e.to_string()))?;
+            let (read, n) = read_bodies_part(&path, |n| ranks.block_of(n))
+                .map_err(|e| SimError::Input(e.to_string()))?;
             if read.extra_columns {
                 context.warn(format!("{}: columns after the 7th (m x y z vx vy vz) are ignored", path.display()));
             }
-            let text = format!("{} bodies from {}", read.mass.len(), path.display());
-            Ok((Bodies { mass: read.mass, position: read.position, velocity: read.velocity }, text))
+            let text = format!("{n} bodies from {}", path.display());
+            Ok((Bodies { mass: read.mass, position: read.position, velocity: read.velocity }, n, text))
         }
         (Some(kind), None) => match kind.as_str() {
             "plummer" => {
@@ -397,14 +436,15 @@ fn initial_bodies(
                     return Err(err(format!("system.initial.n must be in 2..={MAX_BODIES}, got {n}")));
                 }
                 let seed = keys.seed.unwrap_or(1);
-                let bodies = plummer(n as usize, seed, law, context.threads);
-                Ok((bodies, format!("Plummer sphere of {n} bodies (seed {seed}, G = M = a = 1, virial 2T = |W|)")))
+                let n = n as usize;
+                let bodies = plummer_part(n, seed, law, context.threads, ranks.block_of(n));
+                Ok((bodies, n, format!("Plummer sphere of {n} bodies (seed {seed}, G = M = a = 1, virial 2T = |W|)")))
             }
             "two-body-seed004" => {
                 if keys.n.is_some() || keys.seed.is_some() {
                     return Err(err("system.initial.n and .seed apply to kind = \"plummer\" only".into()));
                 }
-                Ok((two_body_seed004(), "seed 004's two bodies (m = 50 at (0,0,0) and (0,30,0), v = (1,0,0))".into()))
+                Ok((two_body_seed004().part(ranks.block_of(2)), 2, "seed 004's two bodies (m = 50 at (0,0,0) and (0,30,0), v = (1,0,0))".into()))
             }
             other => Err(err(format!(
                 "system.initial.kind '{other}' is unknown; expected \"plummer\" or \"two-body-seed004\" (or file = ...)"
@@ -416,22 +456,35 @@ fn initial_bodies(
 /// Bodies sampled by [`warn_direct_fmm`].
 const REACH_SAMPLE: usize = 1000;
 
-/// Warns when the fmm would sum most pairs of the bodies at `positions` one
-/// by one: when more than half the pairs of at most [`REACH_SAMPLE`] bodies
-/// spread evenly through the input order lie closer than the law's
+/// Warns when the fmm would sum most pairs of the bodies one by one: when
+/// more than half the pairs of at most [`REACH_SAMPLE`] bodies spread evenly
+/// through the input order lie closer than the law's
 /// [`GravityFmm::direct_reach`] (with the examples' softening 0.01 at
 /// tolerance 1e-6, 12 length units: nearly every pair of a Plummer sphere).
+/// This process holds the bodies `first..` of `total` at `positions`; the
+/// sample is gathered from every rank (collective).
 fn warn_direct_fmm(
-    positions: &[[f64; 3]],
+    (positions, first, total): (&[[f64; 3]], usize, usize),
     law: &GravityLaw,
     accuracy: FmmAccuracy,
     context: &RunContext,
+    ranks: &Ranks,
 ) {
     let reach = GravityFmm::direct_reach(law, accuracy);
-    let sample: Vec<[f64; 3]> = positions
-        .iter()
-        .step_by(positions.len().div_ceil(REACH_SAMPLE).max(1))
-        .copied()
+    let every = total.div_ceil(REACH_SAMPLE).max(1);
+    let mine: Vec<f64> = (first.next_multiple_of(every)..first + positions.len())
+        .step_by(every)
+        .flat_map(|i| positions[i - first])
+        .collect();
+    let peers = ranks.exchange();
+    let mut counts = vec![0.0; peers.ranks()];
+    peers.all_gather(&[mine.len() as f64], &vec![1; peers.ranks()], &mut counts);
+    let counts: Vec<usize> = counts.iter().map(|&c| c as usize).collect();
+    let mut gathered = vec![0.0; counts.iter().sum()];
+    peers.all_gather(&mine, &counts, &mut gathered);
+    let sample: Vec<[f64; 3]> = gathered
+        .chunks_exact(3)
+        .map(|x| [x[0], x[1], x[2]])
         .collect();
     let (mut closer, mut pairs) = (0u64, 0u64);
     for (i, a) in sample.iter().enumerate() {
@@ -467,7 +520,12 @@ fn warn_direct_fmm(
 }
 
 /// Checks the scenario and builds the bodies.
-fn build(scenario: &Scenario, keys: &GravityScenario, context: &RunContext) -> SimResult<Setup> {
+fn build(
+    scenario: &Scenario,
+    keys: &GravityScenario,
+    context: &RunContext,
+    ranks: &Ranks,
+) -> SimResult<Setup> {
     let err = |m: String| scenario.error(m);
     let s = &keys.system;
     if !(s.softening.is_finite() && s.softening >= 0.0) {
@@ -479,7 +537,8 @@ fn build(scenario: &Scenario, keys: &GravityScenario, context: &RunContext) -> S
     let law = GravityLaw::new(s.g, s.softening, s.repulsion_radius)
         .map_err(|e| err(format!("system: {e}")))?;
     let (choice, solver_name) = solver_choice(&s.solver).map_err(err)?;
-    let (bodies, initial) = initial_bodies(scenario, &s.initial, &law, context)?;
+    let (bodies, first, total, initial) =
+        initial_bodies(scenario, &s.initial, &law, context, ranks)?;
     let integrator = Integrator::from_name(&keys.run.integrator).ok_or_else(|| {
         err(format!(
             "run.integrator '{}' is unknown; expected one of: {}",
@@ -525,12 +584,20 @@ fn build(scenario: &Scenario, keys: &GravityScenario, context: &RunContext) -> S
         }
     }
     if let SolverChoice::Fmm(accuracy) = choice {
-        warn_direct_fmm(&bodies.position, &law, accuracy, context);
+        warn_direct_fmm(
+            (&bodies.position, first, total),
+            &law,
+            accuracy,
+            context,
+            ranks,
+        );
     }
     Ok(Setup {
         dimension: keys.dimension as usize,
         law,
         bodies,
+        first,
+        total,
         initial,
         choice,
         solver_name,
@@ -558,8 +625,9 @@ fn build(scenario: &Scenario, keys: &GravityScenario, context: &RunContext) -> S
 /// of the bodies, with a margin) and the colour scale (the speed 98 % of the
 /// bodies do not exceed, at least the circular speed `sqrt(G M / R)` at the
 /// view's half side `R`) come from the initial bodies, the same for the whole
-/// run and after a restart.
-fn body_plan(setup: &Setup) -> Option<BodyPlan> {
+/// run and after a restart. The bodies may be divided among `parts`
+/// (collective): the same plan as one process's.
+fn body_plan(setup: &Setup, parts: &dyn Parts) -> Option<BodyPlan> {
     let p = &setup.pictures;
     let png = p.png.as_ref().and_then(|k| k.every("bodies.png"));
     let final_png = p.png.is_none().then(|| PathBuf::from("bodies.png"));
@@ -568,13 +636,16 @@ fn body_plan(setup: &Setup) -> Option<BodyPlan> {
         return None;
     }
     let b = &setup.bodies;
-    let (lo, side) = BodyChart::view_around(&b.position, Some(&b.mass), p.plane, 0.98);
+    let (lo, side) = BodyChart::view_among(&b.position, Some(&b.mass), p.plane, 0.98, parts);
     let g = setup.law.g();
-    let circular = (g * b.mass.iter().sum::<f64>() / (0.5 * side)).sqrt();
-    let top = BodyChart::speed_scale(&b.velocity, 0.98, circular);
-    let mut chart = BodyChart::new(p.plane, lo, side, top, b.len());
+    // the total mass in input order, from -0.0 as `Iterator::sum` starts
+    let mut mass = [-0.0];
+    parts.fold(&mut mass, &mut |m| b.mass.iter().for_each(|x| m[0] += x));
+    let circular = (g * mass[0] / (0.5 * side)).sqrt();
+    let top = BodyChart::speed_scale_among(&b.velocity, 0.98, circular, parts);
+    let mut chart = BodyChart::new(p.plane, lo, side, top, setup.total);
     chart.frame.width = chart.frame.width.max(p.size);
-    chart.set_dot_radius(b.len());
+    chart.set_dot_radius(setup.total);
     chart.frame.unit = if g == 1.0 {
         "simulation units, G = 1".into()
     } else {
@@ -594,11 +665,12 @@ fn run_setup<L: Launch>(
     mut setup: Setup,
     context: &RunContext,
     launch: L,
+    ranks: Ranks,
 ) -> SimResult<L::Output> {
     let (threads, out_dir) = (context.threads, &context.out_dir);
     let started = Instant::now();
     #[cfg(feature = "mpi")]
-    if let Some(world) = crate::distributed::world_of_many() {
+    if let Ranks::Spread(world) = ranks {
         use crate::distributed::gravity::SpreadField;
         let field = match setup.choice {
             SolverChoice::Pm(mesh) => SpreadField::Pm(mesh),
@@ -612,7 +684,7 @@ fn run_setup<L: Launch>(
     // the solver of one process (a distributed one builds its own part)
     let solver =
         Solver::new(&setup.choice, setup.law, setup.bodies.len()).map_err(|e| scenario.error(e))?;
-    let plan = output_plan(&setup);
+    let plan = output_plan(&setup, &ranks);
     let bodies = std::mem::take(&mut setup.bodies);
     let system =
         GravitySystem::with_solver(setup.law, bodies, solver, threads).map_err(|e| match e {
@@ -658,7 +730,7 @@ fn run_spread<L: Launch>(
     use crate::distributed::gravity::{DistributedGravity, SpreadField};
     use crate::distributed::replicated::slab_planes;
     use mpi::traits::Communicator;
-    let (ranks, n) = (world.size() as usize, setup.bodies.len());
+    let (ranks, n) = (world.size() as usize, setup.total);
     context.say(match field {
         SpreadField::Ring => format!(
             "mpi: {ranks} ranks; the direct sum by the ring pass, each rank holding and summing \
@@ -695,13 +767,13 @@ fn run_spread<L: Launch>(
             n / ranks
         ),
     });
-    let plan = output_plan(&setup);
+    let spread = Ranks::Spread(world.duplicate());
+    let plan = output_plan(&setup, &spread);
     let bodies = std::mem::take(&mut setup.bodies);
-    let spread = crate::ranks::Ranks::Spread(world.duplicate());
     let model = DistributedGravity::new(
         world,
         setup.law,
-        bodies,
+        (bodies, setup.total),
         field,
         setup.integrator,
         setup.dt,
@@ -740,8 +812,8 @@ fn say_setup(setup: &Setup, context: &RunContext) {
 }
 
 /// The outputs of `setup`: the thermo table and its energy plot, the dumps,
-/// the pictures of the bodies and the trajectories.
-fn output_plan(setup: &Setup) -> OutputPlan {
+/// the pictures of the bodies and the trajectories (collective on `ranks`).
+fn output_plan(setup: &Setup, ranks: &Ranks) -> OutputPlan {
     OutputPlan {
         thermo_every: setup.thermo_every,
         table: TableStyle {
@@ -768,7 +840,7 @@ fn output_plan(setup: &Setup) -> OutputPlan {
             })
             .collect(),
         field: None,
-        bodies: body_plan(setup),
+        bodies: body_plan(setup, ranks),
         trajectories: setup.trajectories.clone(),
     }
 }
