@@ -47,6 +47,7 @@ pub fn read_bodies_part(
         return Err(no_bodies(path));
     }
     let kept = keep(n);
+    assert!(kept.end <= n, "bodies {kept:?} of {n}");
     let mut out = BodyFile {
         extra_columns,
         ..BodyFile::default()
@@ -59,6 +60,12 @@ pub fn read_bodies_part(
         body += 1;
         Ok(body < kept.end)
     })?;
+    if out.mass.len() != kept.len() {
+        return Err(InputError::file(
+            path,
+            format!("the file changed while it was read ({n} bodies counted, then {body})"),
+        ));
+    }
     Ok((out, n))
 }
 
@@ -134,6 +141,7 @@ fn parse_body(path: &Path, index: usize, tokens: &[&str]) -> Result<[f64; 7], In
     Ok(v)
 }
 
+/// The error of a body file without a data line.
 fn no_bodies(path: &Path) -> InputError {
     InputError::file(path, "no bodies: expected lines of m x y z vx vy vz")
 }

@@ -436,6 +436,36 @@ mod tests {
         );
     }
 
+    /// The view and the speed scale of bodies cut into runs among 2 to 4
+    /// processes (one of them empty, some bodies not finite) are one
+    /// process's, bit for bit, on every process.
+    #[test]
+    fn views_over_parts_are_one_process_views() {
+        let (mut x, mut v) = ring();
+        x[17] = [f64::NAN, 0.0, 0.0];
+        v[40] = [f64::INFINITY, 0.0, 0.0];
+        let m: Vec<f64> = (0..x.len()).map(|k| 0.5 + (k % 7) as f64 / 3.0).collect();
+        // both views' corners and sides and the speed scale, as bits
+        let views = |x: &[[f64; 3]], v: &[[f64; 3]], m: &[f64], parts: &dyn Parts| {
+            let (lo, side) = BodyChart::view_among(x, Some(m), Plane::Xz, 0.98, parts);
+            let (lo2, side2) = BodyChart::view_among(x, None, Plane::Xy, 0.9, parts);
+            let top = BodyChart::speed_scale_among(v, 0.98, 0.3, parts);
+            [lo[0], lo[1], side, lo2[0], lo2[1], side2, top].map(f64::to_bits)
+        };
+        let whole = views(&x, &v, &m, &Whole);
+        let n = x.len();
+        for ranks in 2..=4 {
+            let cut = |r: usize| if r == 1 { 0 } else { n * r / ranks };
+            let got = crate::parts::testkit::run(ranks, |me| {
+                let run = cut(me.rank)..cut(me.rank + 1);
+                views(&x[run.clone()], &v[run.clone()], &m[run], me)
+            });
+            for got in got {
+                assert_eq!(got, whole, "{ranks} ranks");
+            }
+        }
+    }
+
     /// Bodies painted a block at a time, or one at a time in any order
     /// (each with its input place), give the pixels of painting them all
     /// at once: where they overlap the nearest shows, and of two at the

@@ -38,6 +38,7 @@ pub type Values<'a> = dyn FnMut(&mut dyn FnMut(f64)) + 'a;
 /// byte's histogram added up over the processes: eight passes over the values,
 /// no copy of them. `k` must be in `1..=` the number of values.
 pub fn kth_smallest(k: u64, parts: &dyn Parts, values: &mut Values) -> f64 {
+    assert!(k >= 1, "kth_smallest: k counts from 1");
     // the key's bits above the byte being found, in place
     let (mut known, mut k) = (0u64, k);
     let high = |key: u64, shift: u32| key.checked_shr(shift + 8).unwrap_or(0);
@@ -83,6 +84,90 @@ fn value_of_key(key: u64) -> f64 {
     })
 }
 
+/// Processes as threads for the tests: [`testkit::run`] hands each of
+/// `ranks` threads its [`Parts`].
+#[cfg(test)]
+pub(crate) mod testkit {
+    use super::Parts;
+    use std::sync::{Barrier, Condvar, Mutex};
+
+    /// What the threads share: the fold's turn and value, the counts' sums.
+    struct Meeting {
+        barrier: Barrier,
+        fold: Mutex<(usize, Vec<f64>)>,
+        turn: Condvar,
+        counts: Mutex<Vec<u64>>,
+    }
+
+    /// One thread's view of the [`Meeting`].
+    pub(crate) struct Rank<'a> {
+        pub(crate) rank: usize,
+        meeting: &'a Meeting,
+    }
+
+    impl Parts for Rank<'_> {
+        fn fold(&self, value: &mut [f64], add: &mut dyn FnMut(&mut [f64])) {
+            let m = self.meeting;
+            let mut shared = m.fold.lock().unwrap();
+            while shared.0 != self.rank {
+                shared = m.turn.wait(shared).unwrap();
+            }
+            if self.rank > 0 {
+                value.copy_from_slice(&shared.1);
+            }
+            add(value);
+            shared.1 = value.to_vec();
+            shared.0 += 1;
+            m.turn.notify_all();
+            drop(shared);
+            m.barrier.wait();
+            value.copy_from_slice(&m.fold.lock().unwrap().1);
+            m.barrier.wait();
+            if self.rank == 0 {
+                m.fold.lock().unwrap().0 = 0;
+                m.turn.notify_all();
+            }
+        }
+
+        fn add_up(&self, counts: &mut [u64]) {
+            let m = self.meeting;
+            {
+                let mut sums = m.counts.lock().unwrap();
+                sums.resize(counts.len(), 0);
+                sums.iter_mut()
+                    .zip(counts.iter())
+                    .for_each(|(s, c)| *s += c);
+            }
+            m.barrier.wait();
+            counts.copy_from_slice(&m.counts.lock().unwrap());
+            m.barrier.wait();
+            if self.rank == 0 {
+                m.counts.lock().unwrap().clear();
+            }
+            m.barrier.wait();
+        }
+    }
+
+    /// `f(rank)` on `ranks` threads at once; their results in rank order.
+    pub(crate) fn run<T: Send>(ranks: usize, f: impl Fn(&Rank) -> T + Sync) -> Vec<T> {
+        let meeting = Meeting {
+            barrier: Barrier::new(ranks),
+            fold: Mutex::new((0, Vec::new())),
+            turn: Condvar::new(),
+            counts: Mutex::new(Vec::new()),
+        };
+        std::thread::scope(|scope| {
+            let handles: Vec<_> = (0..ranks)
+                .map(|rank| {
+                    let (f, meeting) = (&f, &meeting);
+                    scope.spawn(move || f(&Rank { rank, meeting }))
+                })
+                .collect();
+            handles.into_iter().map(|h| h.join().unwrap()).collect()
+        })
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -111,6 +196,26 @@ mod tests {
                 values.iter().for_each(|&v| visit(v))
             });
             assert_eq!(got.to_bits(), sorted[k - 1].to_bits(), "k = {k}");
+        }
+        // the values cut into runs among 2 to 4 processes, the first empty
+        let n = values.len();
+        for ranks in 2..=4 {
+            let cut = |r: usize| if r == 1 { 0 } else { n * r / ranks };
+            for k in [1, 2, 7, n / 2, n] {
+                let got = testkit::run(ranks, |me| {
+                    let mine = &values[cut(me.rank)..cut(me.rank + 1)];
+                    kth_smallest(k as u64, me, &mut |visit| {
+                        mine.iter().for_each(|&v| visit(v))
+                    })
+                });
+                for got in got {
+                    assert_eq!(
+                        got.to_bits(),
+                        sorted[k - 1].to_bits(),
+                        "{ranks} ranks, k = {k}"
+                    );
+                }
+            }
         }
         for v in [0.0, -0.0, 1.5, -2.0, f64::MAX, f64::NEG_INFINITY] {
             assert_eq!(value_of_key(order_key(v)).to_bits(), v.to_bits());

@@ -24,7 +24,7 @@
 //! `scripts/fuzz-readers.sh` does for long runs).
 
 use cellist_io::billiards::{parse_billiards_input, TrajectoryReader};
-use cellist_io::bodies::parse_bodies;
+use cellist_io::bodies::{parse_bodies, read_bodies, read_bodies_part};
 use cellist_io::field_csv::parse_field;
 use cellist_io::lammps_data::{decode_data, decode_data_where, DataAtom};
 use cellist_io::points::{parse_extended_xyz, parse_plain, Points};
@@ -568,6 +568,33 @@ proptest! {
     #[test]
     fn mutated_body_files(bytes in mutated("bodies")) {
         prop_assert_eq!(check(Reader::Bodies, &bytes.0), Ok(()));
+    }
+
+    /// The body file read line by line from disk, whole or a block of it (a
+    /// rank's), is the text parser's result or its error.
+    #[test]
+    fn body_files_streamed_are_the_text_parsers(bytes in mutated("bodies")) {
+        let text = String::from_utf8_lossy(&bytes.0).into_owned();
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("bodies.txt");
+        std::fs::write(&path, &text).unwrap();
+        let parsed = parse_bodies(&path, &text).map_err(|e| e.to_string());
+        let whole = read_bodies(&path).map_err(|e| e.to_string());
+        prop_assert_eq!(&whole, &parsed);
+        let middle = |n: usize| n / 3..2 * n / 3;
+        let part = read_bodies_part(&path, middle).map_err(|e| e.to_string());
+        match (part, parsed) {
+            (Ok((part, n)), Ok(all)) => {
+                prop_assert_eq!(n, all.mass.len());
+                let range = middle(n);
+                prop_assert_eq!(&part.mass[..], &all.mass[range.clone()]);
+                prop_assert_eq!(&part.position[..], &all.position[range.clone()]);
+                prop_assert_eq!(&part.velocity[..], &all.velocity[range]);
+                prop_assert_eq!(part.extra_columns, all.extra_columns);
+            }
+            (Err(a), Err(b)) => prop_assert_eq!(a, b),
+            (a, b) => prop_assert!(false, "streamed {a:?}, parsed {b:?}"),
+        }
     }
 
     #[test]

@@ -193,21 +193,14 @@ impl Ranks {
 impl Ranks {
     /// The run of the input order this process holds of `n` particles
     /// divided into blocks (rank `r` of `P` holding `n r / P .. n (r + 1) / P`):
-    /// all of them in one process.
+    /// all of them in one process or on a replicated run's every rank.
     pub fn block_of(&self, n: usize) -> std::ops::Range<usize> {
-        let (rank, ranks) = self.place();
-        n * rank / ranks..n * (rank + 1) / ranks
-    }
-
-    /// This rank and the number of ranks.
-    fn place(&self) -> (usize, usize) {
-        match self {
-            Ranks::One => (0, 1),
-            #[cfg(feature = "mpi")]
-            Ranks::Spread(world) | Ranks::Replicated { world, .. } => {
-                (world.rank() as usize, world.size() as usize)
-            }
+        #[cfg(feature = "mpi")]
+        if let Ranks::Spread(world) = self {
+            let (rank, ranks) = (world.rank() as usize, world.size() as usize);
+            return n * rank / ranks..n * (rank + 1) / ranks;
         }
+        0..n
     }
 
     /// The engine's collective exchanges among the ranks (collective: the
@@ -223,28 +216,24 @@ impl Ranks {
     }
 }
 
-/// Each rank holding a run of the input order ([`Ranks::block_of`]).
+/// Each rank holding its run of the input order ([`Ranks::block_of`]): a
+/// spread run's ranks their blocks, one process or a replicated run's every
+/// rank all particles (a part of its own, as [`cellist_io::Whole`]).
 impl Parts for Ranks {
     fn fold(&self, value: &mut [f64], add: &mut dyn FnMut(&mut [f64])) {
-        match self {
-            Ranks::One => add(value),
-            #[cfg(feature = "mpi")]
-            Ranks::Spread(world) | Ranks::Replicated { world, .. } => {
-                fold_in_rank_order(world, value, add)
-            }
+        #[cfg(feature = "mpi")]
+        if let Ranks::Spread(world) = self {
+            return fold_in_rank_order(world, value, add);
         }
+        add(value)
     }
 
     fn add_up(&self, counts: &mut [u64]) {
-        match self {
-            Ranks::One => {
-                let _ = counts;
-            }
-            #[cfg(feature = "mpi")]
-            Ranks::Spread(world) | Ranks::Replicated { world, .. } => {
-                let mine = counts.to_vec();
-                world.all_reduce_into(&mine[..], counts, SystemOperation::sum());
-            }
+        #[cfg(feature = "mpi")]
+        if let Ranks::Spread(world) = self {
+            let mine = counts.to_vec();
+            world.all_reduce_into(&mine[..], counts, SystemOperation::sum());
         }
+        let _ = counts;
     }
 }

@@ -12,11 +12,12 @@
 //! on the ring, or the bodies routed to its slabs, or those routed to its
 //! part of the tree and the nodes and bodies of the other parts that its
 //! walks reach, or (the fmm) every body, in buffers kept from step to
-//! step. No rank holds the whole system at any time but the fmm's
-//! evaluations: at set-up each rank makes only its block (the Plummer sphere's
-//! draws streamed above 20,000 bodies, a smaller one made whole for its
-//! exact virial; the body file read twice, its block kept), a restart reads its
-//! block of the checkpoint, and the outputs take a block at a time.
+//! step. Above 20,000 bodies no rank holds the whole system at any time
+//! but the fmm's evaluations: at set-up each rank makes only its block (the
+//! Plummer sphere's draws streamed; a smaller sphere is made whole on every
+//! rank for its exact virial, then cut; the body file read twice, its block
+//! kept), a restart reads its block of the checkpoint, and the outputs take
+//! a block at a time.
 //!
 //! ```text
 //! step:  kick + drift of the own bodies (the integrator's first part)

@@ -199,6 +199,7 @@ struct Setup {
     /// This process's bodies: all of them, or under MPI its block
     /// `first..first + bodies.len()` of the input order.
     bodies: Bodies,
+    /// The index in the input order of `bodies`' first.
     first: usize,
     /// The number of bodies on every rank.
     total: usize,
@@ -421,8 +422,20 @@ fn all_or_part(
                 return Err(err("system.initial.n and .seed apply to kind = \"plummer\" only".into()));
             }
             let path = scenario.input_path(file);
-            let (read, n) = read_bodies_part(&path, |n| ranks.block_of(n))
-                .map_err(|e| SimError::Input(e.to_string()))?;
+            let read = read_bodies_part(&path, |n| ranks.block_of(n)).map_err(|e| e.to_string());
+            // one message when a rank cannot read the file; every rank's blocks of one count
+            if let Some(message) = ranks.agree(read.as_ref().err().cloned()) {
+                return Err(SimError::Input(message));
+            }
+            let (read, n) = read.map_err(SimError::Input)?;
+            let [most, least] = ranks.largest([n as f64, -(n as f64)]);
+            if most != -least {
+                return Err(SimError::Input(format!(
+                    "{}: the file changed while the ranks read it ({} to {most} bodies counted)",
+                    path.display(),
+                    -least
+                )));
+            }
             if read.extra_columns {
                 context.warn(format!("{}: columns after the 7th (m x y z vx vy vz) are ignored", path.display()));
             }

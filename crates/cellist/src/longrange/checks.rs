@@ -23,12 +23,10 @@ pub fn check_sources_among(
     first: usize,
     peers: &dyn Exchange,
 ) -> Result<(), String> {
-    if sources.mass.len() != sources.position.len() {
-        return Err(format!(
-            "{} masses for {} positions",
-            sources.mass.len(),
-            sources.position.len()
-        ));
+    let (masses, positions) = (sources.mass.len(), sources.position.len());
+    let lengths = (masses != positions).then_some((first, [masses as f64, positions as f64, 0.0]));
+    if let Some((_, [m, x, _])) = first_failure(lengths, peers) {
+        return Err(format!("{m} masses for {x} positions"));
     }
     let mass = sources
         .mass
@@ -81,66 +79,61 @@ pub fn first_failure(
 }
 
 /// The point that two particles share (the same coordinates, `-0` taken as
-/// `0`) with the smallest key among all ranks' particles, the two smallest
-/// indices of the particles there and the first one's position; collective.
-/// Each rank sends each of its points to the rank its key hashes to, which
-/// finds the repeated keys among those it receives.
+/// `0`) with the smallest [`point_key`] among all ranks' particles, the two
+/// smallest indices of the particles there and the first one's position;
+/// collective. Each rank sends each of its points to the rank its key hashes
+/// to, which finds the repeated keys among those it receives.
 fn first_shared_point(
     positions: &[[f64; 3]],
     first: usize,
     peers: &dyn Exchange,
 ) -> Option<(usize, usize, [f64; 3])> {
     let ranks = peers.ranks();
-    let mut points: Vec<Point> = if ranks == 1 {
-        positions
-            .iter()
-            .enumerate()
-            .map(|(i, x)| Point::new(first + i, *x))
-            .collect()
-    } else {
-        let received = scatter_by_key(positions, first, peers);
-        received
-            .chunks_exact(4)
-            .map(|r| Point::new(r[3] as usize, [r[0], r[1], r[2]]))
-            .collect()
-    };
-    points.sort_unstable_by_key(|p| (p.key, p.index));
-    let found = points
-        .windows(2)
-        .find(|w| w[0].key == w[1].key)
-        .map(|w| (w[0], w[1].index));
     if ranks == 1 {
-        return found.map(|(p, j)| (p.index, j, p.position));
+        return first_repeat(positions.len(), |k| (first + k, positions[k]));
     }
-    let row = found.map_or([0.0; 6], |(p, j)| {
-        let x = p.position;
-        [1.0, x[0], x[1], x[2], p.index as f64, j as f64]
+    let received = scatter_by_key(positions, first, peers);
+    let found = first_repeat(received.len() / 4, |k| {
+        let r = &received[4 * k..4 * k + 4];
+        (r[3] as usize, [r[0], r[1], r[2]])
+    });
+    let row = found.map_or([0.0; 6], |(i, j, x)| {
+        [1.0, x[0], x[1], x[2], i as f64, j as f64]
     });
     let mut all = vec![0.0; 6 * ranks];
     peers.all_gather(&row, &vec![6; ranks], &mut all);
     all.chunks_exact(6)
         .filter(|r| r[0] == 1.0)
-        .map(|r| (Point::new(r[4] as usize, [r[1], r[2], r[3]]), r[5] as usize))
-        .min_by_key(|(p, _)| p.key)
-        .map(|(p, j)| (p.index, j, p.position))
+        .map(|r| (r[4] as usize, r[5] as usize, [r[1], r[2], r[3]]))
+        .min_by_key(|(.., x)| point_key(x))
 }
 
-/// A particle's index, position and the key of its point.
-#[derive(Clone, Copy, Debug)]
-struct Point {
-    key: [u64; 3],
-    index: usize,
-    position: [f64; 3],
+/// The key of a point: its coordinates' bits, `-0` taken as `0`.
+fn point_key(x: &[f64; 3]) -> [u64; 3] {
+    x.map(|c| (c + 0.0).to_bits())
 }
 
-impl Point {
-    fn new(index: usize, position: [f64; 3]) -> Self {
-        Point {
-            key: position.map(|c| (c + 0.0).to_bits()),
-            index,
-            position,
-        }
-    }
+/// Among `n` particles, the `k`-th an index and a position `point(k)`, the
+/// repeated point with the smallest [`point_key`]: the two smallest indices
+/// there and the first one's position. Sorts the `n` numbers `k` (8 bytes a
+/// particle), each key computed when compared.
+fn first_repeat(
+    n: usize,
+    point: impl Fn(usize) -> (usize, [f64; 3]),
+) -> Option<(usize, usize, [f64; 3])> {
+    let key = |k: usize| {
+        let (index, x) = point(k);
+        (point_key(&x), index)
+    };
+    let mut order: Vec<usize> = (0..n).collect();
+    order.sort_unstable_by_key(|&k| key(k));
+    order
+        .windows(2)
+        .find(|w| key(w[0]).0 == key(w[1]).0)
+        .map(|w| {
+            let ((i, x), (j, _)) = (point(w[0]), point(w[1]));
+            (i, j, x)
+        })
 }
 
 /// Every rank's points sent to the rank their key hashes to: the rows
@@ -148,7 +141,7 @@ impl Point {
 fn scatter_by_key(positions: &[[f64; 3]], first: usize, peers: &dyn Exchange) -> Vec<f64> {
     let ranks = peers.ranks();
     let owner = |x: &[f64; 3]| {
-        let [a, b, c] = Point::new(0, *x).key;
+        let [a, b, c] = point_key(x);
         let mixed = (a ^ b.rotate_left(21) ^ c.rotate_left(42)).wrapping_mul(0x9E37_79B9_7F4A_7C15);
         ((mixed >> 32) % ranks as u64) as usize
     };
@@ -246,11 +239,15 @@ mod tests {
             }
         }
         assert_eq!(messages[0..2], [Ok(()), Ok(())]);
-        let shared = messages[2].as_ref().unwrap_err();
-        assert!(
-            shared.contains("particles 20 and 550 are at the same point")
-                || shared.contains("particles 70 and 100 are at the same point"),
-            "{shared}"
+        // the smaller key (x = 0 has the smallest bits), its two smallest
+        // indices and the first one's position
+        assert_eq!(
+            messages[2],
+            Err(
+                "particles 70 and 100 are at the same point [-0.0, 0.0, 0.25] and the \
+                 softening is 0"
+                    .into()
+            )
         );
         assert_eq!(messages[3], Ok(()));
         assert!(messages[4]

@@ -1,4 +1,5 @@
-//! Long-range solvers for the softened gravity of [`GravityLaw`](crate::interactions::GravityLaw): each fills the
+//! Long-range solvers for the softened gravity of
+//! [`GravityLaw`](crate::interactions::GravityLaw): each fills the
 //! acceleration `acc_i = sum_j acc_ij` and potential `phi_i = sum_j phi_ij` of
 //! every particle (in input order, self term excluded), exactly ([`direct`]) or
 //! approximately ([`tree`], [`mesh`], [`p3m`]).

@@ -70,8 +70,8 @@ pub fn plummer(n: usize, seed: u64, law: &GravityLaw, threads: &Threads) -> Bodi
 /// holding no other body when `n > 20000`: the draws are made once for the
 /// centre of mass (`sum m_i x_i / sum m_i`, `sum m_i v_i / sum m_i`) while
 /// `part` is kept, and (unless `part` is every body) again for the kinetic
-/// energy `T = 1/2 sum m_i |v_i - v_cm|^2`, each sum in input order. A process of a distributed run builds its own
-/// block this way.
+/// energy `T = 1/2 sum m_i |v_i - v_cm|^2`, each sum in input order. A
+/// process of a distributed run builds its own block this way.
 pub fn plummer_part(
     n: usize,
     seed: u64,
