@@ -22,9 +22,19 @@ pub struct BodyFile {
     pub extra_columns: bool,
 }
 
-/// Reads the body file at `path`.
+/// Reads the body file at `path`, a line at a time in one pass (the errors
+/// of [`parse_bodies`]).
 pub fn read_bodies(path: &Path) -> Result<BodyFile, InputError> {
-    read_bodies_part(path, |n| 0..n).map(|(bodies, _)| bodies)
+    let mut out = BodyFile::default();
+    each_data_line(path, |index, tokens| {
+        out.push(parse_body(path, index, tokens)?);
+        out.extra_columns |= tokens.len() > 7;
+        Ok(true)
+    })?;
+    if out.mass.is_empty() {
+        return Err(no_bodies(path));
+    }
+    Ok(out)
 }
 
 /// The bodies `keep(n)` of the body file at `path` of `n` bodies, and `n`

@@ -191,6 +191,16 @@ impl Ranks {
 }
 
 impl Ranks {
+    /// Whether the particles are divided among several ranks, each holding
+    /// its block ([`Ranks::block_of`]).
+    pub fn is_spread(&self) -> bool {
+        #[cfg(feature = "mpi")]
+        if let Ranks::Spread(_) = self {
+            return true;
+        }
+        false
+    }
+
     /// The run of the input order this process holds of `n` particles
     /// divided into blocks (rank `r` of `P` holding `n r / P .. n (r + 1) / P`):
     /// all of them in one process or on a replicated run's every rank.

@@ -22,7 +22,7 @@ use cellist::models::gravity::{
     Solver, SolverChoice,
 };
 use cellist::models::Model;
-use cellist_io::{read_bodies_part, BodyChart, Parts, Plane, GRAVITY_DUMP_COLUMNS};
+use cellist_io::{read_bodies, read_bodies_part, BodyChart, Parts, Plane, GRAVITY_DUMP_COLUMNS};
 use serde::Deserialize;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -422,7 +422,15 @@ fn all_or_part(
                 return Err(err("system.initial.n and .seed apply to kind = \"plummer\" only".into()));
             }
             let path = scenario.input_path(file);
-            let read = read_bodies_part(&path, |n| ranks.block_of(n)).map_err(|e| e.to_string());
+            let read = if ranks.is_spread() {
+                read_bodies_part(&path, |n| ranks.block_of(n))
+            } else {
+                read_bodies(&path).map(|all| {
+                    let n = all.mass.len();
+                    (all, n)
+                })
+            };
+            let read = read.map_err(|e| e.to_string());
             // one message when a rank cannot read the file; every rank's blocks of one count
             if let Some(message) = ranks.agree(read.as_ref().err().cloned()) {
                 return Err(SimError::Input(message));
