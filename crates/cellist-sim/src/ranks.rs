@@ -207,8 +207,7 @@ impl Ranks {
     pub fn block_of(&self, n: usize) -> std::ops::Range<usize> {
         #[cfg(feature = "mpi")]
         if let Ranks::Spread(world) = self {
-            let (rank, ranks) = (world.rank() as usize, world.size() as usize);
-            return n * rank / ranks..n * (rank + 1) / ranks;
+            return crate::distributed::ring::blocks(n, world).1;
         }
         0..n
     }

@@ -121,7 +121,7 @@ fn ring_gravity_timed<C: Communicator>(
 /// The blocks `n` particles are cut into on the ranks of `world`: rank `r`
 /// sums for the particles `bounds[r]..bounds[r + 1]`, `bounds[r] = n r / P`;
 /// and this rank's block.
-pub(super) fn blocks(n: usize, world: &SimpleCommunicator) -> (Vec<usize>, std::ops::Range<usize>) {
+pub(crate) fn blocks(n: usize, world: &SimpleCommunicator) -> (Vec<usize>, std::ops::Range<usize>) {
     let (rank, ranks) = (world.rank() as usize, world.size() as usize);
     let bounds: Vec<usize> = (0..=ranks).map(|r| n * r / ranks).collect();
     let mine = bounds[rank]..bounds[rank + 1];
