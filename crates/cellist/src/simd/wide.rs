@@ -104,6 +104,39 @@ mod register {
                 F64x8(_mm512_mask_blend_pd(less, otherwise.0, then.0))
             }
         }
+
+        /// The 8 x 8 transpose: lane `i` of `out[j]` is lane `j` of
+        /// `rows[i]` (moves only: every bit kept). Pairs of lanes are
+        /// swapped between rows, then pairs of pairs, then halves.
+        #[inline(always)]
+        pub fn transpose(rows: [Self; 8]) -> [Self; 8] {
+            unsafe {
+                let r = rows.map(|r| r.0);
+                // s[2k] = [r_{2k,0} r_{2k+1,0} r_{2k,2} r_{2k+1,2} ...], s[2k + 1] the odd lanes
+                let s: [__m512d; 8] = std::array::from_fn(|k| {
+                    let (a, b) = (r[k & !1], r[k | 1]);
+                    if k % 2 == 0 {
+                        _mm512_unpacklo_pd(a, b)
+                    } else {
+                        _mm512_unpackhi_pd(a, b)
+                    }
+                });
+                let low_pairs = _mm512_setr_epi64(0, 1, 8, 9, 4, 5, 12, 13);
+                let high_pairs = _mm512_setr_epi64(2, 3, 10, 11, 6, 7, 14, 15);
+                // u[4h + c]: lanes c and c + 4 of rows 4h..4h + 4
+                let u: [__m512d; 8] = std::array::from_fn(|k| {
+                    let (h, c) = (k / 4, k % 4);
+                    let pairs = if c < 2 { low_pairs } else { high_pairs };
+                    _mm512_permutex2var_pd(s[4 * h + c % 2], pairs, s[4 * h + 2 + c % 2])
+                });
+                let low_half = _mm512_setr_epi64(0, 1, 2, 3, 8, 9, 10, 11);
+                let high_half = _mm512_setr_epi64(4, 5, 6, 7, 12, 13, 14, 15);
+                std::array::from_fn(|j| {
+                    let half = if j < 4 { low_half } else { high_half };
+                    F64x8(_mm512_permutex2var_pd(u[j % 4], half, u[4 + j % 4]))
+                })
+            }
+        }
     }
 }
 
@@ -191,6 +224,17 @@ mod register {
             let half = |k: usize| F64x4::select_less(a.0[k], b.0[k], then.0[k], otherwise.0[k]);
             F64x8([half(0), half(1)])
         }
+
+        /// The 8 x 8 transpose: lane `i` of `out[j]` is lane `j` of
+        /// `rows[i]`.
+        #[inline(always)]
+        pub fn transpose(rows: [Self; 8]) -> [Self; 8] {
+            let mut lanes = [[0.0; 8]; 8];
+            for (row, lane) in rows.iter().zip(&mut lanes) {
+                row.store(lane);
+            }
+            std::array::from_fn(|j| Self::load(&lanes.map(|lane| lane[j])))
+        }
     }
 }
 
@@ -236,6 +280,26 @@ mod tests {
         let mut out = [0.0; 9];
         x.store(&mut out[1..]);
         assert_eq!(&out[1..], &a[..]);
+    }
+
+    /// Lane `i` of the transpose's row `j` is lane `j` of row `i`, bit for bit.
+    #[test]
+    fn transposes_swap_rows_and_lanes() {
+        let value = |i: usize, j: usize| -0.0 + (i * 8 + j) as f64 * 1.25 - 3.0;
+        let rows: [F64x8; 8] = std::array::from_fn(|i| {
+            F64x8::load(&std::array::from_fn::<f64, 8, _>(|j| value(i, j)))
+        });
+        let out = F64x8::transpose(rows);
+        for (j, column) in out.into_iter().enumerate() {
+            let got = lanes(column);
+            for (i, v) in got.into_iter().enumerate() {
+                assert_eq!(v.to_bits(), value(i, j).to_bits(), "lane {i} of row {j}");
+            }
+        }
+        assert_eq!(
+            F64x8::transpose(out).map(|r| lanes(r).map(f64::to_bits)),
+            rows.map(|r| lanes(r).map(f64::to_bits))
+        );
     }
 
     /// The inverse square root within 4 ulp of `1 / sqrt(x)` from `1e-200` to

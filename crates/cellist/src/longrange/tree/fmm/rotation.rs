@@ -19,6 +19,7 @@
 
 use super::engine::Cube;
 use super::solid::at;
+use crate::memory::prefetch;
 use crate::simd::{F64x8, Register};
 use rustfft::num_complex::Complex64;
 use std::collections::HashMap;
@@ -102,12 +103,12 @@ fn rows<const R: usize>(
     let inputs = re_in.len();
     let zero = Word::splat(0.0);
     let (mut re, mut im) = ([zero; R], [zero; R]);
-    for c in 0..inputs {
-        let (x, y) = (re_in[c], im_in[c]);
+    let p_rows: [&[f64]; R] = std::array::from_fn(|r| &p[(first + r) * inputs..][..inputs]);
+    let q_rows: [&[f64]; R] = std::array::from_fn(|r| &q[(first + r) * inputs..][..inputs]);
+    for (c, (&x, &y)) in re_in.iter().zip(&im_in[..inputs]).enumerate() {
         for r in 0..R {
-            let row = (first + r) * inputs + c;
-            re[r] = Word::splat(p[row]).mul_add(x, re[r]);
-            im[r] = Word::splat(q[row]).mul_add(y, im[r]);
+            re[r] = Word::splat(p_rows[r][c]).mul_add(x, re[r]);
+            im[r] = Word::splat(q_rows[r][c]).mul_add(y, im[r]);
         }
     }
     out_re[first..first + R].copy_from_slice(&re);
@@ -373,6 +374,7 @@ pub(super) fn m2l_by_direction(
     let terms = super::solid::terms(p);
     let stride = components * terms;
     let side = |c: Cube| c.radius * 2.0 / 3f64.sqrt();
+    let lines = (stride * std::mem::size_of::<Complex64>()).div_ceil(64);
     pairs.clear();
     for k in 0..starts.len() - 1 {
         let t = group + k;
@@ -394,6 +396,13 @@ pub(super) fn m2l_by_direction(
         let mut done = 0;
         while done < items {
             let count = LANES.min(items - done);
+            // the next translations' multipoles, on their way while these run
+            let next = first + (done + count).div_ceil(components);
+            for q in
+                &pairs[next.min(pairs.len())..(next + LANES.div_ceil(components)).min(pairs.len())]
+            {
+                prefetch(multipoles, q.2 as usize * stride, lines);
+            }
             let item = |lane: usize| {
                 let (t, s) = (
                     run[(done + lane) / components].1,
@@ -464,8 +473,6 @@ pub(super) struct M2lLanes {
     turns: Turns,
     log_factorials: Vec<f64>,
     factorials: Vec<f64>,
-    /// The lanes' multipoles, then their locals, coefficient by coefficient.
-    staged: (Vec<[f64; LANES]>, Vec<[f64; LANES]>),
     multipoles: Lanes,
     turned: Lanes,
     shifted: Lanes,
@@ -517,11 +524,7 @@ impl M2lLanes {
         // the lanes past `count`: no multipole, at distance 1
         let mut distance = [1.0; LANES];
         let (mut rho_s, mut rho_t) = ([0.0; LANES], [0.0; LANES]);
-        let (re, im) = &mut self.staged;
-        for v in [&mut *re, &mut *im] {
-            v.clear();
-            v.resize(terms, [0.0; LANES]);
-        }
+        let mut sources: [&[Complex64]; LANES] = [&[]; LANES];
         for l in 0..count {
             let Translation {
                 multipole,
@@ -531,14 +534,38 @@ impl M2lLanes {
             let d: [f64; 3] = std::array::from_fn(|k| target.0[k] - source.0[k]);
             distance[l] = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
             (rho_s[l], rho_t[l]) = (source.1 / distance[l], target.1 / distance[l]);
-            for (t, a) in multipole.iter().enumerate() {
-                (re[t][l], im[t][l]) = (a.re, a.im);
+            sources[l] = &multipole[..terms];
+        }
+        // the lanes' multipoles into words of one coefficient each (lanes
+        // past `count` zero): four coefficients of every lane at a time by
+        // a transpose, the last ones one at a time
+        self.multipoles.fit(terms);
+        let whole = terms - terms % 4;
+        for first in (0..whole).step_by(4) {
+            let rows = std::array::from_fn(|l| {
+                if l < count {
+                    four_coefficients(&sources[l][first..])
+                } else {
+                    Word::splat(0.0)
+                }
+            });
+            let words = Word::transpose(rows);
+            for (k, pair) in words.chunks_exact(2).enumerate() {
+                (self.multipoles.re[first + k], self.multipoles.im[first + k]) = (pair[0], pair[1]);
             }
         }
-        self.multipoles.fit(terms);
-        for t in 0..terms {
-            self.multipoles.re[t] = Word::load(&re[t]);
-            self.multipoles.im[t] = Word::load(&im[t]);
+        for t in whole..terms {
+            let part = |f: fn(&Complex64) -> f64| {
+                Word::load(&std::array::from_fn::<f64, LANES, _>(|l| {
+                    if l < count {
+                        f(&sources[l][t])
+                    } else {
+                        0.0
+                    }
+                }))
+            };
+            self.multipoles.re[t] = part(|c| c.re);
+            self.multipoles.im[t] = part(|c| c.im);
         }
         let M2lLanes {
             turns,
@@ -604,11 +631,6 @@ impl M2lLanes {
             factor = factor * step;
         }
         turn.back(p, shifted, locals);
-        let (re, im) = &mut self.staged;
-        for t in 0..terms {
-            self.locals.re[t].store(&mut re[t]);
-            self.locals.im[t].store(&mut im[t]);
-        }
     }
 
     /// Adds the locals of the last [`M2lLanes::translate`]'s lanes
@@ -621,14 +643,45 @@ impl M2lLanes {
         offset: impl Fn(usize) -> usize,
         locals: &mut [Complex64],
     ) {
+        let terms = at(self.order + 1, 0);
         let starts: [usize; LANES] = std::array::from_fn(|l| if l < count { offset(l) } else { 0 });
-        let (re, im) = &self.staged;
-        for (t, (re, im)) in re.iter().zip(im).enumerate() {
-            for l in 0..count {
-                locals[starts[l] + t] += Complex64::new(re[l], im[l]);
+        let (re, im) = (&self.locals.re[..terms], &self.locals.im[..terms]);
+        // four coefficients of every lane at a time by a transpose, the lanes
+        // in order (each term takes its lanes in lane order), the last
+        // coefficients one at a time
+        let whole = terms - terms % 4;
+        for first in (0..whole).step_by(4) {
+            let rows = std::array::from_fn(|k| if k % 2 == 0 { re } else { im }[first + k / 2]);
+            let lanes = Word::transpose(rows);
+            for (&start, lane) in starts[..count].iter().zip(lanes) {
+                let local = &mut locals[start + first..][..4];
+                let sum = four_coefficients(local) + lane;
+                let mut parts = [0.0; LANES];
+                sum.store(&mut parts);
+                for (v, part) in local.iter_mut().zip(parts.chunks_exact(2)) {
+                    *v = Complex64::new(part[0], part[1]);
+                }
+            }
+        }
+        for t in whole..terms {
+            let (mut re_t, mut im_t) = ([0.0; LANES], [0.0; LANES]);
+            re[t].store(&mut re_t);
+            im[t].store(&mut im_t);
+            for (l, &start) in starts[..count].iter().enumerate() {
+                locals[start + t] += Complex64::new(re_t[l], im_t[l]);
             }
         }
     }
+}
+
+/// The word `[re_0, im_0, re_1, im_1, .., re_3, im_3]` of the first four of
+/// `c`.
+#[inline(always)]
+fn four_coefficients(c: &[Complex64]) -> Word {
+    let c = &c[..4];
+    Word::load(&[
+        c[0].re, c[0].im, c[1].re, c[1].im, c[2].re, c[2].im, c[3].re, c[3].im,
+    ])
 }
 
 #[cfg(test)]
