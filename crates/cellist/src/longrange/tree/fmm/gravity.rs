@@ -47,11 +47,17 @@ impl ErrorFit {
 /// Most particles in a leaf.
 const LEAF: usize = 256;
 
-/// The particles a uniform cloud's leaves hold (the root grown for it,
-/// [`super::engine`]'s `stretch`). Uniform cubes of 10^5, 3x10^5, 10^6 and
-/// 4x10^6 bodies at 1e-6 (order 14) took 6.2, 7.8, 8.3 and 8.5 us per body
-/// with 200, against 6.4, 12.3, 9.4 and 10.3 with the bounding cube (leaves
-/// of 195, 73, 244 and 122); 150 and 170 were slower at 3x10^5 and 10^6.
+/// The most particles a uniform cloud's leaves hold (the root grown so that
+/// the cloud fills an even number of cubes along each axis, each with at
+/// most this many, [`super::engine`]'s `stretch`). Uniform cubes of 10^5,
+/// 3x10^5, 10^6 and 4x10^6 bodies at 1e-6 (order 14) took 6.2, 7.8, 8.3 and
+/// 8.5 us per body with about 200 per cube, against 6.4, 12.3, 9.4 and 10.3
+/// with the bounding cube (leaves of 195, 73, 244 and 122); 150 and 170
+/// were slower at 3x10^5 and 10^6 when they left the cloud's outer layers
+/// of cubes partly filled. Whole layers of at most 200 (195, 174, 171 and
+/// 182 per cube at those sizes) took 1.00, 0.96 and 0.90 times the time of
+/// about 200 at 10^5, 3x10^5 and 10^6 (3 rounds, both on the two cores at
+/// once).
 const FILL: usize = 200;
 
 /// Most particles in a target group (each traverses the tree on its own, in

@@ -36,7 +36,7 @@ const THETA: f64 = 0.95;
 /// Most particles in a leaf.
 const LEAF: usize = 256;
 
-/// The particles a uniform cloud's leaves hold (the root grown for it).
+/// The most particles a uniform cloud's leaves hold (the root grown for it).
 const FILL: usize = 200;
 
 /// Most particles in a target group (groups run in parallel; each leaf
