@@ -19,7 +19,6 @@
 
 use super::engine::Cube;
 use super::solid::at;
-use crate::memory::prefetch;
 use crate::simd::{F64x8, Register};
 use rustfft::num_complex::Complex64;
 use std::collections::HashMap;
@@ -374,7 +373,6 @@ pub(super) fn m2l_by_direction(
     let terms = super::solid::terms(p);
     let stride = components * terms;
     let side = |c: Cube| c.radius * 2.0 / 3f64.sqrt();
-    let lines = (stride * std::mem::size_of::<Complex64>()).div_ceil(64);
     pairs.clear();
     for k in 0..starts.len() - 1 {
         let t = group + k;
@@ -396,13 +394,6 @@ pub(super) fn m2l_by_direction(
         let mut done = 0;
         while done < items {
             let count = LANES.min(items - done);
-            // the next translations' multipoles, on their way while these run
-            let next = first + (done + count).div_ceil(components);
-            for q in
-                &pairs[next.min(pairs.len())..(next + LANES.div_ceil(components)).min(pairs.len())]
-            {
-                prefetch(multipoles, q.2 as usize * stride, lines);
-            }
             let item = |lane: usize| {
                 let (t, s) = (
                     run[(done + lane) / components].1,
