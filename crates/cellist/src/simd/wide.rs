@@ -285,7 +285,7 @@ mod tests {
     /// Lane `i` of the transpose's row `j` is lane `j` of row `i`, bit for bit.
     #[test]
     fn transposes_swap_rows_and_lanes() {
-        let value = |i: usize, j: usize| -0.0 + (i * 8 + j) as f64 * 1.25 - 3.0;
+        let value = |i: usize, j: usize| (i * 8 + j) as f64 * 1.25 - 3.0;
         let rows: [F64x8; 8] = std::array::from_fn(|i| {
             F64x8::load(&std::array::from_fn::<f64, 8, _>(|j| value(i, j)))
         });

@@ -515,15 +515,16 @@ impl<E: Expansions> Engine<E> {
 /// least power of two `>= k` (1 for `n <= fill`): the cubes of level `L` are
 /// then `1 / k` of the bounding cube, so a uniform cloud of `n` particles
 /// fills `k` of them along each axis exactly (`(2^L - k) / 2` empty ones on
-/// either side, a whole number), each with at most `fill` particles. The
-/// bounding cube alone gives its leaves anything from an eighth of the leaf
-/// size to all of it, depending on `n`, and a cloud whose edge cuts through
-/// a layer of cubes leaves that layer's leaves nearly empty: at 10^6
-/// uniform bodies (order 16) the growth that gave about 200 per cube (17.1
-/// cubes along an axis, the outer layers a tenth full) took 4.68 s where
-/// 175 per cube (17.9 cubes) took 4.19 s (4 rounds, both on the two cores at
-/// once).
+/// either side, a whole number), with `n / k^3 <= fill` particles in each
+/// on average. The bounding cube alone gives its leaves anything from an
+/// eighth of the leaf size to all of it, depending on `n`, and a cloud whose
+/// edges cut through layers of cubes leaves those layers' leaves partly
+/// empty: at 10^6 uniform bodies (order 16) the growth that gave about 200
+/// per cube (17.1 cubes along an axis, centred, so the two outer layers
+/// each about half full) took 4.41 s where 18 whole layers (171 per cube)
+/// take 3.99 s (3 rounds, both on the two cores at once).
 fn stretch(n: usize, fill: usize) -> f64 {
+    assert!(fill > 0, "a cube holds at least one particle");
     if n <= fill {
         return 1.0;
     }
@@ -768,7 +769,8 @@ mod tests {
     use super::stretch;
 
     /// The grown root's cubes of level `L` are `1 / k` of the bounding cube,
-    /// `k` the least even number with at most `fill` particles per cube.
+    /// `k` the least even number with at most `fill` particles per cube on
+    /// average.
     #[test]
     fn the_stretch_fills_whole_layers() {
         assert_eq!(stretch(100, 200), 1.0);

@@ -33,9 +33,11 @@ impl ErrorFit {
     /// 20,000 uniform bodies and of a Plummer sphere falls about 0.53-fold
     /// per order from `p = 8` to `p = 20`, and `3e-3 0.55^p` bounds it with a
     /// margin of 2.4 at `p = 8` and 4 or more from `p = 10` on (measured
-    /// again with the root grown for leaves of about 200 bodies); below order 8 the
-    /// fall is slower, so a tolerance picks at least 8. At 10^6 uniform
-    /// bodies the RMS error at `p = 15` is 5.4e-8, under the fit's 3.8e-7.
+    /// again with the root grown for leaves of about 200 bodies, before its
+    /// whole layers; the tests hold the errors below the tolerance with
+    /// them); below order 8 the fall is slower, so a tolerance picks at
+    /// least 8. At 10^6 uniform bodies the RMS error at `p = 15` is 4.9e-8
+    /// (5.4e-8 with the earlier root), under the fit's 3.8e-7.
     pub const LAPLACE_3D: ErrorFit = ErrorFit {
         decay: 0.55,
         at_zero: 3e-3,
@@ -54,7 +56,7 @@ const LEAF: usize = 256;
 /// 8.5 us per body with about 200 per cube, against 6.4, 12.3, 9.4 and 10.3
 /// with the bounding cube (leaves of 195, 73, 244 and 122); 150 and 170
 /// were slower at 3x10^5 and 10^6 when they left the cloud's outer layers
-/// of cubes partly filled. Whole layers of at most 200 (195, 174, 171 and
+/// of cubes partly filled. Whole layers of at most 200 on average (195, 174, 171 and
 /// 182 per cube at those sizes) took 1.00, 0.96 and 0.90 times the time of
 /// about 200 at 10^5, 3x10^5 and 10^6 (3 rounds, both on the two cores at
 /// once).

@@ -448,7 +448,8 @@ fn gcd(a: i64, b: i64) -> i64 {
 /// One M2L of [`M2lLanes::translate`]: a multipole (terms `m >= 0`) about
 /// the source's centre with its scale, into a local about the target's.
 pub(super) struct Translation<'a> {
-    /// The multipole's terms `m >= 0`, [`super::solid::at`]'s order.
+    /// The multipole's terms `m >= 0`, [`super::solid::at`]'s order (at
+    /// least `terms(p)` of them; those past it are not read).
     pub multipole: &'a [Complex64],
     /// The source box's centre and scale `s_c`.
     pub source: ([f64; 3], f64),
@@ -845,7 +846,8 @@ mod tests {
     /// 3, 6 and 7 alone) add the bits of adding each lane's local in turn.
     #[test]
     fn shared_locals_take_their_lanes_in_order() {
-        let p = 6;
+        // 55 terms: the transposed blocks of four and the last three alone
+        let p = 9;
         let terms = super::super::solid::terms(p);
         let multipoles = lane_multipoles(terms, |k, l| {
             Complex64::new(1.0 / (1 + k + 3 * l) as f64, -0.1 * (k as f64 - l as f64))
@@ -860,11 +862,15 @@ mod tests {
         let slot = [0, 1, 0, 2, 0, 1, 3, 4];
         let mut together = vec![Complex64::new(0.3, -0.2); 5 * terms];
         m2l.add_lanes(LANES, |l| slot[l] * terms, &mut together);
+        // each lane's local read from its words and added alone, lane after lane
         let mut in_turn = vec![Complex64::new(0.3, -0.2); 5 * terms];
         for (l, &k) in slot.iter().enumerate() {
-            let mut alone = M2lLanes::default();
-            alone.translate(p, [1, 0, 0], 1, |_| translation(l));
-            alone.add_lanes(1, |_| k * terms, &mut in_turn);
+            for t in 0..terms {
+                let (mut re, mut im) = ([0.0; LANES], [0.0; LANES]);
+                m2l.locals.re[t].store(&mut re);
+                m2l.locals.im[t].store(&mut im);
+                in_turn[k * terms + t] += Complex64::new(re[l], im[l]);
+            }
         }
         let bits = |v: &[Complex64]| {
             v.iter()
