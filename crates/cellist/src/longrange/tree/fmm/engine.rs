@@ -165,6 +165,42 @@ pub(super) trait Expansions: Sync {
         out: &mut [Self::Sum],
         scratch: &mut Self::Scratch,
     );
+    /// The W and X lists of the adaptive FMM, if the kernel has them
+    /// (`Some((rho, least))`): a leaf `L` and a smaller box `B` of at least
+    /// `least` particles whose radii and centres' distance `d` satisfy
+    /// `s_B <= rho (d - s_L)` (and whose gap is at least the
+    /// [`reach`](Self::reach)) meet by `B`'s multipole at `L`'s particles
+    /// ([`m2p`](Self::m2p)) and `L`'s particles into `B`'s local
+    /// ([`p2l`](Self::p2l)) instead of pair by pair: both expansions
+    /// converge as `rho^(p + 1)` at least.
+    fn near_expansions(&self) -> Option<(f64, usize)> {
+        None
+    }
+    /// M2P: adds the multipole about `cube` at the sorted particles
+    /// `particles` to their sums `out` (the particles' own, in order). Asked
+    /// only of a kernel with [`near_expansions`](Self::near_expansions).
+    fn m2p(
+        &self,
+        _multipole: &[Complex64],
+        _cube: Cube,
+        _particles: Range<usize>,
+        _out: &mut [Self::Sum],
+        _scratch: &mut Self::Scratch,
+    ) {
+        unreachable!("M2P of a kernel without near expansions")
+    }
+    /// P2L: adds the sorted particles `particles` to the local about
+    /// `cube`. Asked only of a kernel with
+    /// [`near_expansions`](Self::near_expansions).
+    fn p2l(
+        &self,
+        _particles: Range<usize>,
+        _cube: Cube,
+        _local: &mut [Complex64],
+        _scratch: &mut Self::Scratch,
+    ) {
+        unreachable!("P2L of a kernel without near expansions")
+    }
     /// What one M2L costs, in pair terms of the near field (measured for
     /// each kernel): the weight that balances the parts of a divided
     /// evaluation.
@@ -199,8 +235,9 @@ pub(super) struct Engine<E: Expansions> {
     /// The sums in tree order.
     pub sorted: Vec<E::Sum>,
     scratch: Vec<Mutex<Scratch<E>>>,
-    /// Per own group of the last evaluation, its `(M2L, pair)` counts.
-    counts: Vec<(u64, u64)>,
+    /// Per own group of the last evaluation, its `(M2L, M2P and P2L, pair)`
+    /// counts.
+    counts: Vec<(u64, u64, u64)>,
     /// Per own group, the reactions of its pairs with later groups' leaves.
     crossings: Vec<Crossing<E>>,
     /// In a divided evaluation, the reactions of every part's groups, part
@@ -209,9 +246,12 @@ pub(super) struct Engine<E: Expansions> {
     records: Vec<f64>,
     /// This process's part of `records`, while they are gathered.
     own_records: Vec<f64>,
-    /// `(M2L, particle pair)` interactions of the last evaluation (of this
-    /// process's part of the groups, for a divided evaluation).
+    /// `(box, particle pair)` interactions of the last evaluation (M2L, M2P
+    /// and P2L; of this process's part of the groups, for a divided
+    /// evaluation).
     pub interactions: (u64, u64),
+    /// The M2P and P2L among [`interactions`](Self::interactions)' boxes.
+    pub near: u64,
     /// Per particle, its weight in the next divided evaluation's [`Split`]:
     /// `1 +` its group's pair terms and M2L (each [`Expansions::m2l_cost`]
     /// pair terms) per particle.
@@ -231,6 +271,7 @@ impl<E: Expansions> Default for Engine<E> {
             records: Vec::new(),
             own_records: Vec::new(),
             interactions: (0, 0),
+            near: 0,
             costs: Costs::default(),
         }
     }
@@ -352,16 +393,18 @@ impl<E: Expansions> Engine<E> {
                 .collect_into_vec(&mut counts)
         });
         (self.sorted, self.counts, self.crossings) = (sorted, counts, crossings);
-        self.interactions = self
+        let (far, near, pairs) = self
             .counts
             .iter()
-            .fold((0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
+            .fold((0, 0, 0), |a, b| (a.0 + b.0, a.1 + b.1, a.2 + b.2));
+        (self.interactions, self.near) = ((far + near, pairs), near);
         if parts > 1 {
+            // (an M2P or P2L weighed as an M2L)
             let m2l = kernel.m2l_cost();
             let work = self
                 .counts
                 .iter()
-                .map(|&(far, pairs)| pairs as f64 + m2l * far as f64);
+                .map(|&(far, near, pairs)| pairs as f64 + m2l * (far + near) as f64);
             self.costs.gather(&self.tree, &split, part, work, share);
         }
         let numbers = E::numbers(&mut self.sorted);
@@ -420,11 +463,12 @@ impl<E: Expansions> Engine<E> {
     }
 
     /// The sums of group `g`'s particles into `out`: the traversal of the
-    /// tree from `(root, root)` along the boxes that hold the group, the M2L
-    /// of each of the group's boxes (its sources in the order the traversal
-    /// met them), then the locals down the group's subtree and out at its
+    /// tree from `(root, root)` along the boxes that hold the group (its
+    /// pair sums and M2P as it meets them), the M2L of each of the group's
+    /// boxes (its sources in the order the traversal met them), the P2L in
+    /// that order, then the locals down the group's subtree and out at its
     /// leaves; the reactions of its pairs with later groups' leaves into
-    /// `crossing`. Returns its `(M2L, pair)` counts.
+    /// `crossing`. Returns its `(M2L, M2P and P2L, pair)` counts.
     fn group(
         &self,
         kernel: &E,
@@ -432,13 +476,14 @@ impl<E: Expansions> Engine<E> {
         scratch: &mut Scratch<E>,
         out: &mut [E::Sum],
         crossing: &mut Crossing<E>,
-    ) -> (u64, u64) {
+    ) -> (u64, u64, u64) {
         let terms = kernel.terms();
         let nodes = &self.tree.nodes;
         let end = nodes[g].next as usize;
         let Scratch {
             locals,
             far,
+            p2l,
             sources,
             starts,
             next,
@@ -446,6 +491,7 @@ impl<E: Expansions> Engine<E> {
             kernel: own,
         } = scratch;
         far.clear();
+        p2l.clear();
         crossing.leaves.clear();
         crossing.sums.clear();
         slots.resize(nodes.len(), NO_SLOT);
@@ -455,7 +501,10 @@ impl<E: Expansions> Engine<E> {
             group: g,
             end,
             reach: kernel.reach(),
+            near: kernel.near_expansions(),
             far: &mut *far,
+            p2l: &mut *p2l,
+            m2p: 0,
             scratch: &mut *own,
             out: &mut *out,
             crossing: &mut *crossing,
@@ -463,7 +512,7 @@ impl<E: Expansions> Engine<E> {
             pairs: 0,
         };
         walk.interact(0, 0);
-        let pair_count = walk.pairs;
+        let (pair_count, m2p) = (walk.pairs, walk.m2p);
         for &(leaf, _) in &crossing.leaves {
             slots[leaf as usize] = NO_SLOT;
         }
@@ -489,6 +538,12 @@ impl<E: Expansions> Engine<E> {
         locals.resize((end - g) * terms, Complex64::new(0.0, 0.0));
         let (m, c) = (&self.multipoles, &self.cubes);
         kernel.m2l(m, c, g, starts, sources, locals, own);
+        for &(t, s) in p2l.iter() {
+            let (t, source) = (t as usize, &nodes[s as usize]);
+            let local = &mut locals[(t - g) * terms..(t - g + 1) * terms];
+            let particles = source.start as usize..source.end as usize;
+            kernel.p2l(particles, self.cubes[t], local, own);
+        }
         let first = nodes[g].start as usize;
         for k in g..end {
             let (mine, below) = locals.split_at_mut((k - g + 1) * terms);
@@ -506,7 +561,7 @@ impl<E: Expansions> Engine<E> {
                 kernel.l2l(local, self.cubes[k], child_terms, self.cubes[child], own);
             }
         }
-        (far.len() as u64, pair_count)
+        (far.len() as u64, p2l.len() as u64 + m2p, pair_count)
     }
 }
 
@@ -595,6 +650,8 @@ fn lock<E: Expansions>(scratch: &[Mutex<Scratch<E>>]) -> std::sync::MutexGuard<'
 struct Scratch<E: Expansions> {
     locals: Vec<Complex64>,
     far: Vec<(u32, u32)>,
+    /// The group's P2L `(target box, source leaf)`, as met.
+    p2l: Vec<(u32, u32)>,
     sources: Vec<u32>,
     starts: Vec<usize>,
     /// The next free slot of each target box while bucketing.
@@ -610,6 +667,7 @@ impl<E: Expansions> Default for Scratch<E> {
         Scratch {
             locals: Vec::new(),
             far: Vec::new(),
+            p2l: Vec::new(),
             sources: Vec::new(),
             starts: Vec::new(),
             next: Vec::new(),
@@ -637,7 +695,11 @@ struct Traversal<'a, E: Expansions> {
     group: usize,
     end: usize,
     reach: f64,
+    near: Option<(f64, usize)>,
     far: &'a mut Vec<(u32, u32)>,
+    p2l: &'a mut Vec<(u32, u32)>,
+    /// The M2P made so far.
+    m2p: u64,
     scratch: &'a mut E::Scratch,
     out: &'a mut [E::Sum],
     crossing: &'a mut Crossing<E>,
@@ -648,7 +710,9 @@ struct Traversal<'a, E: Expansions> {
 impl<E: Expansions> Traversal<'_, E> {
     /// Box `t` (in the group, or one of the boxes that hold it) against
     /// source box `s`, as the traversal of the whole tree from `(root,
-    /// root)` meets them: a far pair when they are apart, pair sums when
+    /// root)` meets them: a far pair when they are apart, M2P at a leaf or
+    /// P2L from it when a leaf and a smaller box are apart for those
+    /// ([`Expansions::near_expansions`], the W and X lists), pair sums when
     /// both are leaves, else the larger one split (a leaf is never split;
     /// two boxes of one size are split both), a box that holds the group
     /// into its child that holds it. The rule is the same with the roles
@@ -665,6 +729,13 @@ impl<E: Expansions> Traversal<'_, E> {
         if !overlap && self.apart(t, s) {
             self.far.push((t.max(self.group) as u32, s as u32));
             return;
+        }
+        if !overlap {
+            match self.near_expansion(t, s) {
+                Some(true) => return self.m2p(t, s),
+                Some(false) => return self.p2l.push((t.max(self.group) as u32, s as u32)),
+                None => {}
+            }
         }
         match (target.leaf, source.leaf) {
             (true, true) => self.leaves(t, s),
@@ -722,6 +793,48 @@ impl<E: Expansions> Traversal<'_, E> {
         // (the radii added first: the same bits with the roles swapped)
         larger * larger <= E::THETA * E::THETA * d2
             && d2.sqrt() - (a.radius + b.radius) >= self.reach
+    }
+
+    /// Whether boxes `t` and `s` meet by M2P and P2L (the kernel's
+    /// [`near_expansions`](Expansions::near_expansions)), and if so whether
+    /// `t` is the leaf (`true`: M2P at it) or `s` (P2L from it). The same
+    /// with the roles swapped.
+    fn near_expansion(&self, t: usize, s: usize) -> Option<bool> {
+        let (rho, least) = self.near?;
+        let (a, b) = (self.engine.cubes[t], self.engine.cubes[s]);
+        let (leaf, other) = if a.radius > b.radius {
+            (t, s)
+        } else if b.radius > a.radius {
+            (s, t)
+        } else {
+            return None;
+        };
+        let nodes = &self.engine.tree.nodes;
+        if !nodes[leaf].leaf || ((nodes[other].end - nodes[other].start) as usize) < least {
+            return None;
+        }
+        let d = [
+            a.centre[0] - b.centre[0],
+            a.centre[1] - b.centre[1],
+            a.centre[2] - b.centre[2],
+        ];
+        let d = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+        let (large, small) = (a.radius.max(b.radius), a.radius.min(b.radius));
+        (small <= rho * (d - large) && d - (a.radius + b.radius) >= self.reach).then_some(leaf == t)
+    }
+
+    /// M2P of source box `s`'s multipole at the particles of leaf `t` of the
+    /// group.
+    fn m2p(&mut self, t: usize, s: usize) {
+        let engine = self.engine;
+        let terms = self.kernel.terms();
+        let (node, first) = (&engine.tree.nodes[t], engine.tree.nodes[self.group].start);
+        let range = node.start as usize..node.end as usize;
+        let out = &mut self.out[range.start - first as usize..range.end - first as usize];
+        let multipole = &engine.multipoles[s * terms..(s + 1) * terms];
+        self.kernel
+            .m2p(multipole, engine.cubes[s], range, out, self.scratch);
+        self.m2p += 1;
     }
 
     /// Leaf `t` of the group against leaf `s`: each pair once, by the

@@ -49,6 +49,14 @@ impl ErrorFit {
 /// Most particles in a leaf.
 const LEAF: usize = 256;
 
+/// The W and X lists' ratio and least box ([`Expansions::near_expansions`]):
+/// a leaf and a smaller box of at least `NEAR_LEAST` bodies with
+/// `s_B <= NEAR_RHO (d - s_L)` meet by M2P and P2L.
+const NEAR_RHO: f64 = 0.5;
+
+/// See [`NEAR_RHO`].
+const NEAR_LEAST: usize = 64;
+
 /// The most particles a uniform cloud's leaves hold (the root grown so that
 /// the cloud fills an even number of cubes along each axis, each with at
 /// most this many, [`super::engine`]'s `stretch`). Uniform cubes of 10^5,
@@ -158,10 +166,17 @@ impl GravityFmm {
         self.laplace.order
     }
 
-    /// `(M2L, particle pair)` interactions of the last evaluation (of this
-    /// rank's target groups, for [`compute_spread`](Self::compute_spread)).
+    /// `(box, particle pair)` interactions of the last evaluation (M2L, M2P
+    /// and P2L; of this rank's target groups, for
+    /// [`compute_spread`](Self::compute_spread)).
     pub fn interactions(&self) -> (u64, u64) {
         self.engine.interactions
+    }
+
+    /// The M2P and P2L (the W and X lists) among the last evaluation's box
+    /// interactions.
+    pub fn near_interactions(&self) -> u64 {
+        self.engine.near
     }
 
     /// Fills `out` with the accelerations and potentials of `sources` (see
@@ -307,6 +322,61 @@ impl Expansions for Laplace {
         }
     }
     const FILL: Option<usize> = Some(FILL);
+
+    fn near_expansions(&self) -> Option<(f64, usize)> {
+        // M2P reads harmonics of one order more than the expansions'
+        (self.order < super::ORDER_RANGE.1).then_some((NEAR_RHO, NEAR_LEAST))
+    }
+
+    fn m2p(
+        &self,
+        multipole: &[Complex64],
+        cube: Cube,
+        particles: Range<usize>,
+        out: &mut [[f64; 4]],
+        scratch: &mut Scratch,
+    ) {
+        let inv = 1.0 / cube.radius;
+        let (re, im) = lanes(&mut scratch.lanes, solid::terms(self.order + 1));
+        for (first, f) in particles.step_by(LANES).zip(out.chunks_mut(LANES)) {
+            let w = self.scaled_padded(first, f.len(), cube.centre, inv);
+            solid::irregular_lanes(w, self.order + 1, re, im);
+            let got = solid::m2p_lanes(self.order, multipole, inv, (re, im));
+            let mut values = [[0.0; LANES]; 4];
+            for (v, g) in values.iter_mut().zip(got) {
+                g.store(v);
+            }
+            for (lane, f) in f.iter_mut().enumerate() {
+                for a in 0..4 {
+                    f[a] += values[a][lane];
+                }
+            }
+        }
+    }
+
+    fn p2l(
+        &self,
+        particles: Range<usize>,
+        cube: Cube,
+        local: &mut [Complex64],
+        scratch: &mut Scratch,
+    ) {
+        let inv = 1.0 / cube.radius;
+        let (re, im) = lanes(&mut scratch.lanes, solid::terms(self.order));
+        for first in particles.clone().step_by(LANES) {
+            let count = LANES.min(particles.end - first);
+            let u = self.scaled_padded(first, count, cube.centre, inv);
+            solid::irregular_lanes(u, self.order, re, im);
+            let q: [f64; LANES] = std::array::from_fn(|l| {
+                if l < count {
+                    self.m[first + l] * inv
+                } else {
+                    0.0
+                }
+            });
+            solid::p2l_lanes(self.order, F64x8::load(&q), count, (re, im), local);
+        }
+    }
 
     /// Measured at order 14 on 10^5 uniform bodies (perf of one evaluation:
     /// M2L and the pairs): 2800 pair terms, `0.8 (p + 1)^3`.
@@ -481,6 +551,15 @@ fn add(sums: &mut [f64; 4], got: [f64; 4]) {
 }
 
 impl Laplace {
+    /// [`scaled`](Self::scaled) of the `count` (at most [`LANES`]) bodies
+    /// from `first` on, the last one again in the lanes past them.
+    fn scaled_padded(&self, first: usize, count: usize, centre: [f64; 3], inv: f64) -> [F64x8; 3] {
+        std::array::from_fn(|a| {
+            let x: [f64; LANES] = std::array::from_fn(|l| self.x[a][first + l.min(count - 1)]);
+            (F64x8::load(&x) - F64x8::splat(centre[a])) * F64x8::splat(inv)
+        })
+    }
+
     /// `(x - c) / s` (`inv = 1 / s`) of the [`LANES`] sorted bodies from
     /// `first` on, as `solid`'s scalar functions compute it.
     #[inline(always)]
@@ -647,6 +726,9 @@ mod tests {
                     fmm.interactions()
                 );
                 assert!(rms < tolerance && max < tolerance && phi_err < tolerance);
+                // the small ball's leaves meet the larger ones around it by
+                // M2P and P2L
+                assert_eq!(clustered && eps == 0.0, fmm.near_interactions() > 0);
                 if eps == 0.0 {
                     assert!(fmm.interactions().0 > 0, "no M2L at all");
                 }

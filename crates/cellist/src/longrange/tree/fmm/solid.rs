@@ -125,6 +125,115 @@ pub(super) fn regular_lanes(v: [F64x8; 3], p: usize, re: &mut [F64x8], im: &mut 
     }
 }
 
+/// `(n - m)! (n + m)!` at [`at`]`(n, m)` for `n <= 63`: with the module's
+/// harmonics, `I_n^m(v) = (n - m)! (n + m)! R_n^m(v) / |v|^(2n + 1)`.
+fn irregular_factors() -> &'static [f64] {
+    static TABLE: std::sync::OnceLock<Vec<f64>> = std::sync::OnceLock::new();
+    TABLE.get_or_init(|| {
+        let last = super::ORDER_RANGE.1;
+        let factorial = |k: usize| (1..=k).map(|j| j as f64).product::<f64>();
+        let mut table = vec![1.0; at(last + 1, 0)];
+        for n in 0..=last {
+            for m in 0..=n {
+                table[at(n, m)] = factorial(n - m) * factorial(n + m);
+            }
+        }
+        table
+    })
+}
+
+/// `I_n^m` of [`LANES`] points at once (lane `i` of `v`, none at the
+/// origin), `n <= p < 63`, `m >= 0`: [`regular_lanes`], then
+/// `I_n^m = (n - m)! (n + m)! R_n^m / r^(2n + 1)`.
+pub(super) fn irregular_lanes(v: [F64x8; 3], p: usize, re: &mut [F64x8], im: &mut [F64x8]) {
+    regular_lanes(v, p, re, im);
+    let [x, y, z] = v;
+    let r2 = x * x + y * y + z * z;
+    let inv_r2 = F64x8::splat(1.0) / r2;
+    let mut power = F64x8::splat(1.0) / r2.sqrt();
+    let factors = irregular_factors();
+    for n in 0..=p {
+        for t in at(n, 0)..=at(n, n) {
+            let f = F64x8::splat(factors[t]) * power;
+            (re[t], im[t]) = (re[t] * f, im[t] * f);
+        }
+        power = power * inv_r2;
+    }
+}
+
+/// M2P: `[dPhi/dx, dPhi/dy, dPhi/dz, Phi]` at [`LANES`] points `x` of the
+/// multipole `M` (order `p`) about `c`, scale `s`, from the harmonics
+/// `I_n^m(w)`, `n <= p + 1`, of [`irregular_lanes`] at `w = (x - c) / s`:
+/// `Phi = sum M_n^m I_n^m(w) / s` over every `m`, and by
+/// `d/dz I_n^m = -I_{n+1}^m`, `(d/dx - i d/dy) I_n^m = -I_{n+1}^{m-1}`,
+/// `dPhi/dz = -sum M_n^m I_{n+1}^m / s^2` and
+/// `dPhi/dx - i dPhi/dy = -sum M_n^m I_{n+1}^{m-1} / s^2`; the terms `m < 0`
+/// folded onto `m > 0` (`M_n^{-m} I_k^{-l} = (-1)^(m + l) conj(M_n^m I_k^l)`).
+pub(super) fn m2p_lanes(
+    p: usize,
+    multipole: &[Complex64],
+    inv_scale: f64,
+    (re, im): (&[F64x8], &[F64x8]),
+) -> [F64x8; 4] {
+    let zero = F64x8::splat(0.0);
+    let (mut phi, mut dz, mut minus_re, mut minus_im) = (zero, zero, zero, zero);
+    // Re(a b) and Im(a b) of a term of the multipole and a harmonic
+    let real = |a: Complex64, t: usize| F64x8::splat(a.re) * re[t] - F64x8::splat(a.im) * im[t];
+    let imaginary =
+        |a: Complex64, t: usize| F64x8::splat(a.re) * im[t] + F64x8::splat(a.im) * re[t];
+    let two = F64x8::splat(2.0);
+    for n in 0..=p {
+        let m_n = &multipole[at(n, 0)..=at(n, n)];
+        let (mut twice_phi, mut twice_dz) = (zero, zero);
+        for (m, a) in m_n.iter().enumerate().skip(1) {
+            twice_phi = twice_phi + real(*a, at(n, m));
+            twice_dz = twice_dz + real(*a, at(n + 1, m));
+        }
+        phi = phi + (real(m_n[0], at(n, 0)) + two * twice_phi);
+        dz = dz + (real(m_n[0], at(n + 1, 0)) + two * twice_dz);
+        // m >= 1 against I_{n+1}^{m-1}: a b; m = -j against I_{n+1}^{-j-1}:
+        // -conj(M_n^j I_{n+1}^{j+1}), j >= 0
+        for (m, a) in m_n.iter().enumerate() {
+            if m >= 1 {
+                minus_re = minus_re + real(*a, at(n + 1, m - 1));
+                minus_im = minus_im + imaginary(*a, at(n + 1, m - 1));
+            }
+            minus_re = minus_re - real(*a, at(n + 1, m + 1));
+            minus_im = minus_im + imaginary(*a, at(n + 1, m + 1));
+        }
+    }
+    let inv = F64x8::splat(inv_scale);
+    let inv2 = F64x8::splat(-inv_scale * inv_scale);
+    [
+        minus_re * inv2,
+        minus_im * inv2 * F64x8::splat(-1.0),
+        dz * inv2,
+        phi * inv,
+    ]
+}
+
+/// P2L: adds `q_i I_n^m(u_i) / s` (`n <= p`, `m >= 0`) of the first `count`
+/// of [`LANES`] sources to the local about `t` (scale `s`), from the
+/// harmonics of [`irregular_lanes`] at `u_i = (y_i - t) / s` and the words
+/// `q / s`: `1 / |x - y| = sum conj(R_n^m(x - t)) I_n^m(y - t)`. Each term
+/// adds the sources in lane order.
+pub(super) fn p2l_lanes(
+    p: usize,
+    charges: F64x8,
+    count: usize,
+    (re, im): (&[F64x8], &[F64x8]),
+    local: &mut [Complex64],
+) {
+    let (mut a, mut b) = ([0.0; LANES], [0.0; LANES]);
+    for (t, l) in local[..terms(p)].iter_mut().enumerate() {
+        (charges * re[t]).store(&mut a);
+        (charges * im[t]).store(&mut b);
+        for lane in 0..count {
+            *l += Complex64::new(a[lane], b[lane]);
+        }
+    }
+}
+
 /// The buffers `lanes` with room for `terms` harmonics of [`LANES`] points.
 pub(super) fn lanes(
     lanes: &mut (Vec<F64x8>, Vec<F64x8>),
@@ -393,6 +502,77 @@ mod tests {
         let norm = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
         let e: Vec<f64> = (0..4).map(|a| got[a] - want[a]).collect();
         (norm(&e[..3]) / norm(&want[..3]), e[3].abs() / want[3].abs())
+    }
+
+    /// The lanes' words of coordinate `a` of `points` less `centre`, over
+    /// `scale` (lanes past the points: the last one again).
+    fn scaled_lanes(points: &[[f64; 3]], centre: [f64; 3], scale: f64) -> [F64x8; 3] {
+        std::array::from_fn(|a| {
+            let lane: [f64; LANES] =
+                std::array::from_fn(|i| (points[i.min(points.len() - 1)][a] - centre[a]) / scale);
+            F64x8::load(&lane)
+        })
+    }
+
+    /// M2P of P2M's multipole at eight targets, and P2L of the sources
+    /// (eight and three at a time) read out by L2P, against the direct sum:
+    /// within `10 rho^(p + 1)` for the ratio `rho` of the sources' and the
+    /// targets' spread to their distance, and falling with the order (which
+    /// checks the irregular harmonics' derivatives that M2P takes).
+    #[test]
+    fn m2p_and_p2l_converge_to_the_direct_sum() {
+        let mut rng = Rng::new(5);
+        let (c, t) = ([0.1, -0.2, 0.3], [1.3, 0.6, -0.4]);
+        // sources within 0.25 sqrt(3) of c, targets within 0.15 sqrt(3) of t
+        let sources = cloud(&mut rng, c, 0.25, 11);
+        let targets: Vec<[f64; 3]> = cloud(&mut rng, t, 0.15, LANES)
+            .into_iter()
+            .map(|(x, _)| x)
+            .collect();
+        let zero = F64x8::splat(0.0);
+        let mut last = (f64::INFINITY, f64::INFINITY);
+        for p in [2, 5, 8, 11, 14] {
+            let (s_c, s_t) = (0.45, 0.3);
+            let mut h = vec![Complex64::new(0.0, 0.0); terms(p + 1)];
+            let mut multipole = vec![Complex64::new(0.0, 0.0); terms(p)];
+            p2m(p, sources.iter().copied(), c, s_c, &mut h, &mut multipole);
+            let (mut re, mut im) = (vec![zero; terms(p + 1)], vec![zero; terms(p + 1)]);
+            irregular_lanes(scaled_lanes(&targets, c, s_c), p + 1, &mut re, &mut im);
+            let by_m2p = m2p_lanes(p, &multipole, 1.0 / s_c, (&re, &im));
+            let mut local = vec![Complex64::new(0.0, 0.0); terms(p)];
+            for chunk in sources.chunks(LANES) {
+                let points: Vec<[f64; 3]> = chunk.iter().map(|&(y, _)| y).collect();
+                irregular_lanes(scaled_lanes(&points, t, s_t), p, &mut re, &mut im);
+                let q: [f64; LANES] =
+                    std::array::from_fn(|i| chunk.get(i).map_or(0.0, |&(_, q)| q / s_t));
+                p2l_lanes(p, F64x8::load(&q), chunk.len(), (&re, &im), &mut local);
+            }
+            let mut worst = (0.0f64, 0.0f64);
+            for (i, &x) in targets.iter().enumerate() {
+                let lane = |v: F64x8| {
+                    let mut l = [0.0; LANES];
+                    v.store(&mut l);
+                    l[i]
+                };
+                let want = direct(&sources, x);
+                let m2p_error = relative(by_m2p.map(lane), want);
+                let p2l_error = relative(l2p(p, &local, t, s_t, x, &mut h), want);
+                worst = (
+                    worst.0.max(m2p_error.0).max(m2p_error.1),
+                    worst.1.max(p2l_error.0).max(p2l_error.1),
+                );
+            }
+            // |y - c| <= 0.44 and |x - c| >= 1.5 - 0.26; |x - t| <= 0.26 and
+            // |y - t| >= 1.5 - 0.44
+            let bound = |rho: f64| 10.0 * rho.powi(p as i32 + 1);
+            eprintln!("p {p}: m2p {:e}, p2l {:e}", worst.0, worst.1);
+            assert!(
+                worst.0 < bound(0.44 / 1.24) && worst.1 < bound(0.26 / 1.06),
+                "p {p}: {worst:?}"
+            );
+            assert!(worst.0 < last.0 && worst.1 < last.1, "p {p}: {worst:?}");
+            last = worst;
+        }
     }
 
     /// Eight points at once give each point's bits of `regular` and `l2p`,
