@@ -168,8 +168,8 @@ pub struct GravityBench {
     pub rms_field_error: Option<f64>,
     /// `max_i |a_i - e_i| / |e_i|`.
     pub max_relative_error: Option<f64>,
-    /// Node and body interactions of the tree walk (Barnes-Hut; M2L and body
-    /// pairs of the fmm).
+    /// Node and body interactions of the tree walk (Barnes-Hut; M2L, M2P and
+    /// P2L, and body pairs of the fmm).
     pub interactions: Option<(u64, u64)>,
 }
 

@@ -1,7 +1,8 @@
 //! The kernel-independent part of the fast multipole method: the tree, the
 //! upward pass (P2M at the leaves, M2M to the root), and per target group a
-//! dual-tree traversal that hands each pair of boxes to M2L or to the pair
-//! sums, then L2L and L2P down the group's subtree. The expansions and the
+//! dual-tree traversal that hands each pair of boxes to M2L, to M2P and P2L
+//! (a leaf and a smaller box, if the kernel has them) or to the pair sums,
+//! then L2L and L2P down the group's subtree. The expansions and the
 //! pair law come from an [`Expansions`] implementation.
 
 use super::super::build::{Node, Octree, Sizes};
@@ -253,8 +254,8 @@ pub(super) struct Engine<E: Expansions> {
     /// The M2P and P2L among [`interactions`](Self::interactions)' boxes.
     pub near: u64,
     /// Per particle, its weight in the next divided evaluation's [`Split`]:
-    /// `1 +` its group's pair terms and M2L (each [`Expansions::m2l_cost`]
-    /// pair terms) per particle.
+    /// `1 +` its group's pair terms and M2L, M2P and P2L (each
+    /// [`Expansions::m2l_cost`] pair terms) per particle.
     costs: Costs,
 }
 
@@ -682,12 +683,14 @@ impl<E: Expansions> std::fmt::Debug for Scratch<E> {
         f.debug_struct("Scratch")
             .field("locals", &self.locals.len())
             .field("far", &self.far.len())
+            .field("p2l", &self.p2l.len())
             .finish()
     }
 }
 
-/// One group's traversal: the far pairs it finds, its particles' pair sums
-/// and the reactions of its pairs with later groups' leaves.
+/// One group's traversal: the far pairs and P2L it finds, its particles'
+/// pair sums and M2P, and the reactions of its pairs with later groups'
+/// leaves.
 struct Traversal<'a, E: Expansions> {
     engine: &'a Engine<E>,
     kernel: &'a E,
@@ -695,6 +698,7 @@ struct Traversal<'a, E: Expansions> {
     group: usize,
     end: usize,
     reach: f64,
+    /// The kernel's [`Expansions::near_expansions`].
     near: Option<(f64, usize)>,
     far: &'a mut Vec<(u32, u32)>,
     p2l: &'a mut Vec<(u32, u32)>,
@@ -830,6 +834,10 @@ impl<E: Expansions> Traversal<'_, E> {
         let terms = self.kernel.terms();
         let (node, first) = (&engine.tree.nodes[t], engine.tree.nodes[self.group].start);
         let range = node.start as usize..node.end as usize;
+        debug_assert!(
+            (self.group..self.end).contains(&t),
+            "M2P at the group's leaves"
+        );
         let out = &mut self.out[range.start - first as usize..range.end - first as usize];
         let multipole = &engine.multipoles[s * terms..(s + 1) * terms];
         self.kernel

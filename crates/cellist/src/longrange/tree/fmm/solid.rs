@@ -125,39 +125,34 @@ pub(super) fn regular_lanes(v: [F64x8; 3], p: usize, re: &mut [F64x8], im: &mut 
     }
 }
 
-/// `(n - m)! (n + m)!` at [`at`]`(n, m)` for `n <= 63`: with the module's
-/// harmonics, `I_n^m(v) = (n - m)! (n + m)! R_n^m(v) / |v|^(2n + 1)`.
-fn irregular_factors() -> &'static [f64] {
-    static TABLE: std::sync::OnceLock<Vec<f64>> = std::sync::OnceLock::new();
-    TABLE.get_or_init(|| {
-        let last = super::ORDER_RANGE.1;
-        let factorial = |k: usize| (1..=k).map(|j| j as f64).product::<f64>();
-        let mut table = vec![1.0; at(last + 1, 0)];
-        for n in 0..=last {
-            for m in 0..=n {
-                table[at(n, m)] = factorial(n - m) * factorial(n + m);
-            }
-        }
-        table
-    })
-}
-
 /// `I_n^m` of [`LANES`] points at once (lane `i` of `v`, none at the
-/// origin), `n <= p < 63`, `m >= 0`: [`regular_lanes`], then
-/// `I_n^m = (n - m)! (n + m)! R_n^m / r^(2n + 1)`.
+/// origin), `n <= p`, `m >= 0`, by the recurrences `I_0^0 = 1 / r`,
+/// `I_m^m = -(2m - 1)(x + i y) I_{m-1}^{m-1} / r^2`,
+/// `I_{m+1}^m = (2m + 1) z I_m^m / r^2`,
+/// `I_n^m = ((2n - 1) z I_{n-1}^m - (n + m - 1)(n - m - 1) I_{n-2}^m) / r^2`
+/// (each term of the size of `I_n^m` itself, `r^-(n + 1)` times factorials).
 pub(super) fn irregular_lanes(v: [F64x8; 3], p: usize, re: &mut [F64x8], im: &mut [F64x8]) {
-    regular_lanes(v, p, re, im);
     let [x, y, z] = v;
-    let r2 = x * x + y * y + z * z;
-    let inv_r2 = F64x8::splat(1.0) / r2;
-    let mut power = F64x8::splat(1.0) / r2.sqrt();
-    let factors = irregular_factors();
-    for n in 0..=p {
-        for t in at(n, 0)..=at(n, n) {
-            let f = F64x8::splat(factors[t]) * power;
-            (re[t], im[t]) = (re[t] * f, im[t] * f);
+    let inv_r2 = F64x8::splat(1.0) / (x * x + y * y + z * z);
+    let (mut dr, mut di) = (inv_r2.sqrt(), F64x8::splat(0.0));
+    for m in 0..=p {
+        if m > 0 {
+            // -(2m - 1) (x + i y) / r^2 times the last diagonal term
+            let c = F64x8::splat(-((2 * m - 1) as f64)) * inv_r2;
+            (dr, di) = ((x * dr - y * di) * c, (x * di + y * dr) * c);
         }
-        power = power * inv_r2;
+        (re[at(m, m)], im[at(m, m)]) = (dr, di);
+        if m < p {
+            let c = F64x8::splat((2 * m + 1) as f64) * z * inv_r2;
+            (re[at(m + 1, m)], im[at(m + 1, m)]) = (c * dr, c * di);
+        }
+        for n in m + 2..=p {
+            let a = F64x8::splat((2 * n - 1) as f64) * z;
+            let b = F64x8::splat(((n + m - 1) * (n - m - 1)) as f64);
+            let (t1, t2) = (at(n - 1, m), at(n - 2, m));
+            re[at(n, m)] = (a * re[t1] - b * re[t2]) * inv_r2;
+            im[at(n, m)] = (a * im[t1] - b * im[t2]) * inv_r2;
+        }
     }
 }
 
@@ -512,6 +507,52 @@ mod tests {
                 std::array::from_fn(|i| (points[i.min(points.len() - 1)][a] - centre[a]) / scale);
             F64x8::load(&lane)
         })
+    }
+
+    /// The irregular harmonics' recurrences against the module's
+    /// definition by the regular ones, `I_n^m = (n - m)! (n + m)! R_n^m /
+    /// r^(2n + 1)`, at order 20, near and far from the origin.
+    #[test]
+    fn irregular_harmonics_are_the_regular_ones_inverted() {
+        let p = 20;
+        let points: [[f64; 3]; LANES] = [
+            [0.3, -0.4, 0.5],
+            [1.0, 0.0, 0.0],
+            [0.0, 0.0, -2.0],
+            [-3.0, 1.5, 0.2],
+            [0.05, 0.02, -0.01],
+            [7.0, -8.0, 9.0],
+            [0.0, 1.0, 1.0],
+            [-0.5, -0.5, -0.5],
+        ];
+        let (mut re, mut im) = (
+            vec![F64x8::splat(0.0); terms(p)],
+            vec![F64x8::splat(0.0); terms(p)],
+        );
+        irregular_lanes(scaled_lanes(&points, [0.0; 3], 1.0), p, &mut re, &mut im);
+        let factorial = |k: usize| (1..=k).map(|j| j as f64).product::<f64>();
+        let mut h = vec![Complex64::new(0.0, 0.0); terms(p)];
+        for (i, x) in points.iter().enumerate() {
+            regular(*x, p, &mut h);
+            let r = (x[0] * x[0] + x[1] * x[1] + x[2] * x[2]).sqrt();
+            for n in 0..=p {
+                for m in 0..=n {
+                    let t = at(n, m);
+                    let want =
+                        h[t] * factorial(n - m) * factorial(n + m) / r.powi(2 * n as i32 + 1);
+                    let lane = |v: F64x8| {
+                        let mut l = [0.0; LANES];
+                        v.store(&mut l);
+                        l[i]
+                    };
+                    let got = Complex64::new(lane(re[t]), lane(im[t]));
+                    assert!(
+                        (got - want).norm() <= 1e-12 * want.norm().max(1e-300),
+                        "point {i} n {n} m {m}: {got} vs {want}"
+                    );
+                }
+            }
+        }
     }
 
     /// M2P of P2M's multipole at eight targets, and P2L of the sources
