@@ -348,15 +348,7 @@ impl Expansions for Laplace {
             let w = self.scaled_padded(first, f.len(), cube.centre, inv);
             solid::irregular_lanes(w, self.order + 1, re, im);
             let got = solid::m2p_lanes(self.order, multipole, inv, (re, im));
-            let mut values = [[0.0; LANES]; 4];
-            for (v, g) in values.iter_mut().zip(got) {
-                g.store(v);
-            }
-            for (lane, f) in f.iter_mut().enumerate() {
-                for a in 0..4 {
-                    f[a] += values[a][lane];
-                }
-            }
+            add_lanes(got, f);
         }
     }
 
@@ -510,15 +502,7 @@ impl Expansions for Laplace {
             let w = self.scaled(first, cube.centre, inv);
             solid::regular_lanes(w, self.order, re, im);
             let got = solid::l2p_lanes(self.order, local, inv, (re, im));
-            let mut values = [[0.0; LANES]; 4];
-            for (v, g) in values.iter_mut().zip(got) {
-                g.store(v);
-            }
-            for (lane, f) in f.iter_mut().enumerate() {
-                for a in 0..4 {
-                    f[a] += values[a][lane];
-                }
-            }
+            add_lanes(got, f);
         }
         let h = harmonics(&mut scratch.harmonics, terms);
         for (s, f) in (particles.start + whole..particles.end).zip(rest_out) {
@@ -553,6 +537,21 @@ impl Expansions for Laplace {
 fn add(sums: &mut [f64; 4], got: [f64; 4]) {
     for (s, g) in sums.iter_mut().zip(got) {
         *s += g;
+    }
+}
+
+/// Adds lane `i` of the words `got` (`[dPhi/dx, dPhi/dy, dPhi/dz, Phi]` of
+/// [`LANES`] bodies) to `sums[i]`, for each of the `sums` (at most
+/// [`LANES`]).
+fn add_lanes(got: [F64x8; 4], sums: &mut [[f64; 4]]) {
+    let mut values = [[0.0; LANES]; 4];
+    for (v, g) in values.iter_mut().zip(got) {
+        g.store(v);
+    }
+    for (lane, f) in sums.iter_mut().enumerate() {
+        for a in 0..4 {
+            f[a] += values[a][lane];
+        }
     }
 }
 
