@@ -97,8 +97,8 @@ const GROUP: usize = 262144;
 /// (`eps sqrt(1.5 / tol)`, `a tol^(-1/4)`); a leaf and a smaller box with
 /// `s_B <= 0.5 (d - s_L)` by `B`'s multipole at the leaf's bodies and the
 /// leaf's bodies into `B`'s local (M2P and P2L, the W and X lists);
-/// otherwise the larger one is split, and two leaves meet pair by pair with the law itself, each pair
-/// once (across target groups too). Each particle's sum runs in an order
+/// otherwise the larger one is split, and two leaves meet pair by pair
+/// with the law itself, each pair once (across target groups too). Each particle's sum runs in an order
 /// fixed by the tree, so 1 and N threads give the same bits.
 #[derive(Debug)]
 pub struct GravityFmm {
